@@ -1,0 +1,55 @@
+// An open scene in the daemon: its geometry for ray queries and its tree of
+// surfels on disk. open_scene() runs the whole pipeline once per scene and
+// build options: ingest -> surfels -> tree pages (reused if already built).
+#pragma once
+
+#include "server/scene/ray_scene.h"
+#include "server/surfels/surfel_options.h"
+#include "storage/cache/page_cache.h"
+#include "storage/pages/page_set.h"
+#include "storage/tree/build_options.h"
+
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <string>
+
+namespace pbgi {
+
+struct OpenOptions {
+  SurfelOptions surfels;
+  tree::BuildOptions tree;
+};
+
+struct SceneSessionInfo {
+  std::string scene_id;          // the page set's build key
+  std::string scene_path;
+  uint64_t triangle_count = 0;
+  storage::PageSetStats tree;
+  bool reused_cache = false;
+  double open_seconds = 0;
+};
+
+struct SceneSession {
+  std::unique_ptr<Scene> scene;
+  std::unique_ptr<RayScene> rays;
+  std::unique_ptr<storage::PageSetReader> tree;
+  SceneSessionInfo info;
+};
+
+struct EngineContext {
+  std::filesystem::path cache_dir;              // page sets live here
+  std::shared_ptr<storage::PageCache> cache;    // shared page cache
+  std::string python;                           // interpreter for the USD reader
+};
+
+using StageProgress = std::function<void(const std::string& stage, float fraction)>;
+
+// Opens `scene_path` (already checked against the scene roots): reads the USD
+// scene, samples and shades surfels, builds or reuses the page set.
+// Throws SceneError / IoError / CorruptionError with the file at fault.
+std::shared_ptr<SceneSession> open_scene(const std::filesystem::path& scene_path,
+                                         const OpenOptions& options, const EngineContext& ctx,
+                                         const StageProgress& progress = {});
+
+}  // namespace pbgi

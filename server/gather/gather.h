@@ -1,0 +1,57 @@
+// Per-receiver PBGI gather: walk the tree, stop at the cut, rasterize into a
+// cube microbuffer with depth test, ray-cast near surfels as disks, then
+// convolve with the cosine lobe to get irradiance and ambient occlusion.
+#pragma once
+
+#include "server/gather/gather_options.h"
+#include "storage/tree/node.h"
+
+#include <Imath/ImathColor.h>
+#include <Imath/ImathVec.h>
+
+#include <cstdint>
+#include <memory>
+
+namespace pbgi {
+
+struct Receiver {
+  Imath::V3f position;
+  Imath::V3f normal;   // unit
+};
+
+struct GatherResult {
+  Imath::C3f irradiance{0, 0, 0};  // W/m^2, incident from the tree's surfels
+  float ao = 1.f;                  // accessibility: 1 = nothing in the hemisphere
+};
+
+struct GatherCounters {
+  uint64_t receivers = 0;
+  uint64_t nodes_visited = 0;
+  uint64_t nodes_rasterized = 0;
+  uint64_t surfels_raycast = 0;
+  void add(const GatherCounters& o) {
+    receivers += o.receivers; nodes_visited += o.nodes_visited;
+    nodes_rasterized += o.nodes_rasterized; surfels_raycast += o.surfels_raycast;
+  }
+};
+
+// A gatherer owns its microbuffer and traversal scratch: create one per
+// thread and reuse it for many receivers (no allocation per receiver).
+// Not thread-safe; the TreeSource it reads is.
+class Gatherer {
+ public:
+  Gatherer(const tree::TreeSource& tree, const GatherOptions& options);
+  ~Gatherer();
+  Gatherer(const Gatherer&) = delete;
+  Gatherer& operator=(const Gatherer&) = delete;
+
+  GatherResult gather(const Receiver& r);
+  const GatherCounters& counters() const { return counters_; }
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  GatherCounters counters_;
+};
+
+}  // namespace pbgi

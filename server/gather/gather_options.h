@@ -1,0 +1,22 @@
+// Options of the gather. One struct, shared by the daemon's config file,
+// the CLI flags and the per-request proto message (pbgi.v1.GatherOptions).
+#pragma once
+
+#include <cstdint>
+
+namespace pbgi {
+
+struct GatherOptions {
+  // Pixels per side of each cube face of the microbuffer (4..32).
+  uint32_t microbuffer_resolution = 8;
+  // Cut threshold: a node is rasterized as one splat once its solid angle,
+  // seen from the receiver, is below this many steradians.
+  float max_solid_angle = 0.03f;
+  // Occluders farther than this do not darken AO (0 = unbounded).
+  float ao_max_distance = 0.f;
+
+  // Throws pbgi::InvalidArgument naming the field when out of range.
+  void validate() const;
+};
+
+}  // namespace pbgi

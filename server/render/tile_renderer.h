@@ -1,0 +1,42 @@
+// Renders one tile of a camera's image through PBGI: primary hits with
+// Embree, direct light with shadow rays, indirect diffuse light from the
+// gather. Produces the AOVs the service returns.
+#pragma once
+
+#include "server/gather/gather.h"
+#include "server/scene/ray_scene.h"
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+namespace pbgi {
+
+struct TileRect {
+  uint32_t x0 = 0, y0 = 0, x1 = 0, y1 = 0;   // [x0,x1) x [y0,y1), y down from the top
+  uint32_t width() const { return x1 - x0; }
+  uint32_t height() const { return y1 - y0; }
+};
+
+struct RenderOptions {
+  GatherOptions gather;
+  uint32_t light_samples = 16;  // stratified shadow rays per pixel sample and light
+  uint32_t pixel_samples = 1;   // camera rays per pixel (stratified)
+  uint64_t seed = 1;
+  void validate() const;        // throws pbgi::InvalidArgument
+};
+
+// Row-major AOVs of a tile: rgb layers have 3 floats per pixel, ao has 1.
+struct TileAovs {
+  TileRect rect;
+  std::vector<float> beauty, direct, indirect, albedo, ao;
+};
+
+// Throws InvalidArgument if the tile is empty or outside the image,
+// Cancelled if `cancelled` returns true while rendering.
+TileAovs render_tile(const RayScene& rays, const tree::TreeSource& tree, const Camera& camera,
+                     uint32_t image_width, uint32_t image_height, const TileRect& rect,
+                     const RenderOptions& options, GatherCounters* counters = nullptr,
+                     const std::function<bool()>& cancelled = {});
+
+}  // namespace pbgi

@@ -1,0 +1,70 @@
+// The decoded form of tree nodes and pages, as the gather sees them.
+// Whatever codec a page set uses on disk, a page is decoded into this form
+// when it enters the cache, so the gather has one fast path.
+//
+// A node's payload describes the outgoing radiance of all surfels below it
+// as area-averaged spherical functions:
+//   radiance_sh(w)  ~ (1/A) sum_i A_i L_i max(0, n_i.w)   (RGB, 27 floats)
+//   coverage_sh(w)  ~ (1/A) sum_i A_i     max(0, n_i.w)   (9 floats)
+// Seen from direction w the node covers a projected area A*coverage(w) and
+// shows radiance radiance(w)/coverage(w).
+#pragma once
+
+#include "storage/math/sh.h"
+#include "storage/tree/surfel.h"
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace pbgi::tree {
+
+// A link to a node: the page that holds it and its index in that page.
+struct NodeRef {
+  uint32_t page = 0;
+  uint32_t index = 0;
+  bool operator==(const NodeRef&) const = default;
+};
+
+struct Node {
+  Imath::V3f center;        // bounding sphere of all surfel disks below
+  float radius = 0.f;
+  Imath::V3f cone_axis;     // normal cone: all normals within acos(cone_cos)
+  float cone_cos = -1.f;    // -1 = normals in every direction
+  float area = 0.f;         // sum of surfel areas below
+  uint32_t child_count = 0; // internal: number of children (1..kMaxChildren); leaf: 0
+  uint32_t first_surfel = 0;  // leaf: index into the page's surfel array
+  uint32_t surfel_count = 0;  // leaf: number of surfels
+  static constexpr int kMaxChildren = 2;
+  NodeRef children[kMaxChildren];
+  sh::ShRgb radiance_sh;
+  sh::Sh9 coverage_sh{};
+
+  bool is_leaf() const { return child_count == 0; }
+};
+
+// One decoded page: a subtree (treelet) of nodes and the surfels of its leaves.
+struct Page {
+  uint32_t id = 0;
+  std::vector<Node> nodes;
+  std::vector<Surfel> surfels;
+
+  size_t memory_bytes() const {
+    return sizeof(Page) + nodes.capacity() * sizeof(Node) + surfels.capacity() * sizeof(Surfel);
+  }
+};
+
+using PagePtr = std::shared_ptr<const Page>;
+
+// Read access to a tree whose pages may live on disk. Implementations are
+// thread-safe: many gathers traverse one tree concurrently.
+class TreeSource {
+ public:
+  virtual ~TreeSource() = default;
+  virtual NodeRef root() const = 0;
+  // Returns the page, loading and decoding it if needed. Throws
+  // pbgi::storage::CorruptionError / IoError with the page id on failure.
+  virtual PagePtr page(uint32_t id) const = 0;
+};
+
+}  // namespace pbgi::tree
