@@ -1,0 +1,89 @@
+#include "server/engine/scene_session.h"
+
+#include "server/engine/build_key.h"
+#include "server/ingest/usd_ingest.h"
+#include "server/surfels/surfels.h"
+#include "storage/format/errors.h"
+
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <system_error>
+
+namespace pbgi {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A page set that fails verification is moved aside (kept for inspection)
+// and rebuilt: a corrupt page set is never served.
+std::unique_ptr<storage::PageSetReader> try_open_existing(const fs::path& dir,
+                                                          const EngineContext& ctx) {
+  if (!fs::exists(dir / "manifest.pbgm")) return nullptr;
+  try {
+    return std::make_unique<storage::PageSetReader>(dir, ctx.cache);
+  } catch (const Error& e) {
+    const auto aside = fs::path(dir.string() + ".corrupt-" +
+                                std::to_string(std::chrono::system_clock::now().time_since_epoch().count()));
+    spdlog::warn("page set {} failed verification ({}); moving it to {} and rebuilding",
+                 dir.string(), e.what(), aside.string());
+    std::error_code ec;
+    fs::rename(dir, aside, ec);
+    if (ec) throw IoError("cannot move corrupt page set " + dir.string() + " aside: " + ec.message());
+    return nullptr;
+  }
+}
+
+}  // namespace
+
+std::shared_ptr<SceneSession> open_scene(const fs::path& scene_path, const OpenOptions& options,
+                                         const EngineContext& ctx, const StageProgress& progress) {
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  auto report = [&](const std::string& stage, float f) {
+    if (progress) progress(stage, f);
+  };
+  options.surfels.validate();
+  options.tree.validate();
+
+  auto session = std::make_shared<SceneSession>();
+  // 1. Read the USD scene in the reader process.
+  IngestOptions ingest;
+  if (!ctx.python.empty()) ingest.python = ctx.python;
+  session->scene = std::make_unique<Scene>(
+      read_usd_scene(scene_path, ingest, [&](const std::string& s, float f) { report("read:" + s, f); }));
+  for (const auto& w : session->scene->warnings) spdlog::warn("{}: {}", scene_path.string(), w);
+  report("read", 1.f);
+
+  // 2. Ray-tracing structure: needed for surfel shading and primary hits.
+  session->rays = std::make_unique<RayScene>(*session->scene);
+
+  // 3. Reuse the page set if this scene + options was built before.
+  const std::string key = page_set_build_key(session->scene->content_hash, options);
+  const fs::path dir = ctx.cache_dir / key;
+  session->tree = try_open_existing(dir, ctx);
+  session->info.reused_cache = session->tree != nullptr;
+
+  if (!session->tree) {
+    // 4. Surfels: sample, then shade with direct light.
+    auto surfels = sample_surfels(*session->scene, options.surfels,
+                                  [&](const char* s, float f) { report(s, f); });
+    shade_direct(*session->rays, options.surfels, surfels,
+                 [&](const char* s, float f) { report(s, f); });
+    // 5. Tree pages, published atomically into the cache directory.
+    fs::create_directories(ctx.cache_dir);
+    storage::build_page_set(std::move(surfels), options.tree, key, dir,
+                            [&](float f) { report("tree", f); });
+    session->tree = std::make_unique<storage::PageSetReader>(dir, ctx.cache);
+  }
+
+  session->info.scene_id = key;
+  session->info.scene_path = scene_path.string();
+  session->info.triangle_count = session->scene->triangles.triangle_count();
+  session->info.tree = session->tree->manifest().stats;
+  session->info.open_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  report("ready", 1.f);
+  return session;
+}
+
+}  // namespace pbgi
