@@ -46,14 +46,32 @@ std::shared_ptr<SceneSession> open_scene(const fs::path& scene_path, const OpenO
   options.surfels.validate();
   options.tree.validate();
 
-  auto session = std::make_shared<SceneSession>();
   // 1. Read the USD scene in the reader process.
   IngestOptions ingest;
   if (!ctx.python.empty()) ingest.python = ctx.python;
-  session->scene = std::make_unique<Scene>(
+  auto scene = std::make_unique<Scene>(
       read_usd_scene(scene_path, ingest, [&](const std::string& s, float f) { report("read:" + s, f); }));
-  for (const auto& w : session->scene->warnings) spdlog::warn("{}: {}", scene_path.string(), w);
+  for (const auto& w : scene->warnings) spdlog::warn("{}: {}", scene_path.string(), w);
   report("read", 1.f);
+  auto session = open_scene_model(std::move(scene), options, ctx, progress);
+  session->info.scene_path = scene_path.string();
+  session->info.open_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  return session;
+}
+
+std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
+                                               const OpenOptions& options,
+                                               const EngineContext& ctx,
+                                               const StageProgress& progress) {
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  auto report = [&](const std::string& stage, float f) {
+    if (progress) progress(stage, f);
+  };
+  options.surfels.validate();
+  options.tree.validate();
+  auto session = std::make_shared<SceneSession>();
+  session->scene = std::move(scene);
 
   // 2. Ray-tracing structure: needed for surfel shading and primary hits.
   session->rays = std::make_unique<RayScene>(*session->scene);
@@ -78,7 +96,7 @@ std::shared_ptr<SceneSession> open_scene(const fs::path& scene_path, const OpenO
   }
 
   session->info.scene_id = key;
-  session->info.scene_path = scene_path.string();
+  session->info.scene_path = session->scene->source_path;
   session->info.triangle_count = session->scene->triangles.triangle_count();
   session->info.tree = session->tree->manifest().stats;
   session->info.open_seconds = std::chrono::duration<double>(Clock::now() - t0).count();

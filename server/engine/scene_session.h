@@ -52,4 +52,12 @@ std::shared_ptr<SceneSession> open_scene(const std::filesystem::path& scene_path
                                          const OpenOptions& options, const EngineContext& ctx,
                                          const StageProgress& progress = {});
 
+// The same pipeline from step 2 on, for a scene already in memory (built in
+// code by tests and benchmarks, or read by the caller). scene->content_hash
+// keys the page set: give distinct scenes distinct hashes.
+std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
+                                               const OpenOptions& options,
+                                               const EngineContext& ctx,
+                                               const StageProgress& progress = {});
+
 }  // namespace pbgi

@@ -29,15 +29,26 @@ struct GatherCounters {
   uint64_t nodes_visited = 0;
   uint64_t nodes_rasterized = 0;
   uint64_t surfels_raycast = 0;
+  uint64_t surfels_splatted = 0;   // surfels of too-large leaves drawn as splats
+  uint64_t pages_fetched = 0;      // TreeSource::page calls (one per page and receiver)
   void add(const GatherCounters& o) {
     receivers += o.receivers; nodes_visited += o.nodes_visited;
     nodes_rasterized += o.nodes_rasterized; surfels_raycast += o.surfels_raycast;
+    surfels_splatted += o.surfels_splatted; pages_fetched += o.pages_fetched;
   }
 };
 
 // A gatherer owns its microbuffer and traversal scratch: create one per
 // thread and reuse it for many receivers (no allocation per receiver).
-// Not thread-safe; the TreeSource it reads is.
+// Not thread-safe; the TreeSource it reads is. The algorithm and its
+// accuracy are described in docs/gather.md.
+//
+// Pages are pinned only while one receiver is gathered. Errors: the
+// constructor throws InvalidArgument for invalid options; gather() throws
+// InvalidArgument for a receiver with a non-finite position or a zero or
+// non-finite normal (a non-unit normal is normalized), CorruptionError for
+// a node or surfel link outside its page, and whatever the TreeSource
+// throws when loading a page.
 class Gatherer {
  public:
   Gatherer(const tree::TreeSource& tree, const GatherOptions& options);

@@ -32,6 +32,12 @@ class RayScene {
   V3f shading_normal(const Hit& hit) const;
   const Scene& scene() const { return scene_; }
 
+  // Offset for the origins of secondary rays leaving a surface (along its
+  // normal), scaled to the scene's size so it clears float error at any
+  // scale: 1e-5 of the bounds' diagonal plus a few ulps of the largest
+  // coordinate.
+  float ray_epsilon() const;
+
  private:
   struct Impl;
   const Scene& scene_;

@@ -68,6 +68,7 @@ struct Scene {
   std::string source_path;
   std::string content_hash;   // from the reader: hash of the layers it used
   double meters_per_unit = 0.01;
+  std::string up_axis = "Y";  // stage upAxis, recorded only: geometry is as authored
   TriangleSoup triangles;
   std::vector<Material> materials;
   std::vector<Light> lights;

@@ -1,6 +1,18 @@
 // Cache of decoded pages with a hard byte budget, shared by all page sets of
 // the daemon. Thread-safe. Pages in use by a gather stay alive through their
 // shared_ptr even if evicted, so the budget bounds the cache's own holdings.
+//
+// Policy: one LRU list under one mutex; the critical section is a hash
+// lookup and a list splice, never I/O or decoding. The bytes of a page are
+// Page::memory_bytes(); the cache never holds more than budget() bytes (a
+// page larger than the budget is returned but not held; budget 0 holds
+// nothing). Concurrent misses of one page call `load` once: the other
+// callers wait for that load and share its result (or its exception).
+//
+// Counters: hits (served without calling load, including waiting on another
+// caller's load), misses (calls of load), evictions (pages dropped to stay
+// within the budget; forget() does not count), bytes_read (as reported by
+// loaders through note_bytes_read), bytes_held (current holdings).
 #pragma once
 
 #include "storage/tree/node.h"
@@ -23,11 +35,18 @@ class PageCache {
 
   // Returns the page keyed (owner, page_id), calling `load` on a miss.
   // `owner` identifies the page set (distinct per open reader).
+  // Exceptions of `load` propagate to every caller waiting on that load;
+  // nothing is cached for a failed load.
   tree::PagePtr get(uint64_t owner, uint32_t page_id,
                     const std::function<tree::PagePtr()>& load);
   void note_bytes_read(uint64_t n);
   CacheCounters counters() const;
   uint64_t budget() const;
+
+  // A fresh owner id, distinct from all others this cache has handed out.
+  uint64_t new_owner();
+  // Drops every page held for `owner` (a reader that closes).
+  void forget(uint64_t owner);
 
  private:
   struct Impl;

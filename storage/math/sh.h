@@ -1,6 +1,13 @@
 // Real spherical harmonics, 3 bands (9 coefficients), the basis of the
 // node payloads. Conventions follow Sloan, "Stupid SH tricks" (2008):
-// index i = l*(l+1)+m, directions are unit vectors in world space.
+// index i = l*(l+1)+m, directions are unit vectors in world space, same
+// normalization (orthonormal over the sphere), but without the
+// Condon-Shortley phase: the odd-m functions of band 1 and 2 have a + sign
+// (y, x, yz, xz). Any consistent sign choice gives the same functions once
+// projected and evaluated with this basis; coefficients are not
+// interchangeable with Sloan's tables.
+//
+// Thread-safety: pure functions.
 #pragma once
 
 #include <Imath/ImathColor.h>

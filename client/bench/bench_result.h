@@ -1,0 +1,90 @@
+// What one `pbgi bench` run measured: a row per configuration, a record per
+// build, the reference, and the equal-error figure (the path tracer's cost
+// at PBGI's error). Written as bench.json / bench.csv by bench_report.h.
+#pragma once
+
+#include "client/bench/bench_method.h"
+#include "client/metrics/error_metrics.h"
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace pbgi::bench {
+
+// Error of one AOV against the reference.
+struct AovError {
+  metrics::ErrorMetrics error;     // MSE, RMSE, PSNR, relMSE, ...
+  uint64_t pdiff_pixels = 0;       // perceptual_diff: pixels a viewer sees differ
+  double pdiff_fraction = 0.0;
+};
+
+struct BenchRow {
+  std::string method, name, series, build;
+  std::vector<Param> params;
+  uint32_t spp = 0;
+  bool is_default = false;
+  double render_seconds = 0.0;    // the render alone
+  double build_seconds = 0.0;     // its build + load (0 without a build)
+  double total_seconds = 0.0;     // render + build + load
+  AovError indirect, beauty;
+  // Not dominated by another row (lower-or-equal render time and MSE, one
+  // of them strictly), per AOV.
+  bool pareto_indirect = false, pareto_beauty = false;
+};
+
+struct BuildRecord {
+  std::string name;
+  std::vector<Param> params;
+  std::vector<Param> facts;       // BuiltState::describe()
+  double build_seconds = 0.0;     // BuildSpec::build
+  double load_seconds = 0.0;      // BuiltState::load
+};
+
+struct ReferenceRecord {
+  uint32_t spp = 0;
+  uint64_t seed = 0;
+  double seconds = 0.0;           // render time when it was made (cached: then)
+  bool cached = false;            // read from the cache in this run
+  std::string key;
+  std::filesystem::path file;
+  // Estimated MSE of the reference itself (its variance: the path tracer's
+  // largest-spp MSE scaled by spp / reference spp). Every row's MSE
+  // includes about this much; it bounds the smallest error measurable.
+  double noise_mse_indirect = 0.0, noise_mse_beauty = 0.0;
+};
+
+// The path tracer's cost at the error of PBGI's default configuration.
+struct EqualError {
+  std::string aov;                // "indirect" or "beauty"
+  bool valid = false;             // false: no default row or no path rows
+  std::string pbgi_name;
+  double pbgi_mse = 0.0;
+  double pbgi_render_seconds = 0.0, pbgi_total_seconds = 0.0;
+  double path_spp = 0.0;          // interpolated (log-log) samples per pixel
+  double path_seconds = 0.0;      // interpolated render time
+  // The target lies outside the sweep's MSE range: extrapolated with
+  // MSE ~ 1/spp and time ~ spp from the nearest end.
+  bool extrapolated = false;
+  double speedup = 0.0;               // path_seconds / pbgi_render_seconds
+  double speedup_including_build = 0.0;  // path_seconds / pbgi_total_seconds
+};
+
+struct BenchResult {
+  std::string scene;              // path or source_path of the scene
+  std::string scene_hash;
+  std::string camera;
+  uint32_t width = 0, height = 0;
+  uint32_t max_depth = 0;
+  uint32_t threads = 0;           // TBB's concurrency during the run
+  ReferenceRecord reference;
+  std::vector<BuildRecord> builds;
+  std::vector<BenchRow> rows;
+  EqualError equal_indirect, equal_beauty;
+  std::filesystem::path json_file, csv_file, plot_file;  // plot_file empty: no plot
+  std::vector<std::string> warnings;
+  double wall_seconds = 0.0;      // the whole run
+};
+
+}  // namespace pbgi::bench

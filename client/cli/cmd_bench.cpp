@@ -1,0 +1,104 @@
+// `pbgi bench SCENE`: speed against error. Builds PBGI page sets and renders
+// a sweep of PBGI settings and of path-tracer sample counts in this
+// process, measures each against a converged (cached) reference, writes
+// bench.json / bench.csv / bench.png to --out-dir and prints a summary with
+// the path tracer's cost at PBGI's error. See docs/benchmarks.md.
+#include "client/bench/bench_report.h"
+#include "client/bench/bench_runner.h"
+#include "client/cli/command.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <memory>
+#include <optional>
+
+namespace pbgi::cli {
+namespace {
+
+struct BenchArgs {
+  std::string scene;
+  std::string camera;
+  std::string out_dir = "bench-out";
+  std::string cache_dir;
+  std::optional<uint32_t> width, height, reference_spp, max_spp, max_depth;
+  std::vector<uint64_t> surfels;
+  std::vector<uint32_t> microbuffers;
+  std::vector<float> solid_angles;
+  bool quick = false;
+  bool images = false;
+  bool no_plot = false;
+  bool quiet = false;
+};
+
+int run(const BenchArgs& args) {
+  // 1. Options: the full or quick sweep, then the flags given.
+  bench::BenchOptions o = args.quick ? bench::quick_bench_options() : bench::BenchOptions{};
+  o.camera = args.camera;
+  o.out_dir = args.out_dir;
+  o.cache_dir = args.cache_dir;
+  if (args.width) o.width = *args.width;
+  if (args.height) o.height = *args.height;
+  if (args.reference_spp) o.reference_spp = *args.reference_spp;
+  if (args.max_spp) o.path.max_spp = *args.max_spp;
+  if (args.max_depth) o.path.max_depth = *args.max_depth;
+  // A swept list given on the command line replaces the preset's; its first
+  // value becomes the default unless the preset's default is in it.
+  auto pick_default = [](const auto& list, auto* def) {
+    if (!list.empty() && std::find(list.begin(), list.end(), *def) == list.end()) *def = list.front();
+  };
+  if (!args.surfels.empty()) o.pbgi.target_surfels = args.surfels;
+  if (!args.microbuffers.empty()) o.pbgi.microbuffer_resolutions = args.microbuffers;
+  if (!args.solid_angles.empty()) o.pbgi.max_solid_angles = args.solid_angles;
+  pick_default(o.pbgi.target_surfels, &o.pbgi.default_target_surfels);
+  pick_default(o.pbgi.microbuffer_resolutions, &o.pbgi.default_microbuffer_resolution);
+  pick_default(o.pbgi.max_solid_angles, &o.pbgi.default_max_solid_angle);
+  o.save_images = args.images;
+  o.plot = !args.no_plot;
+  if (!args.quiet) o.log = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+
+  // 2. The sweep.
+  const bench::BenchResult r = bench::run_bench_usd(args.scene, o);
+
+  // 3. Summary and outputs.
+  std::printf("%s\n", bench::bench_summary(r).c_str());
+  std::printf("wrote %s\n      %s\n", r.json_file.c_str(), r.csv_file.c_str());
+  if (!r.plot_file.empty()) std::printf("      %s\n", r.plot_file.c_str());
+  std::printf("total %.1f s\n", r.wall_seconds);
+  return 0;
+}
+
+const CommandRegistrar kRegistrar("bench", [](CLI::App& app, int* exit_code) {
+  auto args = std::make_shared<BenchArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "bench", "Speed against error: PBGI settings and path-tracer spp vs a converged reference");
+  cmd->add_option("scene", args->scene, "USD scene file")->required();
+  cmd->add_option("--camera", args->camera, "Camera prim path (default: the only camera)");
+  cmd->add_option("--out-dir,-o", args->out_dir, "Directory for bench.json/.csv/.png")
+      ->capture_default_str();
+  cmd->add_option("--cache-dir", args->cache_dir,
+                  "Directory of cached references (default: <out-dir>/cache)");
+  cmd->add_option("--width", args->width, "Image width (default 128; --quick: 64)");
+  cmd->add_option("--height", args->height, "Image height (default 128; --quick: 64)");
+  cmd->add_option("--reference-spp", args->reference_spp,
+                  "Samples per pixel of the reference (default 4096; --quick: 1024)");
+  cmd->add_option("--max-spp", args->max_spp,
+                  "Largest path-tracer sample count of the sweep (default 256; --quick: 64)");
+  cmd->add_option("--max-depth", args->max_depth,
+                  "Reflections per path of the path tracer and reference (default 2: the one "
+                  "diffuse bounce PBGI computes)");
+  cmd->add_option("--surfels", args->surfels, "Surfel budgets to sweep (default 50000 200000)")
+      ->delimiter(',');
+  cmd->add_option("--microbuffer", args->microbuffers, "Microbuffer resolutions (default 4,8,16)")
+      ->delimiter(',');
+  cmd->add_option("--solid-angle", args->solid_angles,
+                  "Cut thresholds max_solid_angle (default 0.3,0.1,0.03,0.01)")
+      ->delimiter(',');
+  cmd->add_flag("--quick", args->quick, "Small sweep for CI (64x64, 20k surfels, 4 PBGI settings)");
+  cmd->add_flag("--images", args->images, "Also write <out-dir>/images/<config>.exr");
+  cmd->add_flag("--no-plot", args->no_plot, "Do not run scripts/plot_bench.py");
+  cmd->add_flag("--quiet,-q", args->quiet, "No progress lines");
+  cmd->callback([args, exit_code] { *exit_code = run(*args); });
+});
+
+}  // namespace
+}  // namespace pbgi::cli

@@ -1,0 +1,142 @@
+// `pbgi compare TEST.exr REFERENCE.exr`: error metrics of a render against a
+// reference, per AOV (see client/metrics/): MSE, RMSE, PSNR (peak = the
+// reference's max), relative MSE, bias and the perceptual pixel count.
+#include "client/cli/command.h"
+#include "client/image/exr_image.h"
+#include "client/metrics/image_comparison.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <cstdio>
+#include <memory>
+
+namespace pbgi::cli {
+namespace {
+
+struct CompareArgs {
+  std::string test, reference;
+  std::string aov;            // "" = all common layers; "beauty" names the unnamed layer
+  std::string reference_aov;  // layer of the reference to compare --aov with
+  bool json = false;
+  bool no_perceptual = false;
+  metrics::ComparisonOptions options;
+};
+
+std::string layer_from_flag(const std::string& aov) { return aov == "beauty" ? "" : aov; }
+std::string layer_label(const std::string& layer) { return layer.empty() ? "beauty" : layer; }
+
+std::string json_number(double v) {
+  return std::isfinite(v) ? fmt::format("{:.9g}", v) : "null";
+}
+
+std::string json_string(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\';
+    if (static_cast<unsigned char>(c) < 0x20) {
+      out += fmt::format("\\u{:04x}", int(c));
+      continue;
+    }
+    out += c;
+  }
+  return out + "\"";
+}
+
+void print_json(const CompareArgs& args, const std::vector<metrics::AovMetrics>& all) {
+  std::string out = fmt::format("{{\"test\": {}, \"reference\": {}, \"aovs\": [",
+                                json_string(args.test), json_string(args.reference));
+  for (size_t i = 0; i < all.size(); ++i) {
+    const metrics::AovMetrics& m = all[i];
+    const metrics::ErrorMetrics& e = m.error;
+    std::string channels;
+    for (const auto& c : m.channels) channels += (channels.empty() ? "" : ", ") + json_string(c);
+    // PSNR is +inf for identical images and NaN without a peak; JSON has
+    // neither, so it is null and "identical" tells the two apart.
+    out += fmt::format(
+        "{}\n  {{\"aov\": {}, \"reference_aov\": {}, \"channels\": [{}], \"values\": {}, "
+        "\"nonfinite\": {}, \"mse\": {}, \"rmse\": {}, \"psnr\": {}, \"peak\": {}, "
+        "\"rel_mse\": {}, \"bias\": {}, \"mean_test\": {}, \"mean_reference\": {}, "
+        "\"identical\": {}",
+        i ? "," : "", json_string(layer_label(m.layer)),
+        json_string(layer_label(m.reference_layer)), channels, e.values, e.nonfinite,
+        json_number(e.mse), json_number(e.rmse), json_number(e.psnr), json_number(e.peak),
+        json_number(e.rel_mse), json_number(e.bias), json_number(e.mean_test),
+        json_number(e.mean_reference), e.values > 0 && e.mse == 0.0 ? "true" : "false");
+    if (m.perceptual)
+      out += fmt::format(", \"perceptual\": {{\"pixels_different\": {}, \"fraction\": {}}}",
+                         m.perceptual->pixels_different,
+                         json_number(m.perceptual->fraction_different));
+    out += "}";
+  }
+  out += "\n]}\n";
+  std::fputs(out.c_str(), stdout);
+}
+
+void print_table(const CompareArgs& args, const std::vector<metrics::AovMetrics>& all) {
+  std::printf("test %s against reference %s\n", args.test.c_str(), args.reference.c_str());
+  std::printf("%-20s %-4s %11s %11s %9s %11s %11s %9s\n", "aov", "ch", "MSE", "RMSE", "PSNR dB",
+              "relMSE", "bias", "pdiff %");
+  for (const metrics::AovMetrics& m : all) {
+    std::string name = layer_label(m.layer);
+    if (m.reference_layer != m.layer) name += "~" + layer_label(m.reference_layer);
+    std::string channels;
+    for (const auto& c : m.channels) channels += c;
+    const metrics::ErrorMetrics& e = m.error;
+    const std::string psnr = std::isinf(e.psnr)  ? "inf"
+                             : std::isnan(e.psnr) ? "-"
+                                                  : fmt::format("{:.2f}", e.psnr);
+    const std::string pdiff =
+        m.perceptual ? fmt::format("{:.3f}", 100.0 * m.perceptual->fraction_different) : "-";
+    std::printf("%-20s %-4s %11.4e %11.4e %9s %11.4e %11.4e %9s\n", name.c_str(),
+                channels.c_str(), e.mse, e.rmse, psnr.c_str(), e.rel_mse, e.bias, pdiff.c_str());
+    if (e.nonfinite > 0)
+      std::printf("  (%llu non-finite values skipped)\n",
+                  static_cast<unsigned long long>(e.nonfinite));
+  }
+}
+
+int run(CompareArgs args) {
+  const image::ExrImage test = image::read_exr(args.test);
+  const image::ExrImage reference = image::read_exr(args.reference);
+  args.options.perceptual = !args.no_perceptual;
+  std::vector<metrics::AovMetrics> all;
+  if (args.aov.empty()) {
+    all = metrics::compare_images(test, reference, args.options);
+  } else {
+    all.push_back(metrics::compare_layer(test, reference, layer_from_flag(args.aov), args.options,
+                                         args.reference_aov.empty()
+                                             ? layer_from_flag(args.aov)
+                                             : layer_from_flag(args.reference_aov)));
+  }
+  if (args.json)
+    print_json(args, all);
+  else
+    print_table(args, all);
+  return 0;
+}
+
+const CommandRegistrar kRegistrar("compare", [](CLI::App& app, int* exit_code) {
+  auto args = std::make_shared<CompareArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "compare", "Error metrics of an EXR against a reference EXR, per AOV");
+  cmd->add_option("test", args->test, "Image to measure (EXR)")->required();
+  cmd->add_option("reference", args->reference, "Reference image (EXR)")->required();
+  cmd->add_option("--aov", args->aov, "Only this AOV (layer; 'beauty' = the unnamed layer)");
+  cmd->add_option("--ref-aov", args->reference_aov,
+                  "Reference layer to compare --aov with (default: the same name)");
+  cmd->add_flag("--json", args->json, "Machine-readable output");
+  cmd->add_flag("--no-perceptual", args->no_perceptual, "Skip the perceptual metric");
+  cmd->add_option("--rel-eps", args->options.error.rel_mse_epsilon, "eps of relMSE")
+      ->capture_default_str();
+  cmd->add_option("--fov", args->options.perceptual_options.field_of_view_degrees,
+                  "Perceptual metric: horizontal field of view, degrees")
+      ->capture_default_str();
+  cmd->add_option("--white", args->options.perceptual_options.white_luminance,
+                  "Perceptual metric: cd/m^2 of linear 1.0")
+      ->capture_default_str();
+  cmd->callback([args, exit_code] { *exit_code = run(*args); });
+});
+
+}  // namespace
+}  // namespace pbgi::cli

@@ -1,0 +1,176 @@
+// `pbgi reference SCENE`: renders the unbiased path-traced reference of a
+// USD scene's camera into a multi-layer EXR (the AOVs of path_tracer.h:
+// beauty, direct, indirect, indirect1, albedo, ao), optionally with a PNG of
+// the beauty through the OCIO display transform.
+#include "client/cli/command.h"
+#include "client/image/exr_image.h"
+#include "client/image/png_display.h"
+#include "server/ingest/usd_ingest.h"
+#include "server/reference/path_tracer.h"
+#include "storage/format/errors.h"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <unistd.h>
+
+namespace pbgi::cli {
+namespace {
+
+struct ReferenceArgs {
+  std::string scene;
+  std::string camera;
+  std::string out = "reference.exr";
+  ReferenceOptions render;
+  bool png = false;
+  bool png_all = false;
+  bool half = false;
+  bool hide_lights = false;
+  bool quiet = false;
+};
+
+// A progress line on stderr: redrawn in place on a terminal, one line per
+// quarter otherwise (so logs stay readable).
+class ProgressBar {
+ public:
+  explicit ProgressBar(bool quiet) : quiet_(quiet), tty_(isatty(fileno(stderr)) != 0) {}
+
+  bool operator()(const ReferenceProgress& p) {
+    if (quiet_) return true;
+    const double f = double(p.spp_done) / double(p.spp_total);
+    const double eta = f > 0 ? p.seconds * (1 - f) / f : 0;
+    if (tty_) {
+      constexpr int kWidth = 30;
+      const int filled = int(f * kWidth + 0.5);
+      std::fprintf(stderr, "\r[%s%s] %u/%u spp  %.1fs  eta %.1fs ",
+                   std::string(filled, '#').c_str(), std::string(kWidth - filled, ' ').c_str(),
+                   p.spp_done, p.spp_total, p.seconds, eta);
+      if (p.spp_done == p.spp_total) std::fputc('\n', stderr);
+    } else if (int(f * 4) > quarter_ || p.spp_done == p.spp_total) {
+      quarter_ = int(f * 4);
+      std::fprintf(stderr, "reference: %u/%u spp, %.1fs\n", p.spp_done, p.spp_total, p.seconds);
+    }
+    std::fflush(stderr);
+    return true;
+  }
+
+ private:
+  bool quiet_, tty_;
+  int quarter_ = 0;
+};
+
+const Camera& pick_camera(const Scene& scene, const std::string& path) {
+  if (!path.empty()) {
+    if (const Camera* c = scene.find_camera(path)) return *c;
+  } else if (scene.cameras.size() == 1) {
+    return scene.cameras.begin()->second;
+  }
+  std::string known;
+  for (const auto& [name, _] : scene.cameras) known += (known.empty() ? "" : ", ") + name;
+  throw NotFound(fmt::format("{}: {} (cameras in the scene: {})", scene.source_path,
+                             path.empty() ? "several cameras, pass --camera"
+                                          : "no camera '" + path + "'",
+                             known.empty() ? "none" : known));
+}
+
+image::ExrImage to_exr(const ReferenceImage& r) {
+  image::ExrImage img(r.width, r.height);
+  img.set_rgb("", r.beauty);
+  img.set_rgb("direct", r.direct);
+  img.set_rgb("indirect", r.indirect);
+  img.set_rgb("indirect1", r.indirect1);
+  img.set_rgb("albedo", r.albedo);
+  img.set_layer("ao", image::y_channels(), r.ao);
+  return img;
+}
+
+int run(const ReferenceArgs& args) {
+  const auto start = std::chrono::steady_clock::now();
+  // 1. Scene and camera.
+  const Scene scene = read_usd_scene(args.scene, IngestOptions{});
+  const Camera& camera = pick_camera(scene, args.camera);
+  const double load_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  // 2. Render.
+  ReferenceOptions options = args.render;
+  options.lights_visible_to_camera = !args.hide_lights;
+  const RayScene rays(scene);
+  ProgressBar bar(args.quiet);
+  ReferenceStats stats;
+  const ReferenceImage result =
+      render_reference(rays, camera, options, [&](const ReferenceProgress& p) { return bar(p); },
+                       &stats);
+
+  // 3. Write the EXR (with provenance) and the PNG.
+  image::ExrImage img = to_exr(result);
+  auto& attrs = img.attributes();
+  attrs["pbgi/renderer"] = "reference path tracer";
+  attrs["pbgi/scene"] = args.scene;
+  attrs["pbgi/scene_hash"] = scene.content_hash;
+  attrs["pbgi/camera"] = camera.prim_path;
+  attrs["pbgi/spp"] = std::to_string(result.spp);
+  attrs["pbgi/seed"] = std::to_string(options.seed);
+  attrs["pbgi/max_depth"] = std::to_string(options.max_depth);
+  attrs["pbgi/render_seconds"] = fmt::format("{:.3f}", stats.seconds);
+  image::ExrWriteOptions write;
+  write.pixel_type = args.half ? image::ExrPixelType::Half : image::ExrPixelType::Float;
+  image::write_exr(args.out, img, write);
+  std::vector<std::string> pngs;
+  if (args.png || args.png_all) {
+    const std::filesystem::path out(args.out);
+    for (const std::string& layer : img.layer_names()) {
+      if (!layer.empty() && !args.png_all) continue;
+      std::filesystem::path png = out;
+      png.replace_extension(layer.empty() ? ".png" : "." + layer + ".png");
+      image::write_png(png.string(), img, layer);
+      pngs.push_back(png.string());
+    }
+  }
+
+  std::printf("%s: %ux%u, %u spp, camera %s\n", args.out.c_str(), result.width, result.height,
+              result.spp, camera.prim_path.c_str());
+  std::printf("load %.3fs, render %.3fs (%.2f Mrays/s, %llu rays)\n", load_seconds, stats.seconds,
+              stats.seconds > 0 ? double(stats.rays) / stats.seconds * 1e-6 : 0.0,
+              static_cast<unsigned long long>(stats.rays));
+  if (stats.nonfinite_samples > 0)
+    std::printf("warning: %llu non-finite samples dropped\n",
+                static_cast<unsigned long long>(stats.nonfinite_samples));
+  for (const std::string& png : pngs) std::printf("%s\n", png.c_str());
+  return 0;
+}
+
+const CommandRegistrar kRegistrar("reference", [](CLI::App& app, int* exit_code) {
+  auto args = std::make_shared<ReferenceArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "reference", "Render an unbiased path-traced reference (multi-layer EXR of the AOVs)");
+  cmd->add_option("scene", args->scene, "USD scene file")->required();
+  cmd->add_option("--camera", args->camera, "Camera prim path (default: the only camera)");
+  cmd->add_option("--out,-o", args->out, "Output EXR")->capture_default_str();
+  cmd->add_option("--width", args->render.width, "Image width")->capture_default_str();
+  cmd->add_option("--height", args->render.height, "Image height")->capture_default_str();
+  cmd->add_option("--spp", args->render.spp, "Samples per pixel")->capture_default_str();
+  cmd->add_option("--pass-spp", args->render.pass_spp, "Samples per pixel per progressive pass")
+      ->capture_default_str();
+  cmd->add_option("--seed", args->render.seed, "Random seed")->capture_default_str();
+  cmd->add_option("--max-depth", args->render.max_depth, "Most reflections per path")
+      ->capture_default_str();
+  cmd->add_option("--rr-depth", args->render.rr_start_depth,
+                  "Reflections before Russian roulette starts")
+      ->capture_default_str();
+  cmd->add_option("--ao-max-distance", args->render.ao_max_distance,
+                  "AO occluder distance (0 = unbounded)")
+      ->capture_default_str();
+  cmd->add_flag("--hide-lights", args->hide_lights, "Camera rays do not see area lights");
+  cmd->add_flag("--png", args->png, "Also write <out>.png of the beauty (sRGB display)");
+  cmd->add_flag("--png-all", args->png_all, "Also write <out>.<aov>.png for every AOV");
+  cmd->add_flag("--half", args->half, "Store half floats (smaller, less exact)");
+  cmd->add_flag("--quiet,-q", args->quiet, "No progress bar");
+  cmd->callback([args, exit_code] { *exit_code = run(*args); });
+});
+
+}  // namespace
+}  // namespace pbgi::cli

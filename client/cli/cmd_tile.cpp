@@ -1,0 +1,156 @@
+// `pbgi tile SCENE --tile-rect x0,y0,x1,y1`: renders one tile through a
+// running pbgid, writes its AOVs as a tile-sized multi-layer EXR and prints
+// the gather statistics of that tile (text, or JSON with --json).
+#include "client/cli/command.h"
+#include "client/image/exr_image.h"
+#include "client/lib/pbgi_client.h"
+#include "storage/format/errors.h"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+
+namespace pbgi::cli {
+namespace {
+
+struct TileArgs {
+  std::string server;
+  std::string scene;
+  std::string camera;
+  uint32_t width = 512, height = 512;
+  std::string rect = "0,0,32,32";
+  std::string out = "tile.exr";
+  bool json = false;
+  uint32_t mb_res = 0, light_samples = 0, pixel_samples = 0;
+  float max_solid_angle = 0.f, ao_max_distance = 0.f;
+  uint64_t target_surfels = 0;
+  float surfel_spacing = 0.f;
+  uint32_t build_light_samples = 0;
+};
+
+std::string default_server() {
+  const char* env = std::getenv("PBGI_SERVER");
+  return env && *env ? env : "unix:./cache/pbgid.sock";
+}
+
+// "x0,y0,x1,y1" -> Tile; throws InvalidArgument naming the flag.
+v1::Tile parse_rect(const std::string& text) {
+  unsigned v[4];
+  char tail = 0;
+  if (std::sscanf(text.c_str(), "%u,%u,%u,%u%c", &v[0], &v[1], &v[2], &v[3], &tail) != 4) {
+    throw InvalidArgument(fmt::format("--tile-rect '{}' is not x0,y0,x1,y1", text));
+  }
+  v1::Tile tile;
+  tile.set_x0(v[0]);
+  tile.set_y0(v[1]);
+  tile.set_x1(v[2]);
+  tile.set_y1(v[3]);
+  return tile;
+}
+
+int run_tile(const TileArgs& args) {
+  client::PbgiClient client(args.server);
+
+  // 1. Open (quietly: the statistics are this command's output).
+  v1::BuildOptions build;
+  build.set_target_surfels(args.target_surfels);
+  build.set_surfel_spacing(args.surfel_spacing);
+  build.set_light_samples(args.build_light_samples);
+  const v1::SceneInfo info = client.open_scene(client::scene_request_path(args.scene), build);
+  std::string camera = args.camera;
+  if (camera.empty()) {
+    if (info.cameras_size() != 1) {
+      throw InvalidArgument(fmt::format("scene '{}' has {} cameras: pass --camera",
+                                        info.scene_path(), info.cameras_size()));
+    }
+    camera = info.cameras(0);
+  }
+
+  // 2. One tile.
+  v1::RenderTileRequest request;
+  request.set_scene_id(info.scene_id());
+  request.set_camera(camera);
+  request.set_image_width(args.width);
+  request.set_image_height(args.height);
+  *request.mutable_tile() = parse_rect(args.rect);
+  v1::GatherOptions& o = *request.mutable_options();
+  o.set_microbuffer_resolution(args.mb_res);
+  o.set_max_solid_angle(args.max_solid_angle);
+  o.set_ao_max_distance(args.ao_max_distance);
+  o.set_light_samples(args.light_samples);
+  o.set_pixel_samples(args.pixel_samples);
+  const auto start = std::chrono::steady_clock::now();
+  const client::TileImage tile = client.render_tile(request);
+  const double round_trip =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  // 3. The tile as its own small image.
+  image::ExrImage img(tile.width(), tile.height());
+  img.set_rgb("", tile.beauty);
+  img.set_rgb("direct", tile.direct);
+  img.set_rgb("indirect", tile.indirect);
+  img.set_rgb("albedo", tile.albedo);
+  img.set_layer("ao", image::y_channels(), tile.ao);
+  img.attributes()["pbgi/scene"] = info.scene_path();
+  img.attributes()["pbgi/camera"] = camera;
+  img.attributes()["pbgi/tile"] = fmt::format("{},{},{},{} of {}x{}", tile.tile.x0(),
+                                              tile.tile.y0(), tile.tile.x1(), tile.tile.y1(),
+                                              args.width, args.height);
+  image::write_exr(args.out, img);
+
+  // 4. Statistics.
+  const v1::GatherStats& s = tile.stats;
+  if (args.json) {
+    std::printf(
+        "{\"scene_id\": \"%s\", \"tile\": [%u, %u, %u, %u], \"receivers\": %llu, "
+        "\"nodes_visited\": %llu, \"nodes_rasterized\": %llu, \"surfels_raycast\": %llu, "
+        "\"seconds\": %.6f, \"round_trip_seconds\": %.6f, \"out\": \"%s\"}\n",
+        info.scene_id().c_str(), tile.tile.x0(), tile.tile.y0(), tile.tile.x1(), tile.tile.y1(),
+        static_cast<unsigned long long>(s.receivers()),
+        static_cast<unsigned long long>(s.nodes_visited()),
+        static_cast<unsigned long long>(s.nodes_rasterized()),
+        static_cast<unsigned long long>(s.surfels_raycast()), s.seconds(), round_trip,
+        args.out.c_str());
+  } else {
+    std::printf("tile               %u,%u,%u,%u of %ux%u\n", tile.tile.x0(), tile.tile.y0(),
+                tile.tile.x1(), tile.tile.y1(), args.width, args.height);
+    std::printf("receivers          %llu\n", static_cast<unsigned long long>(s.receivers()));
+    std::printf("nodes visited      %llu\n", static_cast<unsigned long long>(s.nodes_visited()));
+    std::printf("nodes rasterized   %llu\n", static_cast<unsigned long long>(s.nodes_rasterized()));
+    std::printf("surfels ray-cast   %llu\n", static_cast<unsigned long long>(s.surfels_raycast()));
+    std::printf("seconds            %.4f (server), %.4f (round trip)\n", s.seconds(), round_trip);
+    std::printf("wrote              %s\n", args.out.c_str());
+  }
+  return 0;
+}
+
+const CommandRegistrar kRegistrar{"tile", [](CLI::App& app, int* exit_code) {
+  auto args = std::make_shared<TileArgs>();
+  args->server = default_server();
+  CLI::App* cmd = app.add_subcommand("tile", "render one tile through a running pbgid and "
+                                             "print its gather statistics");
+  cmd->add_option("scene", args->scene, "USD scene")->required();
+  cmd->add_option("--server", args->server, "pbgid address ($PBGI_SERVER)")->capture_default_str();
+  cmd->add_option("--camera", args->camera, "camera prim path (default: the only camera)");
+  cmd->add_option("--width", args->width, "image width")->capture_default_str();
+  cmd->add_option("--height", args->height, "image height")->capture_default_str();
+  cmd->add_option("--tile-rect", args->rect, "x0,y0,x1,y1 (x1, y1 exclusive)")
+      ->capture_default_str();
+  cmd->add_option("--out", args->out, "EXR of the tile")->capture_default_str();
+  cmd->add_flag("--json", args->json, "statistics as one JSON object");
+  cmd->add_option("--mb-res", args->mb_res, "microbuffer resolution per cube face [8]");
+  cmd->add_option("--max-solid-angle", args->max_solid_angle, "cut threshold, sr [0.03]");
+  cmd->add_option("--ao-max-distance", args->ao_max_distance, "AO distance, 0 = unbounded");
+  cmd->add_option("--light-samples", args->light_samples, "shadow rays per pixel and light [16]");
+  cmd->add_option("--pixel-samples", args->pixel_samples, "camera rays per pixel [1]");
+  cmd->add_option("--target-surfels", args->target_surfels, "surfels to sample [200000]");
+  cmd->add_option("--surfel-spacing", args->surfel_spacing, "surfel spacing, world units");
+  cmd->add_option("--build-light-samples", args->build_light_samples,
+                  "shadow rays per surfel and light [16]");
+  cmd->callback([args, exit_code] { *exit_code = run_tile(*args); });
+}};
+
+}  // namespace
+}  // namespace pbgi::cli

@@ -1,0 +1,118 @@
+#include "client/lib/frame_renderer.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <exception>
+#include <mutex>
+#include <thread>
+
+namespace pbgi::client {
+namespace {
+
+// Copies a tile's rows of `channels` floats per pixel into the frame.
+void blit(const std::vector<float>& tile_values, const v1::Tile& tile, uint32_t frame_width,
+          int channels, std::vector<float>& frame_values) {
+  const uint32_t w = tile.x1() - tile.x0();
+  for (uint32_t y = tile.y0(); y < tile.y1(); ++y) {
+    const float* src = tile_values.data() + size_t(y - tile.y0()) * w * channels;
+    float* dst = frame_values.data() + (size_t(y) * frame_width + tile.x0()) * channels;
+    std::copy(src, src + size_t(w) * channels, dst);
+  }
+}
+
+void add_stats(const v1::GatherStats& s, v1::GatherStats* total) {
+  total->set_receivers(total->receivers() + s.receivers());
+  total->set_nodes_visited(total->nodes_visited() + s.nodes_visited());
+  total->set_nodes_rasterized(total->nodes_rasterized() + s.nodes_rasterized());
+  total->set_surfels_raycast(total->surfels_raycast() + s.surfels_raycast());
+  total->set_seconds(total->seconds() + s.seconds());
+}
+
+}  // namespace
+
+std::vector<v1::Tile> tile_grid(uint32_t width, uint32_t height, uint32_t tile_size) {
+  std::vector<v1::Tile> tiles;
+  if (tile_size == 0) return tiles;
+  for (uint32_t y = 0; y < height; y += tile_size) {
+    for (uint32_t x = 0; x < width; x += tile_size) {
+      v1::Tile& t = tiles.emplace_back();
+      t.set_x0(x);
+      t.set_y0(y);
+      t.set_x1(std::min(width, x + tile_size));
+      t.set_y1(std::min(height, y + tile_size));
+    }
+  }
+  return tiles;
+}
+
+Frame render_frame(PbgiClient& client, const FrameRequest& request, const TileProgress& progress) {
+  if (request.width == 0 || request.height == 0) {
+    throw InvalidArgument("render_frame: image size " + std::to_string(request.width) + "x" +
+                          std::to_string(request.height) + " is empty");
+  }
+  if (request.tile_size == 0) throw InvalidArgument("render_frame: tile size is 0");
+  if (request.jobs == 0) throw InvalidArgument("render_frame: jobs is 0");
+  const auto start = std::chrono::steady_clock::now();
+
+  Frame frame;
+  frame.width = request.width;
+  frame.height = request.height;
+  const size_t pixels = size_t(request.width) * request.height;
+  frame.beauty.assign(3 * pixels, 0.f);
+  frame.direct.assign(3 * pixels, 0.f);
+  frame.indirect.assign(3 * pixels, 0.f);
+  frame.albedo.assign(3 * pixels, 0.f);
+  frame.ao.assign(pixels, 0.f);
+
+  const std::vector<v1::Tile> tiles = tile_grid(request.width, request.height, request.tile_size);
+  const uint32_t total = static_cast<uint32_t>(tiles.size());
+  std::atomic<size_t> next{0};
+  std::atomic<bool> failed{false};
+  std::mutex mutex;  // guards done, stats, error, progress calls
+  uint32_t done = 0;
+  std::exception_ptr error;
+
+  // Each worker keeps one request in flight; tiles go to whoever is free.
+  auto worker = [&] {
+    v1::RenderTileRequest tile_request;
+    tile_request.set_scene_id(request.scene_id);
+    tile_request.set_camera(request.camera);
+    tile_request.set_image_width(request.width);
+    tile_request.set_image_height(request.height);
+    *tile_request.mutable_options() = request.options;
+    for (size_t i = next++; i < tiles.size() && !failed; i = next++) {
+      try {
+        *tile_request.mutable_tile() = tiles[i];
+        const TileImage tile = client.render_tile(tile_request);
+        // Tiles are disjoint: the copies need no lock.
+        blit(tile.beauty, tiles[i], request.width, 3, frame.beauty);
+        blit(tile.direct, tiles[i], request.width, 3, frame.direct);
+        blit(tile.indirect, tiles[i], request.width, 3, frame.indirect);
+        blit(tile.albedo, tiles[i], request.width, 3, frame.albedo);
+        blit(tile.ao, tiles[i], request.width, 1, frame.ao);
+        std::lock_guard lock(mutex);
+        add_stats(tile.stats, &frame.stats);
+        ++done;
+        if (progress) progress(done, total);
+      } catch (...) {
+        std::lock_guard lock(mutex);
+        if (!error) error = std::current_exception();
+        failed = true;
+      }
+    }
+  };
+  const unsigned threads = std::min<size_t>(request.jobs, tiles.size());
+  std::vector<std::thread> workers;
+  workers.reserve(threads);
+  for (unsigned t = 0; t < threads; ++t) workers.emplace_back(worker);
+  for (std::thread& t : workers) t.join();
+  if (error) std::rethrow_exception(error);
+
+  frame.tiles = total;
+  frame.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return frame;
+}
+
+}  // namespace pbgi::client

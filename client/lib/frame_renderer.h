@@ -1,0 +1,46 @@
+// Renders a whole image through RenderTile: the image is cut into tiles,
+// `jobs` requests are kept in flight, tiles are assembled into full-frame
+// AOV buffers as they arrive.
+#pragma once
+
+#include "client/lib/pbgi_client.h"
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace pbgi::client {
+
+struct FrameRequest {
+  std::string scene_id;
+  std::string camera;               // camera prim path
+  uint32_t width = 0, height = 0;
+  uint32_t tile_size = 32;          // pixels per tile side (edge tiles are smaller)
+  unsigned jobs = 4;                // RenderTile requests in flight
+  v1::GatherOptions options;        // unset fields: the daemon's defaults
+};
+
+// Full-frame AOVs, row-major, y down from the top; rgb layers interleaved.
+struct Frame {
+  uint32_t width = 0, height = 0;
+  std::vector<float> beauty, direct, indirect, albedo;  // 3 floats per pixel
+  std::vector<float> ao;                                // 1 float per pixel
+  v1::GatherStats stats;     // summed over tiles (seconds: sum of server time)
+  uint32_t tiles = 0;
+  double seconds = 0;        // wall clock of the whole frame
+};
+
+// Row-major tiles covering width x height.
+std::vector<v1::Tile> tile_grid(uint32_t width, uint32_t height, uint32_t tile_size);
+
+// Called after each tile, from the thread that received it (calls are
+// serialized): tiles done, total.
+using TileProgress = std::function<void(uint32_t done, uint32_t total)>;
+
+// Throws InvalidArgument for an empty image, tile size or jobs = 0, and the
+// first RpcError of any tile (the remaining tiles are abandoned).
+Frame render_frame(PbgiClient& client, const FrameRequest& request,
+                   const TileProgress& progress = {});
+
+}  // namespace pbgi::client

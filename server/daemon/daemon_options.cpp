@@ -1,0 +1,358 @@
+#include "server/daemon/daemon_options.h"
+
+#include "pbgi_build_config.h"
+#include "server/daemon/byte_size.h"
+#include "server/daemon/listen_address.h"
+#include "storage/format/errors.h"
+
+#include <fmt/format.h>
+#include <toml++/toml.h>
+
+#include <array>
+#include <charconv>
+#include <cstdlib>
+#include <fstream>
+#include <limits>
+#include <set>
+#include <sstream>
+
+namespace fs = std::filesystem;
+
+namespace pbgi::daemon {
+namespace {
+
+constexpr std::array<std::string_view, 7> kLogLevels = {"trace", "debug",    "info", "warn",
+                                                        "error", "critical", "off"};
+
+// Reads the keys of one TOML table into fields, remembering which keys it
+// consumed so that whatever is left over can be reported as unknown.
+class TableReader {
+ public:
+  TableReader(const toml::table& table, std::string prefix, const std::string& source)
+      : table_(table), prefix_(std::move(prefix)), source_(source) {}
+
+  void read(const char* key, std::string& out) {
+    if (const toml::node* node = find(key)) {
+      if (!node->is_string()) throw type_error(key, "a string");
+      out = node->as_string()->get();
+    }
+  }
+  void read(const char* key, bool& out) {
+    if (const toml::node* node = find(key)) {
+      if (!node->is_boolean()) throw type_error(key, "true or false");
+      out = node->as_boolean()->get();
+    }
+  }
+  template <class T>
+    requires std::is_integral_v<T> && std::is_unsigned_v<T>
+  void read(const char* key, T& out) {
+    if (const toml::node* node = find(key)) {
+      if (!node->is_integer()) throw type_error(key, "an integer");
+      const int64_t v = node->as_integer()->get();
+      if (v < 0 || static_cast<uint64_t>(v) > std::numeric_limits<T>::max()) {
+        throw InvalidArgument(fmt::format("config '{}': key '{}' = {} is out of range 0..{}",
+                                          source_, name(key), v, std::numeric_limits<T>::max()));
+      }
+      out = static_cast<T>(v);
+    }
+  }
+  template <class T>
+    requires std::is_floating_point_v<T>
+  void read(const char* key, T& out) {
+    if (const toml::node* node = find(key)) {
+      if (node->is_floating_point()) {
+        out = static_cast<T>(node->as_floating_point()->get());
+      } else if (node->is_integer()) {
+        out = static_cast<T>(node->as_integer()->get());
+      } else {
+        throw type_error(key, "a number");
+      }
+    }
+  }
+  void read(const char* key, std::vector<std::string>& out) {
+    if (const toml::node* node = find(key)) {
+      if (!node->is_array()) throw type_error(key, "an array of strings");
+      std::vector<std::string> values;
+      for (const toml::node& element : *node->as_array()) {
+        if (!element.is_string()) throw type_error(key, "an array of strings");
+        values.push_back(element.as_string()->get());
+      }
+      out = std::move(values);
+    }
+  }
+  // A sub-table, or nullptr if absent.
+  const toml::table* table(const char* key) {
+    const toml::node* node = find(key);
+    if (!node) return nullptr;
+    if (!node->is_table()) throw type_error(key, "a table");
+    return node->as_table();
+  }
+  std::string name(const char* key) const { return prefix_.empty() ? key : prefix_ + "." + key; }
+
+  // Throws naming the first key that no read() asked for.
+  void reject_unknown() const {
+    for (const auto& [key, node] : table_) {
+      if (!seen_.count(std::string(key.str()))) {
+        throw InvalidArgument(fmt::format("config '{}': unknown key '{}' (line {})", source_,
+                                          name(std::string(key.str()).c_str()),
+                                          node.source().begin.line));
+      }
+    }
+  }
+
+ private:
+  const toml::node* find(const char* key) {
+    seen_.insert(key);
+    return table_.get(key);
+  }
+  InvalidArgument type_error(const char* key, const char* expected) const {
+    return InvalidArgument(
+        fmt::format("config '{}': key '{}' must be {}", source_, name(key), expected));
+  }
+
+  const toml::table& table_;
+  std::string prefix_;
+  const std::string& source_;
+  std::set<std::string> seen_;
+};
+
+// TOML floats are doubles: write a float as the double with the same
+// shortest text (0.03f -> 0.03, not 0.029999999329447746).
+double float_for_toml(float f) { return std::strtod(fmt::format("{}", f).c_str(), nullptr); }
+
+toml::array string_array(const std::vector<std::string>& values) {
+  toml::array array;
+  for (const std::string& v : values) array.push_back(v);
+  return array;
+}
+
+uint32_t parse_unsigned(const char* variable, const char* text) {
+  uint32_t value = 0;
+  const char* end = text + std::strlen(text);
+  auto [ptr, ec] = std::from_chars(text, end, value);
+  if (ec != std::errc() || ptr != end) {
+    throw InvalidArgument(fmt::format("environment {}='{}' is not an unsigned integer",
+                                      variable, text));
+  }
+  return value;
+}
+
+}  // namespace
+
+DaemonOptions::DaemonOptions() : python(PBGI_PYTHON) {}
+
+std::string DaemonOptions::effective_listen() const {
+  if (!listen.empty()) return listen;
+  return "unix:" + (fs::path(cache_dir) / "pbgid.sock").string();
+}
+
+uint64_t DaemonOptions::memory_budget_bytes() const {
+  return parse_byte_size(memory_budget, "memory_budget");
+}
+
+uint64_t DaemonOptions::max_message_bytes() const {
+  return parse_byte_size(max_message_size, "limits.max_message_size");
+}
+
+void DaemonOptions::validate() const {
+  const ListenAddress address = parse_listen_address(effective_listen());
+  if (!address.is_loopback() && !allow_insecure_remote) {
+    throw InvalidArgument(fmt::format(
+        "listen '{}' is not a loopback address and this daemon speaks plaintext gRPC; "
+        "use a unix socket or 127.0.0.1, or set allow_insecure_remote",
+        effective_listen()));
+  }
+  if (cache_dir.empty()) throw InvalidArgument("cache_dir is empty");
+  if (memory_budget_bytes() < (1u << 20)) {
+    throw InvalidArgument(fmt::format("memory_budget '{}' is below 1MiB", memory_budget));
+  }
+  const uint64_t message = max_message_bytes();
+  if (message < (1u << 20) || message > uint64_t(std::numeric_limits<int>::max())) {
+    throw InvalidArgument(fmt::format("limits.max_message_size '{}' must be 1MiB..2GiB",
+                                      max_message_size));
+  }
+  bool known_level = false;
+  for (std::string_view level : kLogLevels) known_level |= level == log_level;
+  if (!known_level) {
+    throw InvalidArgument(fmt::format(
+        "log_level '{}' is not one of trace, debug, info, warn, error, critical, off", log_level));
+  }
+  if (!(shutdown_grace_seconds >= 0)) {
+    throw InvalidArgument("shutdown_grace_seconds must be >= 0");
+  }
+  if (python.empty()) throw InvalidArgument("python is empty");
+  const service::RequestLimits& limits = service.limits;
+  if (limits.max_receivers == 0 || limits.max_image_side == 0 || limits.max_tile_pixels == 0) {
+    throw InvalidArgument("limits.max_receivers, max_image_side and max_tile_pixels must be > 0");
+  }
+  // The stages check their own options, naming the field.
+  service.defaults.render.validate();
+  service.defaults.open.surfels.validate();
+  service.defaults.open.tree.validate();
+}
+
+DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string& source,
+                                  DaemonOptions base) {
+  toml::table root;
+  try {
+    root = toml::parse(toml_text, source);
+  } catch (const toml::parse_error& e) {
+    throw InvalidArgument(fmt::format("config '{}' line {} column {}: {}", source,
+                                      e.source().begin.line, e.source().begin.column,
+                                      e.description()));
+  }
+
+  DaemonOptions out = std::move(base);
+  TableReader top(root, "", source);
+  top.read("listen", out.listen);
+  top.read("scene_roots", out.scene_roots);
+  top.read("cache_dir", out.cache_dir);
+  top.read("memory_budget", out.memory_budget);
+  top.read("threads", out.threads);
+  top.read("log_level", out.log_level);
+  top.read("python", out.python);
+  top.read("preload", out.preload);
+  top.read("allow_insecure_remote", out.allow_insecure_remote);
+  top.read("shutdown_grace_seconds", out.shutdown_grace_seconds);
+
+  if (const toml::table* table = top.table("gather")) {
+    TableReader gather(*table, "gather", source);
+    RenderOptions& r = out.service.defaults.render;
+    gather.read("microbuffer_resolution", r.gather.microbuffer_resolution);
+    gather.read("max_solid_angle", r.gather.max_solid_angle);
+    gather.read("ao_max_distance", r.gather.ao_max_distance);
+    gather.read("light_samples", r.light_samples);
+    gather.read("pixel_samples", r.pixel_samples);
+    gather.reject_unknown();
+  }
+  if (const toml::table* table = top.table("build")) {
+    TableReader build(*table, "build", source);
+    OpenOptions& o = out.service.defaults.open;
+    build.read("surfel_spacing", o.surfels.spacing);
+    build.read("target_surfels", o.surfels.target_surfels);
+    build.read("light_samples", o.surfels.light_samples);
+    build.read("seed", o.surfels.seed);
+    build.read("page_size", o.tree.page_size);
+    build.read("leaf_size", o.tree.leaf_size);
+    build.reject_unknown();
+  }
+  if (const toml::table* table = top.table("limits")) {
+    TableReader limits(*table, "limits", source);
+    service::RequestLimits& l = out.service.limits;
+    limits.read("max_receivers", l.max_receivers);
+    limits.read("max_image_side", l.max_image_side);
+    limits.read("max_tile_pixels", l.max_tile_pixels);
+    limits.read("max_message_size", out.max_message_size);
+    limits.reject_unknown();
+  }
+  top.reject_unknown();
+  return out;
+}
+
+DaemonOptions load_daemon_config(const fs::path& file, DaemonOptions base) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw IoError(fmt::format("cannot read config file '{}'", file.string()));
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw IoError(fmt::format("error reading config file '{}'", file.string()));
+  return parse_daemon_config(text.str(), file.string(), std::move(base));
+}
+
+std::string to_toml(const DaemonOptions& o) {
+  toml::table root;
+  root.insert("listen", o.effective_listen());
+  root.insert("scene_roots", string_array(o.scene_roots));
+  root.insert("cache_dir", o.cache_dir);
+  root.insert("memory_budget", o.memory_budget);
+  root.insert("threads", int64_t(o.threads));
+  root.insert("log_level", o.log_level);
+  root.insert("python", o.python);
+  root.insert("preload", string_array(o.preload));
+  root.insert("allow_insecure_remote", o.allow_insecure_remote);
+  root.insert("shutdown_grace_seconds", o.shutdown_grace_seconds);
+
+  const RenderOptions& r = o.service.defaults.render;
+  toml::table gather;
+  gather.insert("microbuffer_resolution", int64_t(r.gather.microbuffer_resolution));
+  gather.insert("max_solid_angle", float_for_toml(r.gather.max_solid_angle));
+  gather.insert("ao_max_distance", float_for_toml(r.gather.ao_max_distance));
+  gather.insert("light_samples", int64_t(r.light_samples));
+  gather.insert("pixel_samples", int64_t(r.pixel_samples));
+  root.insert("gather", std::move(gather));
+
+  const OpenOptions& b = o.service.defaults.open;
+  toml::table build;
+  build.insert("surfel_spacing", float_for_toml(b.surfels.spacing));
+  build.insert("target_surfels", int64_t(b.surfels.target_surfels));
+  build.insert("light_samples", int64_t(b.surfels.light_samples));
+  build.insert("seed", int64_t(b.surfels.seed));
+  build.insert("page_size", int64_t(b.tree.page_size));
+  build.insert("leaf_size", int64_t(b.tree.leaf_size));
+  root.insert("build", std::move(build));
+
+  const service::RequestLimits& l = o.service.limits;
+  toml::table limits;
+  limits.insert("max_receivers", int64_t(l.max_receivers));
+  limits.insert("max_image_side", int64_t(l.max_image_side));
+  limits.insert("max_tile_pixels", int64_t(l.max_tile_pixels));
+  limits.insert("max_message_size", o.max_message_size);
+  root.insert("limits", std::move(limits));
+
+  std::ostringstream out;
+  out << "# pbgid effective configuration\n" << root << '\n';
+  return out.str();
+}
+
+Environment process_environment() {
+  return [](const char* name) -> const char* { return std::getenv(name); };
+}
+
+void apply_environment(DaemonOptions& o, const Environment& env) {
+  auto get = [&](const char* name) -> const char* {
+    const char* value = env(name);
+    return value && *value ? value : nullptr;
+  };
+  if (const char* v = get("PBGI_LISTEN")) o.listen = v;
+  if (const char* v = get("PBGI_SCENE_ROOTS")) {
+    o.scene_roots.clear();
+    std::string_view rest(v);
+    while (!rest.empty()) {
+      const size_t colon = rest.find(':');
+      std::string_view item = rest.substr(0, colon);
+      if (!item.empty()) o.scene_roots.emplace_back(item);
+      rest = colon == std::string_view::npos ? std::string_view() : rest.substr(colon + 1);
+    }
+  }
+  if (const char* v = get("PBGI_CACHE_DIR")) o.cache_dir = v;
+  if (const char* v = get("PBGI_MEMORY_BUDGET")) {
+    parse_byte_size(v, "environment PBGI_MEMORY_BUDGET");  // fail here, naming the variable
+    o.memory_budget = v;
+  }
+  if (const char* v = get("PBGI_THREADS")) o.threads = parse_unsigned("PBGI_THREADS", v);
+  if (const char* v = get("PBGI_LOG_LEVEL")) o.log_level = v;
+  if (const char* v = get("PBGI_PYTHON")) o.python = v;
+}
+
+bool operator==(const DaemonOptions& a, const DaemonOptions& b) {
+  const RenderOptions &ra = a.service.defaults.render, &rb = b.service.defaults.render;
+  const OpenOptions &oa = a.service.defaults.open, &ob = b.service.defaults.open;
+  const service::RequestLimits &la = a.service.limits, &lb = b.service.limits;
+  return a.effective_listen() == b.effective_listen() && a.scene_roots == b.scene_roots &&
+         a.cache_dir == b.cache_dir && a.memory_budget == b.memory_budget &&
+         a.threads == b.threads && a.log_level == b.log_level && a.python == b.python &&
+         a.preload == b.preload && a.allow_insecure_remote == b.allow_insecure_remote &&
+         a.shutdown_grace_seconds == b.shutdown_grace_seconds &&
+         a.max_message_size == b.max_message_size &&
+         ra.gather.microbuffer_resolution == rb.gather.microbuffer_resolution &&
+         ra.gather.max_solid_angle == rb.gather.max_solid_angle &&
+         ra.gather.ao_max_distance == rb.gather.ao_max_distance &&
+         ra.light_samples == rb.light_samples && ra.pixel_samples == rb.pixel_samples &&
+         oa.surfels.spacing == ob.surfels.spacing &&
+         oa.surfels.target_surfels == ob.surfels.target_surfels &&
+         oa.surfels.light_samples == ob.surfels.light_samples &&
+         oa.surfels.seed == ob.surfels.seed && oa.tree.page_size == ob.tree.page_size &&
+         oa.tree.leaf_size == ob.tree.leaf_size && la.max_receivers == lb.max_receivers &&
+         la.max_image_side == lb.max_image_side && la.max_tile_pixels == lb.max_tile_pixels;
+}
+
+}  // namespace pbgi::daemon

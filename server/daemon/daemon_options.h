@@ -1,0 +1,86 @@
+// Everything pbgid can be configured with, in one struct. The layers, later
+// ones winning: the defaults below, a TOML file (--config or PBGI_CONFIG),
+// PBGI_* environment variables, command-line flags (daemon_command_line.h).
+//
+// TOML layout (config/pbgid.toml is a commented example):
+//   listen, scene_roots, cache_dir, memory_budget, threads, log_level,
+//   python, preload, allow_insecure_remote, shutdown_grace_seconds
+//   [gather]  microbuffer_resolution, max_solid_angle, ao_max_distance,
+//             light_samples, pixel_samples            (request defaults)
+//   [build]   surfel_spacing, target_surfels, light_samples, page_size,
+//             leaf_size, seed                         (OpenScene defaults)
+//   [limits]  max_receivers, max_image_side, max_tile_pixels, max_message_size
+// Unknown keys are errors (a typo must not silently use a default).
+#pragma once
+
+#include "server/service/pbgi_service.h"
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace pbgi::daemon {
+
+struct DaemonOptions {
+  // "unix:PATH" or "HOST:PORT"; "" = unix:<cache_dir>/pbgid.sock.
+  std::string listen;
+  // Directories scenes may be opened from (none: every OpenScene is refused).
+  std::vector<std::string> scene_roots;
+  // Page sets are built here (and the default socket lives here).
+  std::string cache_dir = "./cache";
+  // Byte budget of the shared page cache, with K/M/G suffixes.
+  std::string memory_budget = "2GiB";
+  // TBB worker threads for gathers and renders; 0 = all cores.
+  uint32_t threads = 0;
+  // spdlog level: trace, debug, info, warn, error, critical, off.
+  std::string log_level = "info";
+  // Interpreter with usd-core for the USD reader; default: this build's venv.
+  std::string python;
+  // Scenes opened at start, before the daemon reports it is listening.
+  std::vector<std::string> preload;
+  // Allow plaintext TCP on a non-loopback address.
+  bool allow_insecure_remote = false;
+  // On SIGTERM/SIGINT, in-flight requests get this long before cancellation.
+  double shutdown_grace_seconds = 10.0;
+  // Largest gRPC message accepted or sent (a 1M-receiver Gather is 24 MB).
+  std::string max_message_size = "64MiB";
+  // Request defaults ([gather], [build]) and limits ([limits]).
+  service::ServiceOptions service;
+
+  DaemonOptions();
+
+  // The listen address with the default filled in.
+  std::string effective_listen() const;
+  uint64_t memory_budget_bytes() const;      // throws InvalidArgument
+  uint64_t max_message_bytes() const;        // throws InvalidArgument
+  // Checks every field; throws pbgi::InvalidArgument naming the key.
+  void validate() const;
+};
+
+// Reads TOML text over `base`: keys present replace base's values, absent
+// keys keep them. Throws pbgi::InvalidArgument naming `source` and the key
+// (unknown key, wrong type, out of range) or the parse error's position.
+DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string& source,
+                                  DaemonOptions base = {});
+// The same for a file; throws IoError naming the file if it cannot be read.
+DaemonOptions load_daemon_config(const std::filesystem::path& file, DaemonOptions base = {});
+
+// The effective configuration as TOML that parse_daemon_config reads back
+// to equal options.
+std::string to_toml(const DaemonOptions& options);
+
+// Reads an environment variable (nullptr = unset); injectable for tests.
+using Environment = std::function<const char*(const char* name)>;
+Environment process_environment();
+
+// Applies PBGI_LISTEN, PBGI_SCENE_ROOTS (':'-separated), PBGI_CACHE_DIR,
+// PBGI_MEMORY_BUDGET, PBGI_THREADS, PBGI_LOG_LEVEL, PBGI_PYTHON. Throws
+// InvalidArgument naming the variable for a malformed value.
+void apply_environment(DaemonOptions& options, const Environment& env);
+
+bool operator==(const DaemonOptions& a, const DaemonOptions& b);
+
+}  // namespace pbgi::daemon

@@ -1,0 +1,80 @@
+// Turns the two kinds of primitives of the gather into microbuffer
+// fragments:
+//  - splats: a node (or a small surfel) seen as an ellipse of known solid
+//    angle around a direction: a flat piece of surface seen at angle phi is
+//    squashed by cos(phi) along its projected normal. It is box-filtered:
+//    the ellipse is mapped to the plane of the face its center lies on
+//    (linearized at the center) and replaced by the axis-aligned rectangle
+//    of the same area and of the aspect of the ellipse's bounding box; each
+//    pixel gets the fraction of its area the rectangle overlaps. Parts of
+//    the rectangle beyond the face's edges are mapped onto the neighbouring
+//    faces. All pieces are then rescaled so that they add up to exactly the
+//    splat's solid angle: a splat loses no energy at face edges or corners,
+//    and a sub-pixel splat spreads over the 2x2 pixels it straddles.
+//  - ray-cast disks: a surfel near the receiver, intersected exactly with
+//    the center direction of every pixel its bounding cone may cover; each
+//    hit is a fragment of coverage 1 at the hit distance.
+//
+// Thread-safety: none; one per Gatherer.
+#pragma once
+
+#include "server/gather/cube_layout.h"
+#include "server/gather/microbuffer.h"
+
+#include <Imath/ImathColor.h>
+#include <Imath/ImathVec.h>
+
+#include <cstdint>
+#include <vector>
+
+namespace pbgi::gather {
+
+class Rasterizer {
+ public:
+  explicit Rasterizer(Microbuffer& buffer);
+
+  // The shape of a splat: an ellipse of solid angle `omega` (steradians)
+  // whose minor axis lies along `squash` (a unit vector perpendicular to
+  // the view direction; ignored when `ratio` is 1), minor/major = `ratio`,
+  // and whose major angular radius is at most `max_radius` (radians).
+  struct Shape {
+    float omega = 0.f;
+    Imath::V3f squash{0, 0, 0};
+    float ratio = 1.f;
+    float max_radius = 1e30f;
+  };
+
+  // Splat centered on unit direction `dir`, at distance `depth`, showing
+  // `radiance`.
+  void splat(const Imath::V3f& dir, const Shape& shape, float depth, const Imath::C3f& radiance);
+
+  // Disk of `radius` centered at `offset` (relative to the receiver) with
+  // unit `normal`, seen from its front side. Returns the pixels it covers.
+  uint32_t raycast(const Imath::V3f& offset, const Imath::V3f& normal, float radius,
+                   const Imath::C3f& radiance);
+
+ private:
+  struct Candidate {
+    uint32_t pixel;
+    float fraction;  // of the pixel's area covered, before rescaling
+    float cosine;    // receiver cosine at the center of the covered part
+  };
+
+  // Box-filters, on `face`, the tent of the rectangle of half sizes hu, hv
+  // centered at (uc, vc) (clipped to the face) into candidates.
+  void deposit_tent(int face, float uc, float hu, float vc, float hv);
+  // Box-filters the face-plane rectangle [u0,u1] x [v0,v1] of `face`
+  // (clipped to the face) into candidates, `density` times its area.
+  void deposit(int face, float u0, float u1, float v0, float v1, float density);
+  // Moves the part [u0,u1] x [v0,v1] of the home face's plane, beyond one
+  // of its edges, that holds `mass` (plane area) of the splat, onto the
+  // neighbouring `face`.
+  void overflow(int home, int face, float u0, float u1, float v0, float v1, float mass);
+
+  Microbuffer& buffer_;
+  const CubeLayout& layout_;
+  std::vector<Candidate> candidates_;
+  double covered_ = 0.0;  // solid angle of the candidates, before rescaling
+};
+
+}  // namespace pbgi::gather

@@ -1,0 +1,70 @@
+"""Framed SceneChunk output of the USD reader (proto/pbgi/v1/scene.proto).
+
+Each chunk goes to the binary stream as a 4-byte little-endian length
+followed by the serialized SceneChunk; the daemon (server/ingest/
+usd_ingest.cpp) decodes the same framing. Diagnostics are de-duplicated here
+so that one unsupported prim yields exactly one message.
+"""
+import struct
+import sys
+import time
+
+from pbgi.v1 import scene_pb2
+
+WARNING = scene_pb2.Diagnostic.WARNING
+ERROR = scene_pb2.Diagnostic.ERROR
+INFO = scene_pb2.Diagnostic.INFO
+
+_LENGTH = struct.Struct("<I")
+# Progress is throttled: the daemon forwards it to clients, and a chunk per
+# prim would dominate small scenes.
+_PROGRESS_INTERVAL_S = 0.1
+
+
+class ChunkStream:
+    """Writes SceneChunk frames to a binary file object (not thread-safe)."""
+
+    def __init__(self, out):
+        self._out = out
+        self._reported = set()
+        self._last_progress = 0.0
+        self.chunk_count = 0  # every frame written, as SceneEnd reports it
+        self.triangle_count = 0
+
+    def write(self, chunk):
+        data = chunk.SerializeToString()
+        self._out.write(_LENGTH.pack(len(data)))
+        self._out.write(data)
+        self.chunk_count += 1
+
+    def diagnostic(self, severity, prim_path, message, kind=""):
+        """Reports once per (kind, prim path); kind defaults to the message."""
+        key = (kind or message, prim_path)
+        if key in self._reported:
+            return
+        self._reported.add(key)
+        label = scene_pb2.Diagnostic.Severity.Name(severity)
+        print(f"usd_reader: {label}: {prim_path}: {message}", file=sys.stderr)
+        chunk = scene_pb2.SceneChunk()
+        chunk.diagnostic.severity = severity
+        chunk.diagnostic.prim_path = prim_path
+        chunk.diagnostic.message = message
+        self.write(chunk)
+
+    def progress(self, stage, fraction, force=False):
+        now = time.monotonic()
+        if not force and now - self._last_progress < _PROGRESS_INTERVAL_S:
+            return
+        self._last_progress = now
+        chunk = scene_pb2.SceneChunk()
+        chunk.progress.stage = stage
+        chunk.progress.fraction = min(max(fraction, 0.0), 1.0)
+        self.write(chunk)
+
+    def end(self):
+        chunk = scene_pb2.SceneChunk()
+        # SceneEnd counts every frame before it, itself excluded.
+        chunk.end.triangle_count = self.triangle_count
+        chunk.end.chunk_count = self.chunk_count
+        self.write(chunk)
+        self._out.flush()

@@ -1,0 +1,112 @@
+"""Mesh and implicit gprims -> world-space triangles (via TriangleEmitter).
+
+Meshes are fan-triangulated as authored. Subdivision surfaces (USD's default
+scheme is catmullClark) are sent as their control cage (subdiv_cages.py) and
+refined by the daemon; their authored normals are ignored, as USD specifies
+for subdivision meshes.
+
+Authored normals (primvars:normals wins over normals) are sent per vertex:
+vertex/varying/constant ones per point; faceVarying and uniform ones make
+every face corner its own vertex, so that the per-vertex stream stays exact.
+"""
+import numpy as np
+from pxr import UsdGeom
+
+from chunk_stream import WARNING
+from implicit_shapes import tessellate
+from subdiv_cages import SCHEMES, cage_chunk
+from triangle_chunks import (GeometryError, fan_triangulate, mirrors, transform_normals,
+                             transform_points)
+
+
+def _authored_normals(mesh, time, point_count, corner_count, face_count, stream):
+    """(values (N, 3) float64, interpolation) or (None, None)."""
+    primvar = UsdGeom.PrimvarsAPI(mesh.GetPrim()).GetPrimvar("normals")
+    if primvar and primvar.HasAuthoredValue():
+        values, interpolation = primvar.ComputeFlattened(time), primvar.GetInterpolation()
+    elif mesh.GetNormalsAttr().HasAuthoredValue():
+        values, interpolation = mesh.GetNormalsAttr().Get(time), mesh.GetNormalsInterpolation()
+    else:
+        return None, None
+    if values is None or len(values) == 0:
+        return None, None
+    expected = {UsdGeom.Tokens.vertex: point_count, UsdGeom.Tokens.varying: point_count,
+                UsdGeom.Tokens.faceVarying: corner_count, UsdGeom.Tokens.uniform: face_count,
+                UsdGeom.Tokens.constant: 1}.get(interpolation)
+    path = str(mesh.GetPath())
+    if expected is None or len(values) != expected:
+        stream.diagnostic(WARNING, path, f"{len(values)} {interpolation} normals where "
+                          f"{expected} are expected: using geometric normals", kind="normals")
+        return None, None
+    return np.asarray(values, dtype=np.float64).reshape(-1, 3), interpolation
+
+
+def read_mesh(prim, matrix, time, materials, emitter, stream):
+    """Emits the mesh's triangles; returns how many. Raises GeometryError."""
+    mesh = UsdGeom.Mesh(prim)
+    path = str(prim.GetPath())
+    points = mesh.GetPointsAttr().Get(time)
+    counts = mesh.GetFaceVertexCountsAttr().Get(time)
+    indices = mesh.GetFaceVertexIndicesAttr().Get(time)
+    if points is None or counts is None or indices is None or len(counts) == 0:
+        return 0
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    counts = np.asarray(counts, dtype=np.int64)
+    indices = np.asarray(indices, dtype=np.int64)
+    if len(indices) and (indices.min() < 0 or indices.max() >= len(points)):
+        raise GeometryError(f"faceVertexIndices range [{indices.min()}, {indices.max()}] "
+                            f"but the mesh has {len(points)} points")
+
+    scheme = mesh.GetSubdivisionSchemeAttr().Get(time)
+    subdivided = scheme != UsdGeom.Tokens.none
+    if subdivided and scheme not in SCHEMES:
+        stream.diagnostic(WARNING, path, f"unknown subdivisionScheme '{scheme}': triangulated as "
+                          "its control cage", kind="subdivision")
+    left_handed = mesh.GetOrientationAttr().Get(time) == UsdGeom.Tokens.leftHanded
+    material = materials.for_prim(prim)
+    per_face = materials.subset_materials(prim, len(counts), material)
+    double_sided = bool(mesh.GetDoubleSidedAttr().Get(time))
+    if scheme in SCHEMES:
+        chunk = cage_chunk(mesh, scheme, transform_points(points, matrix), counts, indices,
+                           left_handed != mirrors(matrix), material, per_face, double_sided,
+                           time, stream)
+        if chunk is not None:
+            stream.write(chunk)
+            return 0
+    corners, faces = fan_triangulate(counts, indices, left_handed != mirrors(matrix),
+                                     mesh.GetHoleIndicesAttr().Get(time))
+    if len(corners) == 0:
+        return 0
+
+    world = transform_points(points, matrix)
+    normals, interpolation = (None, None) if subdivided else _authored_normals(
+        mesh, time, len(points), len(indices), len(counts), stream)
+    if interpolation in (UsdGeom.Tokens.faceVarying, UsdGeom.Tokens.uniform):
+        positions, triangles = world[indices], corners
+        if interpolation == UsdGeom.Tokens.uniform:
+            normals = normals[np.repeat(np.arange(len(counts)), counts)]
+    else:
+        positions, triangles = world, indices[corners]
+        if interpolation == UsdGeom.Tokens.constant:
+            normals = np.repeat(normals, len(points), axis=0)
+    if normals is not None:
+        normals = transform_normals(normals, matrix)
+        if not np.all(np.isfinite(normals)) or np.any(np.abs(normals).sum(axis=1) == 0.0):
+            stream.diagnostic(WARNING, path, "zero or non-finite normals: using geometric normals",
+                              kind="normals")
+            normals = None
+            positions, triangles = world, indices[corners]
+
+    triangle_materials = per_face[faces] if per_face is not None else material
+    return emitter.emit(path, positions, normals, triangles, triangle_materials, double_sided)
+
+
+def read_implicit(prim, matrix, time, materials, emitter, stream):
+    """Tessellates Sphere/Cube/Cylinder/Cone/Capsule/Plane; returns triangles."""
+    points, triangles, normals = tessellate(prim, time)
+    if mirrors(matrix):
+        triangles = triangles[:, [0, 2, 1]]
+    double_sided = bool(UsdGeom.Gprim(prim).GetDoubleSidedAttr().Get(time))
+    return emitter.emit(str(prim.GetPath()), transform_points(points, matrix),
+                        transform_normals(normals, matrix), triangles,
+                        materials.for_prim(prim), double_sided)

@@ -1,0 +1,465 @@
+#include "server/ingest/scene_stream_decoder.h"
+
+#include "pbgi/v1/scene.pb.h"
+#include "server/ingest/subdiv_cage_message.h"
+#include "server/scene/scene_validation.h"
+#include "storage/format/errors.h"
+
+#include <unistd.h>
+
+#include <bit>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <unordered_map>
+
+#include <fmt/format.h>
+
+namespace pbgi {
+namespace {
+
+static_assert(std::endian::native == std::endian::little,
+              "scene chunks carry little-endian float32/uint32 arrays copied as-is");
+static_assert(sizeof(V3f) == 12, "V3f must be three packed floats");
+
+// Blocking reads from a pipe or file, retried on EINTR.
+class FdReader {
+ public:
+  FdReader(int fd, const std::string& source) : fd_(fd), source_(source) {}
+
+  // Reads up to n bytes; fewer only at EOF.
+  size_t read_up_to(char* dst, size_t n) {
+    size_t got = 0;
+    while (got < n) {
+      const ssize_t r = ::read(fd_, dst + got, n - got);
+      if (r < 0 && errno == EINTR) continue;
+      if (r < 0) throw SceneError(fmt::format("scene stream '{}': read failed: {}", source_, std::strerror(errno)));
+      if (r == 0) {
+        eof_ = true;
+        break;
+      }
+      got += static_cast<size_t>(r);
+    }
+    return got;
+  }
+  bool eof() const { return eof_; }
+
+ private:
+  int fd_;
+  const std::string& source_;
+  bool eof_ = false;
+};
+
+// Where in the stream a chunk came from, for error messages.
+struct FramePosition {
+  uint64_t index = 0;
+  uint64_t offset = 0;
+};
+
+// Range of one mesh chunk inside the soup, so that chunks without normals
+// can be expanded once it is known that others have them.
+struct ChunkRange {
+  uint32_t first_vertex = 0;
+  uint32_t vertex_count = 0;
+  size_t first_index = 0;
+  size_t index_count = 0;
+  bool has_normals = false;
+};
+
+M44f matrix_from(const google::protobuf::RepeatedField<float>& v) {
+  return M44f(v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], v[10], v[11], v[12], v[13], v[14],
+              v[15]);
+}
+
+C3f color_from(const pbgi::v1::Vec3& v) { return C3f(v.x(), v.y(), v.z()); }
+
+// Version of the refinement algorithm, folded into the content hash of
+// scenes with subdivision surfaces; bump when refined triangles change.
+constexpr int kSubdivisionAlgorithmVersion = 1;
+
+// Builds the Scene from chunks in stream order.
+class SceneAssembler {
+ public:
+  SceneAssembler(const std::string& source, const SubdivisionOptions& subdivision)
+      : source_(source), subdivision_(subdivision) {
+    scene_.source_path = source;
+  }
+
+  void add(const pbgi::v1::SceneChunk& chunk, const FramePosition& at) {
+    using Chunk = pbgi::v1::SceneChunk;
+    if (!have_header_ && chunk.body_case() != Chunk::kHeader)
+      fail(at, fmt::format("expected SceneHeader first, got {}", kind_name(chunk)));
+    switch (chunk.body_case()) {
+      case Chunk::kHeader: header(chunk.header(), at); break;
+      case Chunk::kMesh: mesh(chunk.mesh(), at); break;
+      case Chunk::kSubdivCage: subdiv_cage(chunk.subdiv_cage(), at); break;
+      case Chunk::kMaterial: material(chunk.material(), at); break;
+      case Chunk::kLight: light(chunk.light(), at); break;
+      case Chunk::kCamera: camera(chunk.camera(), at); break;
+      case Chunk::kDiagnostic: diagnostic(chunk.diagnostic()); break;
+      case Chunk::kProgress: break;  // handled by the decoder
+      case Chunk::kEnd: break;       // checked by the decoder
+      case Chunk::BODY_NOT_SET:
+        // A chunk kind added by a newer reader: skipped, said once.
+        if (!unknown_reported_) {
+          scene_.warnings.push_back(fmt::format("{}: the reader sent chunk kinds this build does not know; skipped", source_));
+          unknown_reported_ = true;
+        }
+        break;
+    }
+  }
+
+  // Triangles that arrived in MeshChunks (SceneEnd counts these; refined
+  // cages are made here and not counted by the reader).
+  uint64_t streamed_triangle_count() const { return streamed_triangles_; }
+
+  Scene finish(const FramePosition& at) {
+    remap_materials(at);
+    if (any_normals_ && any_without_normals_) expand_flat_chunks();
+    // The triangles of a subdivision surface depend on the refinement
+    // options too: two reads with different targets must not share caches.
+    if (cage_count_ > 0)
+      scene_.content_hash += fmt::format("+subdiv/{}(target={},default={},max={},faces={})",
+                                         kSubdivisionAlgorithmVersion, subdivision_.target_edge_length,
+                                         subdivision_.default_level, subdivision_.max_level,
+                                         subdivision_.max_refined_faces);
+    return std::move(scene_);
+  }
+
+  [[noreturn]] void fail(const FramePosition& at, const std::string& what) const {
+    throw SceneError(fmt::format("scene stream '{}': frame {} at byte offset {}: {}", source_, at.index, at.offset, what));
+  }
+
+ private:
+  static const char* kind_name(const pbgi::v1::SceneChunk& chunk) {
+    using Chunk = pbgi::v1::SceneChunk;
+    switch (chunk.body_case()) {
+      case Chunk::kHeader: return "SceneHeader";
+      case Chunk::kMesh: return "MeshChunk";
+      case Chunk::kSubdivCage: return "SubdivCage";
+      case Chunk::kMaterial: return "MaterialDef";
+      case Chunk::kLight: return "LightDef";
+      case Chunk::kCamera: return "CameraDef";
+      case Chunk::kDiagnostic: return "Diagnostic";
+      case Chunk::kProgress: return "Progress";
+      case Chunk::kEnd: return "SceneEnd";
+      case Chunk::BODY_NOT_SET: return "an empty chunk";
+    }
+    return "?";
+  }
+
+  void header(const pbgi::v1::SceneHeader& h, const FramePosition& at) {
+    if (have_header_) fail(at, "second SceneHeader");
+    have_header_ = true;
+    if (!h.source_path().empty()) scene_.source_path = h.source_path();
+    scene_.content_hash = h.content_hash();
+    if (!(h.meters_per_unit() > 0.0) || !std::isfinite(h.meters_per_unit()))
+      fail(at, fmt::format("invalid metersPerUnit {}", h.meters_per_unit()));
+    scene_.meters_per_unit = h.meters_per_unit();
+    if (!h.up_axis().empty()) scene_.up_axis = h.up_axis();
+  }
+
+  void mesh(const pbgi::v1::MeshChunk& m, const FramePosition& at) {
+    const std::string& prim = m.prim_path();
+    const std::string& pos = m.positions();
+    const std::string& nrm = m.normals();
+    const std::string& idx = m.indices();
+    if (pos.size() % sizeof(V3f) != 0)
+      fail(at, fmt::format("mesh {}: positions hold {} bytes, not a multiple of 12", prim, pos.size()));
+    if (!nrm.empty() && nrm.size() != pos.size())
+      fail(at, fmt::format("mesh {}: {} bytes of normals for {} bytes of positions", prim, nrm.size(), pos.size()));
+    if (idx.size() % (3 * sizeof(uint32_t)) != 0)
+      fail(at, fmt::format("mesh {}: indices hold {} bytes, not whole triangles", prim, idx.size()));
+
+    TriangleSoup& soup = scene_.triangles;
+    const size_t vertex_count = pos.size() / sizeof(V3f);
+    const size_t base = soup.positions.size();
+    if (base + vertex_count > std::numeric_limits<uint32_t>::max())
+      fail(at, fmt::format("mesh {}: the scene exceeds 2^32 vertices", prim));
+
+    soup.positions.resize(base + vertex_count);
+    // V3f is three packed floats (asserted above); its user-declared
+    // assignment does not change the layout.
+    std::memcpy(static_cast<void*>(soup.positions.data() + base), pos.data(), pos.size());
+    for (size_t v = base; v < soup.positions.size(); ++v) {
+      const V3f& p = soup.positions[v];
+      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+        fail(at, fmt::format("mesh {}: vertex {} is not finite", prim, v - base));
+    }
+    const bool has_normals = !nrm.empty();
+    if (has_normals) {
+      // Zero-fills the vertices of earlier chunks without normals, if any.
+      soup.normals.resize(base + vertex_count);
+      std::memcpy(static_cast<void*>(soup.normals.data() + base), nrm.data(), nrm.size());
+      any_normals_ = true;
+    } else {
+      any_without_normals_ = true;
+      // Placeholders keep normals aligned with positions; expand_flat_chunks
+      // replaces them if any chunk has normals, else they are dropped.
+      if (!soup.normals.empty()) soup.normals.resize(base + vertex_count);
+    }
+
+    const size_t first_index = soup.indices.size();
+    const size_t index_count = idx.size() / sizeof(uint32_t);
+    soup.indices.resize(first_index + index_count);
+    std::memcpy(soup.indices.data() + first_index, idx.data(), idx.size());
+    for (size_t i = first_index; i < soup.indices.size(); ++i) {
+      if (soup.indices[i] >= vertex_count)
+        fail(at, fmt::format("mesh {}: index {} out of range ({} vertices in the chunk)", prim, soup.indices[i], vertex_count));
+      soup.indices[i] += static_cast<uint32_t>(base);
+    }
+
+    const size_t triangles = index_count / 3;
+    soup.mesh.insert(soup.mesh.end(), triangles, mesh_index(prim, m.double_sided()));
+    // Stream ids for now; remap_materials turns them into indices.
+    soup.material.insert(soup.material.end(), triangles, m.material_id());
+    chunks_.push_back({static_cast<uint32_t>(base), static_cast<uint32_t>(vertex_count), first_index, index_count,
+                       has_normals});
+    streamed_triangles_ += triangles;
+  }
+
+  uint32_t mesh_index(const std::string& prim, bool double_sided) {
+    TriangleSoup& soup = scene_.triangles;
+    auto [it, inserted] = mesh_index_.try_emplace(prim, static_cast<uint32_t>(soup.mesh_paths.size()));
+    if (inserted) {
+      soup.mesh_paths.push_back(prim);
+      soup.double_sided.push_back(0);
+    }
+    if (double_sided) soup.double_sided[it->second] = 1;
+    return it->second;
+  }
+
+  // Refined here, mesh by mesh: only this mesh's refinement is held besides
+  // the scene being assembled.
+  void subdiv_cage(const pbgi::v1::SubdivCage& m, const FramePosition& at) {
+    const std::string& prim = m.prim_path();
+    SubdivCageMessage decoded;
+    try {
+      decoded = subdiv_cage_from_message(m);
+    } catch (const SceneError& e) {
+      fail(at, e.what());  // a malformed chunk: the stream cannot be trusted
+    }
+    ++cage_count_;
+    RefinedMesh refined;
+    try {
+      refined = refine_subdivision_cage(decoded.cage, subdivision_);
+    } catch (const SceneError& e) {
+      // Bad topology of one prim (the reader checks what it can first): like
+      // the reader's own per-prim failures, it must not lose the scene.
+      scene_.warnings.push_back(fmt::format("{} (skipped)", e.what()));
+      return;
+    }
+    for (std::string& w : refined.warnings) scene_.warnings.push_back(std::move(w));
+    if (refined.triangle_count() == 0) return;  // every face a hole
+
+    TriangleSoup& soup = scene_.triangles;
+    const size_t base = soup.positions.size();
+    if (base + refined.positions.size() > std::numeric_limits<uint32_t>::max())
+      fail(at, fmt::format("mesh {}: the scene exceeds 2^32 vertices", prim));
+    soup.positions.insert(soup.positions.end(), refined.positions.begin(), refined.positions.end());
+    // Zero-fills the vertices of earlier chunks without normals, if any.
+    soup.normals.resize(base);
+    soup.normals.insert(soup.normals.end(), refined.normals.begin(), refined.normals.end());
+    any_normals_ = true;
+    const size_t first_index = soup.indices.size();
+    for (const uint32_t i : refined.indices) soup.indices.push_back(i + static_cast<uint32_t>(base));
+    const size_t triangles = refined.triangle_count();
+    soup.mesh.insert(soup.mesh.end(), triangles, mesh_index(prim, m.double_sided()));
+    for (size_t t = 0; t < triangles; ++t)
+      soup.material.push_back(decoded.face_material_ids.empty() ? m.material_id()
+                                                                 : decoded.face_material_ids[refined.triangle_faces[t]]);
+    chunks_.push_back({static_cast<uint32_t>(base), static_cast<uint32_t>(refined.positions.size()), first_index,
+                       refined.indices.size(), true});
+  }
+
+  void material(const pbgi::v1::MaterialDef& d, const FramePosition& at) {
+    if (!material_index_.try_emplace(d.id(), static_cast<uint32_t>(scene_.materials.size())).second)
+      fail(at, fmt::format("material id {} ({}) defined twice", d.id(), d.prim_path()));
+    Material m;
+    m.prim_path = d.prim_path();
+    m.albedo = color_from(d.diffuse_color());
+    m.emission = color_from(d.emissive_color());
+    m.roughness = d.roughness();
+    m.metallic = d.metallic();
+    scene_.materials.push_back(std::move(m));
+  }
+
+  void light(const pbgi::v1::LightDef& d, const FramePosition& at) {
+    if (d.local_to_world_size() != 16)
+      fail(at, fmt::format("light {}: local_to_world has {} values, expected 16", d.prim_path(), d.local_to_world_size()));
+    Light l;
+    l.prim_path = d.prim_path();
+    switch (d.kind()) {
+      case pbgi::v1::LightDef::RECT: l.kind = LightKind::Rect; break;
+      case pbgi::v1::LightDef::SPHERE: l.kind = LightKind::Sphere; break;
+      case pbgi::v1::LightDef::DISTANT: l.kind = LightKind::Distant; break;
+      case pbgi::v1::LightDef::DISK: l.kind = LightKind::Disk; break;
+      default:
+        scene_.warnings.push_back(fmt::format("{}: light of unknown kind {} skipped", d.prim_path(), static_cast<int>(d.kind())));
+        return;
+    }
+    l.local_to_world = matrix_from(d.local_to_world());
+    l.radiance = color_from(d.radiance());
+    l.width = d.width();
+    l.height = d.height();
+    l.radius = d.radius();
+    l.angle_degrees = d.angle_degrees();
+    scene_.lights.push_back(std::move(l));
+  }
+
+  void camera(const pbgi::v1::CameraDef& d, const FramePosition& at) {
+    if (d.local_to_world_size() != 16)
+      fail(at, fmt::format("camera {}: local_to_world has {} values, expected 16", d.prim_path(), d.local_to_world_size()));
+    Camera c;
+    c.prim_path = d.prim_path();
+    c.local_to_world = matrix_from(d.local_to_world());
+    c.focal_length = d.focal_length();
+    c.horizontal_aperture = d.horizontal_aperture();
+    c.vertical_aperture = d.vertical_aperture();
+    c.near_clip = d.near_clip();
+    c.far_clip = d.far_clip();
+    scene_.cameras[c.prim_path] = std::move(c);
+  }
+
+  void diagnostic(const pbgi::v1::Diagnostic& d) {
+    if (d.severity() == pbgi::v1::Diagnostic::INFO) return;
+    scene_.warnings.push_back(d.prim_path().empty() ? d.message() : d.prim_path() + ": " + d.message());
+  }
+
+  void remap_materials(const FramePosition& at) {
+    TriangleSoup& soup = scene_.triangles;
+    for (size_t t = 0; t < soup.material.size(); ++t) {
+      const auto it = material_index_.find(soup.material[t]);
+      if (it == material_index_.end())
+        fail(at, fmt::format("mesh {} uses material id {}, which the stream never defined",
+                             soup.mesh_paths[soup.mesh[t]], soup.material[t]));
+      soup.material[t] = it->second;
+    }
+  }
+
+  // Some chunks carry normals and some do not: give the flat ones their own
+  // vertices per triangle with the geometric normal, so that one per-vertex
+  // normal array describes the whole soup exactly.
+  void expand_flat_chunks() {
+    TriangleSoup& soup = scene_.triangles;
+    std::vector<V3f> positions, normals;
+    std::vector<uint32_t> indices;
+    positions.reserve(soup.positions.size());
+    normals.reserve(soup.positions.size());
+    indices.reserve(soup.indices.size());
+    for (const ChunkRange& c : chunks_) {
+      const uint32_t base = static_cast<uint32_t>(positions.size());
+      if (c.has_normals) {
+        positions.insert(positions.end(), soup.positions.begin() + c.first_vertex,
+                         soup.positions.begin() + c.first_vertex + c.vertex_count);
+        normals.insert(normals.end(), soup.normals.begin() + c.first_vertex,
+                       soup.normals.begin() + c.first_vertex + c.vertex_count);
+        for (size_t i = c.first_index; i < c.first_index + c.index_count; ++i)
+          indices.push_back(soup.indices[i] - c.first_vertex + base);
+        continue;
+      }
+      for (size_t i = c.first_index; i < c.first_index + c.index_count; i += 3) {
+        const V3f& a = soup.positions[soup.indices[i]];
+        const V3f& b = soup.positions[soup.indices[i + 1]];
+        const V3f& d = soup.positions[soup.indices[i + 2]];
+        V3f n = (b - a).cross(d - a);
+        const float length = n.length();
+        // A degenerate triangle has no area to shade; any unit normal will do.
+        n = length > 0.f ? n / length : V3f(0.f, 0.f, 1.f);
+        for (const V3f& p : {a, b, d}) {
+          indices.push_back(static_cast<uint32_t>(positions.size()));
+          positions.push_back(p);
+          normals.push_back(n);
+        }
+      }
+    }
+    soup.positions.swap(positions);
+    soup.normals.swap(normals);
+    soup.indices.swap(indices);
+  }
+
+  const std::string& source_;
+  const SubdivisionOptions& subdivision_;
+  Scene scene_;
+  uint64_t streamed_triangles_ = 0;
+  uint64_t cage_count_ = 0;
+  bool have_header_ = false;
+  bool unknown_reported_ = false;
+  bool any_normals_ = false;
+  bool any_without_normals_ = false;
+  std::unordered_map<uint32_t, uint32_t> material_index_;
+  std::unordered_map<std::string, uint32_t> mesh_index_;
+  std::vector<ChunkRange> chunks_;
+};
+
+}  // namespace
+
+SceneStreamDecoder::SceneStreamDecoder(std::string source_name, Progress progress, SubdivisionOptions subdivision)
+    : source_(std::move(source_name)), progress_(std::move(progress)), subdivision_(subdivision) {
+  subdivision_.validate();
+}
+
+Scene SceneStreamDecoder::decode(int fd) {
+  FdReader reader(fd, source_);
+  SceneAssembler assembler(source_, subdivision_);
+  FramePosition at;
+  std::string body;
+  pbgi::v1::SceneChunk chunk;
+  bool ended = false;
+
+  for (;; ++at.index) {
+    unsigned char prefix[4];
+    const size_t got = reader.read_up_to(reinterpret_cast<char*>(prefix), sizeof prefix);
+    if (got == 0) break;
+    if (ended) assembler.fail(at, "data after SceneEnd");
+    if (got < sizeof prefix) {
+      eof_ = true;
+      assembler.fail(at, fmt::format("truncated frame: {} of 4 length bytes", got));
+    }
+    const uint32_t length = uint32_t(prefix[0]) | uint32_t(prefix[1]) << 8 | uint32_t(prefix[2]) << 16 |
+                            uint32_t(prefix[3]) << 24;
+    if (length > kMaxSceneFrameBytes)
+      assembler.fail(at, fmt::format("frame length {} exceeds the limit of {} bytes", length, kMaxSceneFrameBytes));
+
+    // Grow as bytes arrive so that a corrupt length on a short stream does
+    // not allocate the whole limit up front.
+    body.clear();
+    size_t have = 0;
+    while (have < length) {
+      const size_t step = std::min<size_t>(length - have, size_t(16) << 20);
+      body.resize(have + step);
+      const size_t n = reader.read_up_to(body.data() + have, step);
+      have += n;
+      if (n < step) break;
+    }
+    if (have < length) {
+      eof_ = true;
+      assembler.fail(at, fmt::format("truncated frame: expected {} bytes, got {}", length, have));
+    }
+    if (!chunk.ParseFromArray(body.data(), static_cast<int>(length)))
+      assembler.fail(at, fmt::format("{} bytes are not a valid SceneChunk", length));
+
+    if (chunk.has_progress() && progress_) progress_(chunk.progress().stage(), chunk.progress().fraction());
+    if (chunk.has_end()) {
+      if (chunk.end().chunk_count() != at.index ||
+          chunk.end().triangle_count() != assembler.streamed_triangle_count())
+        assembler.fail(at, fmt::format("SceneEnd counts {} chunks and {} triangles, but {} and {} arrived",
+                                       chunk.end().chunk_count(), chunk.end().triangle_count(), at.index,
+                                       assembler.streamed_triangle_count()));
+      ended = true;
+    }
+    assembler.add(chunk, at);
+    at.offset += sizeof prefix + length;
+  }
+  eof_ = true;
+  if (!ended)
+    assembler.fail(at, fmt::format("the stream ended after {} frames without SceneEnd (truncated, or the "
+                                   "reader failed)",
+                                   at.index));
+  Scene scene = assembler.finish(at);
+  validate_scene(scene);
+  return scene;
+}
+
+}  // namespace pbgi

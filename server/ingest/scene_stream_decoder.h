@@ -1,0 +1,53 @@
+// Decodes the framed SceneChunk stream of the USD reader (4-byte
+// little-endian length + serialized pbgi.v1.SceneChunk, see
+// proto/pbgi/v1/scene.proto) into a Scene.
+//
+// The stream must start with SceneHeader and end with SceneEnd, whose counts
+// must match what arrived; nothing may follow it. Mesh chunks are flattened
+// into one TriangleSoup (chunks of one prim share a mesh index); material ids
+// of the stream are remapped to indices into Scene::materials. SubdivCage
+// chunks are refined as they arrive (server/ingest/subdivision.h) and their
+// refinement options are appended to Scene::content_hash.
+//
+// Not thread-safe; use one decoder per stream.
+#pragma once
+
+#include "server/ingest/subdivision.h"
+#include "server/scene/scene.h"
+
+#include <cstdint>
+#include <functional>
+#include <string>
+
+namespace pbgi {
+
+// Larger frames are rejected before allocating (the reader's chunks are a
+// few MiB; this only stops a corrupt length from allocating gigabytes).
+inline constexpr uint32_t kMaxSceneFrameBytes = 256u << 20;
+
+class SceneStreamDecoder {
+ public:
+  using Progress = std::function<void(const std::string& stage, float fraction)>;
+
+  // `source_name` names the stream in every error (the scene file).
+  // Throws InvalidArgument for invalid subdivision options.
+  SceneStreamDecoder(std::string source_name, Progress progress = {}, SubdivisionOptions subdivision = {});
+
+  // Reads fd to EOF. Throws SceneError naming the source, the frame index
+  // and its byte offset (and the prim for bad mesh/light/camera data).
+  // Exceptions thrown by the progress callback propagate (that is how a
+  // caller cancels).
+  Scene decode(int fd);
+
+  // True once the stream hit EOF; false if it was rejected while the writer
+  // may still be writing.
+  bool reached_eof() const { return eof_; }
+
+ private:
+  std::string source_;
+  Progress progress_;
+  SubdivisionOptions subdivision_;
+  bool eof_ = false;
+};
+
+}  // namespace pbgi

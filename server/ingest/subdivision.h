@@ -1,0 +1,118 @@
+// Subdivision surfaces: a UsdGeomMesh's control cage (subdivisionScheme
+// catmullClark, loop or bilinear) refined with OpenSubdiv Far into triangles
+// whose vertices lie on the limit surface.
+//
+// Refinement is uniform, to a level chosen per mesh from a target edge
+// length: every level roughly halves the edges, so
+//   level = ceil(log2(longest cage edge / target_edge_length)),
+// capped by max_level and by a per-mesh face budget (with a warning). The
+// vertices of the last level are then projected to the limit surface
+// (Far::PrimvarRefiner::Limit) and get the limit normal (cross product of
+// the limit tangents). Where the surface is not smooth -- infinitely or
+// still semi-sharp creases at the last level, corners, and every cage edge
+// of a bilinear mesh -- a vertex is split into one vertex per smooth sector
+// with the sector's area-weighted face normal, so shading keeps the crease.
+//
+// Why uniform and not feature-adaptive: the scene model is a triangle soup
+// sampled into surfels of a given spacing, so what matters is a bounded
+// edge length everywhere, which uniform refinement to a chosen level gives
+// directly; adaptive patches would have to be tessellated to the same
+// density anyway.
+//
+// Thread-safety: refine_subdivision_cage may run concurrently on different
+// cages. OpenSubdiv reports problems through process-wide callbacks; this
+// file installs them once (first use) and routes messages to the calling
+// thread, so nothing else in the process may install OpenSubdiv callbacks.
+#pragma once
+
+#include "server/scene/scene.h"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace pbgi {
+
+enum class SubdivScheme : uint8_t { CatmullClark, Loop, Bilinear };
+
+// UsdGeomMesh interpolateBoundary.
+enum class BoundaryInterpolation : uint8_t { None, EdgeOnly, EdgeAndCorner };
+
+// UsdGeomMesh faceVaryingLinearInterpolation. No face-varying primvar is
+// refined yet (the scene has no UVs); it is passed on for completeness.
+enum class FaceVaryingLinear : uint8_t { None, CornersOnly, CornersPlus1, CornersPlus2, Boundaries, All };
+
+// UsdGeomMesh triangleSubdivisionRule (Catmull-Clark only).
+enum class TriangleSubdivision : uint8_t { CatmullClark, Smooth };
+
+// A control cage as UsdGeomMesh describes it (USD's fallback values as
+// defaults). Faces are wound counter-clockwise around the outward normal.
+struct SubdivCage {
+  std::string prim_path;  // names the mesh in every error and warning
+  SubdivScheme scheme = SubdivScheme::CatmullClark;
+  std::vector<V3f> positions;
+  std::vector<uint32_t> face_vertex_counts;   // each >= 3; == 3 for Loop
+  std::vector<uint32_t> face_vertex_indices;
+  // Creases: chains of vertices; crease_lengths[i] vertices (>= 2) each.
+  // Sharpness per crease or per crease edge; >= 10 is infinitely sharp.
+  std::vector<uint32_t> crease_indices;
+  std::vector<uint32_t> crease_lengths;
+  std::vector<float> crease_sharpnesses;
+  std::vector<uint32_t> corner_indices;
+  std::vector<float> corner_sharpnesses;
+  std::vector<uint32_t> hole_indices;  // faces left out of the surface
+  BoundaryInterpolation interpolate_boundary = BoundaryInterpolation::EdgeAndCorner;
+  FaceVaryingLinear face_varying_linear = FaceVaryingLinear::CornersPlus1;
+  TriangleSubdivision triangle_subdivision = TriangleSubdivision::CatmullClark;
+};
+
+struct SubdivisionOptions {
+  // Refine until the longest cage edge, halved once per level, is at most
+  // this long (world units). 0 = no target: refine to default_level.
+  float target_edge_length = 0.f;
+  // Level used when target_edge_length is 0.
+  uint32_t default_level = 2;
+  // Never refine deeper (a warning names the mesh when the target needed
+  // more). At most kMaxSubdivisionLevel.
+  uint32_t max_level = 6;
+  // Faces of the last level per mesh; the level is lowered (with a warning)
+  // so that one mesh cannot exhaust memory. Each face becomes 2 triangles.
+  uint64_t max_refined_faces = uint64_t(1) << 21;
+
+  // Throws InvalidArgument naming the bad field.
+  void validate() const;
+};
+
+// OpenSubdiv stores the level in 4 bits; deeper than 10 is never useful here.
+inline constexpr uint32_t kMaxSubdivisionLevel = 10;
+
+struct SubdivisionLevel {
+  uint32_t level = 0;
+  uint32_t wanted = 0;        // level the target (or default) asked for
+  double longest_edge = 0.0;  // of the cage, world units
+  std::string warning;        // non-empty when level < wanted (names the prim)
+};
+
+// The level refine_subdivision_cage will use for this cage. Catmull-Clark
+// cages with non-quad faces get at least level 1 (the limit is evaluated on
+// quads). Throws SceneError naming the prim if the topology is invalid.
+SubdivisionLevel choose_subdivision_level(const SubdivCage& cage, const SubdivisionOptions& options);
+
+struct RefinedMesh {
+  std::vector<V3f> positions;  // on the limit surface
+  std::vector<V3f> normals;    // unit, per vertex
+  std::vector<uint32_t> indices;         // 3 per triangle, counter-clockwise
+  std::vector<uint32_t> triangle_faces;  // per triangle: the cage face it refines
+  SubdivisionLevel level;
+  std::vector<std::string> warnings;     // each names the prim
+
+  size_t triangle_count() const { return indices.size() / 3; }
+};
+
+// Refines the cage; hole faces produce no triangles. Throws SceneError
+// naming the prim for invalid input (indices out of range, faces with
+// fewer than 3 vertices, non-triangles with Loop, inconsistent crease or
+// corner arrays, non-finite points) or when OpenSubdiv rejects the topology.
+RefinedMesh refine_subdivision_cage(const SubdivCage& cage, const SubdivisionOptions& options);
+
+}  // namespace pbgi

@@ -1,0 +1,131 @@
+#include "server/ingest/usd_ingest.h"
+
+#include "pbgi_build_config.h"
+#include "server/ingest/reader_process.h"
+#include "server/ingest/scene_stream_decoder.h"
+#include "storage/format/errors.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <optional>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+extern char** environ;
+
+namespace pbgi {
+namespace {
+
+// After the stream was rejected mid-way the reader is not needed any more;
+// it gets this long to exit on its own (EPIPE) before it is killed.
+constexpr std::chrono::milliseconds kRejectedStreamGrace{2000};
+
+std::vector<std::string> reader_environment() {
+  // Our environment, with the generated protobuf package prepended to
+  // PYTHONPATH so the reader can import pbgi.v1.scene_pb2.
+  std::vector<std::string> env;
+  std::string python_path = PBGI_PROTO_PYTHON_DIR;
+  for (char** e = environ; e && *e; ++e) {
+    if (std::strncmp(*e, "PYTHONPATH=", 11) == 0) {
+      if ((*e)[11] != '\0') python_path += std::string(":") + (*e + 11);
+      continue;
+    }
+    env.emplace_back(*e);
+  }
+  env.push_back("PYTHONPATH=" + python_path);
+  return env;
+}
+
+std::string trimmed(std::string s) {
+  while (!s.empty() && (s.back() == '\n' || s.back() == '\r' || s.back() == ' ')) s.pop_back();
+  return s;
+}
+
+std::string describe(const ReaderProcess::Exit& exit) {
+  return exit.signaled ? fmt::format("was killed by signal {}", exit.code)
+                       : fmt::format("exited with status {}", exit.code);
+}
+
+}  // namespace
+
+SubdivisionOptions subdivision_options(const IngestOptions& options) {
+  SubdivisionOptions s;
+  s.target_edge_length = options.target_edge_length;
+  s.max_level = options.max_subdivision_level;
+  // A smaller cap than the default level lowers the default too.
+  s.default_level = std::min(s.default_level, s.max_level);
+  return s;
+}
+
+Scene decode_scene_stream(int fd, const std::string& source_name,
+                          const std::function<void(const std::string&, float)>& progress,
+                          const SubdivisionOptions& subdivision) {
+  return SceneStreamDecoder(source_name, progress, subdivision).decode(fd);
+}
+
+Scene read_usd_scene(const std::filesystem::path& path, const IngestOptions& options,
+                     const std::function<void(const std::string&, float)>& progress) {
+  // 1. Resolve options (empty = the build's defaults).
+  const std::string python = options.python.empty() ? std::string(PBGI_PYTHON) : options.python;
+  const std::filesystem::path script = options.reader_script.empty()
+                                           ? std::filesystem::path(PBGI_SOURCE_DIR) / "server/ingest/usd_reader.py"
+                                           : options.reader_script;
+  if (!std::isfinite(options.time_code)) throw InvalidArgument("IngestOptions.time_code must be finite");
+  if (options.max_triangles_per_chunk == 0)
+    throw InvalidArgument("IngestOptions.max_triangles_per_chunk must be > 0");
+  const SubdivisionOptions subdivision = subdivision_options(options);
+  subdivision.validate();
+  std::error_code ec;
+  // Checked here too (the reader would say the same) to answer without
+  // starting Python and USD, which takes most of a second.
+  if (!std::filesystem::exists(path, ec))
+    throw SceneError(fmt::format("cannot read scene '{}': no such file", path.string()));
+  if (!std::filesystem::is_regular_file(script, ec))
+    throw IoError(fmt::format("USD reader script '{}' not found", script.string()));
+
+  // 2. Start the reader. -B: no __pycache__ written into the source tree.
+  std::vector<std::string> argv = {python,
+                                   "-B",
+                                   script.string(),
+                                   path.string(),
+                                   "--max-triangles-per-chunk",
+                                   std::to_string(options.max_triangles_per_chunk)};
+  if (options.time_code != 0.0) {
+    argv.push_back("--time");
+    argv.push_back(fmt::format("{:.17g}", options.time_code));
+  }
+  ReaderProcess reader(argv, reader_environment());
+
+  // 3. Decode its stream; on a rejected stream stop the reader.
+  SceneStreamDecoder decoder(path.string(), progress, subdivision);
+  std::optional<Scene> scene;
+  std::string stream_error;
+  try {
+    scene = decoder.decode(reader.stdout_fd());
+  } catch (const SceneError& e) {
+    stream_error = e.what();
+  } catch (...) {
+    // Cancelled by the progress callback, or out of memory: stop the reader.
+    reader.close_stdout();
+    reader.wait(std::chrono::milliseconds(0));
+    throw;
+  }
+  reader.close_stdout();
+  const ReaderProcess::Exit exit =
+      reader.wait(decoder.reached_eof() ? std::chrono::milliseconds::max() : kRejectedStreamGrace);
+  const std::string log = trimmed(reader.stderr_tail());
+
+  // 4. The reader's own failure explains a broken stream best.
+  if (!exit.killed_by_us && (exit.signaled || exit.code != 0) && (stream_error.empty() || decoder.reached_eof())) {
+    throw SceneError(fmt::format("cannot read scene '{}': the USD reader {}{}{}", path.string(), describe(exit),
+                                 log.empty() ? "" : ": ", log));
+  }
+  if (!stream_error.empty())
+    throw SceneError(log.empty() ? stream_error : fmt::format("{} (reader stderr: {})", stream_error, log));
+  if (!log.empty()) spdlog::debug("USD reader on '{}':\n{}", path.string(), log);
+  return std::move(*scene);
+}
+
+}  // namespace pbgi

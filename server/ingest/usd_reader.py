@@ -1,0 +1,276 @@
+#!/usr/bin/env python3
+"""pbgi's USD reader process.
+
+    usd_reader.py SCENE [--time CODE] [--max-triangles-per-chunk N]
+
+Opens SCENE with Pixar's USD (pxr) and writes the scene as framed SceneChunk
+messages (proto/pbgi/v1/scene.proto; 4-byte little-endian length + bytes)
+to stdout: SceneHeader, then materials, meshes, lights, cameras, diagnostics
+and progress in traversal order, then SceneEnd. Nothing else goes to stdout
+(the real stdout is claimed first and fd 1 is pointed at stderr, so stray
+prints from Python or USD cannot corrupt the stream). Human-readable logs and
+errors go to stderr.
+
+The daemon (server/ingest/usd_ingest.cpp) runs this with PYTHONPATH holding
+the generated protobuf package (<build>/python/pbgi/v1/scene_pb2.py).
+
+Exit codes: 0 success; 2 the scene cannot be opened (or bad arguments);
+3 an unexpected failure while reading; 4 the daemon closed the pipe.
+"""
+import argparse
+import hashlib
+import os
+import re
+import sys
+import time as clock
+import traceback
+
+_STARTED = clock.monotonic()
+# The reader's array work is a few large numpy passes; BLAS threads would only
+# compete with the daemon's own threads for the cores.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+try:
+    from pxr import Tf, Usd, UsdGeom, UsdShade, UsdSkel
+
+    from camera_defs import camera_def
+    from chunk_stream import ERROR, WARNING, ChunkStream
+    from gprim_triangles import read_implicit, read_mesh
+    from implicit_shapes import is_implicit
+    from light_defs import is_light, light_def
+    from pbgi.v1 import scene_pb2
+    from preview_materials import MaterialTable
+    from triangle_chunks import GeometryError, TriangleEmitter
+    _IMPORT_ERROR = None
+except ImportError as e:  # reported by main() with a clear message
+    _IMPORT_ERROR = e
+
+# Bumped whenever the reader's output for the same input changes, so that
+# caches keyed by the content hash are invalidated.
+READER_VERSION = "pbgi-usd-reader/1"
+_HASH_BLOCK = 1 << 20
+
+
+def _claim_stdout():
+    """Returns a binary stream on the original stdout and routes fd 1 (and
+    sys.stdout) to stderr for everything else."""
+    sys.stdout.flush()
+    fd = os.dup(1)
+    os.dup2(2, 1)
+    sys.stdout = sys.stderr
+    return os.fdopen(fd, "wb", buffering=1 << 20)
+
+
+def _fail(message, code):
+    print(f"usd_reader: {message}", file=sys.stderr)
+    return code
+
+
+def _one_line(error):
+    return re.sub(r"\s+", " ", str(error)).strip()[:600]
+
+
+def _usd_error_text(error):
+    """The messages of a Tf.ErrorException without USD's source locations."""
+    text = _one_line(error)
+    found = re.findall(r"in file \S+ : '(.*?)'(?=\s*Error in|\s*$)", text)
+    return "; ".join(found) if found else text
+
+
+def _parse_args(argv):
+    parser = argparse.ArgumentParser(description="Writes a USD scene as SceneChunk frames.")
+    parser.add_argument("scene")
+    parser.add_argument("--time", type=float, default=None,
+                        help="time code to read (default: the stage's startTimeCode if "
+                             "authored, else 0)")
+    parser.add_argument("--max-triangles-per-chunk", type=int, default=65536)
+    args = parser.parse_args(argv)
+    if args.max_triangles_per_chunk < 1:
+        parser.error("--max-triangles-per-chunk must be >= 1")
+    return args
+
+
+def content_hash(stage, time_code):
+    """sha256 over every layer the stage used (file bytes; exported text for
+    anonymous layers), order- and location-independent, plus the time code."""
+    digests = []
+    for layer in stage.GetUsedLayers():
+        h = hashlib.sha256()
+        real = layer.realPath
+        if real and os.path.isfile(real):
+            with open(real, "rb") as f:
+                for block in iter(lambda: f.read(_HASH_BLOCK), b""):
+                    h.update(block)
+        else:
+            h.update(layer.ExportToString().encode("utf-8"))
+        digests.append(h.hexdigest())
+    total = hashlib.sha256(READER_VERSION.encode())
+    for d in sorted(digests):
+        total.update(d.encode())
+    total.update(repr(float(time_code)).encode())
+    return total.hexdigest()
+
+
+def open_stage(path):
+    """Returns (stage, None) or (None, error message naming the file)."""
+    if not os.path.exists(path):
+        return None, f"cannot read scene '{path}': no such file"
+    if os.path.isdir(path):
+        return None, f"cannot read scene '{path}': is a directory"
+    if not os.access(path, os.R_OK):
+        return None, f"cannot read scene '{path}': permission denied"
+    try:
+        stage = Usd.Stage.Open(path, Usd.Stage.LoadAll)
+    except Tf.ErrorException as e:
+        return None, f"cannot read scene '{path}': {_usd_error_text(e)}"
+    if stage is None:
+        return None, f"cannot read scene '{path}': USD could not open it"
+    return stage, None
+
+
+class SceneReader:
+    """One traversal of a stage, writing chunks to a ChunkStream."""
+
+    def __init__(self, stage, time, stream, max_triangles_per_chunk):
+        self.stage = stage
+        self.time = time
+        self.stream = stream
+        self.xforms = UsdGeom.XformCache(time)
+        self.materials = MaterialTable(stream, time)
+        self.emitter = TriangleEmitter(stream, max_triangles_per_chunk)
+
+    def run(self):
+        predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+        root = self.stage.GetPseudoRoot()
+        self.stream.progress("counting prims", 0.0, force=True)
+        total = max(1, sum(1 for _ in Usd.PrimRange(root, predicate)))
+        prims = iter(Usd.PrimRange(root, predicate))
+        for index, prim in enumerate(prims):
+            self.stream.progress("reading prims", index / total)
+            try:
+                if self._read_prim(prim) == "prune":
+                    prims.PruneChildren()
+            except Exception as e:  # one bad prim must not lose the scene
+                self._prim_failed(prim, e)
+        self.stream.progress("done", 1.0, force=True)
+
+    def _prim_failed(self, prim, error):
+        if not isinstance(error, GeometryError):
+            traceback.print_exc(limit=-3, file=sys.stderr)
+        self.stream.diagnostic(ERROR, str(prim.GetPath()),
+                               f"skipped: {type(error).__name__}: {_one_line(error)}",
+                               kind="prim-failed")
+
+    def _read_prim(self, prim):
+        """Reads one prim; returns "prune" to skip its descendants."""
+        if prim.IsA(UsdShade.Material) or prim.IsA(UsdShade.NodeGraph) or \
+                prim.IsA(UsdShade.Shader):
+            return "prune"
+        if not prim.IsA(UsdGeom.Imageable):
+            return None
+        # Pre-order traversal with pruning makes these local checks equal to
+        # ComputeVisibility/ComputePurpose (both inherit down the hierarchy)
+        # without re-walking the ancestors of every prim.
+        imageable = UsdGeom.Imageable(prim)
+        if imageable.GetVisibilityAttr().Get(self.time) == UsdGeom.Tokens.invisible:
+            return "prune"
+        if imageable.GetPurposeAttr().Get(self.time) in (UsdGeom.Tokens.proxy,
+                                                          UsdGeom.Tokens.guide):
+            return "prune"
+
+        path = str(prim.GetPath())
+        type_name = prim.GetTypeName()
+        matrix = None
+        if prim.IsA(UsdGeom.Xformable):
+            matrix = self.xforms.GetLocalToWorldTransform(prim)
+        if is_light(prim) and not prim.IsA(UsdGeom.Gprim):
+            chunk = light_def(prim, matrix, self.time, self.stream)
+            if chunk is not None:
+                self.stream.write(chunk)
+            return None
+        if prim.IsA(UsdGeom.Camera):
+            self.stream.write(camera_def(prim, matrix, self.time, self.stream))
+            return None
+        if prim.IsA(UsdGeom.Mesh):
+            if is_light(prim):
+                self.stream.diagnostic(WARNING, path, "mesh light emission is not modelled: "
+                                       "read as plain geometry", kind="mesh-light")
+            read_mesh(prim, matrix, self.time, self.materials, self.emitter, self.stream)
+            return None
+        if is_implicit(prim):
+            read_implicit(prim, matrix, self.time, self.materials, self.emitter, self.stream)
+            return None
+        if prim.IsA(UsdGeom.PointInstancer):
+            self.stream.diagnostic(WARNING, path, "PointInstancer is not supported yet: its "
+                                   "instances are skipped", kind=type_name)
+            return "prune"
+        if prim.IsA(UsdGeom.Gprim):  # curves, points, NURBS, volumes, tet meshes
+            self.stream.diagnostic(WARNING, path, f"{type_name} is not supported yet: skipped",
+                                   kind=type_name)
+            return None
+        if prim.IsA(UsdSkel.Root):
+            self.stream.diagnostic(WARNING, path, "skinning is not applied: meshes below are "
+                                   "read in their rest pose", kind=type_name)
+        return None
+
+
+def _write_header(stage, path, time, stream):
+    chunk = scene_pb2.SceneChunk()
+    header = chunk.header
+    header.source_path = stage.GetRootLayer().realPath or os.path.abspath(path)
+    header.content_hash = content_hash(stage, time.GetValue())
+    header.meters_per_unit = UsdGeom.GetStageMetersPerUnit(stage)
+    header.up_axis = str(UsdGeom.GetStageUpAxis(stage))
+    header.time_code = time.GetValue()
+    stream.write(chunk)
+
+
+def _report_composition_errors(stage, stream):
+    for error in stage.GetCompositionErrors():
+        site = getattr(error, "rootSite", None)
+        prim_path = str(site.path) if site is not None and hasattr(site, "path") else ""
+        stream.diagnostic(WARNING, prim_path, f"composition: {_one_line(error)}")
+
+
+def main(argv):
+    args = _parse_args(argv)
+    out = _claim_stdout()
+    if _IMPORT_ERROR is not None:
+        return _fail(f"cannot import USD or the pbgi protocol ({_IMPORT_ERROR}); PYTHONPATH "
+                     "must hold <build>/python and the interpreter must have usd-core", 2)
+
+    imported = clock.monotonic()
+    stage, error = open_stage(args.scene)
+    if error:
+        return _fail(error, 2)
+    opened = clock.monotonic()
+    if args.time is not None:
+        time = Usd.TimeCode(args.time)
+    elif stage.HasAuthoredTimeCodeRange():
+        time = Usd.TimeCode(stage.GetStartTimeCode())
+    else:
+        time = Usd.TimeCode(0.0)
+
+    stream = ChunkStream(out)
+    try:
+        _write_header(stage, args.scene, time, stream)
+        _report_composition_errors(stage, stream)
+        SceneReader(stage, time, stream, args.max_triangles_per_chunk).run()
+        stream.end()
+        out.close()
+        done = clock.monotonic()
+        print(f"usd_reader: '{args.scene}': {stream.triangle_count} triangles in "
+              f"{stream.chunk_count} chunks, {done - _STARTED:.2f} s (python+USD import "
+              f"{imported - _STARTED:.2f} s, open {opened - imported:.2f} s, traverse "
+              f"{done - opened:.2f} s)", file=sys.stderr)
+    except BrokenPipeError:
+        # The daemon stopped reading (cancelled or rejected the stream).
+        os._exit(4)
+    except Exception as e:
+        traceback.print_exc(limit=-5, file=sys.stderr)
+        return _fail(f"failed while reading scene '{args.scene}': {_one_line(e)}", 3)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,107 @@
+// The reference renderer: an unbiased Monte Carlo path tracer over the same
+// RayScene, lights and camera model as the daemon, producing the daemon's
+// AOVs so that PBGI images can be measured against it ("speed against
+// error").
+//
+// Light transport (all surfaces diffuse, f = albedo / pi):
+//  * Surfaces are two-sided: at every path vertex the geometric normal is
+//    flipped toward the incoming ray (at the first hit: toward the camera,
+//    as the daemon's receivers are), the shading normal with it, and the
+//    shading normal is replaced by the geometric one if it then points below
+//    the surface (the daemon's rule). Material emission leaves both sides.
+//  * Directions are sampled from the cosine-weighted hemisphere around the
+//    shading normal; a direction below the geometric surface ends the path.
+//  * UsdLux lights are sampled at every vertex with sample_light (each light
+//    once: next-event estimation); light hit by a BSDF-sampled ray
+//    (intersect_light, up to the next surface) is counted too, and the two
+//    are combined with the power heuristic (Veach 1997). Delta lights get
+//    no BSDF-sampled term. Lights do not occlude surfaces or each other for
+//    path and shadow rays; a camera ray stops at the nearest visible light.
+//  * Emissive triangles are not sampled directly: their emission counts when
+//    a camera or BSDF-sampled ray hits them (weight 1), which is unbiased.
+//  * Russian roulette once a path has ReferenceOptions::rr_start_depth
+//    reflections, with continuation probability min(1, max component of the
+//    throughput); ReferenceOptions::max_depth caps the reflections.
+//
+// AOVs. x1 is the first surface the camera ray hits. The split follows the
+// daemon's: "direct" is light arriving at x1 straight from UsdLux lights
+// (what its shadow rays compute), "indirect" is light arriving at x1 from
+// surfaces, emitted or reflected by them (what its surfel gather computes).
+// Precisely, for light reaching the camera via x1, let s be the number of
+// surfaces it left before arriving at x1: for a path light -> x_k -> ... ->
+// x1, s = k - 1; for a path starting at an emissive triangle x_{k+1}, s = k.
+//   direct    s = 0: UsdLux light reflected once at x1, plus x1's own
+//             emission, plus (lights_visible_to_camera) the radiance of the
+//             nearest area light in front of x1, which then hides x1: such a
+//             pixel has albedo 0 and ao 1, as in the daemon.
+//   indirect1 s = 1, the one-bounce diffuse interreflection:
+//               albedo(x1)/pi * integral over the hemisphere at x1 of
+//               [Le(x2 -> x1) + Ld(x2 -> x1)] cos(theta) d(omega),
+//             where x2 is the surface seen from x1 in that direction, Le its
+//             emission and Ld its direct lighting from UsdLux lights. This is
+//             what a single-bounce PBGI gather of surfels shaded with
+//             emission + direct light estimates.
+//   indirect  s >= 1: all interreflections (includes indirect1).
+//   beauty    direct + indirect.
+//   albedo    albedo of x1's material (0 where the camera ray misses).
+//   ao        accessibility of x1: the fraction of cosine-weighted hemisphere
+//             directions around the shading normal whose ray hits no
+//             surface within ao_max_distance (1 = open; 1 where the camera
+//             ray misses). Lights are not occluders.
+// Pixels where the camera ray misses everything are black (scenes have no
+// dome light in this slice).
+//
+// Sampling and determinism: sample s of pixel (x, y) draws from its own
+// PCG32 stream seeded by hash(seed, pixel index) with stream s; the pixel
+// position is an R2 low-discrepancy point with a per-pixel random shift.
+// Samples are accumulated per pixel in double precision in sample order, so
+// the image is bit-identical for any thread count, tile size or pass split.
+// Non-finite samples (numerical accidents) are dropped (they count as
+// zero in the mean) and counted.
+//
+// Thread-safety: render_reference is reentrant; it runs TBB tasks in the
+// caller's task arena (limit threads with tbb::task_arena). The RayScene is
+// only read.
+#pragma once
+
+#include "server/reference/reference_options.h"
+#include "server/scene/ray_scene.h"
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+namespace pbgi {
+
+// Row-major, y down from the top, pixel-interleaved: rgb AOVs hold 3 floats
+// per pixel, ao 1. Values are per-pixel means over `spp` samples.
+struct ReferenceImage {
+  uint32_t width = 0, height = 0;
+  uint32_t spp = 0;  // samples per pixel actually taken (< options.spp if stopped early)
+  std::vector<float> beauty, direct, indirect, indirect1, albedo, ao;
+};
+
+struct ReferenceStats {
+  uint64_t camera_samples = 0;
+  uint64_t rays = 0;              // closest-hit and shadow rays traced
+  uint64_t nonfinite_samples = 0; // dropped samples (see above)
+  double seconds = 0.0;           // wall time of render_reference
+};
+
+struct ReferenceProgress {
+  uint32_t spp_done = 0;
+  uint32_t spp_total = 0;
+  double seconds = 0.0;  // since the render started
+};
+
+// Called after each pass with the samples so far; return false to stop (the
+// returned image then holds the passes done). Runs on the calling thread.
+using ReferenceProgressFn = std::function<bool(const ReferenceProgress&)>;
+
+// Renders `camera` of rays.scene(). Throws InvalidArgument for bad options.
+ReferenceImage render_reference(const RayScene& rays, const Camera& camera,
+                                const ReferenceOptions& options,
+                                const ReferenceProgressFn& progress = {},
+                                ReferenceStats* stats = nullptr);
+
+}  // namespace pbgi

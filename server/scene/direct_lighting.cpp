@@ -1,0 +1,52 @@
+#include "server/scene/direct_lighting.h"
+
+#include "server/scene/rng.h"
+#include "server/scene/sample_patterns.h"
+#include "server/scene/light_sampling.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace pbgi {
+
+// Estimator: E = sum over lights of (1/N) sum_k L_k cos_k / pdf_k, with the
+// N samples of each area light stratified on the light's parameter square.
+// Shadow rays start at p offset along n by the scene's ray epsilon (the
+// point itself lies on a surface) and stop just short of the light sample so
+// that geometry modelled at the emitter's position (a light's housing quad)
+// does not shadow its own light.
+C3f direct_irradiance(const RayScene& rays, const V3f& p, const V3f& n, uint32_t samples,
+                      uint64_t seed) {
+  const std::vector<Light>& lights = rays.scene().lights;
+  const float eps = rays.ray_epsilon();
+  const V3f origin = p + eps * n;
+  const uint32_t count = std::max(samples, 1u);
+  C3f e(0, 0, 0);
+  for (size_t li = 0; li < lights.size(); ++li) {
+    const Light& light = lights[li];
+    // One stream per (point, light): adding a light does not change the
+    // samples the others get.
+    Rng rng(seed, li);
+    const bool delta = light.kind == LightKind::Distant;
+    const uint32_t n_samples = delta ? 1u : count;
+    C3f sum(0, 0, 0);
+    for (uint32_t k = 0; k < n_samples; ++k) {
+      const Imath::V2f u = stratified_sample(k, n_samples, rng);
+      const LightSample s = sample_light(light, p, u.x, u.y);
+      if (!(s.pdf > 0.f)) continue;
+      const float cos_r = n.dot(s.direction);
+      if (!(cos_r > 0.f)) continue;  // below the receiver's hemisphere
+      if (s.radiance.x <= 0.f && s.radiance.y <= 0.f && s.radiance.z <= 0.f) continue;
+      const float tmax = std::isinf(s.distance)
+                             ? s.distance
+                             : s.distance * (1.f - 1e-4f) - 2.f * eps;
+      if (!(tmax > 0.f)) continue;
+      if (rays.occluded(origin, s.direction, 0.f, tmax)) continue;
+      sum += s.radiance * (cos_r / s.pdf);
+    }
+    e += sum / static_cast<float>(n_samples);
+  }
+  return e;
+}
+
+}  // namespace pbgi

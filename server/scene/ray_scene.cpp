@@ -1,0 +1,202 @@
+#include "server/scene/ray_scene.h"
+
+#include "server/scene/scene_validation.h"
+#include "storage/format/errors.h"
+
+#include <embree3/rtcore.h>
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <mutex>
+#include <string>
+
+namespace pbgi {
+namespace {
+
+const char* error_name(RTCError e) {
+  switch (e) {
+    case RTC_ERROR_NONE: return "none";
+    case RTC_ERROR_UNKNOWN: return "unknown error";
+    case RTC_ERROR_INVALID_ARGUMENT: return "invalid argument";
+    case RTC_ERROR_INVALID_OPERATION: return "invalid operation";
+    case RTC_ERROR_OUT_OF_MEMORY: return "out of memory";
+    case RTC_ERROR_UNSUPPORTED_CPU: return "unsupported CPU";
+    case RTC_ERROR_CANCELLED: return "cancelled";
+  }
+  return "unrecognized error";
+}
+
+// Embree reports the detail of an error only through the callback; keep the
+// last message so the exception can carry it.
+struct ErrorSink {
+  std::mutex mutex;
+  std::string last;
+};
+
+void on_embree_error(void* user, RTCError code, const char* message) {
+  auto* sink = static_cast<ErrorSink*>(user);
+  std::lock_guard<std::mutex> lock(sink->mutex);
+  sink->last = fmt::format("{} ({})", error_name(code), message ? message : "");
+}
+
+}  // namespace
+
+struct RayScene::Impl {
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+  float epsilon = 1e-4f;
+  ErrorSink errors;
+
+  ~Impl() {
+    if (scene) rtcReleaseScene(scene);
+    if (device) rtcReleaseDevice(device);
+  }
+
+  // Throws if Embree recorded an error since the last check.
+  void check(const Scene& s, const char* what) {
+    const RTCError e = rtcGetDeviceError(device);
+    if (e == RTC_ERROR_NONE) return;
+    std::lock_guard<std::mutex> lock(errors.mutex);
+    throw Error(fmt::format("{}: Embree failed to {}: {}", s.source_path, what,
+                            errors.last.empty() ? error_name(e) : errors.last));
+  }
+};
+
+RayScene::RayScene(const Scene& scene) : scene_(scene), impl_(std::make_unique<Impl>()) {
+  // 1. Refuse out-of-range indices before Embree reads them.
+  validate_scene(scene);
+
+  // 2. Device. Embree shares the process's TBB scheduler for its build.
+  impl_->device = rtcNewDevice("verbose=0");
+  if (!impl_->device) {
+    throw Error(fmt::format("{}: cannot create an Embree device: {}", scene.source_path,
+                            error_name(rtcGetDeviceError(nullptr))));
+  }
+  rtcSetDeviceErrorFunction(impl_->device, on_embree_error, &impl_->errors);
+
+  // 3. One triangle geometry. Buffers are copied into Embree-allocated
+  // storage: Embree reads vertices with 16-byte loads, so the vertex buffer
+  // needs padding past its end that a std::vector<V3f> does not have.
+  impl_->scene = rtcNewScene(impl_->device);
+  rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
+  rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_MEDIUM);
+  const TriangleSoup& t = scene.triangles;
+  const size_t tris = t.triangle_count();
+  if (tris > 0) {
+    RTCGeometry geom = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
+        geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), t.positions.size()));
+    auto* indices = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
+        geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), tris));
+    if (!vertices || !indices) {
+      rtcReleaseGeometry(geom);
+      impl_->check(scene, "allocate geometry buffers");
+      throw Error(fmt::format("{}: Embree could not allocate buffers for {} triangles",
+                              scene.source_path, tris));
+    }
+    for (size_t i = 0; i < t.positions.size(); ++i) {
+      vertices[3 * i + 0] = t.positions[i].x;
+      vertices[3 * i + 1] = t.positions[i].y;
+      vertices[3 * i + 2] = t.positions[i].z;
+    }
+    std::memcpy(indices, t.indices.data(), t.indices.size() * sizeof(uint32_t));
+    rtcCommitGeometry(geom);
+    rtcAttachGeometryByID(impl_->scene, geom, 0);
+    rtcReleaseGeometry(geom);  // the scene holds a reference
+  }
+  rtcCommitScene(impl_->scene);
+  impl_->check(scene, "build the BVH");
+
+  // 4. Secondary-ray offset from the scene's size (see ray_epsilon()).
+  const Box3f b = scene.bounds();
+  if (!b.isEmpty()) {
+    const float diag = (b.max - b.min).length();
+    const float max_coord = std::max({std::fabs(b.min.x), std::fabs(b.min.y), std::fabs(b.min.z),
+                                      std::fabs(b.max.x), std::fabs(b.max.y), std::fabs(b.max.z)});
+    impl_->epsilon = std::max(1e-5f * diag + 32.f * max_coord * 0x1p-23f, 1e-7f);
+  }
+}
+
+RayScene::~RayScene() = default;
+
+float RayScene::ray_epsilon() const { return impl_->epsilon; }
+
+Hit RayScene::intersect(const V3f& origin, const V3f& dir, float tmin, float tmax) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRayHit rh;
+  rh.ray.org_x = origin.x;
+  rh.ray.org_y = origin.y;
+  rh.ray.org_z = origin.z;
+  rh.ray.dir_x = dir.x;
+  rh.ray.dir_y = dir.y;
+  rh.ray.dir_z = dir.z;
+  rh.ray.tnear = tmin;
+  rh.ray.tfar = tmax;
+  rh.ray.time = 0.f;
+  rh.ray.mask = ~0u;
+  rh.ray.id = 0;
+  rh.ray.flags = 0;
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(impl_->scene, &context, &rh);
+
+  Hit hit;
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hit;
+  hit.t = rh.ray.tfar;
+  hit.triangle = rh.hit.primID;
+  hit.u = rh.hit.u;
+  hit.v = rh.hit.v;
+  // The normal from the winding, not Embree's Ng, so that it matches the
+  // convention of Hit (and of the surfels) whatever Embree's sign is.
+  const TriangleSoup& t = scene_.triangles;
+  const V3f& p0 = t.positions[t.indices[3 * hit.triangle + 0]];
+  const V3f& p1 = t.positions[t.indices[3 * hit.triangle + 1]];
+  const V3f& p2 = t.positions[t.indices[3 * hit.triangle + 2]];
+  V3f n = (p1 - p0).cross(p2 - p0);
+  const float len = n.length();
+  // Embree does not report hits on degenerate triangles; the fallback only
+  // guards against a sliver whose cross product underflows.
+  hit.geometric_normal = len > 0.f ? n / len : -dir.normalized();
+  return hit;
+}
+
+bool RayScene::occluded(const V3f& origin, const V3f& dir, float tmin, float tmax) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRay ray;
+  ray.org_x = origin.x;
+  ray.org_y = origin.y;
+  ray.org_z = origin.z;
+  ray.dir_x = dir.x;
+  ray.dir_y = dir.y;
+  ray.dir_z = dir.z;
+  ray.tnear = tmin;
+  ray.tfar = tmax;
+  ray.time = 0.f;
+  ray.mask = ~0u;
+  ray.id = 0;
+  ray.flags = 0;
+  rtcOccluded1(impl_->scene, &context, &ray);
+  // Embree marks an occluded ray by setting tfar to -inf.
+  return ray.tfar < 0.f;
+}
+
+V3f RayScene::shading_normal(const Hit& hit) const {
+  const TriangleSoup& t = scene_.triangles;
+  if (t.normals.empty() || !hit.valid()) return hit.geometric_normal;
+  const V3f& n0 = t.normals[t.indices[3 * hit.triangle + 0]];
+  const V3f& n1 = t.normals[t.indices[3 * hit.triangle + 1]];
+  const V3f& n2 = t.normals[t.indices[3 * hit.triangle + 2]];
+  const V3f n = (1.f - hit.u - hit.v) * n0 + hit.u * n1 + hit.v * n2;
+  const float len = n.length();
+  // Opposite vertex normals can cancel; the geometric normal is the only
+  // meaningful answer then.
+  if (!(len > 1e-12f) || !std::isfinite(len)) return hit.geometric_normal;
+  return n / len;
+}
+
+}  // namespace pbgi

@@ -1,0 +1,105 @@
+#include "server/service/options_codec.h"
+
+#include "storage/format/errors.h"
+
+#include <fmt/format.h>
+
+namespace pbgi::service {
+namespace {
+
+// proto3 scalars have no presence: 0 means "not set, use the default".
+template <class T, class U>
+T or_default(U value, T fallback) {
+  return value == U{} ? fallback : static_cast<T>(value);
+}
+
+}  // namespace
+
+GatherOptions decode_gather_options(const v1::GatherOptions& proto,
+                                    const GatherOptions& defaults) {
+  // Only the PBGI gather exists in this build; FPBGI is reserved on the wire.
+  if (proto.method() != v1::GatherOptions::METHOD_DEFAULT &&
+      proto.method() != v1::GatherOptions::PBGI) {
+    throw InvalidArgument(fmt::format("GatherOptions.method {} is not supported by this daemon "
+                                      "(only PBGI)",
+                                      v1::GatherOptions::Method_Name(proto.method())));
+  }
+  GatherOptions out = defaults;
+  out.microbuffer_resolution =
+      or_default(proto.microbuffer_resolution(), defaults.microbuffer_resolution);
+  out.max_solid_angle = or_default(proto.max_solid_angle(), defaults.max_solid_angle);
+  out.ao_max_distance = or_default(proto.ao_max_distance(), defaults.ao_max_distance);
+  out.validate();
+  return out;
+}
+
+RenderOptions decode_render_options(const v1::GatherOptions& proto,
+                                    const RenderOptions& defaults) {
+  RenderOptions out = defaults;
+  out.gather = decode_gather_options(proto, defaults.gather);
+  out.light_samples = or_default(proto.light_samples(), defaults.light_samples);
+  out.pixel_samples = or_default(proto.pixel_samples(), defaults.pixel_samples);
+  out.validate();
+  return out;
+}
+
+OpenOptions decode_open_options(const v1::BuildOptions& proto, const OpenOptions& defaults) {
+  OpenOptions out = defaults;
+  out.surfels.spacing = or_default(proto.surfel_spacing(), defaults.surfels.spacing);
+  out.surfels.target_surfels = or_default(proto.target_surfels(), defaults.surfels.target_surfels);
+  out.surfels.light_samples = or_default(proto.light_samples(), defaults.surfels.light_samples);
+  out.tree.page_size = or_default(proto.page_size(), defaults.tree.page_size);
+  out.tree.leaf_size = or_default(proto.leaf_size(), defaults.tree.leaf_size);
+  out.surfels.validate();
+  out.tree.validate();
+  return out;
+}
+
+v1::GatherOptions encode_render_options(const RenderOptions& options) {
+  v1::GatherOptions proto;
+  proto.set_method(v1::GatherOptions::PBGI);
+  proto.set_microbuffer_resolution(options.gather.microbuffer_resolution);
+  proto.set_max_solid_angle(options.gather.max_solid_angle);
+  proto.set_ao_max_distance(options.gather.ao_max_distance);
+  proto.set_light_samples(options.light_samples);
+  proto.set_pixel_samples(options.pixel_samples);
+  return proto;
+}
+
+v1::BuildOptions encode_open_options(const OpenOptions& options) {
+  v1::BuildOptions proto;
+  proto.set_surfel_spacing(options.surfels.spacing);
+  proto.set_target_surfels(options.surfels.target_surfels);
+  proto.set_light_samples(options.surfels.light_samples);
+  proto.set_page_size(options.tree.page_size);
+  proto.set_leaf_size(options.tree.leaf_size);
+  return proto;
+}
+
+std::string open_options_key(const OpenOptions& o) {
+  // fmt's "{}" prints the shortest text that reads back to the same float,
+  // so distinct values never share a key.
+  return fmt::format("spacing={};target={};light={};seed={};leaf={};page={}", o.surfels.spacing,
+                     o.surfels.target_surfels, o.surfels.light_samples, o.surfels.seed,
+                     o.tree.leaf_size, o.tree.page_size);
+}
+
+v1::SceneInfo encode_scene_info(const SceneSession& session) {
+  const SceneSessionInfo& info = session.info;
+  v1::SceneInfo proto;
+  proto.set_scene_id(info.scene_id);
+  proto.set_scene_path(info.scene_path);
+  proto.set_triangle_count(info.triangle_count);
+  proto.set_surfel_count(info.tree.surfel_count);
+  proto.set_node_count(info.tree.node_count);
+  proto.set_page_count(info.tree.page_count);
+  proto.set_reused_cache(info.reused_cache);
+  proto.set_open_seconds(info.open_seconds);
+  if (session.scene) {
+    for (const auto& [path, camera] : session.scene->cameras) proto.add_cameras(path);
+    for (const std::string& warning : session.scene->warnings) proto.add_warnings(warning);
+  }
+  return proto;
+}
+
+}  // namespace pbgi::service

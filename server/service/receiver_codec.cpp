@@ -1,0 +1,75 @@
+#include "server/service/receiver_codec.h"
+
+#include "storage/format/errors.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <cstring>
+
+namespace pbgi::service {
+namespace {
+
+constexpr size_t kVec3Bytes = 3 * sizeof(float);
+
+Imath::V3f read_vec3(const std::string& bytes, size_t index) {
+  float xyz[3];
+  std::memcpy(xyz, bytes.data() + index * kVec3Bytes, kVec3Bytes);
+  return {xyz[0], xyz[1], xyz[2]};
+}
+
+bool finite(const Imath::V3f& v) {
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
+}  // namespace
+
+std::vector<Receiver> decode_receivers(const std::string& positions, const std::string& normals,
+                                       uint64_t max_receivers) {
+  static_assert(sizeof(float) == 4, "the wire format is float32");
+  if (positions.size() % kVec3Bytes != 0) {
+    throw InvalidArgument(fmt::format(
+        "GatherRequest.positions has {} bytes, not a multiple of 12 (3 float32 per receiver)",
+        positions.size()));
+  }
+  if (normals.size() % kVec3Bytes != 0) {
+    throw InvalidArgument(fmt::format(
+        "GatherRequest.normals has {} bytes, not a multiple of 12 (3 float32 per receiver)",
+        normals.size()));
+  }
+  const size_t count = positions.size() / kVec3Bytes;
+  if (normals.size() != positions.size()) {
+    throw InvalidArgument(fmt::format(
+        "GatherRequest.normals has {} receivers but GatherRequest.positions has {}",
+        normals.size() / kVec3Bytes, count));
+  }
+  if (count > max_receivers) {
+    throw InvalidArgument(fmt::format(
+        "GatherRequest.positions has {} receivers, more than the limit of {} per request",
+        count, max_receivers));
+  }
+
+  std::vector<Receiver> receivers(count);
+  for (size_t i = 0; i < count; ++i) {
+    Receiver& r = receivers[i];
+    r.position = read_vec3(positions, i);
+    if (!finite(r.position)) {
+      throw InvalidArgument(fmt::format("GatherRequest.positions[{}] = ({}, {}, {}) is not finite",
+                                        i, r.position.x, r.position.y, r.position.z));
+    }
+    const Imath::V3f n = read_vec3(normals, i);
+    const float length = n.length();
+    if (!finite(n) || !(length > 1e-12f)) {
+      throw InvalidArgument(fmt::format(
+          "GatherRequest.normals[{}] = ({}, {}, {}) is not a direction", i, n.x, n.y, n.z));
+    }
+    r.normal = n / length;
+  }
+  return receivers;
+}
+
+std::string pack_floats(const float* data, size_t count) {
+  return std::string(reinterpret_cast<const char*>(data), count * sizeof(float));
+}
+
+}  // namespace pbgi::service

@@ -1,0 +1,23 @@
+// Receivers travel as packed little-endian float32 arrays (xyz per
+// receiver), results likewise; this file checks and converts them.
+#pragma once
+
+#include "server/gather/gather.h"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace pbgi::service {
+
+// Decodes GatherRequest.positions / .normals. Throws InvalidArgument naming
+// the field when a length is not a multiple of 12 bytes, the two lengths
+// differ, there are more than `max_receivers`, a position is not finite or
+// a normal is not a usable direction. Normals are normalized.
+std::vector<Receiver> decode_receivers(const std::string& positions, const std::string& normals,
+                                       uint64_t max_receivers);
+
+// The bytes of `count` floats.
+std::string pack_floats(const float* data, size_t count);
+
+}  // namespace pbgi::service

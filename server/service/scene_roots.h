@@ -1,0 +1,46 @@
+// The daemon serves only scenes below its --scene-root directories. A
+// requested path is resolved the way the kernel would open it (symlinks
+// followed, "..", "." removed) before it is checked, so neither "../" nor a
+// symlink inside a root can reach a file outside.
+#pragma once
+
+#include "storage/format/errors.h"
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace pbgi::service {
+
+// The requested path resolves outside every scene root (gRPC PERMISSION_DENIED).
+struct PermissionDenied : Error {
+  using Error::Error;
+};
+
+// Immutable after construction; thread-safe.
+class SceneRoots {
+ public:
+  // Canonicalizes each root; throws IoError naming a root that does not
+  // exist or is not a directory.
+  explicit SceneRoots(const std::vector<std::filesystem::path>& roots);
+
+  // Returns the canonical path of the scene file. A relative request is
+  // looked up below each root in order; an absolute one is taken as is.
+  // Throws (checked in this order, so that nothing is revealed about
+  // files outside the roots):
+  //   InvalidArgument  empty request;
+  //   PermissionDenied the path resolves outside every root (names the
+  //                    request and where it resolved to);
+  //   NotFound         inside a root but no such file (names the path);
+  //   InvalidArgument  it exists but is not a regular file.
+  std::filesystem::path resolve(const std::string& requested) const;
+
+  const std::vector<std::filesystem::path>& roots() const { return roots_; }
+
+ private:
+  bool contains(const std::filesystem::path& canonical) const;
+
+  std::vector<std::filesystem::path> roots_;  // canonical
+};
+
+}  // namespace pbgi::service

@@ -1,0 +1,187 @@
+// Uniform-density surfel sampling.
+//
+// Every triangle gets n = floor(A / s^2 + u) surfels (u uniform, drawn from a
+// generator seeded by the triangle's index), so the expected count is A/s^2
+// whatever the tessellation. Inside a triangle the n positions are the first
+// n points of a randomly shifted R2 sequence mapped to the triangle with
+// Heitz's low-distortion map: evenly spread, no clumps on large triangles.
+//
+// Area is conserved exactly (up to float rounding), not just in
+// expectation: a triangle that draws no surfel hands its area on to the
+// next triangle of the same mesh that draws some, whose surfels share it;
+// area left over at the end of a mesh goes to the last surfel-bearing
+// triangle of that mesh, and a mesh too small to draw any surfel gets one on
+// its largest triangle. Each surfel's disk has the area it stands for
+// (radius = sqrt(share / pi)), so the surfel areas sum to the scene's area.
+//
+// Double-sided meshes reflect light on both faces: each of their samples
+// yields two surfels at the same point with opposite normals, each standing
+// for the full area of its face (the area sum then counts those meshes
+// twice; the spacing derived from target_surfels accounts for it).
+//
+// Triangles with zero, negative or non-finite area are skipped and counted.
+#include "server/scene/rng.h"
+#include "server/scene/sample_patterns.h"
+#include "server/scene/scene_validation.h"
+#include "server/surfels/progress_meter.h"
+#include "server/surfels/surfels.h"
+#include "storage/format/errors.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace pbgi {
+namespace {
+
+// Domain-separation constants: sampling and shading draw from unrelated
+// streams even for the same index.
+constexpr uint64_t kCountDomain = 0x636f756e74ull;   // "count"
+constexpr uint64_t kPlaceDomain = 0x706c616365ull;   // "place"
+
+struct TrianglePlan {
+  float area = 0.f;       // one face; 0 = skipped
+  uint32_t count = 0;     // samples (twins not counted)
+  float share = 0.f;      // area each of its surfels stands for
+  uint64_t first = 0;     // index of its first surfel
+};
+
+bool is_double_sided(const Scene& scene, uint32_t tri) {
+  const TriangleSoup& t = scene.triangles;
+  if (t.double_sided.empty() || t.mesh.empty()) return false;
+  return t.double_sided[t.mesh[tri]] != 0;
+}
+
+}  // namespace
+
+std::vector<Surfel> sample_surfels(const Scene& scene, const SurfelOptions& options,
+                                   const ProgressFn& progress) {
+  options.validate();
+  validate_scene(scene);
+  const TriangleSoup& t = scene.triangles;
+  const size_t tris = t.triangle_count();
+  std::vector<TrianglePlan> plan(tris);
+
+  // 1. Areas, in parallel; degenerate and non-finite triangles get area 0.
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, tris, 4096), [&](const auto& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i) {
+      const V3f& p0 = t.positions[t.indices[3 * i + 0]];
+      const V3f& p1 = t.positions[t.indices[3 * i + 1]];
+      const V3f& p2 = t.positions[t.indices[3 * i + 2]];
+      const float a = 0.5f * (p1 - p0).cross(p2 - p0).length();
+      plan[i].area = std::isfinite(a) && a > 0.f ? a : 0.f;
+    }
+  });
+  double total_area = 0.0;  // both faces of double-sided meshes
+  uint64_t skipped = 0;
+  for (size_t i = 0; i < tris; ++i) {
+    if (plan[i].area == 0.f) ++skipped;
+    total_area += plan[i].area * (is_double_sided(scene, static_cast<uint32_t>(i)) ? 2.0 : 1.0);
+  }
+  if (!(total_area > 0.0)) return {};
+
+  // 2. Spacing: given, or the one that yields about target_surfels.
+  const double s2 = options.spacing > 0.f
+                        ? static_cast<double>(options.spacing) * options.spacing
+                        : total_area / static_cast<double>(options.target_surfels);
+  const double expected = total_area / s2;
+  // The tree indexes surfels with 31 bits (tree_builder.h); refuse early,
+  // before allocating, rather than after shading.
+  if (expected > static_cast<double>(1ull << 31)) {
+    throw InvalidArgument(fmt::format(
+        "{}: surfels.spacing = {} would produce {:.3g} surfels for {:.6g} square units (limit 2^31)",
+        scene.source_path, options.spacing, expected, total_area));
+  }
+
+  // 3. Sample counts per triangle, each from its own generator.
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, tris, 4096), [&](const auto& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i) {
+      Rng rng(hash_ids(options.seed, kCountDomain, i));
+      plan[i].count = static_cast<uint32_t>(std::floor(plan[i].area / s2 + rng.uniform()));
+    }
+  });
+
+  // 4. Area shares, serially per mesh (see the top of this file), then the
+  // output layout.
+  const size_t meshes = std::max<size_t>(t.mesh_paths.size(), 1);
+  std::vector<double> pending(meshes, 0.0);
+  std::vector<int64_t> last(meshes, -1), largest(meshes, -1);
+  auto mesh_of = [&](size_t i) -> size_t { return t.mesh.empty() ? 0 : t.mesh[i]; };
+  for (size_t i = 0; i < tris; ++i) {
+    const size_t m = mesh_of(i);
+    TrianglePlan& p = plan[i];
+    if (p.area == 0.f) continue;
+    if (largest[m] < 0 || p.area > plan[largest[m]].area) largest[m] = static_cast<int64_t>(i);
+    if (p.count == 0) {
+      pending[m] += p.area;
+      continue;
+    }
+    p.share = static_cast<float>((p.area + pending[m]) / p.count);
+    pending[m] = 0.0;
+    last[m] = static_cast<int64_t>(i);
+  }
+  for (size_t m = 0; m < meshes; ++m) {
+    if (!(pending[m] > 0.0)) continue;
+    if (last[m] >= 0) {
+      TrianglePlan& p = plan[last[m]];
+      p.share = static_cast<float>(p.share + pending[m] / p.count);
+    } else {
+      TrianglePlan& p = plan[largest[m]];
+      p.count = 1;
+      p.share = static_cast<float>(pending[m]);
+    }
+  }
+  uint64_t total = 0;
+  for (size_t i = 0; i < tris; ++i) {
+    plan[i].first = total;
+    total += static_cast<uint64_t>(plan[i].count) * (is_double_sided(scene, i) ? 2 : 1);
+  }
+  if (skipped > 0) {
+    spdlog::warn("{}: skipped {} of {} triangles with zero or non-finite area", scene.source_path,
+                 skipped, tris);
+  }
+
+  // 5. Positions and attributes, in parallel over triangles.
+  std::vector<Surfel> surfels(total);
+  ProgressMeter meter(progress, "sample_surfels", tris);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, tris, 1024), [&](const auto& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i) {
+      const TrianglePlan& p = plan[i];
+      if (p.count == 0) continue;
+      const V3f& p0 = t.positions[t.indices[3 * i + 0]];
+      const V3f& p1 = t.positions[t.indices[3 * i + 1]];
+      const V3f& p2 = t.positions[t.indices[3 * i + 2]];
+      const V3f n = (p1 - p0).cross(p2 - p0).normalized();
+      const Material& mat = scene.materials[t.material[i]];
+      const float radius = std::sqrt(p.share * kInvPi);
+      const bool twin = is_double_sided(scene, static_cast<uint32_t>(i));
+      Rng rng(hash_ids(options.seed, kPlaceDomain, i));
+      const Imath::V2f shift(rng.uniform(), rng.uniform());
+      Surfel* out = surfels.data() + p.first;
+      for (uint32_t k = 0; k < p.count; ++k) {
+        const Imath::V2f b = square_to_triangle(r2_sample(k, shift));
+        Surfel s;
+        s.position = (1.f - b.x - b.y) * p0 + b.x * p1 + b.y * p2;
+        s.normal = n;
+        s.radius = radius;
+        s.albedo = mat.albedo;
+        s.emission = mat.emission;
+        s.radiance = mat.emission;
+        *out++ = s;
+        if (twin) {
+          s.normal = -n;
+          *out++ = s;
+        }
+      }
+    }
+    meter.advance(r.size());
+  });
+  meter.finish();
+  return surfels;
+}
+
+}  // namespace pbgi

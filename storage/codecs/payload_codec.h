@@ -1,0 +1,50 @@
+// The interface of node payload codecs: how a page stores the spherical
+// functions (radiance_sh, coverage_sh) of its nodes. A page's payload array
+// is produced by one codec for all of its nodes at once, so later codecs
+// (k-means-quantized SH, Haar wavelets) may share tables within a page.
+// Decoding always yields the same tree::Node fields, whatever the codec:
+// the gather sees one in-memory form.
+//
+// Thread-safety: codec objects are immutable after construction; encode()
+// and decode() may run concurrently from any number of threads.
+#pragma once
+
+#include "storage/tree/node.h"
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace pbgi::storage {
+
+// Codec ids as stored in page headers and the manifest. Never reuse an id.
+enum class CodecId : uint32_t {
+  kFloatSh = 0,  // 27 + 9 float32 SH coefficients, 144 bytes per node
+};
+
+class PayloadCodec {
+ public:
+  virtual ~PayloadCodec() = default;
+
+  virtual uint32_t id() const = 0;
+  virtual std::string name() const = 0;
+  // On-disk bytes per node; 0 if the size varies with the content.
+  virtual size_t bytes_per_node() const = 0;
+
+  // Appends the payloads of `nodes` (radiance_sh, coverage_sh) to `out`.
+  virtual void encode(std::span<const tree::Node> nodes, std::vector<uint8_t>& out) const = 0;
+  // Decodes `bytes` (the whole payload array of a page) into the payload
+  // fields of `nodes`. Throws CorruptionError (prefixed with `what`, e.g.
+  // the page's location) if the size does not match.
+  virtual void decode(std::span<const uint8_t> bytes, std::span<tree::Node> nodes,
+                      const std::string& what) const = 0;
+};
+
+// Returns the codec stored under `id`; VersionError if this build does not
+// know it (a page set written by a newer pbgi).
+std::shared_ptr<const PayloadCodec> make_payload_codec(uint32_t id);
+
+}  // namespace pbgi::storage

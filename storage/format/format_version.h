@@ -1,0 +1,40 @@
+// Magic numbers and named format versions of everything pbgi stores on disk.
+// Every layout change gets a new named constant; readers branch on the
+// version they find and refuse the ones they do not know (VersionError).
+// The byte layouts are specified in storage/format/FORMAT.md.
+#pragma once
+
+#include <cstdint>
+
+namespace pbgi::storage {
+
+// A four-character code stored as a little-endian u32, so the file shows the
+// letters in order ("PBGP" reads as 'P','B','G','P' in a hex dump).
+constexpr uint32_t fourcc(const char (&s)[5]) {
+  return uint32_t(uint8_t(s[0])) | uint32_t(uint8_t(s[1])) << 8 |
+         uint32_t(uint8_t(s[2])) << 16 | uint32_t(uint8_t(s[3])) << 24;
+}
+
+inline constexpr uint32_t kPageMagic = fourcc("PBGP");      // each page of pages.pbgp
+inline constexpr uint32_t kManifestMagic = fourcc("PBGM");  // manifest.pbgm
+
+// Page layout versions.
+//   V1: 32-byte header, topology array (64 B/node), payload array (codec),
+//       surfel array (64 B/surfel), 8-byte XXH3-64 trailer.
+inline constexpr uint32_t kPageFormatV1 = 1;
+inline constexpr uint32_t kPageFormatCurrent = kPageFormatV1;
+
+// Manifest layout versions.
+//   V1: 16-byte header, body (options, stats, root, codec, page table),
+//       8-byte XXH3-64 trailer.
+inline constexpr uint32_t kManifestFormatV1 = 1;
+inline constexpr uint32_t kManifestFormatCurrent = kManifestFormatV1;
+
+// Version of a page set as a whole (manifest + pages + codec set). Build keys
+// hash it, so bumping it makes every daemon rebuild its cached page sets.
+inline constexpr uint32_t kPageSetFormatVersion = 1;
+
+constexpr bool is_known_page_format(uint32_t v) { return v == kPageFormatV1; }
+constexpr bool is_known_manifest_format(uint32_t v) { return v == kManifestFormatV1; }
+
+}  // namespace pbgi::storage

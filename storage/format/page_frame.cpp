@@ -1,0 +1,94 @@
+#include "storage/format/page_frame.h"
+
+#include "storage/format/byte_order.h"
+#include "storage/format/checksum.h"
+#include "storage/format/errors.h"
+
+#include <cstdio>
+
+namespace pbgi::storage {
+
+std::string PageLocation::describe() const {
+  return file + ": page " + std::to_string(page_id) + " at offset " + std::to_string(offset);
+}
+
+void write_page_header(const PageHeader& h, uint8_t* out) {
+  store_le<uint32_t>(out + 0, h.magic);
+  store_le<uint16_t>(out + 4, h.format_version);
+  store_le<uint16_t>(out + 6, h.codec);
+  store_le<uint32_t>(out + 8, h.page_id);
+  store_le<uint32_t>(out + 12, h.node_count);
+  store_le<uint32_t>(out + 16, h.surfel_count);
+  store_le<uint32_t>(out + 20, h.payload_bytes);
+  store_le<uint32_t>(out + 24, h.page_bytes);
+  store_le<uint32_t>(out + 28, h.flags);
+}
+
+PageHeader read_page_header(const uint8_t* in) {
+  PageHeader h;
+  h.magic = load_le<uint32_t>(in + 0);
+  h.format_version = load_le<uint16_t>(in + 4);
+  h.codec = load_le<uint16_t>(in + 6);
+  h.page_id = load_le<uint32_t>(in + 8);
+  h.node_count = load_le<uint32_t>(in + 12);
+  h.surfel_count = load_le<uint32_t>(in + 16);
+  h.payload_bytes = load_le<uint32_t>(in + 20);
+  h.page_bytes = load_le<uint32_t>(in + 24);
+  h.flags = load_le<uint32_t>(in + 28);
+  return h;
+}
+
+void seal_page(std::span<uint8_t> page) {
+  const size_t body = page.size() - kPageTrailerBytes;
+  store_le<uint64_t>(page.data() + body, checksum64(page.data(), body));
+}
+
+namespace {
+std::string hex32(uint32_t v) {
+  char buf[11];
+  std::snprintf(buf, sizeof buf, "0x%08x", v);
+  return buf;
+}
+}  // namespace
+
+PageHeader open_page(std::span<const uint8_t> page, const PageLocation& where,
+                     uint32_t expected_version) {
+  const std::string at = where.describe() + " (" + std::to_string(page.size()) + " bytes)";
+  if (page.size() < kPageHeaderBytes + kPageTrailerBytes) {
+    throw CorruptionError(at + ": too small for a page: expected at least " +
+                          std::to_string(kPageHeaderBytes + kPageTrailerBytes) + " bytes");
+  }
+  const size_t body = page.size() - kPageTrailerBytes;
+  const uint64_t expected = load_le<uint64_t>(page.data() + body);
+  const uint64_t found = checksum64(page.data(), body);
+  if (expected != found) {
+    throw CorruptionError(at + ": checksum mismatch at trailer offset " +
+                          std::to_string(where.offset + body) + ": expected " +
+                          checksum_hex(expected) + ", found " + checksum_hex(found));
+  }
+  const PageHeader h = read_page_header(page.data());
+  if (h.magic != kPageMagic) {
+    throw CorruptionError(at + ": bad magic: expected " + hex32(kPageMagic) + " ('PBGP'), found " +
+                          hex32(h.magic));
+  }
+  if (!is_known_page_format(h.format_version)) {
+    throw VersionError(at + ": page format version " + std::to_string(h.format_version) +
+                       " is not supported by this build (reads " +
+                       std::to_string(kPageFormatCurrent) + ")");
+  }
+  if (h.format_version != expected_version) {
+    throw CorruptionError(at + ": page format version " + std::to_string(h.format_version) +
+                          " differs from the manifest's " + std::to_string(expected_version));
+  }
+  if (h.page_id != where.page_id) {
+    throw CorruptionError(at + ": header names page " + std::to_string(h.page_id) +
+                          ", expected " + std::to_string(where.page_id));
+  }
+  if (h.page_bytes != page.size()) {
+    throw CorruptionError(at + ": header says " + std::to_string(h.page_bytes) +
+                          " bytes, the page table " + std::to_string(page.size()));
+  }
+  return h;
+}
+
+}  // namespace pbgi::storage

@@ -1,0 +1,112 @@
+#include "storage/pages/manifest_file.h"
+
+#include "storage/codecs/payload_codec.h"
+#include "storage/format/byte_stream.h"
+#include "storage/format/errors.h"
+#include "storage/format/manifest_frame.h"
+#include "storage/format/page_frame.h"
+#include "storage/pages/file_io.h"
+
+namespace pbgi::storage {
+
+namespace {
+constexpr uint32_t kMaxBuildKeyBytes = 4096;
+}
+
+std::vector<uint8_t> encode_manifest(const Manifest& m) {
+  std::vector<uint8_t> body;
+  ByteWriter w(body);
+  w.put<uint32_t>(m.page_format);
+  w.put<uint32_t>(m.codec);
+  w.put_string(m.build_key);
+  w.put<uint32_t>(m.options.leaf_size);
+  w.put<uint32_t>(m.options.page_size);
+  w.put<uint64_t>(m.stats.surfel_count);
+  w.put<uint64_t>(m.stats.node_count);
+  w.put<uint64_t>(m.stats.leaf_count);
+  w.put<uint32_t>(m.stats.page_count);
+  w.put<uint32_t>(m.stats.max_depth);
+  w.put<uint64_t>(m.stats.file_bytes);
+  w.put<uint32_t>(m.root.page);
+  w.put<uint32_t>(m.root.index);
+  w.put<uint32_t>(static_cast<uint32_t>(m.pages.size()));
+  for (const PageExtent& e : m.pages) {
+    w.put<uint64_t>(e.offset);
+    w.put<uint32_t>(e.bytes);
+  }
+  return frame_manifest(body);
+}
+
+Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path) {
+  const ManifestBody framed = unframe_manifest(file, path);
+  ByteReader r(framed.body, path, ManifestBody::kBodyOffset);
+  auto corrupt = [&](const std::string& msg) { return CorruptionError(path + ": " + msg); };
+
+  Manifest m;
+  m.page_format = r.get<uint32_t>("page_format");
+  if (!is_known_page_format(m.page_format)) {
+    throw VersionError(path + ": page format version " + std::to_string(m.page_format) +
+                       " is not supported by this build (reads " +
+                       std::to_string(kPageFormatCurrent) + ")");
+  }
+  m.codec = r.get<uint32_t>("codec");
+  make_payload_codec(m.codec);  // VersionError if unknown
+  m.build_key = r.get_string("build_key", kMaxBuildKeyBytes);
+  m.options.leaf_size = r.get<uint32_t>("leaf_size");
+  m.options.page_size = r.get<uint32_t>("page_size");
+  m.stats.surfel_count = r.get<uint64_t>("surfel_count");
+  m.stats.node_count = r.get<uint64_t>("node_count");
+  m.stats.leaf_count = r.get<uint64_t>("leaf_count");
+  m.stats.page_count = r.get<uint32_t>("page_count");
+  m.stats.max_depth = r.get<uint32_t>("max_depth");
+  m.stats.file_bytes = r.get<uint64_t>("file_bytes");
+  m.root.page = r.get<uint32_t>("root.page");
+  m.root.index = r.get<uint32_t>("root.index");
+  const uint64_t table_at = r.file_offset();
+  const uint32_t table_size = r.get<uint32_t>("page_table.size");
+  if (table_size != m.stats.page_count) {
+    throw corrupt("page table at offset " + std::to_string(table_at) + " has " +
+                  std::to_string(table_size) + " entries, stats say " +
+                  std::to_string(m.stats.page_count) + " pages");
+  }
+  // Each entry takes 12 bytes: refuse a count the body cannot hold before
+  // allocating for it.
+  if (uint64_t(table_size) * 12 > r.remaining()) {
+    throw corrupt("page table of " + std::to_string(table_size) + " entries does not fit the " +
+                  std::to_string(r.remaining()) + " bytes left at offset " +
+                  std::to_string(r.file_offset()));
+  }
+  m.pages.resize(table_size);
+  for (uint32_t i = 0; i < table_size; ++i) {
+    const uint64_t at = r.file_offset();
+    PageExtent& e = m.pages[i];
+    e.offset = r.get<uint64_t>("page.offset");
+    e.bytes = r.get<uint32_t>("page.bytes");
+    if (e.bytes < kPageHeaderBytes + kPageTrailerBytes || e.offset > m.stats.file_bytes ||
+        e.bytes > m.stats.file_bytes - e.offset) {
+      throw corrupt("page table entry " + std::to_string(i) + " at offset " + std::to_string(at) +
+                    " (offset " + std::to_string(e.offset) + ", " + std::to_string(e.bytes) +
+                    " bytes) lies outside the " + std::to_string(m.stats.file_bytes) +
+                    "-byte pages file");
+    }
+  }
+  r.expect_end();
+
+  if (m.stats.page_count == 0 || m.root.page >= m.stats.page_count) {
+    throw corrupt("root {page " + std::to_string(m.root.page) + ", index " +
+                  std::to_string(m.root.index) + "} outside the " +
+                  std::to_string(m.stats.page_count) + " pages");
+  }
+  try {
+    m.options.validate();
+  } catch (const InvalidArgument& e) {
+    throw corrupt(std::string("stored build options are invalid: ") + e.what());
+  }
+  return m;
+}
+
+Manifest read_manifest(const std::filesystem::path& path) {
+  return decode_manifest(read_whole_file(path), path.string());
+}
+
+}  // namespace pbgi::storage

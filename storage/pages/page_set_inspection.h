@@ -1,0 +1,42 @@
+// Statistics of a page set for `pbgi inspect` and benchmarks: what the
+// manifest says, what the page table says (fill), and what a full walk of
+// the tree finds (depths, pages per root-to-leaf path). The walk reads and
+// verifies every reachable page, so it doubles as a consistency check.
+#pragma once
+
+#include "storage/pages/page_set.h"
+
+#include <cstdint>
+#include <string>
+
+namespace pbgi::storage {
+
+struct PageSetInspection {
+  // Record sizes on disk.
+  uint64_t topology_bytes_per_node = 0;
+  uint64_t payload_bytes_per_node = 0;  // 0: variable (see payload_bytes_total)
+  uint64_t surfel_record_bytes = 0;
+  std::string codec_name;
+
+  // Page table.
+  uint64_t page_bytes_total = 0;  // sum of page sizes (without alignment padding)
+  uint64_t padding_bytes = 0;     // file bytes between pages
+  double fill_mean = 0, fill_min = 0, fill_max = 0;  // page bytes / options.page_size
+
+  // Walk (zero if not walked).
+  bool walked = false;
+  uint64_t nodes = 0, leaves = 0, surfels = 0;
+  uint32_t pages_reached = 0;
+  uint32_t leaf_depth_min = 0, leaf_depth_max = 0;
+  double leaf_depth_mean = 0;
+  double leaf_surfels_mean = 0;
+  uint32_t path_pages_max = 0;    // pages touched from the root to a leaf
+  double path_pages_mean = 0;
+  // Walk results agree with the manifest's stats.
+  bool consistent = true;
+};
+
+// Throws what PageSetReader::page() throws when a page is damaged.
+PageSetInspection inspect_page_set(const PageSetReader& reader, bool walk = true);
+
+}  // namespace pbgi::storage

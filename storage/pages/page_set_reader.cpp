@@ -1,0 +1,66 @@
+#include "storage/cache/page_cache.h"
+#include "storage/codecs/payload_codec.h"
+#include "storage/format/errors.h"
+#include "storage/pages/file_io.h"
+#include "storage/pages/manifest_file.h"
+#include "storage/pages/page_encoding.h"
+#include "storage/pages/page_set.h"
+
+namespace pbgi::storage {
+
+struct PageSetReader::Impl {
+  Impl(const std::filesystem::path& d, std::shared_ptr<PageCache> c)
+      : dir(d),
+        manifest(read_manifest(d / kManifestFileName)),
+        codec(make_payload_codec(manifest.codec)),
+        pages(File::open_read(d / kPagesFileName)),
+        cache(std::move(c)) {
+    const uint64_t size = pages.size();
+    if (size != manifest.stats.file_bytes) {
+      throw CorruptionError(pages.path() + ": size " + std::to_string(size) +
+                            " bytes, the manifest says " + std::to_string(manifest.stats.file_bytes));
+    }
+    if (cache) owner = cache->new_owner();
+  }
+
+  std::filesystem::path dir;
+  Manifest manifest;
+  std::shared_ptr<const PayloadCodec> codec;
+  File pages;
+  std::shared_ptr<PageCache> cache;
+  uint64_t owner = 0;
+
+  tree::PagePtr load(uint32_t id) const {
+    const PageExtent& e = manifest.pages[id];
+    std::vector<uint8_t> bytes(e.bytes);
+    pages.pread_exact(bytes, e.offset);
+    if (cache) cache->note_bytes_read(bytes.size());
+    return decode_page(bytes, {pages.path(), id, e.offset}, manifest.page_format, *codec,
+                       manifest.stats.page_count);
+  }
+};
+
+PageSetReader::PageSetReader(const std::filesystem::path& dir, std::shared_ptr<PageCache> cache)
+    : impl_(std::make_unique<Impl>(dir, std::move(cache))) {}
+
+PageSetReader::~PageSetReader() {
+  if (impl_ && impl_->cache) impl_->cache->forget(impl_->owner);
+}
+
+tree::NodeRef PageSetReader::root() const { return impl_->manifest.root; }
+
+tree::PagePtr PageSetReader::page(uint32_t id) const {
+  if (id >= impl_->manifest.stats.page_count) {
+    throw InvalidArgument(impl_->pages.path() + ": page " + std::to_string(id) +
+                          " requested, the page set has " +
+                          std::to_string(impl_->manifest.stats.page_count));
+  }
+  if (!impl_->cache) return impl_->load(id);
+  return impl_->cache->get(impl_->owner, id, [this, id] { return impl_->load(id); });
+}
+
+const Manifest& PageSetReader::manifest() const { return impl_->manifest; }
+
+const std::filesystem::path& PageSetReader::directory() const { return impl_->dir; }
+
+}  // namespace pbgi::storage

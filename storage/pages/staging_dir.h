@@ -1,0 +1,37 @@
+// Atomic publication of a directory: everything is written into a staging
+// directory "<dir>.tmp-<pid>-<random>" next to the final one, fsynced, then
+// renamed onto <dir> in one step, so readers see either no page set or a
+// complete one, never a partial one, even across a crash. A staging
+// directory that is not published is removed by the destructor.
+#pragma once
+
+#include <filesystem>
+
+namespace pbgi::storage {
+
+class StagingDir {
+ public:
+  // Throws InvalidArgument if `final_dir` exists or its parent does not,
+  // IoError if the staging directory cannot be created.
+  explicit StagingDir(std::filesystem::path final_dir);
+  ~StagingDir();
+  StagingDir(const StagingDir&) = delete;
+  StagingDir& operator=(const StagingDir&) = delete;
+
+  // The checks of the constructor alone, to fail fast before long work.
+  static void check_target(const std::filesystem::path& final_dir);
+
+  const std::filesystem::path& path() const { return staging_; }
+
+  // fsyncs the staging directory, renames it to the final one (refusing to
+  // replace anything: InvalidArgument if the final directory appeared in
+  // the meantime), then fsyncs the parent so the rename is durable.
+  void publish();
+
+ private:
+  std::filesystem::path final_;
+  std::filesystem::path staging_;
+  bool published_ = false;
+};
+
+}  // namespace pbgi::storage

@@ -1,0 +1,308 @@
+// Behaviour of the gather: visibility (occlusion, back faces, tangent
+// plane), AO distance, degenerate input, page pinning and counters.
+#include "server/gather/gather.h"
+#include "storage/format/errors.h"
+#include "surfel_shapes.h"
+#include "surfel_tree.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <memory>
+#include <vector>
+
+namespace pbgi {
+namespace {
+
+using Imath::C3f;
+using Imath::V3f;
+constexpr float kPi = 3.14159265358979f;
+
+const Receiver kUp{V3f(0), V3f(0, 0, 1)};
+
+bool finite(const GatherResult& r) {
+  return std::isfinite(r.irradiance.x) && std::isfinite(r.irradiance.y) &&
+         std::isfinite(r.irradiance.z) && std::isfinite(r.ao);
+}
+
+// Emitter: disk of radius 1 at height 2 facing down, radiance 1 (E = pi/5).
+void add_emitter(std::vector<Surfel>& s) { test::add_disk(s, {0, 0, 2}, {0, 0, -1}, 1.f, 8000, C3f(1)); }
+constexpr float kEmitterE = kPi / 5.f;
+
+TEST(Gather, EmptyTreeGivesNoLightAndFullAccessibility) {
+  test::SurfelTree tree({});
+  Gatherer g(tree, GatherOptions{});
+  const GatherResult r = g.gather(kUp);
+  EXPECT_EQ(r.irradiance.x, 0.f);
+  EXPECT_EQ(r.irradiance.y, 0.f);
+  EXPECT_EQ(r.irradiance.z, 0.f);
+  EXPECT_EQ(r.ao, 1.f);
+}
+
+TEST(Gather, NearOccluderHidesEmitterAndMovingItAsideRestoresIt) {
+  // Black disk of radius 0.6 at height 0.5 (subtends 50 deg; the emitter 27).
+  const auto gather_with_occluder_at = [](float x) {
+    std::vector<Surfel> s;
+    add_emitter(s);
+    test::add_disk(s, {x, 0, 0.5f}, {0, 0, -1}, 0.6f, 3000, C3f(0));
+    test::SurfelTree tree(std::move(s));
+    Gatherer g(tree, GatherOptions{});
+    return g.gather(kUp);
+  };
+  const GatherResult hidden = gather_with_occluder_at(0.f);
+  const GatherResult aside = gather_with_occluder_at(3.f);
+  std::printf("occluded E = %.5f, occluder aside E = %.5f (unoccluded %.5f), AO %.3f / %.3f\n",
+              hidden.irradiance.x, aside.irradiance.x, kEmitterE, hidden.ao, aside.ao);
+  EXPECT_LT(hidden.irradiance.x, 0.01f * kEmitterE);
+  EXPECT_NEAR(aside.irradiance.x, kEmitterE, 0.03f * kEmitterE);
+  // The occluder covers sin^2(50 deg) of the cosine-weighted hemisphere.
+  const float sin2 = 0.36f / (0.36f + 0.25f);
+  EXPECT_NEAR(hidden.ao, 1.f - sin2, 0.02f);
+}
+
+TEST(Gather, PartialOccluderHidesItsShare) {
+  // Occluder: black half-plane strip x < 0 at height 1 covering half of the
+  // emitter's cone symmetrically: half the light gets through.
+  std::vector<Surfel> s;
+  add_emitter(s);
+  test::add_quad(s, {-3, -3, 1}, {0, 6, 0}, {3, 0, 0}, 120, 60, C3f(0));  // faces -z
+  test::SurfelTree tree(std::move(s));
+  Gatherer g(tree, GatherOptions{});
+  const GatherResult r = g.gather(kUp);
+  std::printf("half occluded E = %.5f (expect %.5f)\n", r.irradiance.x, 0.5f * kEmitterE);
+  EXPECT_NEAR(r.irradiance.x, 0.5f * kEmitterE, 0.05f * kEmitterE);
+}
+
+TEST(Gather, NearPlaneOfCoarseSurfelsIsClosed) {
+  // A black plane of area-preserving surfels (leaving gaps between disks)
+  // just above receivers, an emitter above it: the near surfels are
+  // ray-cast, and no light may leak through the gaps.
+  for (const float h : {0.02f, 0.05f}) {
+    std::vector<Surfel> s;
+    test::add_quad(s, {-3, -3, h}, {0, 6, 0}, {6, 0, 0}, 120, 120, C3f(0));  // faces -z
+    add_emitter(s);
+    test::SurfelTree tree(std::move(s));
+    for (const uint32_t res : {8u, 16u}) {
+      GatherOptions o;
+      o.microbuffer_resolution = res;
+      Gatherer g(tree, o);
+      for (float x = -0.1f; x <= 0.1f; x += 0.0123f) {
+        const GatherResult r = g.gather({V3f(x, 0.37f * x, 0), V3f(0, 0, 1)});
+        EXPECT_LT(r.irradiance.x, 0.01f * kEmitterE) << "h " << h << " res " << res << " x " << x;
+        EXPECT_LT(r.ao, 0.05f) << "h " << h << " res " << res << " x " << x;
+      }
+      EXPECT_GT(g.counters().surfels_raycast, 0u);
+    }
+  }
+}
+
+TEST(Gather, BackFacingEmitterContributesNothing) {
+  std::vector<Surfel> s;
+  test::add_disk(s, {0, 0, 2}, {0, 0, 1}, 1.f, 8000, C3f(5));  // faces away
+  test::SurfelTree tree(std::move(s));
+  Gatherer g(tree, GatherOptions{});
+  const GatherResult r = g.gather(kUp);
+  EXPECT_EQ(r.irradiance.x, 0.f);
+  EXPECT_EQ(r.ao, 1.f);  // one-sided surfels: seen from behind they are not there
+  EXPECT_EQ(g.counters().nodes_rasterized + g.counters().surfels_raycast, 0u);
+}
+
+TEST(Gather, EmitterBelowTheTangentPlaneContributesNothing) {
+  std::vector<Surfel> s;
+  test::add_disk(s, {0, 0, -2}, {0, 0, 1}, 1.f, 8000, C3f(5));  // faces the receiver, behind it
+  test::SurfelTree tree(std::move(s));
+  Gatherer g(tree, GatherOptions{});
+  const GatherResult r = g.gather(kUp);
+  EXPECT_EQ(r.irradiance.x, 0.f);
+  EXPECT_EQ(r.ao, 1.f);
+  // Only the root is looked at.
+  EXPECT_EQ(g.counters().nodes_visited, 1u);
+}
+
+TEST(Gather, ReceiverOnAnEmittingFloorDoesNotSeeTheFloor) {
+  std::vector<Surfel> s;
+  test::add_quad(s, {-2, -2, 0}, {4, 0, 0}, {0, 4, 0}, 80, 80, C3f(3));  // faces +z
+  test::SurfelTree tree(std::move(s));
+  Gatherer g(tree, GatherOptions{});
+  const GatherResult r = g.gather(kUp);
+  EXPECT_EQ(r.irradiance.x, 0.f);
+  EXPECT_EQ(r.ao, 1.f);
+  EXPECT_LT(g.counters().nodes_visited, 10u);  // coplanar nodes culled at the top
+}
+
+TEST(Gather, ColorsStaySeparate) {
+  std::vector<Surfel> s;
+  test::add_disk(s, {0, 0, 2}, {0, 0, -1}, 1.f, 8000, C3f(1.f, 0.5f, 0.f));
+  test::SurfelTree tree(std::move(s));
+  Gatherer g(tree, GatherOptions{});
+  const GatherResult r = g.gather(kUp);
+  EXPECT_NEAR(r.irradiance.y, 0.5f * r.irradiance.x, 1e-5f);
+  EXPECT_EQ(r.irradiance.z, 0.f);
+}
+
+TEST(Gather, AoMaxDistanceIgnoresFarOccluders) {
+  std::vector<Surfel> s;
+  test::add_disk(s, {0, 0, 2}, {0, 0, -1}, 1.f, 8000, C3f(0));  // black, 2 away
+  test::SurfelTree tree(std::move(s));
+  GatherOptions near;
+  near.ao_max_distance = 1.f;
+  GatherOptions far;
+  far.ao_max_distance = 3.f;
+  EXPECT_EQ(Gatherer(tree, near).gather(kUp).ao, 1.f);
+  EXPECT_NEAR(Gatherer(tree, far).gather(kUp).ao, 0.8f, 0.01f);
+  EXPECT_NEAR(Gatherer(tree, GatherOptions{}).gather(kUp).ao, 0.8f, 0.01f);
+}
+
+TEST(Gather, DegenerateInputStaysFinite) {
+  std::vector<Surfel> s;
+  test::add_quad(s, {-1, -1, 0}, {2, 0, 0}, {0, 2, 0}, 30, 30, C3f(1));     // floor
+  test::add_quad(s, {-1, -1, 0}, {0, 2, 0}, {0, 0, 2}, 30, 30, C3f(2));     // wall x=-1, +x
+  // Zero-radius surfels, some exactly at the receivers below.
+  for (int i = 0; i < 50; ++i) {
+    Surfel z;
+    z.position = V3f(0.01f * float(i), 0.f, 0.f);
+    z.normal = V3f(0, 0, 1);
+    z.radius = 0.f;
+    z.radiance = C3f(100.f);
+    s.push_back(z);
+  }
+  const std::vector<Surfel> copy = s;
+  test::SurfelTree tree(std::move(s));
+  for (const uint32_t res : {4u, 8u, 32u}) {
+    GatherOptions o;
+    o.microbuffer_resolution = res;
+    Gatherer g(tree, o);
+    // Receivers exactly on surfel centers, on the wall/floor edge, tilted.
+    for (size_t i = 0; i < copy.size(); i += 37) {
+      const GatherResult r = g.gather({copy[i].position, copy[i].normal});
+      EXPECT_TRUE(finite(r)) << "surfel " << i << " res " << res;
+      EXPECT_GE(r.ao, 0.f);
+      EXPECT_LE(r.ao, 1.f);
+    }
+    for (const V3f& p : {V3f(-1, -1, 0), V3f(-1, 0, 0), V3f(0, 0, 0)}) {
+      for (const V3f& n : {V3f(0, 0, 1), V3f(1, 0, 0), V3f(1, 0, 1), V3f(0, 0, 2)}) {
+        const GatherResult r = g.gather({p, n});
+        EXPECT_TRUE(finite(r));
+      }
+    }
+  }
+}
+
+TEST(Gather, OnlyZeroRadiusSurfelsShowNothing) {
+  std::vector<Surfel> s(20);
+  for (size_t i = 0; i < s.size(); ++i) {
+    s[i].position = V3f(0, 0, 0.1f * float(i));  // one right at the receiver
+    s[i].normal = V3f(0, 0, -1);
+    s[i].radiance = C3f(1);
+  }
+  test::SurfelTree tree(std::move(s));
+  Gatherer g(tree, GatherOptions{});
+  const GatherResult r = g.gather(kUp);
+  EXPECT_EQ(r.irradiance.x, 0.f);
+  EXPECT_EQ(r.ao, 1.f);
+}
+
+TEST(Gather, InvalidReceiverThrows) {
+  test::SurfelTree tree({});
+  Gatherer g(tree, GatherOptions{});
+  EXPECT_THROW(g.gather({V3f(0), V3f(0)}), InvalidArgument);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_THROW(g.gather({V3f(nan, 0, 0), V3f(0, 0, 1)}), InvalidArgument);
+  EXPECT_THROW(g.gather({V3f(0), V3f(0, nan, 1)}), InvalidArgument);
+}
+
+TEST(Gather, NonUnitNormalIsNormalized) {
+  std::vector<Surfel> s;
+  add_emitter(s);
+  test::SurfelTree tree(std::move(s));
+  Gatherer g(tree, GatherOptions{});
+  const GatherResult a = g.gather(kUp);
+  const GatherResult b = g.gather({V3f(0), V3f(0, 0, 7)});
+  EXPECT_FLOAT_EQ(a.irradiance.x, b.irradiance.x);
+}
+
+TEST(Gather, PagesArePinnedOnlyDuringAReceiver) {
+  std::vector<Surfel> s;
+  add_emitter(s);
+  test::add_disk(s, {0, 0, 0.5f}, {0, 0, -1}, 0.3f, 2000, C3f(0));
+  test::SurfelTreeOptions to;
+  to.nodes_per_page = 16;  // many pages, many cross-page links
+  test::SurfelTree tree(std::move(s), to);
+  ASSERT_GT(tree.page_count(), 100u);
+  Gatherer g(tree, GatherOptions{});
+  for (int i = 0; i < 3; ++i) {
+    g.gather({V3f(0.1f * float(i), 0, 0), V3f(0, 0, 1)});
+    EXPECT_EQ(tree.pages_in_use(), 0u);
+  }
+  const GatherCounters& c = g.counters();
+  EXPECT_EQ(c.receivers, 3u);
+  EXPECT_EQ(c.pages_fetched, tree.fetches());
+  // Each page is fetched at most once per receiver.
+  EXPECT_LE(c.pages_fetched, 3u * tree.page_count());
+  EXPECT_GT(c.pages_fetched, 3u);
+  EXPECT_GT(c.nodes_visited, c.nodes_rasterized);
+  EXPECT_GT(c.nodes_rasterized, 0u);
+}
+
+TEST(Gather, ResultDoesNotDependOnPageLayout) {
+  std::vector<Surfel> s;
+  add_emitter(s);
+  test::add_disk(s, {0.4f, 0, 0.7f}, {0, 0, -1}, 0.3f, 2000, C3f(0.2f));
+  test::SurfelTreeOptions one_page;
+  one_page.nodes_per_page = 1u << 30;
+  test::SurfelTreeOptions small_pages;
+  small_pages.nodes_per_page = 7;
+  test::SurfelTree a(s, one_page), b(s, small_pages);
+  ASSERT_EQ(a.page_count(), 1u);
+  Gatherer ga(a, GatherOptions{}), gb(b, GatherOptions{});
+  const GatherResult ra = ga.gather(kUp), rb = gb.gather(kUp);
+  EXPECT_EQ(ra.irradiance.x, rb.irradiance.x);
+  EXPECT_EQ(ra.ao, rb.ao);
+}
+
+// A TreeSource whose child links point outside their page.
+class BrokenTree final : public tree::TreeSource {
+ public:
+  BrokenTree() {
+    auto p = std::make_shared<tree::Page>();
+    tree::Node root;
+    root.center = V3f(0, 0, 1);
+    root.cone_axis = V3f(0, 0, 1);
+    root.radius = 10.f;
+    root.area = 1.f;
+    root.coverage_sh[0] = 1.f;
+    root.child_count = 2;
+    root.children[0] = {0, 5};
+    root.children[1] = {0, 6};
+    p->nodes.push_back(root);
+    page_ = p;
+  }
+  tree::NodeRef root() const override { return {0, 0}; }
+  tree::PagePtr page(uint32_t) const override { return page_; }
+
+ private:
+  tree::PagePtr page_;
+};
+
+TEST(Gather, CorruptLinksThrowCorruptionError) {
+  BrokenTree tree;
+  Gatherer g(tree, GatherOptions{});
+  try {
+    g.gather(kUp);
+    FAIL() << "expected CorruptionError";
+  } catch (const CorruptionError& e) {
+    EXPECT_NE(std::string(e.what()).find("page 0"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Gather, InvalidOptionsThrowFromConstructor) {
+  test::SurfelTree tree({});
+  GatherOptions o;
+  o.microbuffer_resolution = 3;
+  EXPECT_THROW(Gatherer(tree, o), InvalidArgument);
+}
+
+}  // namespace
+}  // namespace pbgi

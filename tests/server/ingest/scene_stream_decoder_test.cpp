@@ -1,0 +1,256 @@
+// decode_scene_stream on hand-made streams: a valid stream is assembled
+// exactly; every malformed stream is a SceneError naming the source (no
+// crash, no hang).
+#include "server/ingest/usd_ingest.h"
+
+#include "pbgi/v1/scene.pb.h"
+#include "server/ingest/scene_stream_decoder.h"
+#include "storage/format/errors.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstring>
+#include <thread>
+#include <vector>
+
+namespace pbgi {
+namespace {
+
+using pbgi::v1::SceneChunk;
+
+std::string frame(const SceneChunk& chunk) {
+  const std::string body = chunk.SerializeAsString();
+  const uint32_t n = static_cast<uint32_t>(body.size());
+  std::string out = {char(n & 0xff), char(n >> 8 & 0xff), char(n >> 16 & 0xff), char(n >> 24 & 0xff)};
+  return out + body;
+}
+
+std::string raw_length(uint32_t n) {
+  return {char(n & 0xff), char(n >> 8 & 0xff), char(n >> 16 & 0xff), char(n >> 24 & 0xff)};
+}
+
+SceneChunk header_chunk() {
+  SceneChunk c;
+  c.mutable_header()->set_source_path("/scenes/test.usda");
+  c.mutable_header()->set_content_hash("abc");
+  c.mutable_header()->set_meters_per_unit(1.0);
+  c.mutable_header()->set_up_axis("Z");
+  return c;
+}
+
+SceneChunk material_chunk(uint32_t id, float r, float g, float b) {
+  SceneChunk c;
+  auto* m = c.mutable_material();
+  m->set_id(id);
+  m->set_prim_path("/M" + std::to_string(id));
+  m->mutable_diffuse_color()->set_x(r);
+  m->mutable_diffuse_color()->set_y(g);
+  m->mutable_diffuse_color()->set_z(b);
+  m->set_roughness(1.f);
+  return c;
+}
+
+template <typename T>
+std::string bytes(const std::vector<T>& v) {
+  return std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+}
+
+// One triangle in the z = 0 plane, counter-clockwise from +z.
+SceneChunk triangle_chunk(const std::string& prim, uint32_t material, bool with_normals) {
+  SceneChunk c;
+  auto* m = c.mutable_mesh();
+  m->set_prim_path(prim);
+  m->set_material_id(material);
+  m->set_positions(bytes(std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0}));
+  if (with_normals) m->set_normals(bytes(std::vector<float>{0, 0, 1, 0, 0, 1, 0, 0, 1}));
+  m->set_indices(bytes(std::vector<uint32_t>{0, 1, 2}));
+  return c;
+}
+
+SceneChunk end_chunk(uint64_t chunks, uint64_t triangles) {
+  SceneChunk c;
+  c.mutable_end()->set_chunk_count(chunks);
+  c.mutable_end()->set_triangle_count(triangles);
+  return c;
+}
+
+// Feeds `data` through a pipe (from a thread, so any size works) and decodes.
+Scene decode(const std::string& data, std::vector<std::pair<std::string, float>>* progress = nullptr) {
+  int fds[2];
+  EXPECT_EQ(pipe(fds), 0);
+  std::thread writer([&] {
+    size_t done = 0;
+    while (done < data.size()) {
+      const ssize_t n = write(fds[1], data.data() + done, data.size() - done);
+      if (n <= 0) break;  // reader gave up early (EPIPE is fine here)
+      done += static_cast<size_t>(n);
+    }
+    close(fds[1]);
+  });
+  struct Cleanup {
+    int fd;
+    std::thread& t;
+    ~Cleanup() {
+      close(fd);
+      t.join();
+    }
+  } cleanup{fds[0], writer};
+  return decode_scene_stream(fds[0], "test-stream", [&](const std::string& stage, float f) {
+    if (progress) progress->emplace_back(stage, f);
+  });
+}
+
+// Expects a SceneError whose message contains every one of `needles`.
+void expect_scene_error(const std::string& data, std::initializer_list<const char*> needles) {
+  try {
+    decode(data);
+    FAIL() << "decoding succeeded";
+  } catch (const SceneError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("test-stream"), std::string::npos) << what;
+    for (const char* n : needles) EXPECT_NE(what.find(n), std::string::npos) << "missing '" << n << "' in: " << what;
+  }
+}
+
+TEST(SceneStreamDecoder, AssemblesAValidStream) {
+  SceneChunk progress;
+  progress.mutable_progress()->set_stage("reading prims");
+  progress.mutable_progress()->set_fraction(0.5f);
+  SceneChunk camera;
+  camera.mutable_camera()->set_prim_path("/Cam");
+  for (int i = 0; i < 16; ++i) camera.mutable_camera()->add_local_to_world(i % 5 == 0 ? 1.f : 0.f);
+  camera.mutable_camera()->mutable_local_to_world()->Set(13, 2.f);  // translate y
+  camera.mutable_camera()->set_focal_length(35.f);
+  SceneChunk light;
+  light.mutable_light()->set_prim_path("/L");
+  light.mutable_light()->set_kind(pbgi::v1::LightDef::RECT);
+  for (int i = 0; i < 16; ++i) light.mutable_light()->add_local_to_world(i % 5 == 0 ? 1.f : 0.f);
+  light.mutable_light()->mutable_radiance()->set_x(3.f);
+  light.mutable_light()->set_width(0.5f);
+  SceneChunk warning;
+  warning.mutable_diagnostic()->set_severity(pbgi::v1::Diagnostic::WARNING);
+  warning.mutable_diagnostic()->set_prim_path("/Curves");
+  warning.mutable_diagnostic()->set_message("BasisCurves is not supported yet");
+  SceneChunk info;
+  info.mutable_diagnostic()->set_severity(pbgi::v1::Diagnostic::INFO);
+  info.mutable_diagnostic()->set_message("just saying");
+
+  // Material ids 7 and 3 become indices 0 and 1; /A has two chunks.
+  const std::string data = frame(header_chunk()) + frame(progress) + frame(material_chunk(7, 1, 0, 0)) +
+                           frame(triangle_chunk("/A", 7, true)) + frame(material_chunk(3, 0, 1, 0)) +
+                           frame(triangle_chunk("/B", 3, true)) + frame(triangle_chunk("/A", 7, true)) +
+                           frame(camera) + frame(light) + frame(warning) + frame(info) + frame(end_chunk(11, 3));
+  std::vector<std::pair<std::string, float>> seen;
+  const Scene scene = decode(data, &seen);
+
+  EXPECT_EQ(scene.source_path, "/scenes/test.usda");
+  EXPECT_EQ(scene.content_hash, "abc");
+  EXPECT_EQ(scene.up_axis, "Z");
+  EXPECT_DOUBLE_EQ(scene.meters_per_unit, 1.0);
+  const TriangleSoup& soup = scene.triangles;
+  ASSERT_EQ(soup.triangle_count(), 3u);
+  ASSERT_EQ(soup.positions.size(), 9u);
+  ASSERT_EQ(soup.normals.size(), 9u);
+  EXPECT_EQ(soup.indices, (std::vector<uint32_t>{0, 1, 2, 3, 4, 5, 6, 7, 8}));
+  EXPECT_EQ(soup.mesh_paths, (std::vector<std::string>{"/A", "/B"}));
+  EXPECT_EQ(soup.mesh, (std::vector<uint32_t>{0, 1, 0}));
+  EXPECT_EQ(soup.material, (std::vector<uint32_t>{0, 1, 0}));
+  ASSERT_EQ(scene.materials.size(), 2u);
+  EXPECT_EQ(scene.materials[0].albedo, C3f(1, 0, 0));
+  EXPECT_EQ(scene.materials[1].prim_path, "/M3");
+  ASSERT_EQ(scene.lights.size(), 1u);
+  EXPECT_EQ(scene.lights[0].kind, LightKind::Rect);
+  EXPECT_FLOAT_EQ(scene.lights[0].radiance.x, 3.f);
+  EXPECT_FLOAT_EQ(scene.lights[0].width, 0.5f);
+  ASSERT_NE(scene.find_camera("/Cam"), nullptr);
+  EXPECT_FLOAT_EQ(scene.find_camera("/Cam")->local_to_world[3][1], 2.f);  // row-major, row vectors
+  EXPECT_FLOAT_EQ(scene.find_camera("/Cam")->focal_length, 35.f);
+  EXPECT_EQ(scene.warnings, (std::vector<std::string>{"/Curves: BasisCurves is not supported yet"}));
+  ASSERT_EQ(seen.size(), 1u);
+  EXPECT_EQ(seen[0].first, "reading prims");
+  EXPECT_FLOAT_EQ(seen[0].second, 0.5f);
+}
+
+TEST(SceneStreamDecoder, ChunksWithoutNormalsGetFlatVerticesWhenOthersHaveNormals) {
+  // A quad without normals (4 shared vertices) next to a triangle with normals.
+  SceneChunk quad;
+  auto* m = quad.mutable_mesh();
+  m->set_prim_path("/Flat");
+  m->set_positions(bytes(std::vector<float>{0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0}));
+  m->set_indices(bytes(std::vector<uint32_t>{0, 1, 2, 0, 2, 3}));
+  const std::string data = frame(header_chunk()) + frame(material_chunk(0, .5f, .5f, .5f)) + frame(quad) +
+                           frame(triangle_chunk("/Smooth", 0, true)) + frame(end_chunk(4, 3));
+  const Scene scene = decode(data);
+  const TriangleSoup& soup = scene.triangles;
+  ASSERT_EQ(soup.triangle_count(), 3u);
+  ASSERT_EQ(soup.normals.size(), soup.positions.size());
+  EXPECT_EQ(soup.positions.size(), 6u + 3u);  // flat triangles own their vertices
+  for (size_t t = 0; t < soup.triangle_count(); ++t) {
+    const V3f a = soup.positions[soup.indices[3 * t]];
+    const V3f b = soup.positions[soup.indices[3 * t + 1]];
+    const V3f c = soup.positions[soup.indices[3 * t + 2]];
+    const V3f geometric = (b - a).cross(c - a).normalized();
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(soup.normals[soup.indices[3 * t + k]].dot(geometric), 1.f, 1e-6f);
+  }
+  // The quad's second triangle is (0,2,3) of the original vertices.
+  EXPECT_EQ(soup.positions[soup.indices[4]], V3f(1, 1, 0));
+  EXPECT_EQ(soup.positions[soup.indices[5]], V3f(0, 1, 0));
+}
+
+TEST(SceneStreamDecoder, GarbageIsASceneError) {
+  expect_scene_error("this is not a scene stream, just some text on a pipe", {"frame 0"});
+}
+
+TEST(SceneStreamDecoder, EmptyStreamIsASceneError) { expect_scene_error("", {"without SceneEnd"}); }
+
+TEST(SceneStreamDecoder, TruncatedFrameIsASceneError) {
+  const std::string header = frame(header_chunk());
+  const std::string mesh = frame(triangle_chunk("/A", 0, false));
+  const std::string data = header + frame(material_chunk(0, 1, 1, 1)) + mesh.substr(0, mesh.size() - 5);
+  expect_scene_error(data, {"truncated", "frame 2"});
+  // A cut inside the length prefix, too.
+  expect_scene_error(header + std::string("\x10\x00", 2), {"truncated", "frame 1"});
+}
+
+TEST(SceneStreamDecoder, OversizedFrameLengthIsRejectedBeforeReading) {
+  expect_scene_error(frame(header_chunk()) + raw_length(0xFFFFFFFFu) + "xyz", {"limit", "frame 1"});
+}
+
+TEST(SceneStreamDecoder, UnparseableFrameIsASceneError) {
+  const std::string junk = "\xff\xff\xff\xff\xff\xff\xff";  // invalid varint
+  expect_scene_error(frame(header_chunk()) + raw_length(static_cast<uint32_t>(junk.size())) + junk,
+                     {"not a valid SceneChunk", "frame 1"});
+}
+
+TEST(SceneStreamDecoder, StructuralErrorsNameTheFrameAndPrim) {
+  const std::string h = frame(header_chunk());
+  const std::string mat = frame(material_chunk(0, 1, 1, 1));
+  // No header first.
+  expect_scene_error(mat + frame(end_chunk(1, 0)), {"expected SceneHeader"});
+  // Missing SceneEnd.
+  expect_scene_error(h + mat, {"without SceneEnd"});
+  // Wrong counts in SceneEnd.
+  expect_scene_error(h + mat + frame(triangle_chunk("/A", 0, false)) + frame(end_chunk(3, 5)), {"SceneEnd counts"});
+  // Data after SceneEnd.
+  expect_scene_error(h + frame(end_chunk(1, 0)) + mat, {"after SceneEnd"});
+  // Undefined material.
+  expect_scene_error(h + frame(triangle_chunk("/Orphan", 9, false)) + frame(end_chunk(2, 1)),
+                     {"/Orphan", "material id 9"});
+  // Index out of range.
+  SceneChunk bad = triangle_chunk("/BadIndex", 0, false);
+  bad.mutable_mesh()->set_indices(bytes(std::vector<uint32_t>{0, 1, 3}));
+  expect_scene_error(h + mat + frame(bad) + frame(end_chunk(3, 1)), {"/BadIndex", "out of range"});
+  // Normals that do not match the positions.
+  SceneChunk short_normals = triangle_chunk("/ShortNormals", 0, true);
+  short_normals.mutable_mesh()->set_normals(bytes(std::vector<float>{0, 0, 1}));
+  expect_scene_error(h + mat + frame(short_normals) + frame(end_chunk(3, 1)), {"/ShortNormals", "normals"});
+  // A light matrix of the wrong size.
+  SceneChunk light;
+  light.mutable_light()->set_prim_path("/BadLight");
+  light.mutable_light()->set_kind(pbgi::v1::LightDef::SPHERE);
+  expect_scene_error(h + frame(light) + frame(end_chunk(2, 0)), {"/BadLight", "16"});
+}
+
+}  // namespace
+}  // namespace pbgi

@@ -1,0 +1,188 @@
+#include "server/render/tile_renderer.h"
+#include "server/surfels/surfels.h"
+#include "storage/format/errors.h"
+#include "storage/tree/memory_tree.h"
+#include "storage/tree/tree_builder.h"
+#include "tests/server/scene/test_scenes.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace pbgi {
+namespace {
+
+constexpr uint32_t kSize = 15;  // odd: the center pixel's center is on the axis
+constexpr float kAlbedo = 0.5f;
+
+// A tree with nothing in it: one leaf of area 0.
+class EmptyTree final : public tree::TreeSource {
+ public:
+  EmptyTree() {
+    auto page = std::make_shared<tree::Page>();
+    page->nodes.resize(1);
+    page_ = page;
+  }
+  tree::NodeRef root() const override { return {0, 0}; }
+  tree::PagePtr page(uint32_t) const override { return page_; }
+
+ private:
+  tree::PagePtr page_;
+};
+
+// Floor [-2,2]^2 at z = 0; a 1x1 rect light at (1.5, 0, 1) facing down;
+// camera at (0, 0, 3) looking down -Z (the light's back is invisible).
+Scene floor_scene() {
+  Scene s;
+  s.source_path = "floor";
+  const uint32_t m = test::add_material(s, {kAlbedo, kAlbedo, kAlbedo});
+  test::add_square_z(s, 0, 0, 0, 2.f, m, false, "/floor");
+  s.lights.push_back(test::rect_light(1.5f, 0, 1.f, 1.f, 1.f, {4.f, 4.f, 4.f}));
+  Camera cam;
+  cam.prim_path = "/cam";
+  cam.focal_length = 35.f;
+  cam.horizontal_aperture = 36.f;
+  cam.local_to_world.makeIdentity();
+  cam.local_to_world.setTranslation(V3f(0, 0, 3));
+  s.cameras["/cam"] = cam;
+  return s;
+}
+
+TileRect whole() { return {0, 0, kSize, kSize}; }
+
+TEST(RenderTile, RejectsTilesOutsideTheImage) {
+  const Scene s = floor_scene();
+  const RayScene rays(s);
+  const EmptyTree tree;
+  const Camera& cam = *s.find_camera("/cam");
+  try {
+    render_tile(rays, tree, cam, 64, 48, {32, 32, 64, 64}, RenderOptions());
+    FAIL() << "expected InvalidArgument";
+  } catch (const InvalidArgument& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("64x48"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("[32, 64)"), std::string::npos) << msg;
+  }
+  EXPECT_THROW(render_tile(rays, tree, cam, 64, 48, {8, 8, 8, 16}, RenderOptions()),
+               InvalidArgument);  // empty
+  RenderOptions bad;
+  bad.pixel_samples = 0;
+  EXPECT_THROW(render_tile(rays, tree, cam, 64, 48, {0, 0, 8, 8}, bad), InvalidArgument);
+}
+
+TEST(RenderTile, EmptyTreeGivesZeroIndirect) {
+  const Scene s = floor_scene();
+  const RayScene rays(s);
+  const EmptyTree tree;
+  GatherCounters counters;
+  const TileAovs out =
+      render_tile(rays, tree, *s.find_camera("/cam"), kSize, kSize, whole(), RenderOptions(), &counters);
+  ASSERT_EQ(out.beauty.size(), 3u * kSize * kSize);
+  ASSERT_EQ(out.ao.size(), 1u * kSize * kSize);
+  for (size_t i = 0; i < out.ao.size(); ++i) {
+    EXPECT_EQ(out.ao[i], 1.f);
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_EQ(out.indirect[3 * i + c], 0.f);
+      EXPECT_EQ(out.beauty[3 * i + c], out.direct[3 * i + c]);
+      EXPECT_EQ(out.albedo[3 * i + c], kAlbedo);  // every pixel sees the floor
+    }
+    EXPECT_GT(out.direct[3 * i], 0.f);
+  }
+  EXPECT_EQ(counters.receivers, uint64_t{kSize} * kSize);
+}
+
+TEST(RenderTile, DirectMatchesAnalytic) {
+  const Scene s = floor_scene();
+  const RayScene rays(s);
+  const EmptyTree tree;
+  RenderOptions o;
+  o.light_samples = 1024;
+  const uint32_t c = kSize / 2;
+  const TileAovs out =
+      render_tile(rays, tree, *s.find_camera("/cam"), kSize, kSize, {c, c, c + 1, c + 1}, o);
+  const double e = test::rect_irradiance(4.0, 1.0, 2.0, -0.5, 0.5, 0.0, 0.0, 1.0);
+  EXPECT_NEAR(out.direct[0] / (kAlbedo / M_PI * e), 1.0, 0.01);
+}
+
+TEST(RenderTile, LightSeenByTheCameraShowsItsRadiance) {
+  Scene s = floor_scene();
+  Camera& cam = s.cameras["/cam"];
+  // Below the light, looking up (+Z): rows are the images of local X, Y, Z.
+  cam.local_to_world = M44f(1, 0, 0, 0, 0, -1, 0, 0, 0, 0, -1, 0, 1.5f, 0, 0.5f, 1);
+  const RayScene rays(s);
+  const EmptyTree tree;
+  const uint32_t c = kSize / 2;
+  const TileAovs out = render_tile(rays, tree, cam, kSize, kSize, {c, c, c + 1, c + 1}, RenderOptions());
+  EXPECT_EQ(out.beauty[0], 4.f);
+  EXPECT_EQ(out.direct[0], 4.f);
+  EXPECT_EQ(out.albedo[0], 0.f);
+  EXPECT_EQ(out.ao[0], 1.f);
+}
+
+TEST(RenderTile, MissIsBlackAndUnoccluded) {
+  Scene s = floor_scene();
+  s.cameras["/cam"].local_to_world.makeIdentity();
+  s.cameras["/cam"].local_to_world.setTranslation(V3f(0, 0, -1));  // under the floor, facing away
+  const RayScene rays(s);
+  const EmptyTree tree;
+  const TileAovs out =
+      render_tile(rays, tree, s.cameras["/cam"], kSize, kSize, {0, 0, 4, 4}, RenderOptions());
+  for (float v : out.beauty) EXPECT_EQ(v, 0.f);
+  for (float v : out.ao) EXPECT_EQ(v, 1.f);
+}
+
+TEST(RenderTile, TilesMatchTheWholeImage) {
+  const Scene s = floor_scene();
+  const RayScene rays(s);
+  const EmptyTree tree;
+  RenderOptions o;
+  o.pixel_samples = 4;
+  const Camera& cam = *s.find_camera("/cam");
+  const TileAovs full = render_tile(rays, tree, cam, kSize, kSize, whole(), o);
+  const TileAovs part = render_tile(rays, tree, cam, kSize, kSize, {5, 3, 12, 9}, o);
+  for (uint32_t y = 3; y < 9; ++y) {
+    for (uint32_t x = 5; x < 12; ++x) {
+      const size_t i = (y - 3) * 7 + (x - 5), j = y * kSize + x;
+      for (int c = 0; c < 3; ++c) ASSERT_EQ(part.beauty[3 * i + c], full.beauty[3 * j + c]);
+    }
+  }
+}
+
+TEST(RenderTile, CancelledThrows) {
+  const Scene s = floor_scene();
+  const RayScene rays(s);
+  const EmptyTree tree;
+  int calls = 0;
+  EXPECT_THROW(render_tile(rays, tree, *s.find_camera("/cam"), kSize, kSize, whole(),
+                           RenderOptions(), nullptr, [&] { return ++calls > 3; }),
+               Cancelled);
+}
+
+TEST(RenderTile, IndirectLightFromSurfels) {
+  // The floor next to a red-lit wall: the floor receives red indirect light.
+  Scene s = floor_scene();
+  const uint32_t red = test::add_material(s, {0.9f, 0.1f, 0.1f});
+  // Wall at x = -1 facing +X, lit by a light facing it.
+  test::add_quad(s, V3f(-1, -2, 0), V3f(-1, 2, 0), V3f(-1, 2, 2), V3f(-1, -2, 2), red, "/wall");
+  Light l = test::rect_light(0, 0, 0, 1.f, 1.f, {20, 20, 20});
+  // local -Z -> world -X: rows X->(0,1,0)... use Y->Z, Z->X.
+  l.local_to_world = M44f(0, 1, 0, 0, 0, 0, 1, 0, 1, 0, 0, 0, 0.5f, 0, 1.5f, 1);
+  s.lights = {l};
+  const RayScene rays(s);
+  SurfelOptions so;
+  so.target_surfels = 4000;
+  auto surfels = sample_surfels(s, so);
+  shade_direct(rays, so, surfels);
+  tree::BuildOptions bo;
+  const tree::MemoryTree tree(tree::build_tree(std::move(surfels), bo));
+  const uint32_t c = kSize / 2;
+  // The pixel at x ~ -0.6 on the floor, looking down.
+  const TileAovs out = render_tile(rays, tree, *s.find_camera("/cam"), kSize, kSize,
+                                   {4, c, 5, c + 1}, RenderOptions());
+  EXPECT_GT(out.indirect[0], 0.f);
+  EXPECT_GT(out.indirect[0], 3.f * out.indirect[1]);  // red dominates
+  EXPECT_LT(out.ao[0], 1.f);
+}
+
+}  // namespace
+}  // namespace pbgi

@@ -1,0 +1,151 @@
+#include "server/scene/ray_scene.h"
+#include "server/scene/scene_validation.h"
+#include "storage/format/errors.h"
+#include "tests/server/scene/test_scenes.h"
+
+#include <gtest/gtest.h>
+
+namespace pbgi {
+namespace {
+
+Scene unit_quad_scene() {
+  Scene s;
+  s.source_path = "quad.usda";
+  const uint32_t m = test::add_material(s, {0.5f, 0.5f, 0.5f});
+  test::add_square_z(s, 0.f, 0.f, 0.f, 1.f, m);  // [-1,1]^2 at z = 0, normal +Z
+  return s;
+}
+
+TEST(RayScene, QuadHitAndMiss) {
+  const Scene s = unit_quad_scene();
+  const RayScene rays(s);
+  const Hit hit = rays.intersect(V3f(0.25f, -0.5f, 2.f), V3f(0, 0, -1));
+  ASSERT_TRUE(hit.valid());
+  EXPECT_NEAR(hit.t, 2.f, 1e-5f);
+  ASSERT_LT(hit.triangle, 2u);
+  // The barycentrics reproduce the hit point.
+  const TriangleSoup& t = s.triangles;
+  const uint32_t* idx = &t.indices[3 * hit.triangle];
+  const V3f p = (1 - hit.u - hit.v) * t.positions[idx[0]] + hit.u * t.positions[idx[1]] +
+                hit.v * t.positions[idx[2]];
+  EXPECT_NEAR(p.x, 0.25f, 1e-5f);
+  EXPECT_NEAR(p.y, -0.5f, 1e-5f);
+
+  EXPECT_FALSE(rays.intersect(V3f(1.5f, 0.f, 2.f), V3f(0, 0, -1)).valid());   // beside
+  EXPECT_FALSE(rays.intersect(V3f(0.f, 0.f, 2.f), V3f(0, 0, 1)).valid());     // away
+  EXPECT_FALSE(rays.intersect(V3f(0.f, 0.f, 2.f), V3f(0, 0, -1), 0.f, 1.9f).valid());  // tmax
+  EXPECT_FALSE(rays.intersect(V3f(0.f, 0.f, 2.f), V3f(0, 0, -1), 2.1f).valid());       // tmin
+}
+
+TEST(RayScene, HitsFromBothSides) {
+  const Scene s = unit_quad_scene();
+  const RayScene rays(s);
+  const Hit below = rays.intersect(V3f(0.f, 0.f, -3.f), V3f(0, 0, 1));
+  ASSERT_TRUE(below.valid());
+  EXPECT_NEAR(below.t, 3.f, 1e-5f);
+}
+
+TEST(RayScene, OcclusionRespectsInterval) {
+  const Scene s = unit_quad_scene();
+  const RayScene rays(s);
+  EXPECT_TRUE(rays.occluded(V3f(0, 0, 1), V3f(0, 0, -1), 0.f, 2.f));
+  EXPECT_FALSE(rays.occluded(V3f(0, 0, 1), V3f(0, 0, -1), 0.f, 0.99f));
+  EXPECT_FALSE(rays.occluded(V3f(0, 0, 1), V3f(0, 0, -1), 1.01f, 2.f));
+  EXPECT_FALSE(rays.occluded(V3f(3, 0, 1), V3f(0, 0, -1), 0.f, 2.f));
+}
+
+TEST(RayScene, GeometricNormalFollowsWindingNotRay) {
+  Scene s;
+  const uint32_t m = test::add_material(s, {0.5f, 0.5f, 0.5f});
+  test::add_square_z(s, 0.f, 0.f, 0.f, 1.f, m, /*down=*/false);
+  test::add_square_z(s, 5.f, 0.f, 0.f, 1.f, m, /*down=*/true);
+  const RayScene rays(s);
+  for (const float dz : {-1.f, 1.f}) {
+    const Hit up = rays.intersect(V3f(0, 0, -2 * dz), V3f(0, 0, dz));
+    const Hit down = rays.intersect(V3f(5, 0, -2 * dz), V3f(0, 0, dz));
+    ASSERT_TRUE(up.valid() && down.valid());
+    EXPECT_NEAR(up.geometric_normal.z, 1.f, 1e-6f);
+    EXPECT_NEAR(down.geometric_normal.z, -1.f, 1e-6f);
+    // Without vertex normals the shading normal is the geometric one.
+    EXPECT_NEAR(rays.shading_normal(up).z, 1.f, 1e-6f);
+  }
+}
+
+TEST(RayScene, ShadingNormalInterpolatesVertexNormals) {
+  Scene s = unit_quad_scene();
+  // Normals tilted toward +X on the right edge, -X on the left edge.
+  const float k = 0.6f;
+  for (const V3f& p : s.triangles.positions) {
+    s.triangles.normals.push_back(V3f(p.x > 0 ? k : -k, 0.f, 0.8f));
+  }
+  const RayScene rays(s);
+  const Hit mid = rays.intersect(V3f(0, 0.3f, 1), V3f(0, 0, -1));
+  ASSERT_TRUE(mid.valid());
+  const V3f n_mid = rays.shading_normal(mid);
+  EXPECT_NEAR(n_mid.x, 0.f, 1e-5f);
+  EXPECT_NEAR(n_mid.z, 1.f, 1e-5f);
+  const Hit right = rays.intersect(V3f(0.5f, 0.3f, 1), V3f(0, 0, -1));
+  const V3f n_right = rays.shading_normal(right);
+  EXPECT_NEAR(n_right.length(), 1.f, 1e-5f);
+  // At x = 0.5 the interpolated normal is (0.75*0.6 - 0.25*0.6, 0, 0.8) = (0.3, 0, 0.8).
+  EXPECT_NEAR(n_right.x / n_right.z, 0.3f / 0.8f, 1e-4f);
+  // The geometric normal is untouched by vertex normals.
+  EXPECT_NEAR(right.geometric_normal.z, 1.f, 1e-6f);
+}
+
+TEST(RayScene, EmptySceneMisses) {
+  Scene s;
+  const RayScene rays(s);
+  EXPECT_FALSE(rays.intersect(V3f(0, 0, 0), V3f(0, 0, 1)).valid());
+  EXPECT_FALSE(rays.occluded(V3f(0, 0, 0), V3f(0, 0, 1), 0.f, 1e30f));
+  EXPECT_GT(rays.ray_epsilon(), 0.f);
+}
+
+TEST(RayScene, EpsilonScalesWithScene) {
+  Scene small, large;
+  const uint32_t m1 = test::add_material(small, {1, 1, 1});
+  const uint32_t m2 = test::add_material(large, {1, 1, 1});
+  test::add_square_z(small, 0, 0, 0, 1.f, m1);
+  test::add_square_z(large, 0, 0, 0, 1000.f, m2);
+  const RayScene a(small), b(large);
+  EXPECT_NEAR(b.ray_epsilon() / a.ray_epsilon(), 1000.f, 10.f);
+  EXPECT_LT(b.ray_epsilon(), 1.f);  // well below the scene's features
+}
+
+TEST(RayScene, RejectsOutOfRangeIndicesNamingTheMesh) {
+  Scene s = unit_quad_scene();
+  s.triangles.indices[4] = 99;
+  try {
+    RayScene rays(s);
+    FAIL() << "expected SceneError";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("quad.usda"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("/square"), std::string::npos) << e.what();
+  }
+  Scene bad_material = unit_quad_scene();
+  bad_material.triangles.material[1] = 7;
+  EXPECT_THROW(validate_scene(bad_material), SceneError);
+  Scene bad_normals = unit_quad_scene();
+  bad_normals.triangles.normals.resize(1);
+  EXPECT_THROW(validate_scene(bad_normals), SceneError);
+}
+
+TEST(Scene, BoundsAndCameras) {
+  Scene s = unit_quad_scene();
+  s.triangles.positions.push_back(V3f(NAN, 0, 0));  // ignored, not propagated
+  const Box3f b = s.bounds();
+  EXPECT_EQ(b.min, V3f(-1, -1, 0));
+  EXPECT_EQ(b.max, V3f(1, 1, 0));
+  EXPECT_TRUE(Scene().bounds().isEmpty());
+
+  Camera cam;
+  cam.prim_path = "/cam";
+  cam.focal_length = 35.f;
+  s.cameras["/cam"] = cam;
+  ASSERT_NE(s.find_camera("/cam"), nullptr);
+  EXPECT_EQ(s.find_camera("/cam")->focal_length, 35.f);
+  EXPECT_EQ(s.find_camera("/other"), nullptr);
+}
+
+}  // namespace
+}  // namespace pbgi

@@ -1,0 +1,101 @@
+// Proto options <-> stage options: unset fields take the daemon's defaults,
+// set fields win, invalid values are refused naming the field.
+#include "server/service/options_codec.h"
+
+#include "storage/format/errors.h"
+
+#include <gtest/gtest.h>
+
+namespace pbgi::service {
+namespace {
+
+RenderOptions custom_render_defaults() {
+  RenderOptions d;
+  d.gather.microbuffer_resolution = 12;
+  d.gather.max_solid_angle = 0.05f;
+  d.gather.ao_max_distance = 3.f;
+  d.light_samples = 7;
+  d.pixel_samples = 2;
+  return d;
+}
+
+TEST(OptionsCodec, UnsetGatherFieldsTakeDaemonDefaults) {
+  const RenderOptions defaults = custom_render_defaults();
+  const RenderOptions r = decode_render_options(v1::GatherOptions(), defaults);
+  EXPECT_EQ(r.gather.microbuffer_resolution, 12u);
+  EXPECT_FLOAT_EQ(r.gather.max_solid_angle, 0.05f);
+  EXPECT_FLOAT_EQ(r.gather.ao_max_distance, 3.f);
+  EXPECT_EQ(r.light_samples, 7u);
+  EXPECT_EQ(r.pixel_samples, 2u);
+}
+
+TEST(OptionsCodec, SetGatherFieldsOverrideDefaults) {
+  v1::GatherOptions proto;
+  proto.set_method(v1::GatherOptions::PBGI);
+  proto.set_microbuffer_resolution(16);
+  proto.set_max_solid_angle(0.01f);
+  proto.set_light_samples(4);
+  const RenderOptions r = decode_render_options(proto, custom_render_defaults());
+  EXPECT_EQ(r.gather.microbuffer_resolution, 16u);
+  EXPECT_FLOAT_EQ(r.gather.max_solid_angle, 0.01f);
+  EXPECT_FLOAT_EQ(r.gather.ao_max_distance, 3.f);  // still the default
+  EXPECT_EQ(r.light_samples, 4u);
+  EXPECT_EQ(r.pixel_samples, 2u);
+}
+
+TEST(OptionsCodec, EncodeDecodeRoundTrip) {
+  const RenderOptions original = custom_render_defaults();
+  const RenderOptions back = decode_render_options(encode_render_options(original), RenderOptions());
+  EXPECT_EQ(back.gather.microbuffer_resolution, original.gather.microbuffer_resolution);
+  EXPECT_EQ(back.gather.max_solid_angle, original.gather.max_solid_angle);
+  EXPECT_EQ(back.gather.ao_max_distance, original.gather.ao_max_distance);
+  EXPECT_EQ(back.light_samples, original.light_samples);
+  EXPECT_EQ(back.pixel_samples, original.pixel_samples);
+
+  OpenOptions open;
+  open.surfels.spacing = 0.02f;
+  open.surfels.target_surfels = 5000;
+  open.surfels.light_samples = 3;
+  open.tree.page_size = 32768;
+  open.tree.leaf_size = 8;
+  const OpenOptions open_back = decode_open_options(encode_open_options(open), OpenOptions());
+  EXPECT_EQ(open_options_key(open_back), open_options_key(open));
+}
+
+TEST(OptionsCodec, RefusesUnsupportedMethodNamingTheField) {
+  v1::GatherOptions proto;
+  proto.set_method(v1::GatherOptions::FPBGI);
+  try {
+    decode_gather_options(proto, GatherOptions());
+    FAIL() << "expected InvalidArgument";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("GatherOptions.method"), std::string::npos) << e.what();
+  }
+}
+
+TEST(OptionsCodec, RefusesOutOfRangeMicrobuffer) {
+  v1::GatherOptions proto;
+  proto.set_microbuffer_resolution(1000);
+  try {
+    decode_gather_options(proto, GatherOptions());
+    FAIL() << "expected InvalidArgument";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("microbuffer"), std::string::npos) << e.what();
+  }
+}
+
+TEST(OptionsCodec, BuildOptionsDefaultsAndKeys) {
+  OpenOptions defaults;
+  defaults.surfels.target_surfels = 1000;
+  v1::BuildOptions proto;
+  const OpenOptions a = decode_open_options(proto, defaults);
+  EXPECT_EQ(a.surfels.target_surfels, 1000u);
+  proto.set_target_surfels(2000);
+  const OpenOptions b = decode_open_options(proto, defaults);
+  EXPECT_EQ(b.surfels.target_surfels, 2000u);
+  EXPECT_NE(open_options_key(a), open_options_key(b));
+  EXPECT_EQ(open_options_key(a), open_options_key(decode_open_options(v1::BuildOptions(), defaults)));
+}
+
+}  // namespace
+}  // namespace pbgi::service

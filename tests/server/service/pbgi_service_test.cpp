@@ -1,0 +1,234 @@
+// The handlers over an in-process channel with a fake opener: every bad
+// request gets its own status code and a message naming what is wrong,
+// and the service keeps serving afterwards.
+#include "server/service/pbgi_service.h"
+
+#include "storage/format/errors.h"
+#include "tests/server/service/fake_sessions.h"
+#include "tests/server/service/temp_dir.h"
+
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+namespace fs = std::filesystem;
+
+namespace pbgi::service {
+namespace {
+
+class PbgiServiceTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    root = tmp.path() / "scenes";
+    fs::create_directories(root);
+    std::ofstream(root / "a.usda") << "#usda 1.0\n";
+    std::ofstream(root / "bad.usda") << "not usd\n";
+    auto registry = std::make_shared<SceneRegistry>(
+        [this](const fs::path& path, const OpenOptions& options,
+               const StageProgress& progress) -> std::shared_ptr<SceneSession> {
+          ++opens;
+          last_open = options;
+          if (path.filename() == "bad.usda") {
+            throw SceneError("'" + path.string() + "': not a USD layer");
+          }
+          progress("ingest", 0.f);
+          progress("ingest", 1.f);
+          progress("tree", 1.f);
+          return testing::fake_session(path.string(), "scene-" + std::to_string(opens));
+        });
+    ServiceOptions options;
+    options.defaults.open.surfels.target_surfels = 777;
+    options.limits.max_tile_pixels = 64 * 64;
+    service = std::make_unique<PbgiService>(options, SceneRoots({root}), registry);
+    grpc::ServerBuilder builder;
+    builder.RegisterService(service.get());
+    server = builder.BuildAndStart();
+    stub = v1::Pbgi::NewStub(server->InProcessChannel(grpc::ChannelArguments()));
+  }
+  void TearDown() override {
+    server->Shutdown();
+    server->Wait();
+  }
+
+  grpc::Status open(const std::string& path, std::vector<v1::OpenSceneEvent>* events = nullptr,
+                    const v1::BuildOptions& build = {}) {
+    grpc::ClientContext context;
+    v1::OpenSceneRequest request;
+    request.set_scene_path(path);
+    *request.mutable_build() = build;
+    auto reader = stub->OpenScene(&context, request);
+    v1::OpenSceneEvent event;
+    while (reader->Read(&event)) {
+      if (events) events->push_back(event);
+    }
+    return reader->Finish();
+  }
+  std::string open_id() {
+    std::vector<v1::OpenSceneEvent> events;
+    EXPECT_TRUE(open("a.usda", &events).ok());
+    return events.empty() ? "" : events.back().ready().scene_id();
+  }
+  grpc::Status render(const v1::RenderTileRequest& request) {
+    grpc::ClientContext context;
+    v1::RenderTileResponse response;
+    return stub->RenderTile(&context, request, &response);
+  }
+  grpc::Status gather(const v1::GatherRequest& request) {
+    grpc::ClientContext context;
+    v1::GatherResponse response;
+    return stub->Gather(&context, request, &response);
+  }
+  v1::RenderTileRequest tile_request(const std::string& id) {
+    v1::RenderTileRequest r;
+    r.set_scene_id(id);
+    r.set_camera("/Camera");
+    r.set_image_width(64);
+    r.set_image_height(48);
+    r.mutable_tile()->set_x0(32);
+    r.mutable_tile()->set_y0(32);
+    r.mutable_tile()->set_x1(64);
+    r.mutable_tile()->set_y1(48);
+    return r;
+  }
+  static bool mentions(const grpc::Status& s, const std::string& text) {
+    return s.error_message().find(text) != std::string::npos;
+  }
+
+  testing::TempDir tmp;
+  fs::path root;
+  int opens = 0;
+  OpenOptions last_open;
+  std::unique_ptr<PbgiService> service;
+  std::unique_ptr<grpc::Server> server;
+  std::unique_ptr<v1::Pbgi::Stub> stub;
+};
+
+TEST_F(PbgiServiceTest, OpenSceneStreamsProgressThenInfo) {
+  std::vector<v1::OpenSceneEvent> events;
+  ASSERT_TRUE(open("a.usda", &events).ok());
+  ASSERT_GE(events.size(), 2u);
+  EXPECT_TRUE(events.front().has_progress());
+  EXPECT_EQ(events.front().progress().stage(), "ingest");
+  const v1::SceneInfo& info = events.back().ready();
+  EXPECT_EQ(info.scene_id(), "scene-1");
+  EXPECT_EQ(info.scene_path(), (fs::canonical(root) / "a.usda").string());
+  EXPECT_EQ(info.surfel_count(), 1000u);
+  ASSERT_EQ(info.cameras_size(), 1);
+  EXPECT_EQ(info.cameras(0), "/Camera");
+  EXPECT_EQ(info.warnings_size(), 1);
+  EXPECT_EQ(last_open.surfels.target_surfels, 777u) << "unset build option takes the default";
+
+  // The same scene by its absolute path is the same session.
+  ASSERT_TRUE(open((root / "a.usda").string()).ok());
+  EXPECT_EQ(opens, 1);
+  grpc::ClientContext context;
+  v1::ListScenesResponse list;
+  ASSERT_TRUE(stub->ListScenes(&context, v1::ListScenesRequest(), &list).ok());
+  ASSERT_EQ(list.scenes_size(), 1);
+  EXPECT_EQ(list.scenes(0).scene_id(), "scene-1");
+
+  // Other build options: another session.
+  v1::BuildOptions build;
+  build.set_target_surfels(5000);
+  ASSERT_TRUE(open("a.usda", nullptr, build).ok());
+  EXPECT_EQ(opens, 2);
+  EXPECT_EQ(last_open.surfels.target_surfels, 5000u);
+}
+
+TEST_F(PbgiServiceTest, OpenSceneErrors) {
+  grpc::Status s = open("missing.usda");
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_TRUE(mentions(s, "missing.usda")) << s.error_message();
+
+  s = open("/etc/passwd");
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::PERMISSION_DENIED);
+  EXPECT_TRUE(mentions(s, "/etc/passwd")) << s.error_message();
+
+  s = open("../../../etc/passwd");
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::PERMISSION_DENIED);
+
+  s = open("bad.usda");
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_TRUE(mentions(s, "not a USD layer")) << s.error_message();
+
+  v1::BuildOptions build;
+  build.set_leaf_size(1000000);
+  s = open("a.usda", nullptr, build);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << s.error_message();
+
+  EXPECT_FALSE(open_id().empty()) << "still serving after the errors";
+}
+
+TEST_F(PbgiServiceTest, GatherRequestErrors) {
+  const std::string id = open_id();
+  v1::GatherRequest request;
+  request.set_scene_id(id);
+  request.set_positions(std::string(13, '\0'));
+  request.set_normals(std::string(12, '\0'));
+  grpc::Status s = gather(request);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_TRUE(mentions(s, "positions")) << s.error_message();
+  EXPECT_TRUE(mentions(s, id)) << "names the scene: " << s.error_message();
+
+  request.set_positions(std::string(24, '\0'));
+  s = gather(request);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_TRUE(mentions(s, "normals")) << s.error_message();
+
+  request.set_scene_id("no-such-scene");
+  const float up[3] = {0, 1, 0};
+  request.set_positions(std::string(12, '\0'));
+  request.set_normals(std::string(reinterpret_cast<const char*>(up), sizeof(up)));
+  s = gather(request);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_TRUE(mentions(s, "no-such-scene")) << s.error_message();
+}
+
+TEST_F(PbgiServiceTest, RenderTileRequestErrors) {
+  const std::string id = open_id();
+
+  v1::RenderTileRequest r = tile_request(id);
+  r.set_camera("/NoCamera");
+  grpc::Status s = render(r);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_TRUE(mentions(s, "/NoCamera")) << s.error_message();
+  EXPECT_TRUE(mentions(s, "a.usda")) << "names the scene: " << s.error_message();
+
+  r = tile_request(id);
+  r.mutable_tile()->set_x1(65);
+  s = render(r);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::OUT_OF_RANGE);
+  EXPECT_TRUE(mentions(s, "[32,65)x[32,48)")) << s.error_message();
+  EXPECT_TRUE(mentions(s, "64x48")) << s.error_message();
+
+  r = tile_request(id);
+  r.mutable_tile()->set_y0(48);
+  s = render(r);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << "empty tile";
+
+  r = tile_request(id);
+  r.set_image_width(0);
+  EXPECT_EQ(render(r).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+
+  r = tile_request(id);
+  r.set_image_width(1000);
+  r.set_image_height(1000);
+  r.mutable_tile()->set_x1(200);
+  r.mutable_tile()->set_y1(200);
+  s = render(r);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_TRUE(mentions(s, "limit")) << s.error_message();
+
+  r = tile_request("unknown-id");
+  s = render(r);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_TRUE(mentions(s, "unknown-id")) << s.error_message();
+
+  r = tile_request(id);
+  r.mutable_options()->set_method(v1::GatherOptions::FPBGI);
+  EXPECT_EQ(render(r).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+}
+
+}  // namespace
+}  // namespace pbgi::service

@@ -1,0 +1,213 @@
+// The page cache: byte budget, LRU order, counters, single load under
+// concurrency, and identical traversals whatever the budget.
+#include "storage/cache/page_cache.h"
+#include "storage/format/errors.h"
+#include "storage/pages/page_set.h"
+#include "storage/tree/memory_tree.h"
+#include "tests/storage/pages/temp_dir.h"
+#include "tests/storage/pages/tree_walk.h"
+#include "tests/storage/tree/random_surfels.h"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <future>
+#include <thread>
+
+namespace pbgi::storage {
+namespace {
+
+// A page whose memory_bytes() is about `nodes` nodes.
+tree::PagePtr make_page(uint32_t id, size_t nodes) {
+  auto p = std::make_shared<tree::Page>();
+  p->id = id;
+  p->nodes.resize(nodes);
+  return p;
+}
+
+const uint64_t kPageBytes = make_page(0, 10)->memory_bytes();
+
+TEST(PageCache, HoldsWithinBudgetAndEvictsLeastRecentlyUsed) {
+  PageCache cache(3 * kPageBytes + kPageBytes / 2);  // room for 3 pages
+  int loads = 0;
+  auto get = [&](uint32_t id) {
+    return cache.get(1, id, [&] {
+      ++loads;
+      return make_page(id, 10);
+    });
+  };
+  for (uint32_t id = 0; id < 3; ++id) get(id);
+  EXPECT_EQ(cache.counters().bytes_held, 3 * kPageBytes);
+  get(0);            // hit: 0 becomes most recent, 1 is now the oldest
+  EXPECT_EQ(loads, 3);
+  get(3);            // evicts 1
+  EXPECT_EQ(cache.counters().evictions, 1u);
+  get(0);
+  get(2);
+  EXPECT_EQ(loads, 4);  // 0 and 2 were still held
+  get(1);               // was evicted: loads again, evicts 3
+  EXPECT_EQ(loads, 5);
+  const CacheCounters c = cache.counters();
+  EXPECT_EQ(c.misses, 5u);
+  EXPECT_EQ(c.hits, 3u);
+  EXPECT_EQ(c.evictions, 2u);
+  EXPECT_LE(c.bytes_held, cache.budget());
+  EXPECT_EQ(c.bytes_held, 3 * kPageBytes);
+}
+
+TEST(PageCache, OwnersAreSeparateAndForgettable) {
+  PageCache cache(uint64_t(1) << 30);
+  const uint64_t a = cache.new_owner(), b = cache.new_owner();
+  ASSERT_NE(a, b);
+  cache.get(a, 0, [] { return make_page(0, 10); });
+  const auto pb = cache.get(b, 0, [] { return make_page(0, 20); });
+  EXPECT_EQ(pb->nodes.size(), 20u);  // not a's page 0
+  EXPECT_EQ(cache.counters().misses, 2u);
+  cache.forget(a);
+  EXPECT_EQ(cache.counters().bytes_held, pb->memory_bytes());
+  int loads = 0;
+  cache.get(a, 0, [&] { ++loads; return make_page(0, 10); });
+  EXPECT_EQ(loads, 1);
+}
+
+TEST(PageCache, ZeroBudgetHoldsNothing) {
+  PageCache cache(0);
+  int loads = 0;
+  for (int i = 0; i < 3; ++i) {
+    const auto p = cache.get(1, 7, [&] { ++loads; return make_page(7, 10); });
+    EXPECT_EQ(p->id, 7u);
+  }
+  EXPECT_EQ(loads, 3);
+  EXPECT_EQ(cache.counters().bytes_held, 0u);
+  EXPECT_EQ(cache.counters().evictions, 0u);
+}
+
+TEST(PageCache, PageLargerThanBudgetIsServedNotHeld) {
+  PageCache cache(kPageBytes);
+  cache.get(1, 0, [] { return make_page(0, 10); });
+  EXPECT_EQ(cache.counters().bytes_held, kPageBytes);
+  const auto big = cache.get(1, 1, [] { return make_page(1, 1000); });
+  EXPECT_EQ(big->nodes.size(), 1000u);
+  EXPECT_EQ(cache.counters().bytes_held, kPageBytes);  // page 0 kept, big not held
+}
+
+TEST(PageCache, FailedLoadIsNotCached) {
+  PageCache cache(uint64_t(1) << 20);
+  EXPECT_THROW(cache.get(1, 0, []() -> tree::PagePtr { throw CorruptionError("bad page 0"); }),
+               CorruptionError);
+  int loads = 0;
+  cache.get(1, 0, [&] { ++loads; return make_page(0, 1); });
+  EXPECT_EQ(loads, 1);
+}
+
+TEST(PageCache, ConcurrentMissesLoadOnce) {
+  PageCache cache(uint64_t(1) << 20);
+  std::atomic<int> loads{0};
+  std::promise<void> release;
+  std::shared_future<void> released = release.get_future().share();
+  constexpr int kThreads = 8;
+  std::vector<std::thread> threads;
+  std::vector<tree::PagePtr> got(kThreads);
+  for (int i = 0; i < kThreads; ++i) {
+    threads.emplace_back([&, i] {
+      got[i] = cache.get(1, 42, [&] {
+        ++loads;
+        released.wait();  // hold the load open until every thread asked
+        return make_page(42, 10);
+      });
+    });
+  }
+  // Every caller is counted (one miss, the others hits waiting on it)
+  // before it blocks.
+  while (true) {
+    const CacheCounters c = cache.counters();
+    if (c.hits + c.misses == kThreads) break;
+    std::this_thread::yield();
+  }
+  release.set_value();
+  for (auto& t : threads) t.join();
+  EXPECT_EQ(loads.load(), 1);
+  for (const auto& p : got) EXPECT_EQ(p.get(), got[0].get());
+}
+
+class CacheOverPageSet : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    surfels_ = test::random_surfels(2000, 21);
+    options_.page_size = 8192;
+    build_page_set(surfels_, options_, "k", tmp_.path() / "set");
+    want_ = test::walk(tree::MemoryTree(tree::build_tree(surfels_, options_)));
+  }
+  test::TempDir tmp_;
+  std::vector<Surfel> surfels_;
+  tree::BuildOptions options_;
+  test::Walk want_;
+};
+
+TEST_F(CacheOverPageSet, TraversalsIdenticalWhateverTheBudget) {
+  // The largest decoded page: a budget of exactly one page.
+  uint64_t one_page = 0;
+  {
+    PageSetReader probe(tmp_.path() / "set", nullptr);
+    for (uint32_t p = 0; p < probe.manifest().stats.page_count; ++p)
+      one_page = std::max<uint64_t>(one_page, probe.page(p)->memory_bytes());
+  }
+  for (uint64_t budget : {uint64_t(0), one_page, ~uint64_t(0)}) {
+    auto cache = std::make_shared<PageCache>(budget);
+    PageSetReader reader(tmp_.path() / "set", cache);
+    const uint32_t pages = reader.manifest().stats.page_count;
+    ASSERT_GT(pages, 10u);
+    auto check = [&] { ASSERT_LE(cache->counters().bytes_held, budget); };
+    test::expect_same_walk(test::walk(reader, check), want_);
+    test::expect_same_walk(test::walk(reader, check), want_);
+    const CacheCounters c = cache->counters();
+    EXPECT_GT(c.bytes_read, 0u);
+    if (budget == 0) {
+      EXPECT_EQ(c.hits, 0u);
+      EXPECT_EQ(c.bytes_held, 0u);
+    } else if (budget == one_page) {
+      EXPECT_GT(c.evictions, 0u);
+      EXPECT_LE(c.bytes_held, one_page);
+    } else {
+      // Unlimited: each page read once, the second walk all hits.
+      EXPECT_EQ(c.misses, pages);
+      EXPECT_EQ(c.evictions, 0u);
+      uint64_t page_bytes = 0;
+      for (const auto& e : reader.manifest().pages) page_bytes += e.bytes;
+      EXPECT_EQ(c.bytes_read, page_bytes);
+    }
+  }
+}
+
+TEST_F(CacheOverPageSet, BudgetHoldsUnderConcurrentReaders) {
+  const uint64_t budget = 3 * options_.page_size;
+  auto cache = std::make_shared<PageCache>(budget);
+  PageSetReader reader(tmp_.path() / "set", cache);
+  std::atomic<bool> over{false};
+  std::vector<std::thread> threads;
+  std::vector<test::Walk> got(4);
+  for (int i = 0; i < 4; ++i) {
+    threads.emplace_back([&, i] {
+      got[i] = test::walk(reader, [&] {
+        if (cache->counters().bytes_held > budget) over = true;
+      });
+    });
+  }
+  for (auto& t : threads) t.join();
+  EXPECT_FALSE(over.load());
+  for (const auto& w : got) test::expect_same_walk(w, want_);
+  EXPECT_GT(cache->counters().evictions, 0u);
+}
+
+TEST_F(CacheOverPageSet, ClosedReaderReleasesItsPages) {
+  auto cache = std::make_shared<PageCache>(uint64_t(1) << 30);
+  {
+    PageSetReader reader(tmp_.path() / "set", cache);
+    test::walk(reader);
+    EXPECT_GT(cache->counters().bytes_held, 0u);
+  }
+  EXPECT_EQ(cache->counters().bytes_held, 0u);
+}
+
+}  // namespace
+}  // namespace pbgi::storage

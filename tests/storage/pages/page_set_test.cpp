@@ -1,0 +1,324 @@
+// Page sets end to end: build, publish, read back through the cache, and
+// refuse damaged or foreign files.
+#include "storage/cache/page_cache.h"
+#include "storage/codecs/payload_codec.h"
+#include "storage/format/errors.h"
+#include "storage/format/manifest_frame.h"
+#include "storage/format/page_frame.h"
+#include "storage/pages/manifest_file.h"
+#include "storage/pages/page_set.h"
+#include "storage/pages/page_set_inspection.h"
+#include "storage/tree/memory_tree.h"
+#include "tests/storage/pages/temp_dir.h"
+#include "tests/storage/pages/tree_walk.h"
+#include "tests/storage/tree/random_surfels.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <map>
+#include <thread>
+
+namespace pbgi::storage {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::vector<uint8_t> read_file(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), {}};
+}
+void write_file(const fs::path& p, const std::vector<uint8_t>& b) {
+  std::ofstream f(p, std::ios::binary | std::ios::trunc);
+  f.write(reinterpret_cast<const char*>(b.data()), std::streamsize(b.size()));
+}
+bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+
+std::vector<fs::path> leftovers(const fs::path& dir) {
+  std::vector<fs::path> out;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (contains(e.path().filename().string(), ".tmp-")) out.push_back(e.path());
+  return out;
+}
+
+class PageSetTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    surfels_ = test::random_surfels(3000, 11);
+    options_.leaf_size = 4;
+    options_.page_size = 4096;  // small pages: many of them
+    dir_ = tmp_.path() / "set";
+    manifest_ = build_page_set(surfels_, options_, "key-123", dir_);
+  }
+  test::TempDir tmp_;
+  std::vector<Surfel> surfels_;
+  tree::BuildOptions options_;
+  fs::path dir_;
+  Manifest manifest_;
+};
+
+TEST_F(PageSetTest, RoundTripEqualsTheBuiltTree) {
+  const tree::BuiltTree built = tree::build_tree(surfels_, options_);
+  const tree::MemoryTree memory(built);
+  auto cache = std::make_shared<PageCache>(uint64_t(1) << 30);
+  PageSetReader reader(dir_, cache);
+
+  // Manifest as returned and as read.
+  const Manifest& m = reader.manifest();
+  EXPECT_EQ(m.build_key, "key-123");
+  EXPECT_EQ(m.options.leaf_size, 4u);
+  EXPECT_EQ(m.options.page_size, 4096u);
+  EXPECT_EQ(m.codec, 0u);
+  EXPECT_EQ(m.page_format, kPageFormatCurrent);
+  EXPECT_EQ(m.root, (tree::NodeRef{0, 0}));
+  EXPECT_EQ(m.pages, manifest_.pages);
+  EXPECT_EQ(m.stats.surfel_count, 3000u);
+  EXPECT_EQ(m.stats.node_count, built.nodes.size());
+  EXPECT_EQ(m.stats.leaf_count, built.leaf_count);
+  EXPECT_EQ(m.stats.max_depth, built.max_depth);
+  EXPECT_EQ(m.stats.page_count, m.pages.size());
+  EXPECT_EQ(m.stats.file_bytes, fs::file_size(dir_ / kPagesFileName));
+  EXPECT_GT(m.stats.page_count, 50u);
+
+  // Every node and surfel, reached from the root across pages.
+  const test::Walk want = test::walk(memory);
+  const test::Walk got = test::walk(reader);
+  test::expect_same_walk(got, want);
+  EXPECT_EQ(got.pages.size(), m.stats.page_count);  // every page is reachable
+
+  // Pages respect the size limit and are connected subtrees: entered only
+  // at their root (index 0), from exactly one parent in another page.
+  std::map<uint32_t, int> entries;
+  for (uint32_t p = 0; p < m.stats.page_count; ++p) {
+    EXPECT_LE(m.pages[p].bytes, options_.page_size);
+    const tree::PagePtr page = reader.page(p);
+    EXPECT_EQ(page->id, p);
+    for (const tree::Node& n : page->nodes) {
+      for (uint32_t c = 0; c < n.child_count; ++c) {
+        if (n.children[c].page != p) {
+          EXPECT_EQ(n.children[c].index, 0u);
+          entries[n.children[c].page]++;
+        }
+      }
+    }
+  }
+  for (uint32_t p = 1; p < m.stats.page_count; ++p) EXPECT_EQ(entries[p], 1) << "page " << p;
+  EXPECT_EQ(entries.count(0), 0u);
+}
+
+TEST_F(PageSetTest, InspectionAgreesWithTheManifest) {
+  PageSetReader reader(dir_, std::make_shared<PageCache>(uint64_t(1) << 30));
+  const PageSetInspection r = inspect_page_set(reader);
+  EXPECT_TRUE(r.walked);
+  EXPECT_TRUE(r.consistent);
+  EXPECT_EQ(r.nodes, manifest_.stats.node_count);
+  EXPECT_EQ(r.surfels, 3000u);
+  EXPECT_EQ(r.pages_reached, manifest_.stats.page_count);
+  EXPECT_EQ(r.leaf_depth_max, manifest_.stats.max_depth);
+  EXPECT_LE(r.leaf_depth_min, r.leaf_depth_max);
+  EXPECT_GE(r.path_pages_max, 2u);
+  EXPECT_GT(r.fill_min, 0.0);
+  EXPECT_LE(r.fill_max, 1.0);
+  EXPECT_EQ(r.payload_bytes_per_node, 144u);
+  const PageSetInspection quick = inspect_page_set(reader, false);
+  EXPECT_FALSE(quick.walked);
+  EXPECT_EQ(quick.fill_mean, r.fill_mean);
+}
+
+TEST_F(PageSetTest, FlippedPageByteIsCorruptionNamingThePage) {
+  const fs::path pages = dir_ / kPagesFileName;
+  const auto good = read_file(pages);
+  const uint32_t victims[] = {0, 5, manifest_.stats.page_count - 1};
+  for (uint32_t victim : victims) {
+    const PageExtent e = manifest_.pages[victim];
+    // Header, topology, somewhere in the middle, last surfel byte, trailer.
+    for (uint64_t at : {uint64_t(2), uint64_t(40), uint64_t(e.bytes / 2), uint64_t(e.bytes - 9),
+                        uint64_t(e.bytes - 1)}) {
+      auto bad = good;
+      bad[e.offset + at] ^= 0x04;
+      write_file(pages, bad);
+      auto cache = std::make_shared<PageCache>(uint64_t(1) << 30);
+      PageSetReader reader(dir_, cache);
+      for (int attempt = 0; attempt < 2; ++attempt) {  // a failed load is not cached
+        try {
+          reader.page(victim);
+          FAIL() << "damage at page " << victim << " + " << at << " not detected";
+        } catch (const CorruptionError& err) {
+          const std::string msg = err.what();
+          EXPECT_TRUE(contains(msg, "page " + std::to_string(victim) + " ")) << msg;
+          EXPECT_TRUE(contains(msg, "pages.pbgp")) << msg;
+          EXPECT_TRUE(contains(msg, "offset " + std::to_string(e.offset))) << msg;
+        }
+      }
+      // The other pages are still served.
+      const uint32_t other = victim == 0 ? 1 : 0;
+      EXPECT_NO_THROW(reader.page(other));
+    }
+  }
+  write_file(pages, good);
+  PageSetReader reader(dir_, nullptr);
+  EXPECT_NO_THROW(test::walk(reader));
+}
+
+TEST_F(PageSetTest, FlippedManifestByteIsRefused) {
+  const fs::path path = dir_ / kManifestFileName;
+  const auto good = read_file(path);
+  // Every byte, in memory (decode_manifest is what the reader runs).
+  for (size_t i = 0; i < good.size(); ++i) {
+    auto bad = good;
+    bad[i] ^= 0x20;
+    try {
+      decode_manifest(bad, path.string());
+      FAIL() << "damage at manifest byte " << i << " not detected";
+    } catch (const VersionError&) {
+      EXPECT_TRUE(i >= 4 && i < 8) << "byte " << i;  // the version field itself
+    } catch (const CorruptionError& e) {
+      EXPECT_TRUE(contains(e.what(), "manifest.pbgm")) << e.what();
+    }
+  }
+  // A few through the files and the reader.
+  for (size_t i : {size_t(0), size_t(20), good.size() / 2, good.size() - 1}) {
+    auto bad = good;
+    bad[i] ^= 0x20;
+    write_file(path, bad);
+    EXPECT_THROW(PageSetReader(dir_, nullptr), CorruptionError) << "byte " << i;
+  }
+  write_file(path, good);
+  EXPECT_NO_THROW(PageSetReader(dir_, nullptr));
+}
+
+TEST_F(PageSetTest, UnknownVersionsAreVersionErrors) {
+  const fs::path path = dir_ / kManifestFileName;
+  const auto good = read_file(path);
+
+  // A whole manifest of a newer format, correctly checksummed.
+  const ManifestBody body = unframe_manifest(good, "m");
+  write_file(path, frame_manifest(body.body, kManifestFormatCurrent + 1));
+  EXPECT_THROW(PageSetReader(dir_, nullptr), VersionError);
+
+  // A current manifest that declares pages of a newer format.
+  Manifest m = decode_manifest(good, "m");
+  m.page_format = kPageFormatCurrent + 1;
+  write_file(path, encode_manifest(m));
+  EXPECT_THROW(PageSetReader(dir_, nullptr), VersionError);
+
+  // ... or an unknown payload codec.
+  m = decode_manifest(good, "m");
+  m.codec = 200;
+  write_file(path, encode_manifest(m));
+  EXPECT_THROW(PageSetReader(dir_, nullptr), VersionError);
+  write_file(path, good);
+
+  // A page of a newer format (correctly sealed) inside a current page set.
+  const fs::path pages = dir_ / kPagesFileName;
+  auto bytes = read_file(pages);
+  const PageExtent e = manifest_.pages[3];
+  std::span<uint8_t> page(bytes.data() + e.offset, e.bytes);
+  PageHeader h = read_page_header(page.data());
+  h.format_version = kPageFormatCurrent + 1;
+  write_page_header(h, page.data());
+  seal_page(page);
+  write_file(pages, bytes);
+  PageSetReader reader(dir_, nullptr);
+  EXPECT_THROW(reader.page(3), VersionError);
+  EXPECT_NO_THROW(reader.page(2));
+}
+
+TEST_F(PageSetTest, TruncatedOrMissingFilesAreRefused) {
+  const fs::path pages = dir_ / kPagesFileName;
+  auto bytes = read_file(pages);
+  bytes.resize(bytes.size() - 100);
+  write_file(pages, bytes);
+  EXPECT_THROW(PageSetReader(dir_, nullptr), CorruptionError);
+  EXPECT_THROW(PageSetReader(tmp_.path() / "nothing-here", nullptr), NotFound);
+  fs::remove(pages);
+  EXPECT_THROW(PageSetReader(dir_, nullptr), NotFound);
+}
+
+TEST_F(PageSetTest, PageIdOutOfRange) {
+  PageSetReader reader(dir_, nullptr);
+  EXPECT_THROW(reader.page(manifest_.stats.page_count), InvalidArgument);
+}
+
+TEST_F(PageSetTest, PublishIsAtomic) {
+  // An existing directory is refused and left as it was.
+  const auto before = read_file(dir_ / kManifestFileName);
+  EXPECT_THROW(build_page_set(surfels_, options_, "other", dir_), InvalidArgument);
+  EXPECT_EQ(read_file(dir_ / kManifestFileName), before);
+  // Also an empty one (rename() alone would replace it).
+  fs::create_directory(tmp_.path() / "empty");
+  EXPECT_THROW(build_page_set(surfels_, options_, "k", tmp_.path() / "empty"), InvalidArgument);
+  EXPECT_TRUE(fs::is_empty(tmp_.path() / "empty"));
+  // A missing parent is refused.
+  EXPECT_THROW(build_page_set(surfels_, options_, "k", tmp_.path() / "no" / "set"), InvalidArgument);
+
+  // A build cancelled half way (progress throws) leaves nothing behind.
+  struct Stop {};
+  const fs::path target = tmp_.path() / "cancelled";
+  std::vector<float> seen;
+  EXPECT_THROW(build_page_set(surfels_, options_, "k", target,
+                              [&](float f) {
+                                seen.push_back(f);
+                                if (f > 0.56f) throw Stop{};
+                              }),
+               Stop);
+  EXPECT_FALSE(fs::exists(target));
+
+  // A complete build reports monotonic progress ending at 1.
+  seen.clear();
+  build_page_set(surfels_, options_, "k", tmp_.path() / "done", [&](float f) { seen.push_back(f); });
+  ASSERT_FALSE(seen.empty());
+  EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));
+  EXPECT_EQ(seen.back(), 1.f);
+  EXPECT_TRUE(leftovers(tmp_.path()).empty());
+  // Trailing slash names the same directory.
+  build_page_set(surfels_, options_, "k", fs::path(tmp_.path() / "slash") / "");
+  EXPECT_TRUE(fs::exists(tmp_.path() / "slash" / kManifestFileName));
+  EXPECT_TRUE(leftovers(tmp_.path()).empty());
+}
+
+TEST_F(PageSetTest, ConcurrentReadersSeeTheSameTree) {
+  const test::Walk want = test::walk(tree::MemoryTree(tree::build_tree(surfels_, options_)));
+  // A cache far smaller than the tree: threads keep evicting each other.
+  auto cache = std::make_shared<PageCache>(64 * 1024);
+  PageSetReader reader(dir_, cache);
+  std::vector<test::Walk> got(4);
+  std::vector<std::thread> threads;
+  for (int i = 0; i < 4; ++i) threads.emplace_back([&, i] { got[i] = test::walk(reader); });
+  for (auto& t : threads) t.join();
+  for (const auto& w : got) test::expect_same_walk(w, want);
+  const CacheCounters c = cache->counters();
+  EXPECT_LE(c.bytes_held, cache->budget());
+  EXPECT_GT(c.evictions, 0u);
+}
+
+TEST(PageSet, DefaultPagesOnLargerInput) {
+  test::TempDir tmp;
+  const auto surfels = test::random_surfels(20000, 5);
+  const Manifest m = build_page_set(surfels, {}, "k", tmp.path() / "s");
+  PageSetReader reader(tmp.path() / "s", std::make_shared<PageCache>(uint64_t(1) << 30));
+  const test::Walk got = test::walk(reader);
+  test::expect_same_walk(got, test::walk(tree::MemoryTree(tree::build_tree(surfels, {}))));
+  uint64_t page_bytes = 0;
+  for (const auto& e : m.pages) {
+    EXPECT_LE(e.bytes, 65536u);
+    EXPECT_EQ(e.offset % 4096, 0u);
+    page_bytes += e.bytes;
+  }
+  // Bottom-up packing keeps pages well filled.
+  EXPECT_GT(double(page_bytes) / (double(m.pages.size()) * 65536), 0.5);
+}
+
+TEST(PageSet, RejectsBadArguments) {
+  test::TempDir tmp;
+  tree::BuildOptions bad;
+  bad.leaf_size = 0;
+  EXPECT_THROW(build_page_set(test::random_surfels(10), bad, "k", tmp.path() / "a"), InvalidArgument);
+  EXPECT_THROW(build_page_set({}, {}, "k", tmp.path() / "b"), InvalidArgument);
+  EXPECT_THROW(build_page_set(test::random_surfels(10), {}, std::string(5000, 'k'), tmp.path() / "c"),
+               InvalidArgument);
+  EXPECT_TRUE(fs::is_empty(tmp.path()));
+}
+
+}  // namespace
+}  // namespace pbgi::storage
