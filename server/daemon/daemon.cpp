@@ -55,6 +55,7 @@ Daemon::~Daemon() { shutdown(std::chrono::milliseconds(0)); }
 void Daemon::start() {
   // 1. Options (the command line validated them already; tests may not have).
   options_.validate();
+  spdlog::set_level(spdlog::level::from_str(options_.log_level));
   const ListenAddress listen = parse_listen_address(options_.effective_listen());
 
   // 2. Threads for gathers and renders.

@@ -259,47 +259,59 @@ DaemonOptions load_daemon_config(const fs::path& file, DaemonOptions base) {
 }
 
 std::string to_toml(const DaemonOptions& o) {
-  toml::table root;
-  root.insert("listen", o.effective_listen());
-  root.insert("scene_roots", string_array(o.scene_roots));
-  root.insert("cache_dir", o.cache_dir);
-  root.insert("memory_budget", o.memory_budget);
-  root.insert("threads", int64_t(o.threads));
-  root.insert("log_level", o.log_level);
-  root.insert("python", o.python);
-  root.insert("preload", string_array(o.preload));
-  root.insert("allow_insecure_remote", o.allow_insecure_remote);
-  root.insert("shutdown_grace_seconds", o.shutdown_grace_seconds);
+  // Written by hand rather than through toml++'s formatter, which prints
+  // floats with 17 digits (0.029999999999999999) or only 6: here a float
+  // prints as the shortest text that reads back to the same float.
+  std::ostringstream out;
+  auto string_value = [&](const char* key, const std::string& v) {
+    out << key << " = " << toml::value<std::string>(v) << '\n';
+  };
+  auto strings_value = [&](const char* key, const std::vector<std::string>& v) {
+    out << key << " = " << string_array(v) << '\n';
+  };
+  auto integer_value = [&](const char* key, uint64_t v) { out << key << " = " << v << '\n'; };
+  auto float_value = [&](const char* key, double v) {
+    std::string text = fmt::format("{}", v);
+    if (text.find_first_of(".eEn") == std::string::npos) text += ".0";  // TOML float syntax
+    out << key << " = " << text << '\n';
+  };
+  auto float32_value = [&](const char* key, float v) { float_value(key, float_for_toml(v)); };
+
+  out << "# pbgid effective configuration\n";
+  string_value("listen", o.effective_listen());
+  strings_value("scene_roots", o.scene_roots);
+  string_value("cache_dir", o.cache_dir);
+  string_value("memory_budget", o.memory_budget);
+  integer_value("threads", o.threads);
+  string_value("log_level", o.log_level);
+  string_value("python", o.python);
+  strings_value("preload", o.preload);
+  out << "allow_insecure_remote = " << (o.allow_insecure_remote ? "true" : "false") << '\n';
+  float_value("shutdown_grace_seconds", o.shutdown_grace_seconds);
 
   const RenderOptions& r = o.service.defaults.render;
-  toml::table gather;
-  gather.insert("microbuffer_resolution", int64_t(r.gather.microbuffer_resolution));
-  gather.insert("max_solid_angle", float_for_toml(r.gather.max_solid_angle));
-  gather.insert("ao_max_distance", float_for_toml(r.gather.ao_max_distance));
-  gather.insert("light_samples", int64_t(r.light_samples));
-  gather.insert("pixel_samples", int64_t(r.pixel_samples));
-  root.insert("gather", std::move(gather));
+  out << "\n[gather]\n";
+  integer_value("microbuffer_resolution", r.gather.microbuffer_resolution);
+  float32_value("max_solid_angle", r.gather.max_solid_angle);
+  float32_value("ao_max_distance", r.gather.ao_max_distance);
+  integer_value("light_samples", r.light_samples);
+  integer_value("pixel_samples", r.pixel_samples);
 
   const OpenOptions& b = o.service.defaults.open;
-  toml::table build;
-  build.insert("surfel_spacing", float_for_toml(b.surfels.spacing));
-  build.insert("target_surfels", int64_t(b.surfels.target_surfels));
-  build.insert("light_samples", int64_t(b.surfels.light_samples));
-  build.insert("seed", int64_t(b.surfels.seed));
-  build.insert("page_size", int64_t(b.tree.page_size));
-  build.insert("leaf_size", int64_t(b.tree.leaf_size));
-  root.insert("build", std::move(build));
+  out << "\n[build]\n";
+  float32_value("surfel_spacing", b.surfels.spacing);
+  integer_value("target_surfels", b.surfels.target_surfels);
+  integer_value("light_samples", b.surfels.light_samples);
+  integer_value("seed", b.surfels.seed);
+  integer_value("page_size", b.tree.page_size);
+  integer_value("leaf_size", b.tree.leaf_size);
 
   const service::RequestLimits& l = o.service.limits;
-  toml::table limits;
-  limits.insert("max_receivers", int64_t(l.max_receivers));
-  limits.insert("max_image_side", int64_t(l.max_image_side));
-  limits.insert("max_tile_pixels", int64_t(l.max_tile_pixels));
-  limits.insert("max_message_size", o.max_message_size);
-  root.insert("limits", std::move(limits));
-
-  std::ostringstream out;
-  out << "# pbgid effective configuration\n" << root << '\n';
+  out << "\n[limits]\n";
+  integer_value("max_receivers", l.max_receivers);
+  integer_value("max_image_side", l.max_image_side);
+  integer_value("max_tile_pixels", l.max_tile_pixels);
+  string_value("max_message_size", o.max_message_size);
   return out.str();
 }
 

@@ -74,6 +74,12 @@ bool finite(const Imath::V3f& v) {
   return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
 
+// Starts loading all cache lines of a node (bounds, then payload).
+inline void prefetch(const tree::Node& node) {
+  const char* p = reinterpret_cast<const char*>(&node);
+  for (size_t off = 0; off < sizeof(tree::Node); off += 64) __builtin_prefetch(p + off);
+}
+
 struct StackEntry {
   const tree::Page* page;
   uint32_t index;
@@ -162,7 +168,7 @@ void Gatherer::Impl::push_children(const tree::Page& page, uint32_t index,
     }
     // The node is popped soon; start fetching it now (traversal is bound
     // by memory latency, one miss per node otherwise).
-    __builtin_prefetch(&child_page->nodes[ref.index]);
+    prefetch(child_page->nodes[ref.index]);
     stack.push_back({child_page, ref.index});
   }
   if (stack.size() > kMaxStack) {
@@ -258,6 +264,7 @@ GatherResult Gatherer::gather(const Receiver& r) {
   while (!m.stack.empty()) {
     const StackEntry e = m.stack.back();
     m.stack.pop_back();
+    if (!m.stack.empty()) prefetch(m.stack.back().page->nodes[m.stack.back().index]);
     const tree::Node& node = e.page->nodes[e.index];
     ++visited;
     if (!(node.area > 0.f) || !(node.radius >= 0.f)) continue;  // shows nothing (or NaN)

@@ -14,6 +14,7 @@ constexpr float kOpaque = 1e-6f;
 Microbuffer::Microbuffer(const CubeLayout& layout, float depth_band)
     : layout_(layout),
       band_(depth_band),
+      grow_(1.f + depth_band),
       weight_(layout.pixel_count(), 0.f),
       stamp_(layout.pixel_count(), 0),
       head_(layout.pixel_count(), -1) {
@@ -51,15 +52,14 @@ void Microbuffer::begin(const Imath::V3f& n) {
 
 Resolved Microbuffer::resolve(float ao_max_distance) {
   double er = 0, eg = 0, eb = 0, occlusion = 0;
-  const float grow = 1.f + band_;
   for (const uint32_t k : touched_) {
     sorted_.clear();
     for (int32_t f = head_[k]; f >= 0; f = fragments_[f].next) sorted_.push_back(fragments_[f]);
-    // Lists are short (a few fragments): insertion sort beats std::sort.
+    // Lists are short (a few surfaces): insertion sort beats std::sort.
     for (size_t i = 1; i < sorted_.size(); ++i) {
       const Fragment x = sorted_[i];
       size_t j = i;
-      for (; j > 0 && sorted_[j - 1].depth > x.depth; --j) sorted_[j] = sorted_[j - 1];
+      for (; j > 0 && sorted_[j - 1].near > x.near; --j) sorted_[j] = sorted_[j - 1];
       sorted_[j] = x;
     }
 
@@ -67,13 +67,13 @@ Resolved Microbuffer::resolve(float ao_max_distance) {
     bool ao_open = true;  // clusters still nearer than ao_max_distance
     size_t i = 0;
     while (i < sorted_.size() && transmit > kOpaque) {
-      const float start = sorted_[i].depth;
-      float z = start, a = 0.f, w = 0.f, cr = 0.f, cg = 0.f, cb = 0.f;
+      const float start = sorted_[i].near;
+      float far = start, a = 0.f, w = 0.f, cr = 0.f, cg = 0.f, cb = 0.f;
       float hits = 0.f, hw = 0.f, hr = 0.f, hg = 0.f, hb = 0.f;
       do {
         const Fragment& f = sorted_[i];
-        if (f.alpha == kHit) {
-          hits += 1.f;
+        if (f.alpha < 0.f) {
+          hits -= f.alpha;
           hw += f.weight;
           hr += f.r;
           hg += f.g;
@@ -85,9 +85,9 @@ Resolved Microbuffer::resolve(float ao_max_distance) {
           cg += f.g;
           cb += f.b;
         }
-        z = f.depth;
+        far = std::max(far, f.far);
         ++i;
-      } while (i < sorted_.size() && sorted_[i].depth <= z * grow);
+      } while (i < sorted_.size() && sorted_[i].near <= far * grow_);
       if (hits > 0.f) {
         const float inv = 1.f / hits;
         a += 1.f;

@@ -7,9 +7,13 @@
 //  1. Sort the pixel's fragments by depth.
 //  2. Cluster them into surfaces: walking front to back, a fragment joins the
 //     current cluster when its depth is within a relative band of the
-//     previous fragment's, z <= z_prev * (1 + depth_band); a larger gap
-//     starts a new cluster. Pieces of one surface (neighbouring splats and
-//     ray-cast surfels) land at nearby depths and are chained together.
+//     cluster's farthest depth so far, z <= z_far * (1 + depth_band); a
+//     larger gap starts a new cluster. Pieces of one surface (neighbouring
+//     splats and ray-cast surfels) land at nearby depths and are chained.
+//     To keep lists short, add_*() already merges a fragment into one of
+//     the pixel's fragments of the same kind whose depth interval it is
+//     within the band of; such fragments always end in the same cluster,
+//     so this changes nothing but speed.
 //  3. A cluster's coverage is alpha = min(1, hits) + sum of splat alphas.
 //     Ray-cast hits of overlapping disks do not add up: a hit means the
 //     pixel center sees the surface. Splat coverage is deliberately not
@@ -41,6 +45,8 @@
 #include <Imath/ImathColor.h>
 #include <Imath/ImathVec.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -75,14 +81,15 @@ class Microbuffer {
   void add_coverage(uint32_t k, float depth, float alpha, float weight,
                     const Imath::C3f& radiance) {
     if (!(alpha > 0.f) || !(weight > 0.f)) return;
-    push(k, {depth, alpha, weight, radiance.x * weight, radiance.y * weight, radiance.z * weight});
+    push(k, {depth, depth, alpha, weight, radiance.x * weight, radiance.y * weight,
+             radiance.z * weight});
   }
   // Adds a ray-cast hit: the center direction of pixel k meets a surface at
   // `depth` showing `radiance`.
   void add_hit(uint32_t k, float depth, const Imath::C3f& radiance) {
     const float w = weight_[k];
     if (!(w > 0.f)) return;
-    push(k, {depth, kHit, w, radiance.x * w, radiance.y * w, radiance.z * w});
+    push(k, {depth, depth, -1.f, w, radiance.x * w, radiance.y * w, radiance.z * w});
   }
 
   // Resolves visibility (rule above) and convolves with the cosine lobe.
@@ -92,28 +99,43 @@ class Microbuffer {
   size_t touched_pixel_count() const { return touched_.size(); }
 
  private:
+  // A fragment, or several merged ones of one kind and surface.
   struct Fragment {
-    float depth;
-    float alpha;    // splat coverage, or kHit for a ray-cast hit
-    float weight;   // cosine-weighted solid angle
-    float r, g, b;  // radiance times weight
+    float near, far;  // depth interval
+    float alpha;      // splat coverage (> 0), or minus the number of ray-cast hits
+    float weight;     // cosine-weighted solid angle
+    float r, g, b;    // radiance times weight
     int32_t next = -1;
   };
-  static constexpr float kHit = -1.f;
 
-  void push(uint32_t k, Fragment f) {
+  void push(uint32_t k, const Fragment& f) {
+    if (!std::isfinite(f.near)) return;
     if (stamp_[k] != generation_) {
       stamp_[k] = generation_;
       head_[k] = -1;
       touched_.push_back(k);
     }
-    f.next = head_[k];
+    for (int32_t i = head_[k]; i >= 0; i = fragments_[i].next) {
+      Fragment& g = fragments_[i];
+      if ((g.alpha > 0.f) != (f.alpha > 0.f)) continue;
+      if (f.near * grow_ < g.near || f.near > g.far * grow_) continue;
+      g.near = std::min(g.near, f.near);
+      g.far = std::max(g.far, f.far);
+      g.alpha += f.alpha;
+      g.weight += f.weight;
+      g.r += f.r;
+      g.g += f.g;
+      g.b += f.b;
+      return;
+    }
     fragments_.push_back(f);
+    fragments_.back().next = head_[k];
     head_[k] = int32_t(fragments_.size() - 1);
   }
 
   const CubeLayout& layout_;
   float band_;
+  float grow_;  // 1 + band_
   Imath::V3f normal_{0, 0, 1};
   std::vector<float> weight_;
   // A pixel's list is valid only when its stamp equals the generation, so

@@ -8,12 +8,12 @@ namespace pbgi::gather {
 namespace {
 // CDF at x of a box of half width h convolved with itself: a tent of half
 // width 2h centered at 0.
+// Branch-free: with t = (x + 2h) / 2h clamped to [0, 2], s = min(t, 1) and
+// e = max(t - 1, 0), the CDF is s^2/2 + e - e^2/2.
 inline float tent_cdf(float x, float h) {
-  const float w = 2.f * h;
-  if (x <= -w) return 0.f;
-  if (x >= w) return 1.f;
-  const float t = (x + w) / w;  // 0..2
-  return t <= 1.f ? 0.5f * t * t : 1.f - 0.5f * (2.f - t) * (2.f - t);
+  const float t = std::clamp((x + 2.f * h) / (2.f * h), 0.f, 2.f);
+  const float s = std::min(t, 1.f), e = std::max(t - 1.f, 0.f);
+  return 0.5f * s * s + e - 0.5f * e * e;
 }
 }  // namespace
 
@@ -26,7 +26,7 @@ void Rasterizer::splat(const Imath::V3f& dir, const Shape& shape, float depth,
   const float omega = shape.omega;
   if (!(omega > 0.f) || !(depth > 0.f)) return;
   candidates_.clear();
-  covered_ = 0.0;
+  covered_ = 0.f;
 
   // Semi-axes (radians): pi * major * minor = omega, minor = ratio * major,
   // and the major axis no longer than the node itself.
@@ -88,9 +88,9 @@ void Rasterizer::splat(const Imath::V3f& dir, const Shape& shape, float depth,
   if (sv0 < -1.f) overflow(home, 2 * kv + 1, su0, su1, sv0, -1.f, area * tent_cdf(-1.f - v, hv));
 
   // 3. Rescale so that the pieces add up to exactly the splat's solid angle.
-  if (!(covered_ > 0.0) || candidates_.empty()) return;
+  if (!(covered_ > 0.f) || candidates_.empty()) return;
   const float* solid = layout_.solid_angles();
-  const float scale = float(double(omega) / covered_);
+  const float scale = omega / covered_;
   // The tent blurs the splat, which lowers its cosine-weighted solid angle
   // near the normal (by 8% for a 0.28 sr splat). When the whole footprint
   // is above the horizon, the weights are rescaled to the exact value for
@@ -99,11 +99,11 @@ void Rasterizer::splat(const Imath::V3f& dir, const Shape& shape, float depth,
   const float reach = std::min(1.f, 3.f * major);
   float weight_scale = scale;
   if (cos_center > reach) {
-    double weight = 0.0;
-    for (const Candidate& c : candidates_) weight += double(c.fraction) * solid[c.pixel] * c.cosine;
+    float weight = 0.f;
+    for (const Candidate& c : candidates_) weight += c.fraction * solid[c.pixel] * c.cosine;
     const float rho2 = major * minor;
     const float target = omega * cos_center * (1.f - 0.25f * rho2);  // (1 + cos rho) / 2
-    if (weight > 0.0) weight_scale = float(target / weight);
+    if (weight > 0.f) weight_scale = target / weight;
   }
   for (const Candidate& c : candidates_) {
     buffer_.add_coverage(c.pixel, depth, c.fraction * scale,
@@ -131,13 +131,18 @@ void Rasterizer::overflow(int home, int face, float u0, float u1, float v0, floa
     bv0 = std::min(bv0, iv);
     bv1 = std::max(bv1, iv);
   }
-  // `mass` is in home-plane area; R's mean density, mass / area(R), carries
-  // over to B in proportion of the two rectangles' solid angles.
-  const double from = CubeLayout::rect_solid_angle(u0, v0, u1, v1);
-  const double to = CubeLayout::rect_solid_angle(bu0, bv0, bu1, bv1);
-  const double r_area = double(u1 - u0) * double(v1 - v0);
-  if (!(to > 0.0) || !(r_area > 0.0)) return;
-  deposit(face, bu0, bu1, bv0, bv1, float(mass / r_area * from / to));
+  // `mass` is in home-plane area; it carries over to B in proportion of the
+  // two rectangles' solid angles (area times the Jacobian at the center;
+  // the final rescaling absorbs the second-order error).
+  const auto solid = [](float a0, float a1, float b0, float b1) {
+    const float a = 0.5f * (a0 + a1), b = 0.5f * (b0 + b1);
+    const float q = 1.f + a * a + b * b;
+    return (a1 - a0) * (b1 - b0) / (q * std::sqrt(q));
+  };
+  const float r_area = (u1 - u0) * (v1 - v0);
+  const float to = solid(bu0, bu1, bv0, bv1);
+  if (!(to > 0.f) || !(r_area > 0.f)) return;
+  deposit(face, bu0, bu1, bv0, bv1, mass / r_area * solid(u0, u1, v0, v1) / to);
 }
 
 void Rasterizer::deposit_tent(int face, float uc, float hu, float vc, float hv) {
@@ -177,7 +182,7 @@ void Rasterizer::deposit_tent(int face, float uc, float hu, float vc, float hv) 
       const float fraction = mass_u[i] * mass_v;
       if (!(fraction > 0.f)) continue;
       const uint32_t k = row + i;
-      covered_ += double(fraction) * solid[k];
+      covered_ += fraction * solid[k];
       // Parts below the horizon count in `covered_` (that share of the
       // splat is lost to the receiver) but get no fragment.
       const float m = mid_u[i];
@@ -218,7 +223,7 @@ void Rasterizer::deposit(int face, float u0, float u1, float v0, float v1, float
       if (b_u <= a_u) continue;
       const uint32_t k = row + i;
       const float fraction = (b_u - a_u) * (b_v - a_v) * scale;
-      covered_ += double(fraction) * solid[k];
+      covered_ += fraction * solid[k];
       // Parts below the horizon count in `covered_` (that share of the
       // splat is lost to the receiver) but get no fragment.
       const float mid_u = 0.5f * (a_u + b_u);

@@ -74,7 +74,7 @@ class Rasterizer {
   Microbuffer& buffer_;
   const CubeLayout& layout_;
   std::vector<Candidate> candidates_;
-  double covered_ = 0.0;  // solid angle of the candidates, before rescaling
+  float covered_ = 0.f;  // solid angle of the candidates, before rescaling
 };
 
 }  // namespace pbgi::gather

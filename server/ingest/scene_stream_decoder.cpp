@@ -2,6 +2,7 @@
 
 #include "pbgi/v1/scene.pb.h"
 #include "server/ingest/subdiv_cage_message.h"
+#include "server/ingest/texture_loader.h"
 #include "server/scene/scene_validation.h"
 #include "storage/format/errors.h"
 
@@ -73,6 +74,47 @@ M44f matrix_from(const google::protobuf::RepeatedField<float>& v) {
 }
 
 C3f color_from(const pbgi::v1::Vec3& v) { return C3f(v.x(), v.y(), v.z()); }
+
+TextureWrap wrap_from(pbgi::v1::TextureRef::Wrap w) {
+  switch (w) {
+    case pbgi::v1::TextureRef::BLACK: return TextureWrap::Black;
+    case pbgi::v1::TextureRef::CLAMP: return TextureWrap::Clamp;
+    case pbgi::v1::TextureRef::REPEAT: return TextureWrap::Repeat;
+    case pbgi::v1::TextureRef::MIRROR: return TextureWrap::Mirror;
+    default: return TextureWrap::UseMetadata;
+  }
+}
+
+// A texture reference as the reader sent it; the file is loaded after the
+// stream (load_scene_textures), once per file.
+TextureBinding binding_from(const pbgi::v1::TextureRef& r) {
+  TextureBinding b;
+  b.file = r.file();
+  switch (r.source_color_space()) {
+    case pbgi::v1::TextureRef::SRGB: b.color_space = TextureColorSpace::Srgb; break;
+    case pbgi::v1::TextureRef::RAW: b.color_space = TextureColorSpace::Raw; break;
+    default: b.color_space = TextureColorSpace::Auto; break;
+  }
+  b.wrap_s = wrap_from(r.wrap_s());
+  b.wrap_t = wrap_from(r.wrap_t());
+  switch (r.channel()) {
+    case pbgi::v1::TextureRef::R: b.channel = TextureChannel::R; break;
+    case pbgi::v1::TextureRef::G: b.channel = TextureChannel::G; break;
+    case pbgi::v1::TextureRef::B: b.channel = TextureChannel::B; break;
+    case pbgi::v1::TextureRef::A: b.channel = TextureChannel::A; break;
+    default: b.channel = TextureChannel::Rgb; break;
+  }
+  if (r.has_scale()) b.scale = color_from(r.scale());
+  if (r.has_bias()) b.bias = color_from(r.bias());
+  if (r.st_transform_size() == 6) {
+    // [a b tx; c d ty] acting on column (s, t, 1) -> Imath's row vectors.
+    const auto& m = r.st_transform();
+    b.st_transform = Imath::M33f(m[0], m[3], 0.f, m[1], m[4], 0.f, m[2], m[5], 1.f);
+  }
+  b.uses_uvs = r.uses_uvs();
+  b.constant_st = V2f(r.constant_s(), r.constant_t());
+  return b;
+}
 
 // Version of the refinement algorithm, folded into the content hash of
 // scenes with subdivision surfaces; bump when refined triangles change.
@@ -171,6 +213,10 @@ class SceneAssembler {
       fail(at, fmt::format("mesh {}: {} bytes of normals for {} bytes of positions", prim, nrm.size(), pos.size()));
     if (idx.size() % (3 * sizeof(uint32_t)) != 0)
       fail(at, fmt::format("mesh {}: indices hold {} bytes, not whole triangles", prim, idx.size()));
+    if (!m.uvs().empty() && m.uvs().size() != pos.size() / sizeof(V3f) * sizeof(V2f))
+      fail(at, fmt::format("mesh {}: {} bytes of uvs for {} bytes of positions", prim, m.uvs().size(), pos.size()));
+    if (!m.colors().empty() && m.colors().size() != pos.size())
+      fail(at, fmt::format("mesh {}: {} bytes of colors for {} bytes of positions", prim, m.colors().size(), pos.size()));
 
     TriangleSoup& soup = scene_.triangles;
     const size_t vertex_count = pos.size() / sizeof(V3f);
@@ -200,6 +246,9 @@ class SceneAssembler {
       if (!soup.normals.empty()) soup.normals.resize(base + vertex_count);
     }
 
+    append_vertex_primvar(soup.uvs, base, vertex_count, m.uvs());
+    append_vertex_primvar(soup.colors, base, vertex_count, m.colors());
+
     const size_t first_index = soup.indices.size();
     const size_t index_count = idx.size() / sizeof(uint32_t);
     soup.indices.resize(first_index + index_count);
@@ -217,6 +266,23 @@ class SceneAssembler {
     chunks_.push_back({static_cast<uint32_t>(base), static_cast<uint32_t>(vertex_count), first_index, index_count,
                        has_normals});
     streamed_triangles_ += triangles;
+  }
+
+  // Keeps a per-vertex primvar array parallel to the positions: NaN for
+  // the vertices of chunks without it, created when a chunk first has it.
+  template <typename T>
+  static void append_vertex_primvar(std::vector<T>& values, size_t base, size_t count, const std::string& bytes) {
+    static_assert(sizeof(T) % sizeof(float) == 0, "packed floats");
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    T missing;
+    for (size_t k = 0; k < sizeof(T) / sizeof(float); ++k) missing[k] = nan;
+    if (bytes.empty()) {
+      if (!values.empty()) values.resize(base + count, missing);
+      return;
+    }
+    values.resize(base, missing);
+    values.resize(base + count);
+    std::memcpy(static_cast<void*>(values.data() + base), bytes.data(), bytes.size());
   }
 
   uint32_t mesh_index(const std::string& prim, bool double_sided) {
@@ -262,6 +328,11 @@ class SceneAssembler {
     soup.normals.resize(base);
     soup.normals.insert(soup.normals.end(), refined.normals.begin(), refined.normals.end());
     any_normals_ = true;
+    // Face-varying and vertex primvars are not refined yet: the refined
+    // vertices have no uvs or colours (NaN, as TriangleSoup documents).
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    if (!soup.uvs.empty()) soup.uvs.resize(soup.positions.size(), V2f(nan, nan));
+    if (!soup.colors.empty()) soup.colors.resize(soup.positions.size(), C3f(nan, nan, nan));
     const size_t first_index = soup.indices.size();
     for (const uint32_t i : refined.indices) soup.indices.push_back(i + static_cast<uint32_t>(base));
     const size_t triangles = refined.triangle_count();
@@ -282,6 +353,11 @@ class SceneAssembler {
     m.emission = color_from(d.emissive_color());
     m.roughness = d.roughness();
     m.metallic = d.metallic();
+    if (d.has_diffuse_texture() && !d.diffuse_texture().file().empty())
+      m.albedo_texture = binding_from(d.diffuse_texture());
+    if (d.has_emissive_texture() && !d.emissive_texture().file().empty())
+      m.emission_texture = binding_from(d.emissive_texture());
+    m.albedo_from_vertex_colors = d.diffuse_from_vertex_colors();
     scene_.materials.push_back(std::move(m));
   }
 
@@ -295,6 +371,8 @@ class SceneAssembler {
       case pbgi::v1::LightDef::SPHERE: l.kind = LightKind::Sphere; break;
       case pbgi::v1::LightDef::DISTANT: l.kind = LightKind::Distant; break;
       case pbgi::v1::LightDef::DISK: l.kind = LightKind::Disk; break;
+      case pbgi::v1::LightDef::DOME: l.kind = LightKind::Dome; break;
+      case pbgi::v1::LightDef::CYLINDER: l.kind = LightKind::Cylinder; break;
       default:
         scene_.warnings.push_back(fmt::format("{}: light of unknown kind {} skipped", d.prim_path(), static_cast<int>(d.kind())));
         return;
@@ -305,6 +383,15 @@ class SceneAssembler {
     l.height = d.height();
     l.radius = d.radius();
     l.angle_degrees = d.angle_degrees();
+    l.length = d.length();
+    l.texture_file = d.texture_file();
+    if (d.has_shaping()) {
+      l.shaping.enabled = true;
+      l.shaping.cone_angle_degrees = d.shaping().cone_angle_degrees();
+      l.shaping.cone_softness = d.shaping().cone_softness();
+      l.shaping.focus = d.shaping().focus();
+      l.shaping.focus_tint = color_from(d.shaping().focus_tint());
+    }
     scene_.lights.push_back(std::move(l));
   }
 
@@ -345,6 +432,14 @@ class SceneAssembler {
     TriangleSoup& soup = scene_.triangles;
     std::vector<V3f> positions, normals;
     std::vector<uint32_t> indices;
+    std::vector<V2f> uvs;
+    std::vector<C3f> colors;
+    const bool have_uvs = !soup.uvs.empty(), have_colors = !soup.colors.empty();
+    // Vertex primvars follow their vertex, whether copied or unwelded.
+    auto carry = [&](uint32_t v) {
+      if (have_uvs) uvs.push_back(soup.uvs[v]);
+      if (have_colors) colors.push_back(soup.colors[v]);
+    };
     positions.reserve(soup.positions.size());
     normals.reserve(soup.positions.size());
     indices.reserve(soup.indices.size());
@@ -355,6 +450,7 @@ class SceneAssembler {
                          soup.positions.begin() + c.first_vertex + c.vertex_count);
         normals.insert(normals.end(), soup.normals.begin() + c.first_vertex,
                        soup.normals.begin() + c.first_vertex + c.vertex_count);
+        for (uint32_t v = c.first_vertex; v < c.first_vertex + c.vertex_count; ++v) carry(v);
         for (size_t i = c.first_index; i < c.first_index + c.index_count; ++i)
           indices.push_back(soup.indices[i] - c.first_vertex + base);
         continue;
@@ -367,16 +463,19 @@ class SceneAssembler {
         const float length = n.length();
         // A degenerate triangle has no area to shade; any unit normal will do.
         n = length > 0.f ? n / length : V3f(0.f, 0.f, 1.f);
-        for (const V3f& p : {a, b, d}) {
+        for (int k = 0; k < 3; ++k) {
           indices.push_back(static_cast<uint32_t>(positions.size()));
-          positions.push_back(p);
+          positions.push_back(soup.positions[soup.indices[i + k]]);
           normals.push_back(n);
+          carry(soup.indices[i + k]);
         }
       }
     }
     soup.positions.swap(positions);
     soup.normals.swap(normals);
     soup.indices.swap(indices);
+    if (have_uvs) soup.uvs.swap(uvs);
+    if (have_colors) soup.colors.swap(colors);
   }
 
   const std::string& source_;
@@ -458,6 +557,9 @@ Scene SceneStreamDecoder::decode(int fd) {
                                    "reader failed)",
                                    at.index));
   Scene scene = assembler.finish(at);
+  // Textures and dome maps the stream names, each file once; unreadable
+  // ones become warnings and the constants the reader sent stand in.
+  load_scene_textures(scene);
   validate_scene(scene);
   return scene;
 }

@@ -1,5 +1,7 @@
 #include "server/scene/light_sampling.h"
 
+#include "server/scene/dome_light.h"
+#include "server/scene/light_shaping.h"
 #include "server/scene/sample_patterns.h"
 
 #include <algorithm>
@@ -161,6 +163,85 @@ LightSample sample_distant(const Light& light) {
   return s;
 }
 
+// CylinderLight: the lateral surface of radius r around the local X axis,
+// x in [-length/2, length/2], emitting outward (the caps do not emit).
+// Points are uniform in the local parameters (x, angle), which is uniform
+// in world area when the transform scales local Y and Z alike; its world
+// area uses the mean of the two scales (a non-uniformly scaled cross
+// section is an ellipse, whose perimeter this approximates).
+struct CylinderGeometry {
+  M44f to_world, normal_to_world, to_local;
+  float area = 0.f;
+};
+
+CylinderGeometry cylinder_geometry(const Light& light) {
+  CylinderGeometry g;
+  g.to_world = light.local_to_world;
+  g.to_local = light.local_to_world.inverse();
+  g.normal_to_world = g.to_local.transposed();
+  V3f ax, ay, az;
+  light.local_to_world.multDirMatrix(V3f(1, 0, 0), ax);
+  light.local_to_world.multDirMatrix(V3f(0, 1, 0), ay);
+  light.local_to_world.multDirMatrix(V3f(0, 0, 1), az);
+  g.area = 2.f * kPi * light.radius * 0.5f * (ay.length() + az.length()) * light.length * ax.length();
+  return g;
+}
+
+V3f cylinder_normal(const CylinderGeometry& g, float cos_phi, float sin_phi) {
+  V3f n;
+  g.normal_to_world.multDirMatrix(V3f(0.f, cos_phi, sin_phi), n);
+  return n.normalized();
+}
+
+LightSample sample_cylinder(const Light& light, const V3f& p, float u1, float u2) {
+  LightSample s;
+  if (!(light.radius > 0.f) || !(light.length > 0.f)) return s;
+  const CylinderGeometry g = cylinder_geometry(light);
+  const float phi = 2.f * kPi * u2;
+  const float c = std::cos(phi), sn = std::sin(phi);
+  V3f q;
+  g.to_world.multVecMatrix(V3f((u1 - 0.5f) * light.length, light.radius * c, light.radius * sn), q);
+  const V3f n = cylinder_normal(g, c, sn);
+  const V3f d = q - p;
+  const float dist = d.length();
+  if (!(dist > 0.f)) return s;
+  s.direction = d / dist;
+  s.distance = dist;
+  s.pdf = area_to_solid_angle(g.area, dist, s.direction, n);
+  if (s.pdf > 0.f) s.radiance = light.radiance;
+  return s;
+}
+
+// Nearest hit of the ray with the cylinder's outside before tmax. Rays from
+// inside the (infinite) cylinder, or whose first crossing of the surface is
+// outside [-length/2, length/2], reach only its inside, which emits away.
+bool intersect_cylinder(const Light& light, const V3f& origin, const V3f& dir, float tmax,
+                        C3f* radiance, float* t, float* pdf) {
+  if (!(light.radius > 0.f) || !(light.length > 0.f)) return false;
+  const CylinderGeometry g = cylinder_geometry(light);
+  V3f o, d;
+  g.to_local.multVecMatrix(origin, o);
+  g.to_local.multDirMatrix(dir, d);  // not normalized: t stays the world distance
+  const float r2 = light.radius * light.radius;
+  const float c = o.y * o.y + o.z * o.z - r2;
+  if (!(c > 0.f)) return false;
+  const float a = d.y * d.y + d.z * d.z;
+  const float b = o.y * d.y + o.z * d.z;
+  if (!(a > 0.f) || !(b < 0.f)) return false;  // parallel to the axis, or moving away
+  const float disc = b * b - a * c;
+  if (disc < 0.f) return false;
+  const float th = c / (-b + std::sqrt(disc));  // smaller root, stable form
+  if (!(th > 0.f) || !(th < tmax)) return false;
+  const V3f hit = o + th * d;
+  if (std::fabs(hit.x) > 0.5f * light.length) return false;
+  const float inv_r = 1.f / light.radius;
+  const V3f n = cylinder_normal(g, hit.y * inv_r, hit.z * inv_r);
+  *radiance = light.radiance;
+  *t = th;
+  *pdf = area_to_solid_angle(g.area, th, dir, n);
+  return *pdf > 0.f;
+}
+
 // Ray against the light's plane; returns the hit distance if it is in
 // (0, tmax) and the ray arrives on the emitting side.
 bool hit_plane(const LightFrame& f, const V3f& o, const V3f& dir, float tmax, float* t) {
@@ -172,26 +253,58 @@ bool hit_plane(const LightFrame& f, const V3f& o, const V3f& dir, float tmax, fl
   return true;
 }
 
+// Rect, disk, sphere and cylinder without shaping (defined below).
+bool intersect_unshaped(const Light& light, const V3f& origin, const V3f& dir, float tmax,
+                        C3f* radiance, float* t, float* pdf);
+
 }  // namespace
 
 LightSample sample_light(const Light& light, const V3f& p, float u1, float u2) {
+  LightSample s;
+  s.direction = V3f(0.f, 0.f, 0.f);
   switch (light.kind) {
-    case LightKind::Rect: return sample_rect(light, p, u1, u2);
-    case LightKind::Disk: return sample_disk(light, p, u1, u2);
-    case LightKind::Sphere: return sample_sphere(light, p, u1, u2);
+    case LightKind::Rect: s = sample_rect(light, p, u1, u2); break;
+    case LightKind::Disk: s = sample_disk(light, p, u1, u2); break;
+    case LightKind::Sphere: s = sample_sphere(light, p, u1, u2); break;
+    case LightKind::Cylinder: s = sample_cylinder(light, p, u1, u2); break;
     case LightKind::Distant: return sample_distant(light);
+    case LightKind::Dome: return sample_dome(light, u1, u2);
   }
-  return {};
+  // Shaping scales what leaves the light toward p; the density is unchanged.
+  if (light.shaping.enabled && s.pdf > 0.f)
+    s.radiance *= shaping_factor(light.shaping, shaping_axis(light), -s.direction);
+  return s;
 }
 
 bool intersect_light(const Light& light, const V3f& origin, const V3f& dir, float tmax,
                      C3f* radiance, float* t, float* pdf) {
+  if (light.kind == LightKind::Dome) {
+    if (!std::isinf(tmax)) return false;  // a surface is in the way
+    *radiance = dome_radiance(light, dir, pdf);
+    *t = kInf;
+    return true;
+  }
+  if (light.shaping.enabled) {
+    if (!intersect_unshaped(light, origin, dir, tmax, radiance, t, pdf)) return false;
+    *radiance *= shaping_factor(light.shaping, shaping_axis(light), -dir);
+    return true;
+  }
+  return intersect_unshaped(light, origin, dir, tmax, radiance, t, pdf);
+}
+
+namespace {
+
+bool intersect_unshaped(const Light& light, const V3f& origin, const V3f& dir, float tmax,
+                        C3f* radiance, float* t, float* pdf) {
   const LightFrame f = frame_of(light);
   float th = 0.f;
   float area = 0.f;
   switch (light.kind) {
     case LightKind::Distant:
+    case LightKind::Dome:  // handled by intersect_light
       return false;  // a delta distribution: no ray hits it
+    case LightKind::Cylinder:
+      return intersect_cylinder(light, origin, dir, tmax, radiance, t, pdf);
     case LightKind::Rect: {
       float a, b;
       if (!hit_plane(f, origin, dir, tmax, &th)) return false;
@@ -234,17 +347,23 @@ bool intersect_light(const Light& light, const V3f& origin, const V3f& dir, floa
   return true;
 }
 
+}  // namespace
+
 float light_power(const Light& light) {
   const float l = (light.radiance.x + light.radiance.y + light.radiance.z) / 3.f;
   const LightFrame f = frame_of(light);
+  const float planar = shaping_power_fraction(light.shaping, true);
+  const float round = shaping_power_fraction(light.shaping, false);
   switch (light.kind) {
     // A one-sided Lambertian emitter of area A sends pi * A * L watts.
-    case LightKind::Rect: return kPi * light.width * light.height * f.plane_scale * l;
-    case LightKind::Disk: return kPi * kPi * light.radius * light.radius * f.plane_scale * l;
+    case LightKind::Rect: return kPi * light.width * light.height * f.plane_scale * l * planar;
+    case LightKind::Disk: return kPi * kPi * light.radius * light.radius * f.plane_scale * l * planar;
     case LightKind::Sphere: {
       const float r = light.radius * f.axis_scale;
-      return kPi * 4.f * kPi * r * r * l;
+      return kPi * 4.f * kPi * r * r * l * round;
     }
+    case LightKind::Cylinder: return kPi * cylinder_geometry(light).area * l * round;
+    case LightKind::Dome: return dome_power(light);
     // Unbounded in principle; its irradiance (W/m^2) is what can be
     // compared, and callers scale it by the scene's cross-section.
     case LightKind::Distant: return l;

@@ -1,6 +1,10 @@
 // The scene model: what ingest produces and what every later stage reads.
-// Geometry is triangles in world space; materials are diffuse (this slice);
-// lights are UsdLux lights reduced to emitters that can be sampled.
+// Geometry is triangles in world space; materials are diffuse (this slice),
+// with optional textures (server/scene/texture.h) or vertex colours; lights
+// are UsdLux lights reduced to emitters that can be sampled.
+//
+// Textures and dome maps are held by shared_ptr to immutable objects: copies
+// of a Scene share them, and they are safe to read from any thread.
 #pragma once
 
 #include <Imath/ImathBox.h>
@@ -10,15 +14,45 @@
 
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
 namespace pbgi {
 
+class Texture;          // server/scene/texture.h
+class EnvironmentMap;   // server/scene/environment_map.h
+
+using Imath::V2f;
 using Imath::V3f;
 using Imath::C3f;
 using Imath::M44f;
 using Box3f = Imath::Box3f;
+
+enum class TextureWrap : uint8_t { UseMetadata, Black, Clamp, Repeat, Mirror };
+enum class TextureChannel : uint8_t { Rgb, R, G, B, A };
+enum class TextureColorSpace : uint8_t { Auto, Srgb, Raw };
+
+// A UsdUVTexture bound to a material input: value(st) = texel(st * st_transform)
+// * scale + bias (st_transform is UsdTransform2d's, row-vector convention,
+// identity if none). Ingest names the file; the daemon loads it into
+// `texture` (server/ingest/texture_loader.h). Unbound or unreadable
+// (texture == nullptr): the material's constant colour is used instead.
+struct TextureBinding {
+  std::string file;                         // resolved path; "" = no texture
+  TextureColorSpace color_space = TextureColorSpace::Auto;
+  std::shared_ptr<const Texture> texture;
+  TextureWrap wrap_s = TextureWrap::UseMetadata;  // resolved by the loader
+  TextureWrap wrap_t = TextureWrap::UseMetadata;
+  TextureChannel channel = TextureChannel::Rgb;
+  C3f scale{1.f, 1.f, 1.f};
+  C3f bias{0.f, 0.f, 0.f};
+  Imath::M33f st_transform;                 // identity
+  bool uses_uvs = true;                     // st from TriangleSoup::uvs, else constant_st
+  V2f constant_st{0.f, 0.f};
+
+  bool bound() const { return texture != nullptr; }
+};
 
 struct Material {
   std::string prim_path;
@@ -26,6 +60,11 @@ struct Material {
   C3f emission{0.f, 0.f, 0.f};    // emitted radiance, W/(sr m^2)
   float roughness = 1.f;
   float metallic = 0.f;
+  // Spatially varying inputs (server/scene/surface_colors.h evaluates them):
+  // textures win over vertex colours, which win over the constants above.
+  TextureBinding albedo_texture;    // diffuseColor
+  TextureBinding emission_texture;  // emissiveColor
+  bool albedo_from_vertex_colors = false;  // diffuse = TriangleSoup::colors
 };
 
 // All triangles of the scene, flattened; per triangle its material and the
@@ -38,11 +77,24 @@ struct TriangleSoup {
   std::vector<uint32_t> mesh;          // per triangle, index into mesh_paths
   std::vector<std::string> mesh_paths;
   std::vector<uint8_t> double_sided;   // per mesh
+  // Per vertex, parallel to positions, or empty when no mesh has them; a
+  // vertex of a mesh without them holds NaN.
+  std::vector<V2f> uvs;                // texture coordinates (s, t), t up
+  std::vector<C3f> colors;             // displayColor, linear
 
   size_t triangle_count() const { return indices.size() / 3; }
 };
 
-enum class LightKind : uint8_t { Rect, Sphere, Distant, Disk };
+enum class LightKind : uint8_t { Rect, Sphere, Distant, Disk, Dome, Cylinder };
+
+// UsdLuxShapingAPI, evaluated by server/scene/light_shaping.h.
+struct LightShaping {
+  bool enabled = false;
+  float cone_angle_degrees = 90.f;  // off the light's local -Z axis
+  float cone_softness = 0.f;
+  float focus = 0.f;
+  C3f focus_tint{0.f, 0.f, 0.f};
+};
 
 struct Light {
   std::string prim_path;
@@ -50,8 +102,14 @@ struct Light {
   M44f local_to_world;   // USD convention: row vectors, p' = p * M
   C3f radiance{0, 0, 0};  // emitted radiance (distant: irradiance-normalized)
   float width = 1.f, height = 1.f;  // rect, in local units (scaled by the xform)
-  float radius = 0.5f;              // sphere, disk
+  float radius = 0.5f;              // sphere, disk, cylinder
   float angle_degrees = 0.53f;      // distant
+  float length = 1.f;               // cylinder, along local X
+  LightShaping shaping;             // rect, disk, sphere, cylinder
+  // Dome: the lat-long map named by texture_file once loaded (its texels
+  // are multiplied by `radiance`); null = a constant dome of `radiance`.
+  std::string texture_file;
+  std::shared_ptr<const EnvironmentMap> environment;
 };
 
 struct Camera {

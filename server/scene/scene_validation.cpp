@@ -25,6 +25,13 @@ void validate_scene(const Scene& scene) {
     throw SceneError(fmt::format("{}: {} normals for {} vertices", file, t.normals.size(),
                                  t.positions.size()));
   }
+  if (!t.uvs.empty() && t.uvs.size() != t.positions.size()) {
+    throw SceneError(fmt::format("{}: {} uvs for {} vertices", file, t.uvs.size(), t.positions.size()));
+  }
+  if (!t.colors.empty() && t.colors.size() != t.positions.size()) {
+    throw SceneError(fmt::format("{}: {} vertex colors for {} vertices", file, t.colors.size(),
+                                 t.positions.size()));
+  }
   if (t.material.size() != tris) {
     throw SceneError(fmt::format("{}: {} material ids for {} triangles", file, t.material.size(),
                                  tris));

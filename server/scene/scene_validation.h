@@ -10,7 +10,7 @@ namespace pbgi {
 // Throws SceneError naming the scene file and mesh prim if an index is out
 // of range or a per-triangle / per-vertex array has the wrong length:
 // indices must be a multiple of 3 and < positions.size(); normals empty or
-// one per position; material one per triangle, each < materials.size();
+// one per position (uvs and colors too); material one per triangle, each < materials.size();
 // mesh empty or one per triangle, each < mesh_paths.size(); double_sided
 // empty or one per mesh path.
 void validate_scene(const Scene& scene);

@@ -2,13 +2,16 @@
 // (a treelet) of at most `budget` bytes of records; the children of its
 // bottom nodes are the roots of other pages.
 //
-// Packing is bottom-up greedy (post-order): a node's pending size is its own
-// records plus the pending subtrees of its children; while that exceeds the
-// budget, the child with the largest pending subtree is cut off and becomes
-// the root of its own page. Cut subtrees are as large as possible, so pages
-// are at least about half full, and a root-to-leaf path crosses few pages.
-// Pages are numbered depth-first from the root's page (id 0), so pages close
-// in the tree are close in the file.
+// Packing is top-down and size-aware: a page grows breadth-first from its
+// root; a child subtree that fits the space left joins whole, one that fits
+// a page of its own becomes its own page (never split into fragments), and
+// a larger one contributes its top node and is expanded further. On the
+// balanced trees of the builder this gives few pages per root-to-leaf path
+// (the out-of-core traversal cost): the upper tree in wide treelets of
+// internal nodes, the lower tree in whole subtrees with their surfels.
+// Pages are numbered depth-first from the root's page (id 0), so pages
+// close in the tree are close in the file; nodes within a page are in
+// depth-first pre-order from the page's root (index 0).
 #pragma once
 
 #include "storage/tree/tree_builder.h"

@@ -145,16 +145,16 @@ TEST(DaemonOptions, EnvironmentOverridesDefaults) {
   EXPECT_THROW(apply_environment(o, fake_env({{"PBGI_MEMORY_BUDGET", "x"}})), InvalidArgument);
 }
 
-struct Run {
+struct ParsedRun {
   CommandLine result;
   std::string out, err;
 };
-Run run(std::vector<std::string> args, const Environment& env) {
+ParsedRun run(std::vector<std::string> args, const Environment& env) {
   args.insert(args.begin(), "pbgid");
   std::vector<const char*> argv;
   for (const auto& a : args) argv.push_back(a.c_str());
   std::ostringstream out, err;
-  Run r;
+  ParsedRun r;
   r.result = parse_command_line(static_cast<int>(argv.size()), argv.data(), env, out, err);
   r.out = out.str();
   r.err = err.str();
@@ -168,7 +168,7 @@ TEST(DaemonCommandLine, FlagsWinOverEnvironmentOverFile) {
                            "scene_roots = [\"/file/scenes\"]\n";
   const Environment env = fake_env({{"PBGI_CACHE_DIR", "/from/env"}, {"PBGI_THREADS", "2"}});
 
-  Run r = run({"--config", config, "--threads", "3"}, env);
+  ParsedRun r = run({"--config", config, "--threads", "3"}, env);
   ASSERT_TRUE(r.result.options) << r.err;
   EXPECT_EQ(r.result.options->threads, 3u);                // flag
   EXPECT_EQ(r.result.options->cache_dir, "/from/env");     // env over file
@@ -183,7 +183,7 @@ TEST(DaemonCommandLine, FlagsWinOverEnvironmentOverFile) {
 }
 
 TEST(DaemonCommandLine, PrintConfigPrintsEffectiveToml) {
-  Run r = run({"--print-config", "--memory-budget", "3GiB", "--listen", "unix:/tmp/p.sock"},
+  ParsedRun r = run({"--print-config", "--memory-budget", "3GiB", "--listen", "unix:/tmp/p.sock"},
               fake_env({}));
   EXPECT_FALSE(r.result.options);
   EXPECT_EQ(r.result.exit_code, 0);
@@ -196,7 +196,7 @@ TEST(DaemonCommandLine, ConfigErrorsExitWithMessage) {
   testing::TempDir tmp;
   const std::string config = (tmp.path() / "bad.toml").string();
   std::ofstream(config) << "[gather]\nbogus = 1\n";
-  Run r = run({"--config", config}, fake_env({}));
+  ParsedRun r = run({"--config", config}, fake_env({}));
   EXPECT_FALSE(r.result.options);
   EXPECT_EQ(r.result.exit_code, 2);
   EXPECT_NE(r.err.find("gather.bogus"), std::string::npos) << r.err;

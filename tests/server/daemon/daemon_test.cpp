@@ -45,7 +45,8 @@ class DaemonTest : public ::testing::Test {
     grpc::GenericStub stub(channel);
     grpc::ClientContext context;
     context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
-    grpc::ByteBuffer request, response;  // empty request: service ""
+    grpc::Slice empty_message("", 0);  // HealthCheckRequest{service: ""}
+    grpc::ByteBuffer request(&empty_message, 1), response;
     std::promise<grpc::Status> done;
     stub.UnaryCall(&context, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request,
                    &response, [&](grpc::Status s) { done.set_value(s); });

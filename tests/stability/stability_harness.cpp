@@ -1,0 +1,98 @@
+#include "tests/stability/stability_harness.h"
+
+#include "server/engine/scene_session.h"
+#include "server/reference/path_tracer.h"
+#include "server/render/tile_renderer.h"
+#include "storage/format/errors.h"
+
+#include <cmath>
+#include <memory>
+#include <system_error>
+#include <unistd.h>
+
+namespace pbgi::stability {
+namespace {
+
+const Camera& camera_of(const Scene& scene, const std::string& path) {
+  const Camera* c = scene.find_camera(path);
+  if (!c) throw NotFound(scene.source_path + ": no camera " + path);
+  return *c;
+}
+
+}  // namespace
+
+ScratchDir::ScratchDir(const std::string& name) {
+  path_ = std::filesystem::path(PBGI_TEST_BINARY_DIR) / "stability-scratch" /
+          (name + "-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(path_);
+  std::filesystem::create_directories(path_);
+}
+
+ScratchDir::~ScratchDir() {
+  std::error_code ec;
+  std::filesystem::remove_all(path_, ec);
+}
+
+PbgiScene::PbgiScene(const Scene& scene, const RenderSettings& s)
+    : settings_(s), dir_("pbgi-" + scene.source_path) {
+  OpenOptions open;
+  open.surfels.target_surfels = s.target_surfels;
+  EngineContext ctx;
+  ctx.cache_dir = dir_.path();
+  ctx.cache = std::make_shared<storage::PageCache>(1ull << 30);
+  session_ = open_scene_model(std::make_unique<Scene>(scene), open, ctx);
+}
+
+PbgiScene::~PbgiScene() = default;
+
+Aovs PbgiScene::render(const std::string& camera) const {
+  const RenderSettings& s = settings_;
+  RenderOptions ro;
+  ro.gather = s.gather;
+  ro.pixel_samples = s.pixel_samples;
+  TileAovs t = render_tile(*session_->rays, *session_->tree, camera_of(*session_->scene, camera),
+                           s.width, s.height, {0, 0, s.width, s.height}, ro);
+  return {std::move(t.beauty), std::move(t.direct), std::move(t.indirect)};
+}
+
+Aovs render_pbgi(const Scene& scene, const std::string& camera, const RenderSettings& s) {
+  return PbgiScene(scene, s).render(camera);
+}
+
+Aovs render_path(const Scene& scene, const std::string& camera, const RenderSettings& s) {
+  const RayScene rays(scene);
+  ReferenceOptions o;
+  o.width = s.width;
+  o.height = s.height;
+  o.spp = s.reference_spp;
+  o.pass_spp = s.reference_spp;
+  o.max_depth = s.reference_max_depth;
+  o.seed = 7;
+  ReferenceImage r = render_reference(rays, camera_of(scene, camera), o);
+  return {std::move(r.beauty), std::move(r.direct), std::move(r.indirect)};
+}
+
+double relative_rmse(const std::vector<float>& t, const std::vector<float>& r) {
+  if (t.size() != r.size()) throw InvalidArgument("relative_rmse: sizes differ");
+  double num = 0, den = 0;
+  for (size_t i = 0; i < t.size(); ++i) {
+    const double d = double(t[i]) - double(r[i]);
+    num += d * d;
+    den += double(r[i]) * double(r[i]);
+  }
+  return den > 0 ? std::sqrt(num / den) : (num > 0 ? INFINITY : 0.0);
+}
+
+double mean_value(const std::vector<float>& v) {
+  double sum = 0;
+  for (float x : v) sum += x;
+  return v.empty() ? 0.0 : sum / double(v.size());
+}
+
+bool all_finite(const std::vector<float>& v) {
+  for (float x : v)
+    if (!std::isfinite(x)) return false;
+  return true;
+}
+
+}  // namespace pbgi::stability

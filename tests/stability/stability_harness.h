@@ -1,0 +1,75 @@
+// Renders a stability scene both ways at low resolution (PBGI through the
+// in-process pipeline open_scene_model + render_tile, and the reference
+// path tracer) and measures the difference.
+#pragma once
+
+#include "server/gather/gather_options.h"
+#include "server/scene/scene.h"
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace pbgi {
+struct SceneSession;
+}
+
+namespace pbgi::stability {
+
+struct RenderSettings {
+  uint32_t width = 32;
+  uint32_t height = 32;
+  uint64_t target_surfels = 20000;
+  GatherOptions gather;           // the library defaults
+  // PBGI camera rays per pixel: 4 stratified samples approach the box
+  // filter the path tracer integrates, so edges do not count as error.
+  uint32_t pixel_samples = 4;
+  uint32_t reference_spp = 1024;
+  // One diffuse bounce (PBGI's transport): the reference's indirect AOV is
+  // then exactly what PBGI's gather estimates.
+  uint32_t reference_max_depth = 2;
+};
+
+// Pixel-interleaved RGB AOVs, row-major.
+struct Aovs {
+  std::vector<float> beauty, direct, indirect;
+};
+
+// A directory removed (recursively) when the object dies.
+class ScratchDir {
+ public:
+  explicit ScratchDir(const std::string& name);
+  ~ScratchDir();
+  ScratchDir(const ScratchDir&) = delete;
+  ScratchDir& operator=(const ScratchDir&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+// A scene's PBGI page set, built once (in a scratch directory), rendered
+// from any of its cameras.
+class PbgiScene {
+ public:
+  PbgiScene(const Scene& scene, const RenderSettings& settings);
+  ~PbgiScene();
+  Aovs render(const std::string& camera) const;
+
+ private:
+  RenderSettings settings_;
+  ScratchDir dir_;
+  std::shared_ptr<SceneSession> session_;
+};
+
+Aovs render_pbgi(const Scene& scene, const std::string& camera, const RenderSettings& settings);
+Aovs render_path(const Scene& scene, const std::string& camera, const RenderSettings& settings);
+
+// sqrt(sum (t - r)^2 / sum r^2): the RMSE relative to the reference's RMS.
+double relative_rmse(const std::vector<float>& test, const std::vector<float>& reference);
+double mean_value(const std::vector<float>& v);
+bool all_finite(const std::vector<float>& v);
+
+}  // namespace pbgi::stability

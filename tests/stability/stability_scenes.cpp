@@ -1,0 +1,271 @@
+#include "tests/stability/stability_scenes.h"
+
+#include <cmath>
+
+namespace pbgi::stability {
+namespace {
+
+// Row-vector frame (USD convention p' = p * M) with the given axes and origin.
+M44f frame(const V3f& x, const V3f& y, const V3f& z, const V3f& origin) {
+  return M44f(x.x, x.y, x.z, 0, y.x, y.y, y.z, 0, z.x, z.y, z.z, 0, origin.x, origin.y, origin.z, 1);
+}
+
+// A unit vector perpendicular to unit z, preferring the world X axis.
+V3f perpendicular(const V3f& z) {
+  const V3f a = std::fabs(z.x) < 0.9f ? V3f(1, 0, 0) : V3f(0, 1, 0);
+  return (a - z * a.dot(z)).normalized();
+}
+
+const C3f kWhite(0.725f, 0.71f, 0.68f);
+const C3f kRed(0.63f, 0.065f, 0.05f);
+const C3f kGreen(0.14f, 0.45f, 0.091f);
+
+struct CornellMaterials {
+  uint32_t white, red, green;
+};
+
+// Room, boxes and camera of scenes/cornell.usda.
+CornellMaterials add_cornell(SceneBuilder& b) {
+  const CornellMaterials m{b.material(kWhite), b.material(kRed), b.material(kGreen)};
+  b.quad({-1, 0, -1}, {-1, 0, 1}, {1, 0, 1}, {1, 0, -1}, m.white, "/World/Room/Floor");
+  b.quad({-1, 2, -1}, {1, 2, -1}, {1, 2, 1}, {-1, 2, 1}, m.white, "/World/Room/Ceiling");
+  b.quad({-1, 0, -1}, {1, 0, -1}, {1, 2, -1}, {-1, 2, -1}, m.white, "/World/Room/BackWall");
+  b.quad({-1, 0, -1}, {-1, 2, -1}, {-1, 2, 1}, {-1, 0, 1}, m.red, "/World/Room/LeftWall");
+  b.quad({1, 0, -1}, {1, 0, 1}, {1, 2, 1}, {1, 2, -1}, m.green, "/World/Room/RightWall");
+  constexpr float kDeg = 3.14159265f / 180.f;
+  b.box({-0.33f, 0.6f, -0.3f}, {0.3f, 0.6f, 0.3f}, 15 * kDeg, m.white, "/World/TallBox");
+  b.box({0.33f, 0.3f, 0.35f}, {0.3f, 0.3f, 0.3f}, -18 * kDeg, m.white, "/World/ShortBox");
+  b.camera("/Camera", {0, 1, 3.4f}, {0, 1, 0});
+  return m;
+}
+
+}  // namespace
+
+SceneBuilder::SceneBuilder(std::string name) {
+  scene_.source_path = name;
+  scene_.content_hash = "stability:" + name;
+  scene_.meters_per_unit = 1.0;
+}
+
+uint32_t SceneBuilder::material(const C3f& albedo, const C3f& emission) {
+  Material m;
+  m.prim_path = "/Materials/m" + std::to_string(scene_.materials.size());
+  m.albedo = albedo;
+  m.emission = emission;
+  scene_.materials.push_back(m);
+  return static_cast<uint32_t>(scene_.materials.size() - 1);
+}
+
+void SceneBuilder::triangle(const V3f& p0, const V3f& p1, const V3f& p2, uint32_t material,
+                            const std::string& path) {
+  TriangleSoup& t = scene_.triangles;
+  const auto base = static_cast<uint32_t>(t.positions.size());
+  const auto mesh = static_cast<uint32_t>(t.mesh_paths.size());
+  t.positions.insert(t.positions.end(), {p0, p1, p2});
+  t.indices.insert(t.indices.end(), {base, base + 1, base + 2});
+  t.material.push_back(material);
+  t.mesh.push_back(mesh);
+  t.mesh_paths.push_back(path);
+  t.double_sided.push_back(0);
+}
+
+void SceneBuilder::quad(const V3f& p0, const V3f& p1, const V3f& p2, const V3f& p3,
+                        uint32_t material, const std::string& path, bool double_sided) {
+  TriangleSoup& t = scene_.triangles;
+  const auto base = static_cast<uint32_t>(t.positions.size());
+  const auto mesh = static_cast<uint32_t>(t.mesh_paths.size());
+  t.positions.insert(t.positions.end(), {p0, p1, p2, p3});
+  t.indices.insert(t.indices.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
+  t.material.insert(t.material.end(), {material, material});
+  t.mesh.insert(t.mesh.end(), {mesh, mesh});
+  t.mesh_paths.push_back(path);
+  t.double_sided.push_back(double_sided ? 1 : 0);
+}
+
+void SceneBuilder::box(const V3f& c, const V3f& h, float rotate_y, uint32_t material,
+                       const std::string& path) {
+  const float cs = std::cos(rotate_y), sn = std::sin(rotate_y);
+  // Corner (sx, sy, sz) in {-1, 1}^3, rotated about +Y then moved to c.
+  auto corner = [&](float sx, float sy, float sz) {
+    const float x = sx * h.x, y = sy * h.y, z = sz * h.z;
+    return V3f(c.x + x * cs + z * sn, c.y + y, c.z - x * sn + z * cs);
+  };
+  // Each face counter-clockwise seen from outside.
+  quad(corner(-1, -1, 1), corner(1, -1, 1), corner(1, 1, 1), corner(-1, 1, 1), material, path + "/front");
+  quad(corner(1, -1, -1), corner(-1, -1, -1), corner(-1, 1, -1), corner(1, 1, -1), material, path + "/back");
+  quad(corner(1, -1, 1), corner(1, -1, -1), corner(1, 1, -1), corner(1, 1, 1), material, path + "/right");
+  quad(corner(-1, -1, -1), corner(-1, -1, 1), corner(-1, 1, 1), corner(-1, 1, -1), material, path + "/left");
+  quad(corner(-1, 1, 1), corner(1, 1, 1), corner(1, 1, -1), corner(-1, 1, -1), material, path + "/top");
+  quad(corner(-1, -1, -1), corner(1, -1, -1), corner(1, -1, 1), corner(-1, -1, 1), material, path + "/bottom");
+}
+
+void SceneBuilder::camera(const std::string& path, const V3f& eye, const V3f& target,
+                          float focal_length, float aperture) {
+  // The camera looks down its local -Z with +Y up.
+  const V3f z = (eye - target).normalized();
+  V3f x = V3f(0, 1, 0).cross(z);
+  x = x.length() > 1e-6f ? x.normalized() : perpendicular(z);
+  const V3f y = z.cross(x);
+  Camera cam;
+  cam.prim_path = path;
+  cam.local_to_world = frame(x, y, z, eye);
+  cam.focal_length = focal_length;
+  cam.horizontal_aperture = aperture;
+  cam.vertical_aperture = aperture;
+  scene_.cameras[path] = cam;
+}
+
+void SceneBuilder::rect_light(const V3f& centre, const V3f& direction, float width, float height,
+                              const C3f& radiance) {
+  // A rect light emits along its local -Z; width along local X.
+  const V3f z = -direction.normalized();
+  const V3f x = perpendicular(z);
+  Light l;
+  l.prim_path = "/Lights/rect" + std::to_string(scene_.lights.size());
+  l.kind = LightKind::Rect;
+  l.local_to_world = frame(x, z.cross(x), z, centre);
+  l.width = width;
+  l.height = height;
+  l.radiance = radiance;
+  scene_.lights.push_back(l);
+}
+
+void SceneBuilder::distant_light(const V3f& direction, const C3f& irradiance) {
+  const V3f z = -direction.normalized();
+  const V3f x = perpendicular(z);
+  Light l;
+  l.prim_path = "/Lights/sun" + std::to_string(scene_.lights.size());
+  l.kind = LightKind::Distant;
+  l.local_to_world = frame(x, z.cross(x), z, V3f(0, 0, 0));
+  l.radiance = irradiance;
+  scene_.lights.push_back(l);
+}
+
+void SceneBuilder::translate(const V3f& offset) {
+  for (V3f& p : scene_.triangles.positions) p += offset;
+  for (Light& l : scene_.lights) {
+    if (l.kind == LightKind::Distant) continue;  // a direction only
+    l.local_to_world[3][0] += offset.x;
+    l.local_to_world[3][1] += offset.y;
+    l.local_to_world[3][2] += offset.z;
+  }
+  for (auto& [path, cam] : scene_.cameras) {
+    cam.local_to_world[3][0] += offset.x;
+    cam.local_to_world[3][1] += offset.y;
+    cam.local_to_world[3][2] += offset.z;
+  }
+}
+
+Scene cornell_box(const V3f& offset, bool light) {
+  SceneBuilder b(offset == V3f(0, 0, 0) ? "cornell" : "cornell-translated");
+  add_cornell(b);
+  // /Lights/Ceiling of the USD file: 0.5 x 0.4 at y = 1.98, radiance 40.
+  if (light) b.rect_light({0, 1.98f, 0}, {0, -1, 0}, 0.5f, 0.4f, {40, 40, 40});
+  b.translate(offset);
+  return b.take();
+}
+
+Scene thin_wall_rooms(float t) {
+  SceneBuilder b("thin-wall");
+  const uint32_t white = b.material(kWhite);
+  const float h = 0.5f * t;
+  // Shared floor, ceiling, back and front walls across both rooms (sealed).
+  b.quad({-2, 0, -1}, {-2, 0, 1}, {2, 0, 1}, {2, 0, -1}, white, "/floor");
+  b.quad({-2, 2, -1}, {2, 2, -1}, {2, 2, 1}, {-2, 2, 1}, white, "/ceiling");
+  b.quad({-2, 0, -1}, {2, 0, -1}, {2, 2, -1}, {-2, 2, -1}, white, "/back");
+  b.quad({-2, 0, 1}, {-2, 2, 1}, {2, 2, 1}, {2, 0, 1}, white, "/front");
+  b.quad({-2, 0, -1}, {-2, 2, -1}, {-2, 2, 1}, {-2, 0, 1}, white, "/lit/end");
+  b.quad({2, 0, -1}, {2, 0, 1}, {2, 2, 1}, {2, 2, -1}, white, "/dark/end");
+  // The wall: its lit face looks at -X, its dark face at +X.
+  b.quad({-h, 0, -1}, {-h, 0, 1}, {-h, 2, 1}, {-h, 2, -1}, white, "/wall/lit");
+  b.quad({h, 0, -1}, {h, 2, -1}, {h, 2, 1}, {h, 0, 1}, white, "/wall/dark");
+  // A bright light close to the wall: the worst case for leaks.
+  b.rect_light({-0.5f, 1.98f, 0}, {0, -1, 0}, 0.6f, 0.6f, {40, 40, 40});
+  b.camera("/LitCamera", {-1.9f, 1.0f, 0.0f}, {0, 0.8f, 0});
+  b.camera("/DarkCamera", {1.9f, 1.0f, 0.0f}, {0, 0.8f, 0});
+  return b.take();
+}
+
+Scene sunlit_room() {
+  SceneBuilder b("sunlit-room");
+  const uint32_t white = b.material(kWhite);
+  const uint32_t warm = b.material({0.7f, 0.5f, 0.3f});
+  b.quad({-1, 0, -1}, {-1, 0, 1}, {1, 0, 1}, {1, 0, -1}, warm, "/floor");
+  b.quad({-1, 2, -1}, {1, 2, -1}, {1, 2, 1}, {-1, 2, 1}, white, "/ceiling");
+  b.quad({-1, 0, -1}, {-1, 2, -1}, {-1, 2, 1}, {-1, 0, 1}, white, "/left");
+  b.quad({1, 0, -1}, {1, 0, 1}, {1, 2, 1}, {1, 2, -1}, white, "/right");
+  b.quad({-1, 0, 1}, {-1, 2, 1}, {1, 2, 1}, {1, 0, 1}, white, "/front");
+  // Back wall z = -1 facing +Z, around a window x in [-0.4, 0.4], y in [0.8, 1.6].
+  b.quad({-1, 0, -1}, {1, 0, -1}, {1, 0.8f, -1}, {-1, 0.8f, -1}, white, "/back/below");
+  b.quad({-1, 1.6f, -1}, {1, 1.6f, -1}, {1, 2, -1}, {-1, 2, -1}, white, "/back/above");
+  b.quad({-1, 0.8f, -1}, {-0.4f, 0.8f, -1}, {-0.4f, 1.6f, -1}, {-1, 1.6f, -1}, white, "/back/left");
+  b.quad({0.4f, 0.8f, -1}, {1, 0.8f, -1}, {1, 1.6f, -1}, {0.4f, 1.6f, -1}, white, "/back/right");
+  // The sun, behind the back wall, 45 degrees high: a patch of floor
+  // (z in [-0.2, 0.6]) is lit through the window.
+  b.distant_light({0.15f, -1.0f, 1.0f}, {6, 5.6f, 5});
+  b.camera("/Camera", {0, 1.6f, 0.95f}, {0, 0.3f, -0.6f}, 18.f);
+  return b.take();
+}
+
+Scene tiny_emitter_room() {
+  SceneBuilder b("tiny-emitter");
+  add_cornell(b);
+  // A 2 cm square facing down, 1 cm below the ceiling, with the rect light's
+  // power (0.5 * 0.4 * 40 = 8 W/sr in radiance times area).
+  constexpr float kHalf = 0.01f;
+  constexpr float kRadiance = 8.f / (4 * kHalf * kHalf);
+  const uint32_t emitter = b.material({0, 0, 0}, {kRadiance, kRadiance, kRadiance});
+  const float y = 1.99f;
+  b.quad({-kHalf, y, -kHalf}, {kHalf, y, -kHalf}, {kHalf, y, kHalf}, {-kHalf, y, kHalf}, emitter,
+         "/World/Emitter");  // counter-clockwise seen from below: faces -Y
+  // Looking down at the floor and boxes: the ceiling is out of frame.
+  b.camera("/Camera", {0, 1.5f, 2.6f}, {0, 0.25f, -0.2f});
+  return b.take();
+}
+
+Scene cornell_with_degenerates() {
+  SceneBuilder b("cornell-degenerates");
+  const CornellMaterials m = add_cornell(b);
+  b.rect_light({0, 1.98f, 0}, {0, -1, 0}, 0.5f, 0.4f, {40, 40, 40});
+  // Zero-area triangles: a repeated vertex, three equal vertices, collinear.
+  b.triangle({0.2f, 0.5f, 0}, {0.2f, 0.5f, 0}, {0.4f, 0.7f, 0.1f}, m.white, "/degenerate/repeated");
+  b.triangle({-0.5f, 1, 0.5f}, {-0.5f, 1, 0.5f}, {-0.5f, 1, 0.5f}, m.red, "/degenerate/point");
+  b.triangle({-0.8f, 0.2f, 0.8f}, {0, 1, 0.8f}, {0.8f, 1.8f, 0.8f}, m.green, "/degenerate/collinear");
+  // Slivers: long and ~1e-5 wide, in the air, on the floor and along a wall.
+  for (int i = 0; i < 16; ++i) {
+    const float f = static_cast<float>(i) / 16.f;
+    b.triangle({-0.9f + f, 0.1f + f, -0.5f}, {0.9f, 1.9f - f, 0.5f},
+               {0.9f, 1.9f - f + 1e-5f, 0.5f + 1e-5f}, m.white, "/sliver/air");
+    b.triangle({-0.95f, 1e-4f, -0.9f + 0.1f * f}, {0.95f, 1e-4f, -0.9f + 0.1f * f},
+               {0.95f, 1e-4f, -0.9f + 0.1f * f + 1e-5f}, m.white, "/sliver/floor");
+    b.triangle({-0.999f, 0.1f, -0.9f + f}, {-0.999f, 1.9f, -0.9f + f},
+               {-0.999f, 1.9f, -0.9f + f + 2e-5f}, m.red, "/sliver/wall");
+  }
+  return b.take();
+}
+
+Scene cornell_with_coplanar_copies() {
+  SceneBuilder b("cornell-coplanar");
+  const CornellMaterials m = add_cornell(b);
+  b.rect_light({0, 1.98f, 0}, {0, -1, 0}, 0.5f, 0.4f, {40, 40, 40});
+  // The whole floor again, a partial overlap of it, and the back wall again
+  // with the opposite winding (facing into the wall).
+  b.quad({-1, 0, -1}, {-1, 0, 1}, {1, 0, 1}, {1, 0, -1}, m.white, "/copy/floor");
+  b.quad({-0.5f, 0, -0.8f}, {-0.5f, 0, 0.9f}, {0.9f, 0, 0.9f}, {0.9f, 0, -0.8f}, m.white, "/copy/floor_part");
+  b.quad({-1, 0, -1}, {-1, 2, -1}, {1, 2, -1}, {1, 0, -1}, m.white, "/copy/back_reversed");
+  return b.take();
+}
+
+Scene grazing_floor() {
+  SceneBuilder b("grazing-floor");
+  const uint32_t grey = b.material({0.6f, 0.6f, 0.6f});
+  const uint32_t orange = b.material({0.8f, 0.4f, 0.1f});
+  b.quad({-3, 0, -8}, {-3, 0, 1}, {3, 0, 1}, {3, 0, -8}, grey, "/floor");
+  b.quad({-3, 0, -8}, {3, 0, -8}, {3, 3, -8}, {-3, 3, -8}, orange, "/wall");
+  // A light facing the wall: the floor is lit mostly indirectly, by the wall.
+  b.rect_light({0, 1.5f, -5.5f}, {0, -0.2f, -1}, 2.f, 1.f, {30, 30, 30});
+  b.camera("/Camera", {0, 0.05f, 0.5f}, {0, 0.0f, -8}, 35.f, 36.f);
+  return b.take();
+}
+
+}  // namespace pbgi::stability

@@ -1,0 +1,80 @@
+// Small scenes built in code for the numerical-stability suite (and the
+// bench tests): each stresses one way point-based GI goes wrong, at a size
+// that renders in a second. Units are metres-ish; rooms are 2 units across.
+#pragma once
+
+#include "server/scene/scene.h"
+
+#include <string>
+
+namespace pbgi::stability {
+
+// Appends geometry, materials, lights and cameras to a Scene.
+class SceneBuilder {
+ public:
+  explicit SceneBuilder(std::string name);
+
+  uint32_t material(const C3f& albedo, const C3f& emission = {0, 0, 0});
+  // Quad p0 p1 p2 p3 as two triangles; its surfels face (p1-p0)x(p2-p0).
+  void quad(const V3f& p0, const V3f& p1, const V3f& p2, const V3f& p3, uint32_t material,
+            const std::string& path, bool double_sided = false);
+  // One triangle as given (degenerate ones too).
+  void triangle(const V3f& p0, const V3f& p1, const V3f& p2, uint32_t material,
+                const std::string& path);
+  // Box with outward faces: centre, half extents, rotation about +Y (radians).
+  void box(const V3f& centre, const V3f& half, float rotate_y, uint32_t material,
+           const std::string& path);
+  // Pinhole camera at `eye` looking at `target` (+Y up); 35 mm lens and a
+  // square 25.48 mm aperture unless given (the Cornell camera's).
+  void camera(const std::string& path, const V3f& eye, const V3f& target,
+              float focal_length = 35.f, float aperture = 25.477917f);
+  // Rect light centred at `centre`, emitting along `direction`.
+  void rect_light(const V3f& centre, const V3f& direction, float width, float height,
+                  const C3f& radiance);
+  // Distant light travelling along `direction` with irradiance `irradiance`
+  // on a surface facing it.
+  void distant_light(const V3f& direction, const C3f& irradiance);
+  // Moves everything added so far (geometry, lights, cameras) by `offset`.
+  void translate(const V3f& offset);
+
+  Scene take() { return std::move(scene_); }
+
+ private:
+  Scene scene_;
+};
+
+// The Cornell box of scenes/cornell.usda rebuilt in code (the boxes are
+// rotated about their centres as in the USD file; camera /Camera), moved by
+// `offset`. With `light` false it has no UsdLux light (for scenes that add
+// their own emitter).
+Scene cornell_box(const V3f& offset = {0, 0, 0}, bool light = true);
+
+// Two sealed rooms side by side, x in [-2, 0] (lit by a rect light) and
+// [0, 2] (no light), separated by a wall of `wall_thickness` (two
+// opposite-facing quads). Cameras /LitCamera and /DarkCamera look at the
+// wall from either side.
+Scene thin_wall_rooms(float wall_thickness);
+
+// A closed room with a 0.8 x 0.8 window in its back wall; a distant light
+// (the sun) shines through it onto the floor. Camera /Camera.
+Scene sunlit_room();
+
+// The Cornell box lit only by a 2 cm emissive square just below the ceiling
+// with the rect light's power; /Camera looks down so the ceiling (and the
+// emitter) stay out of frame.
+Scene tiny_emitter_room();
+
+// The Cornell box with degenerate triangles (repeated and collinear
+// vertices) and sliver triangles (aspect ratio ~1e5) mixed into its meshes.
+Scene cornell_with_degenerates();
+
+// The Cornell box with coplanar overlapping surfaces: the floor twice (one
+// copy whole, one a partial overlap), and a copy of the back wall facing
+// into the wall.
+Scene cornell_with_coplanar_copies();
+
+// A long floor with a lit coloured wall at its end, seen by /Camera from
+// 5 cm above the floor: most pixels are receivers at grazing angles.
+Scene grazing_floor();
+
+}  // namespace pbgi::stability
