@@ -49,6 +49,9 @@ std::shared_ptr<SceneSession> open_scene(const fs::path& scene_path, const OpenO
   // 1. Read the USD scene in the reader process.
   IngestOptions ingest;
   if (!ctx.python.empty()) ingest.python = ctx.python;
+  // Subdivision surfaces are refined until their edges are shorter than the
+  // surfel spacing, never deeper (0: spacing derived later; a fixed level).
+  ingest.target_edge_length = options.surfels.spacing;
   auto scene = std::make_unique<Scene>(
       read_usd_scene(scene_path, ingest, [&](const std::string& s, float f) { report("read:" + s, f); }));
   for (const auto& w : scene->warnings) spdlog::warn("{}: {}", scene_path.string(), w);

@@ -77,12 +77,14 @@ bool finite(const Imath::V3f& v) {
 // Starts loading all cache lines of a node (bounds, then payload).
 inline void prefetch(const tree::Node& node) {
   const char* p = reinterpret_cast<const char*>(&node);
-  for (size_t off = 0; off < sizeof(tree::Node); off += 64) __builtin_prefetch(p + off);
+  __builtin_prefetch(p);
 }
 
+// A pending node; it holds a reference on its page's pin.
 struct StackEntry {
   const tree::Page* page;
   uint32_t index;
+  uint32_t pin;
 };
 
 }  // namespace
@@ -101,7 +103,7 @@ struct Gatherer::Impl {
   }
 
   bool culled(const tree::Node& node, const Imath::V3f& v, float d2) const;
-  void push_children(const tree::Page& page, uint32_t index, const tree::Node& node);
+  void push_children(const StackEntry& parent, const tree::Node& node);
   void splat_node(const tree::Node& node, const Imath::V3f& v, float d2);
   void leaf_surfels(const tree::Page& page, uint32_t index, const tree::Node& node);
 
@@ -148,20 +150,28 @@ bool Gatherer::Impl::culled(const tree::Node& node, const Imath::V3f& v, float d
   return cos_an * cos_b - sin_an * sin_b > kCoplanarCos;
 }
 
-void Gatherer::Impl::push_children(const tree::Page& page, uint32_t index,
-                                   const tree::Node& node) {
+void Gatherer::Impl::push_children(const StackEntry& parent, const tree::Node& node) {
+  const tree::Page& page = *parent.page;
   if (node.child_count > tree::Node::kMaxChildren) {
     throw CorruptionError("tree page " + std::to_string(page.id) + " node " +
-                          std::to_string(index) + ": child_count " +
+                          std::to_string(parent.index) + ": child_count " +
                           std::to_string(node.child_count) + " exceeds " +
                           std::to_string(tree::Node::kMaxChildren));
   }
-  for (uint32_t c = 0; c < node.child_count; ++c) {
+  // Pushed last to first so that the first child is visited first: the
+  // traversal then runs in the depth-first pre-order pages are laid out in.
+  for (uint32_t c = node.child_count; c-- > 0;) {
     const tree::NodeRef ref = node.children[c];
-    const tree::Page* child_page = ref.page == page.id ? &page : pins.get(ref.page);
+    const tree::Page* child_page = &page;
+    uint32_t pin = parent.pin;
+    if (ref.page == page.id) {
+      pins.retain(pin);
+    } else {
+      pin = pins.acquire(ref.page, child_page);
+    }
     if (ref.index >= child_page->nodes.size()) {
       throw CorruptionError("tree page " + std::to_string(page.id) + " node " +
-                            std::to_string(index) + ": child link to page " +
+                            std::to_string(parent.index) + ": child link to page " +
                             std::to_string(ref.page) + " node " + std::to_string(ref.index) +
                             " is out of range (" + std::to_string(child_page->nodes.size()) +
                             " nodes)");
@@ -169,7 +179,7 @@ void Gatherer::Impl::push_children(const tree::Page& page, uint32_t index,
     // The node is popped soon; start fetching it now (traversal is bound
     // by memory latency, one miss per node otherwise).
     prefetch(child_page->nodes[ref.index]);
-    stack.push_back({child_page, ref.index});
+    stack.push_back({child_page, ref.index, pin});
   }
   if (stack.size() > kMaxStack) {
     throw CorruptionError("tree page " + std::to_string(page.id) + ": traversal stack exceeds " +
@@ -252,14 +262,15 @@ GatherResult Gatherer::gather(const Receiver& r) {
     ~Unpin() { pins.clear(); }
   } unpin{m.pins};
   const tree::NodeRef root = m.tree.root();
-  const tree::Page* root_page = m.pins.get(root.page);
+  const tree::Page* root_page = nullptr;
+  const uint32_t root_pin = m.pins.acquire(root.page, root_page);
   if (root.index >= root_page->nodes.size()) {
     throw CorruptionError("tree root: page " + std::to_string(root.page) + " has no node " +
                           std::to_string(root.index));
   }
   const float omega_max = m.cut;
   m.stack.clear();
-  m.stack.push_back({root_page, root.index});
+  m.stack.push_back({root_page, root.index, root_pin});
   uint64_t visited = 0;
   while (!m.stack.empty()) {
     const StackEntry e = m.stack.back();
@@ -267,18 +278,20 @@ GatherResult Gatherer::gather(const Receiver& r) {
     if (!m.stack.empty()) prefetch(m.stack.back().page->nodes[m.stack.back().index]);
     const tree::Node& node = e.page->nodes[e.index];
     ++visited;
-    if (!(node.area > 0.f) || !(node.radius >= 0.f)) continue;  // shows nothing (or NaN)
     const Imath::V3f v = node.center - m.p;
     const float d2 = v.length2();
-    if (!std::isfinite(d2) || m.culled(node, v, d2)) continue;
-    const float r2 = node.radius * node.radius;
-    if (d2 > r2 && kPi * r2 <= omega_max * d2) {
-      m.splat_node(node, v, d2);
-    } else if (!node.is_leaf()) {
-      m.push_children(*e.page, e.index, node);
-    } else {
-      m.leaf_surfels(*e.page, e.index, node);
+    // Nothing to see (also NaN), below the tangent plane or facing away.
+    if (node.area > 0.f && node.radius >= 0.f && std::isfinite(d2) && !m.culled(node, v, d2)) {
+      const float r2 = node.radius * node.radius;
+      if (d2 > r2 && kPi * r2 <= omega_max * d2) {
+        m.splat_node(node, v, d2);
+      } else if (!node.is_leaf()) {
+        m.push_children(e, node);
+      } else {
+        m.leaf_surfels(*e.page, e.index, node);
+      }
     }
+    m.pins.release(e.pin);
   }
   counters_.nodes_visited += visited;
   counters_.pages_fetched += m.pins.take_fetches();

@@ -8,12 +8,15 @@ for subdivision meshes.
 Authored normals (primvars:normals wins over normals) are sent per vertex:
 vertex/varying/constant ones per point; faceVarying and uniform ones make
 every face corner its own vertex, so that the per-vertex stream stays exact.
+The texture coordinates and varying displayColor the mesh's materials read
+(mesh_primvars.py) follow the same rule.
 """
 import numpy as np
 from pxr import UsdGeom
 
 from chunk_stream import WARNING
 from implicit_shapes import tessellate
+from mesh_primvars import expand, material_primvars, needs_unweld
 from subdiv_cages import SCHEMES, cage_chunk
 from triangle_chunks import (GeometryError, fan_triangulate, mirrors, transform_normals,
                              transform_points)
@@ -81,24 +84,25 @@ def read_mesh(prim, matrix, time, materials, emitter, stream):
     world = transform_points(points, matrix)
     normals, interpolation = (None, None) if subdivided else _authored_normals(
         mesh, time, len(points), len(indices), len(counts), stream)
-    if interpolation in (UsdGeom.Tokens.faceVarying, UsdGeom.Tokens.uniform):
-        positions, triangles = world[indices], corners
-        if interpolation == UsdGeom.Tokens.uniform:
-            normals = normals[np.repeat(np.arange(len(counts)), counts)]
-    else:
-        positions, triangles = world, indices[corners]
-        if interpolation == UsdGeom.Tokens.constant:
-            normals = np.repeat(normals, len(points), axis=0)
+    extras = material_primvars(mesh, time, materials, per_face if per_face is not None else material,
+                               counts, indices, len(points), stream)
+    unweld = needs_unweld(interpolation) or any(needs_unweld(i) for _, i in extras.values())
+    positions, triangles = (world[indices], corners) if unweld else (world, indices[corners])
+    extras = {name: expand(values, i, counts, indices, len(points), unweld)
+              for name, (values, i) in extras.items()}
     if normals is not None:
-        normals = transform_normals(normals, matrix)
+        normals = transform_normals(expand(normals, interpolation, counts, indices, len(points),
+                                           unweld), matrix)
         if not np.all(np.isfinite(normals)) or np.any(np.abs(normals).sum(axis=1) == 0.0):
             stream.diagnostic(WARNING, path, "zero or non-finite normals: using geometric normals",
                               kind="normals")
             normals = None
-            positions, triangles = world, indices[corners]
+            if not extras:
+                positions, triangles = world, indices[corners]
 
     triangle_materials = per_face[faces] if per_face is not None else material
-    return emitter.emit(path, positions, normals, triangles, triangle_materials, double_sided)
+    return emitter.emit(path, positions, normals, triangles, triangle_materials, double_sided,
+                        uvs=extras.get("uvs"), colors=extras.get("colors"))
 
 
 def read_implicit(prim, matrix, time, materials, emitter, stream):

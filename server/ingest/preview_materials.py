@@ -1,13 +1,29 @@
-"""Bound materials -> MaterialDef (constant UsdPreviewSurface parameters).
+"""Bound materials -> MaterialDef.
 
-Only constant values are modelled in this slice. An input driven by a
-texture falls back to the input's own authored value, else the texture's
-authored `inputs:fallback`, else mid grey (albedo) or the UsdPreviewSurface
-default, with one WARNING naming the material. A diffuseColor read from the
-`displayColor` primvar (a common pattern) uses the gprim's displayColor.
+UsdPreviewSurface: constant diffuseColor, emissiveColor, roughness and
+metallic; diffuseColor and emissiveColor may also come from a UsdUVTexture
+(sent as a TextureRef: resolved file, wrap modes, scale/bias, source colour
+space, the output channel, st from a UsdPrimvarReader_float2 -- whose
+varname the mesh chunks then carry as uvs -- through an optional
+UsdTransform2d; the daemon loads and filters the image) or from the
+gprim's displayColor primvar (constant: folded into the material; varying:
+sent per vertex with the mesh). Roughness/metallic textures are reduced to
+their authored value or fallback, with one WARNING. A texture's constant
+stand-in (used where the image cannot be read or a mesh has no st) is the
+input's own authored value, else the texture's authored fallback, else mid
+grey (albedo) or the UsdPreviewSurface default.
+
+Materials without a UsdPreviewSurface but with a MaterialX surface
+(outputs:mtlx:surface: standard_surface, open_pbr_surface, gltf_pbr) are
+mapped best-effort to base colour, roughness, metalness and emission from
+constant inputs, with one WARNING naming what was approximated.
+
 Materials are de-duplicated by (material path, resolved values): one id per
 distinct result.
 """
+import collections
+import math
+
 import numpy as np
 from pxr import UsdGeom, UsdShade
 
@@ -26,6 +42,49 @@ _TEXTURE_GREY = (0.5, 0.5, 0.5)
 # Albedo of gprims with neither a bound material nor displayColor.
 _UNBOUND_GREY = (0.5, 0.5, 0.5)
 _CHANNELS = {"r": 0, "g": 1, "b": 2, "a": 3}
+_TEXTURED_INPUTS = ("diffuseColor", "emissiveColor")
+
+_WRAPS = {"black": scene_pb2.TextureRef.BLACK, "clamp": scene_pb2.TextureRef.CLAMP,
+          "repeat": scene_pb2.TextureRef.REPEAT, "mirror": scene_pb2.TextureRef.MIRROR,
+          "useMetadata": scene_pb2.TextureRef.USE_METADATA}
+_COLOR_SPACES = {"auto": scene_pb2.TextureRef.COLOR_SPACE_AUTO, "sRGB": scene_pb2.TextureRef.SRGB,
+                 "raw": scene_pb2.TextureRef.RAW}
+_OUTPUT_CHANNELS = {"rgb": scene_pb2.TextureRef.RGB, "r": scene_pb2.TextureRef.R,
+                    "g": scene_pb2.TextureRef.G, "b": scene_pb2.TextureRef.B,
+                    "a": scene_pb2.TextureRef.A}
+
+# A texture as the material sends it; hashable so that it is part of the
+# de-duplication key. st_transform: 6 floats [a b tx; c d ty] or None;
+# uv_primvar: the varname st is read from, or None for a constant st.
+TextureSpec = collections.namedtuple(
+    "TextureSpec", "file wrap_s wrap_t scale bias color_space channel st_transform uv_primvar "
+                   "constant_st")
+
+# Resolved material: what MaterialDef carries.
+Resolved = collections.namedtuple(
+    "Resolved", "diffuse emissive roughness metallic diffuse_texture emissive_texture vertex_colors")
+
+# MaterialX surfaces: node id -> (base colour inputs (weight, colour),
+# roughness, metalness, emission (weight, colour)) with the defaults of each
+# specification (Autodesk Standard Surface 1.0.1, OpenPBR 1.1, glTF 2.0).
+_MTLX = {
+    "ND_standard_surface_surfaceshader": {
+        "base": ("base", 0.8), "base_color": ("base_color", (1.0, 1.0, 1.0)),
+        "roughness": ("specular_roughness", 0.2), "metalness": ("metalness", 0.0),
+        "emission": ("emission", 0.0), "emission_color": ("emission_color", (1.0, 1.0, 1.0)),
+    },
+    "ND_open_pbr_surface_surfaceshader": {
+        "base": ("base_weight", 1.0), "base_color": ("base_color", (0.8, 0.8, 0.8)),
+        "roughness": ("specular_roughness", 0.3), "metalness": ("base_metalness", 0.0),
+        "emission": ("emission_luminance", 0.0),
+        "emission_color": ("emission_color", (1.0, 1.0, 1.0)),
+    },
+    "ND_gltf_pbr_surfaceshader": {
+        "base": (None, 1.0), "base_color": ("base_color", (1.0, 1.0, 1.0)),
+        "roughness": ("roughness", 1.0), "metalness": ("metallic", 1.0),
+        "emission": ("emissive_strength", 1.0), "emission_color": ("emissive", (0.0, 0.0, 0.0)),
+    },
+}
 
 
 def _as_color(value):
@@ -37,15 +96,31 @@ def _as_color(value):
     return tuple(v[:3])
 
 
-def display_color(prim, time):
-    """Constant displayColor of a gprim (the mean if it varies), or None."""
+def _display_color_values(prim, time):
+    """(values (N, 3) float64, interpolation) of displayColor, or (None, None)."""
     primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("displayColor")
     if not primvar or not primvar.HasValue():
-        return None
+        return None, None
     values = primvar.ComputeFlattened(time)
     if values is None or len(values) == 0:
+        return None, None
+    return np.asarray(values, dtype=np.float64).reshape(-1, 3), primvar.GetInterpolation()
+
+
+def display_color(prim, time):
+    """Constant displayColor of a gprim (the mean if it varies), or None."""
+    values, _ = _display_color_values(prim, time)
+    if values is None:
         return None
-    return tuple(float(x) for x in np.asarray(values, dtype=np.float64).reshape(-1, 3).mean(axis=0))
+    return tuple(float(x) for x in values.mean(axis=0))
+
+
+def display_color_varies(prim, time):
+    """True if displayColor differs between the gprim's points/faces/corners."""
+    values, interpolation = _display_color_values(prim, time)
+    if values is None or interpolation == UsdGeom.Tokens.constant or len(values) < 2:
+        return False
+    return bool(np.any(values != values[0]))
 
 
 class MaterialTable:
@@ -56,9 +131,11 @@ class MaterialTable:
         self._stream = stream
         self._time = time
         self._ids = {}
+        self._by_id = {}  # material id -> Resolved
         # Resolved values of materials that do not read gprim primvars.
         self._resolved = {}
         self._reads_primvars = False
+        self._vertex_colors = False
 
     def for_prim(self, prim):
         """Material id of a gprim or GeomSubset (binding, else displayColor)."""
@@ -73,14 +150,30 @@ class MaterialTable:
                 values = self._resolve(material, gprim)
                 if not self._reads_primvars:
                     self._resolved[path] = values
-            return self._id((path,) + values, path, values)
+            return self._id((path,) + tuple(values), path, values)
         color = display_color(gprim, self._time)
         # Named after the first gprim whose displayColor it is; the shared
         # grey of unbound, uncoloured gprims has no prim.
         name = str(gprim.GetPath()) if color is not None else ""
-        values = (color or _UNBOUND_GREY, _DEFAULTS["emissiveColor"], _DEFAULTS["roughness"],
-                  _DEFAULTS["metallic"])
-        return self._id(("displayColor",) + values, name, values)
+        values = Resolved(color or _UNBOUND_GREY, _DEFAULTS["emissiveColor"],
+                          _DEFAULTS["roughness"], _DEFAULTS["metallic"], None, None,
+                          display_color_varies(gprim, self._time))
+        return self._id(("displayColor",) + tuple(values), name, values)
+
+    def uv_primvars(self, material_ids):
+        """The st primvars the textures of these materials read, in order of
+        first use (a mesh chunk carries one: the first)."""
+        names = []
+        for material_id in np.unique(np.asarray(material_ids)).tolist():
+            r = self._by_id[int(material_id)]
+            for t in (r.diffuse_texture, r.emissive_texture):
+                if t is not None and t.uv_primvar and t.uv_primvar not in names:
+                    names.append(t.uv_primvar)
+        return names
+
+    def wants_vertex_colors(self, material_ids):
+        return any(self._by_id[int(m)].vertex_colors
+                   for m in np.unique(np.asarray(material_ids)).tolist())
 
     def subset_materials(self, mesh_prim, face_count, default_id):
         """Per-face material ids from GeomSubsets of family materialBind, or
@@ -101,15 +194,20 @@ class MaterialTable:
             return found
         material_id = len(self._ids)
         self._ids[key] = material_id
+        self._by_id[material_id] = values
         chunk = scene_pb2.SceneChunk()
         m = chunk.material
         m.id = material_id
         m.prim_path = prim_path
-        diffuse, emissive, roughness, metallic = values
-        m.diffuse_color.x, m.diffuse_color.y, m.diffuse_color.z = diffuse
-        m.emissive_color.x, m.emissive_color.y, m.emissive_color.z = emissive
-        m.roughness = roughness
-        m.metallic = metallic
+        m.diffuse_color.x, m.diffuse_color.y, m.diffuse_color.z = values.diffuse
+        m.emissive_color.x, m.emissive_color.y, m.emissive_color.z = values.emissive
+        m.roughness = values.roughness
+        m.metallic = values.metallic
+        if values.diffuse_texture is not None:
+            _fill_texture_ref(m.diffuse_texture, values.diffuse_texture)
+        if values.emissive_texture is not None:
+            _fill_texture_ref(m.emissive_texture, values.emissive_texture)
+        m.diffuse_from_vertex_colors = bool(values.vertex_colors)
         self._stream.write(chunk)
         return material_id
 
@@ -118,52 +216,61 @@ class MaterialTable:
         surface = material.ComputeSurfaceSource()
         shader = surface[0] if surface else None
         if not shader or shader.GetShaderId() != "UsdPreviewSurface":
-            found = shader.GetShaderId() if shader else "nothing"
+            mtlx = material.ComputeSurfaceSource("mtlx")
+            if mtlx and mtlx[0] and mtlx[0].GetShaderId() in _MTLX:
+                return self._resolve_materialx(mtlx[0], path)
+            found = shader.GetShaderId() if shader else (
+                mtlx[0].GetShaderId() if mtlx and mtlx[0] else "nothing")
             self._stream.diagnostic(
                 WARNING, path, f"surface is {found}, not UsdPreviewSurface: using grey",
                 kind="not-preview-surface")
-            return (_TEXTURE_GREY, _DEFAULTS["emissiveColor"], _DEFAULTS["roughness"],
-                    _DEFAULTS["metallic"])
-        diffuse = _as_color(self._input(shader, "diffuseColor", gprim, path))
-        emissive = _as_color(self._input(shader, "emissiveColor", gprim, path))
-        roughness = float(_as_color(self._input(shader, "roughness", gprim, path))[0])
-        metallic = float(_as_color(self._input(shader, "metallic", gprim, path))[0])
-        return (diffuse, emissive, roughness, metallic)
+            return Resolved(_TEXTURE_GREY, _DEFAULTS["emissiveColor"], _DEFAULTS["roughness"],
+                            _DEFAULTS["metallic"], None, None, False)
+        self._vertex_colors = False
+        diffuse, diffuse_texture = self._input(shader, "diffuseColor", gprim, path)
+        emissive, emissive_texture = self._input(shader, "emissiveColor", gprim, path)
+        roughness, _ = self._input(shader, "roughness", gprim, path)
+        metallic, _ = self._input(shader, "metallic", gprim, path)
+        return Resolved(_as_color(diffuse), _as_color(emissive), float(roughness[0]),
+                        float(metallic[0]), diffuse_texture, emissive_texture,
+                        self._vertex_colors)
 
     def _input(self, shader, name, gprim, material_path):
+        """(constant value, TextureSpec or None) of a UsdPreviewSurface input."""
         default = _DEFAULTS[name]
         grey = _TEXTURE_GREY if name == "diffuseColor" else default
         inp = shader.GetInput(name)
         if not inp:
-            return _to_seq(default)
+            return _to_seq(default), None
         attrs = inp.GetValueProducingAttributes()
         if not attrs:
-            return _to_seq(default)
+            return _to_seq(default), None
         attr = attrs[0]
         if UsdShade.Input.IsInput(attr):
             value = attr.Get(self._time)
-            return _to_seq(default if value is None else value)
-        # Connected to a node's output: only primvar readers and textures
-        # are understood, both reduced to constants.
+            return _to_seq(default if value is None else value), None
+        # Connected to a node's output: primvar readers and textures.
         source = UsdShade.Shader(attr.GetPrim())
         node = source.GetShaderId() or ""
         output = UsdShade.Output(attr).GetBaseName()
         if node.startswith("UsdPrimvarReader"):
-            varname = source.GetInput("varname")
-            varname = str(varname.Get()) if varname else ""
+            varname = _input_value(source, "varname", self._time)
+            varname = str(varname) if varname is not None else ""
             if varname == "displayColor":
                 self._reads_primvars = True
                 color = display_color(gprim, self._time)
                 if color is not None:
-                    return color
+                    if name == "diffuseColor" and display_color_varies(gprim, self._time):
+                        self._vertex_colors = True
+                    return color, None
             fallback = source.GetInput("fallback")
             if fallback and fallback.Get() is not None:
-                return _to_seq(fallback.Get())
+                return _to_seq(fallback.Get()), None
             self._stream.diagnostic(
                 WARNING, material_path,
                 f"{name} reads primvar '{varname}', which is not modelled: using {_fmt(grey)}",
                 kind=f"primvar:{name}")
-            return _to_seq(grey)
+            return _to_seq(grey), None
         own = inp.GetAttr().Get(self._time)
         if own is not None:
             value, how = own, f"its authored value {_fmt(own)}"
@@ -172,11 +279,169 @@ class MaterialTable:
             value, how = _pick(source.GetInput("fallback").Get(), output), "the texture's fallback"
         else:
             value, how = grey, _fmt(grey)
+        if node == "UsdUVTexture" and name in _TEXTURED_INPUTS:
+            spec, problem = self._texture_spec(source, output, material_path)
+            if spec is not None:
+                return _to_seq(value), spec
+            self._stream.diagnostic(WARNING, material_path,
+                                    f"{name} texture {source.GetPath()}: {problem}: using {how}",
+                                    kind=f"texture:{name}")
+            return _to_seq(value), None
         self._stream.diagnostic(
             WARNING, material_path,
-            f"{name} is connected to {node or 'a shader'} {source.GetPath()}; textures are not "
-            f"modelled yet: using {how}", kind=f"texture:{name}")
-        return _to_seq(value)
+            f"{name} is connected to {node or 'a shader'} {source.GetPath()}; only diffuseColor "
+            f"and emissiveColor textures are modelled: using {how}", kind=f"texture:{name}")
+        return _to_seq(value), None
+
+    def _texture_spec(self, texture, output, material_path):
+        """(TextureSpec, None) for a UsdUVTexture, or (None, why not)."""
+        if output not in _OUTPUT_CHANNELS:
+            return None, f"output '{output}' is not rgb, r, g, b or a"
+        asset = _input_value(texture, "file", self._time)
+        authored = getattr(asset, "path", "") if asset is not None else ""
+        if not authored:
+            return None, "no file"
+        if "<UDIM>" in authored or "<udim>" in authored.lower():
+            return None, f"UDIM file '{authored}' is not supported"
+        resolved = getattr(asset, "resolvedPath", "")
+        if not resolved:
+            return None, f"file '{authored}' not found"
+        channel = _OUTPUT_CHANNELS[output]
+        k = _CHANNELS.get(output)
+        scale = _input_value(texture, "scale", self._time)
+        bias = _input_value(texture, "bias", self._time)
+        scale = tuple(float(x) for x in scale) if scale is not None else (1.0, 1.0, 1.0, 1.0)
+        bias = tuple(float(x) for x in bias) if bias is not None else (0.0, 0.0, 0.0, 0.0)
+        # A single channel is replicated: its own scale and bias on all three.
+        scale = (scale[k],) * 3 if k is not None else scale[:3]
+        bias = (bias[k],) * 3 if k is not None else bias[:3]
+        st_transform, uv_primvar, constant_st, problem = self._st_source(texture)
+        if problem:
+            self._stream.diagnostic(WARNING, material_path,
+                                    f"texture {texture.GetPath()}: {problem}", kind="texture-st")
+        return TextureSpec(
+            file=resolved,
+            wrap_s=_WRAPS.get(str(_input_value(texture, "wrapS", self._time) or "useMetadata"),
+                              scene_pb2.TextureRef.USE_METADATA),
+            wrap_t=_WRAPS.get(str(_input_value(texture, "wrapT", self._time) or "useMetadata"),
+                              scene_pb2.TextureRef.USE_METADATA),
+            scale=scale, bias=bias,
+            color_space=_COLOR_SPACES.get(
+                str(_input_value(texture, "sourceColorSpace", self._time) or "auto"),
+                scene_pb2.TextureRef.COLOR_SPACE_AUTO),
+            channel=channel, st_transform=st_transform, uv_primvar=uv_primvar,
+            constant_st=constant_st), None
+
+    def _st_source(self, texture):
+        """(st_transform or None, primvar name or None, constant st, problem)
+        of a texture's st input: a UsdPrimvarReader_float2, optionally
+        through one UsdTransform2d, or a constant."""
+        transform = None
+        node, output_attr = _connected(texture.GetInput("st"))
+        if node is None:
+            st = _input_value(texture, "st", self._time)
+            st = tuple(float(x) for x in st) if st is not None else (0.0, 0.0)
+            return None, None, st, None
+        if (node.GetShaderId() or "") == "UsdTransform2d":
+            transform = _transform2d(node, self._time)
+            inner, _ = _connected(node.GetInput("in"))
+            if inner is None:
+                st = _input_value(node, "in", self._time)
+                st = tuple(float(x) for x in st) if st is not None else (0.0, 0.0)
+                return transform, None, st, None
+            node = inner
+        node_id = node.GetShaderId() or ""
+        if not node_id.startswith("UsdPrimvarReader"):
+            return transform, None, (0.0, 0.0), f"st comes from {node_id or 'a shader'}, which " \
+                "is not modelled: constant st (0, 0)"
+        varname = _input_value(node, "varname", self._time)
+        varname = str(varname) if varname is not None else ""
+        if not varname:
+            return transform, None, (0.0, 0.0), "st primvar reader has no varname: constant st"
+        return transform, varname, (0.0, 0.0), None
+
+    def _resolve_materialx(self, shader, path):
+        node = shader.GetShaderId()
+        table = _MTLX[node]
+        approximated = []
+
+        def value(key):
+            name, default = table[key]
+            if name is None:
+                return default
+            inp = shader.GetInput(name)
+            attrs = inp.GetValueProducingAttributes() if inp else []
+            if attrs and not UsdShade.Input.IsInput(attrs[0]):
+                approximated.append(f"{name} (connected: its default)")
+                return default
+            got = attrs[0].Get(self._time) if attrs else None
+            return default if got is None else got
+
+        base = float(value("base"))
+        base_color = _as_color(value("base_color"))
+        emission = float(value("emission"))
+        emission_color = _as_color(value("emission_color"))
+        roughness = float(value("roughness"))
+        metallic = float(value("metalness"))
+        diffuse = tuple(base * c for c in base_color)
+        emissive = tuple(emission * c for c in emission_color)
+        note = "; ".join(approximated)
+        self._stream.diagnostic(
+            WARNING, path,
+            f"MaterialX {node} approximated as a diffuse surface: base colour {_fmt(diffuse)}, "
+            f"roughness {roughness:g}, metalness {metallic:g}, emission {_fmt(emissive)}; "
+            f"specular, coat, sheen, transmission, subsurface and thin-film ignored"
+            + (f"; {note}" if note else ""), kind="materialx")
+        return Resolved(diffuse, emissive, roughness, metallic, None, None, False)
+
+
+def _fill_texture_ref(ref, spec):
+    ref.file = spec.file
+    ref.wrap_s = spec.wrap_s
+    ref.wrap_t = spec.wrap_t
+    ref.scale.x, ref.scale.y, ref.scale.z = spec.scale
+    ref.bias.x, ref.bias.y, ref.bias.z = spec.bias
+    ref.source_color_space = spec.color_space
+    ref.channel = spec.channel
+    if spec.st_transform is not None:
+        ref.st_transform.extend(spec.st_transform)
+    ref.uses_uvs = spec.uv_primvar is not None
+    ref.constant_s, ref.constant_t = spec.constant_st
+
+
+def _connected(inp):
+    """(source shader, output attribute) an input is connected to (through
+    node-graph interfaces), or (None, None)."""
+    if not inp:
+        return None, None
+    attrs = inp.GetValueProducingAttributes()
+    if not attrs or UsdShade.Input.IsInput(attrs[0]):
+        return None, None
+    return UsdShade.Shader(attrs[0].GetPrim()), attrs[0]
+
+
+def _input_value(shader, name, time):
+    """Value of an input, following connections to material/node-graph
+    interface inputs; None if unauthored and without a fallback."""
+    inp = shader.GetInput(name)
+    if not inp:
+        return None
+    attrs = inp.GetValueProducingAttributes()
+    if attrs and UsdShade.Input.IsInput(attrs[0]):
+        return attrs[0].Get(time)
+    return inp.Get(time)
+
+
+def _transform2d(node, time):
+    """UsdTransform2d as [a b tx; c d ty]: st' = R(rotation) (scale * st) + translation."""
+    rotation = _input_value(node, "rotation", time)
+    scale = _input_value(node, "scale", time)
+    translation = _input_value(node, "translation", time)
+    angle = math.radians(float(rotation) if rotation is not None else 0.0)
+    sx, sy = (float(x) for x in scale) if scale is not None else (1.0, 1.0)
+    tx, ty = (float(x) for x in translation) if translation is not None else (0.0, 0.0)
+    c, s = math.cos(angle), math.sin(angle)
+    return (c * sx, -s * sy, tx, s * sx, c * sy, ty)
 
 
 def _to_seq(value):

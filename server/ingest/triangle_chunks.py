@@ -77,9 +77,11 @@ class TriangleEmitter:
         self._stream = stream
         self._max = int(max_triangles_per_chunk)
 
-    def emit(self, prim_path, positions, normals, triangles, materials, double_sided):
+    def emit(self, prim_path, positions, normals, triangles, materials, double_sided, uvs=None,
+             colors=None):
         """positions (V, 3) world space, normals (V, 3) or None, triangles
-        (T, 3) vertex ids, materials (T,) material ids or a single id."""
+        (T, 3) vertex ids, materials (T,) material ids or a single id; uvs
+        (V, 2) and colors (V, 3) per vertex, or None."""
         if len(triangles) == 0:
             return 0
         if not np.all(np.isfinite(positions)):
@@ -87,6 +89,8 @@ class TriangleEmitter:
         positions = np.ascontiguousarray(positions, dtype=np.float32)
         if normals is not None:
             normals = np.ascontiguousarray(normals, dtype=np.float32)
+        extras = {name: np.ascontiguousarray(values, dtype=np.float32)
+                  for name, values in (("uvs", uvs), ("colors", colors)) if values is not None}
         materials = np.asarray(materials, dtype=np.int64)
         # Scratch for re-indexing: vertex -> index in the current chunk, -1
         # elsewhere; each chunk resets only the entries it touched.
@@ -96,10 +100,11 @@ class TriangleEmitter:
         for material, group in groups:
             for begin in range(0, len(group), self._max):
                 self._emit_chunk(prim_path, positions, normals, group[begin:begin + self._max],
-                                 material, double_sided, remap)
+                                 material, double_sided, remap, extras)
         return len(triangles)
 
-    def _emit_chunk(self, prim_path, positions, normals, triangles, material, double_sided, remap):
+    def _emit_chunk(self, prim_path, positions, normals, triangles, material, double_sided, remap,
+                    extras=None):
         # Each chunk carries only the vertices it uses, re-indexed from 0.
         # Small meshes: mark and scan (O(vertices)); a chunk of a much larger
         # mesh: sort its indices instead, so the cost stays O(chunk).
@@ -120,6 +125,8 @@ class TriangleEmitter:
         mesh.positions = positions[used].astype("<f4", copy=False).tobytes()
         if normals is not None:
             mesh.normals = normals[used].astype("<f4", copy=False).tobytes()
+        for name, values in (extras or {}).items():
+            setattr(mesh, name, values[used].astype("<f4", copy=False).tobytes())
         mesh.indices = local.astype("<u4").tobytes()
         self._stream.triangle_count += len(triangles)
         self._stream.write(chunk)

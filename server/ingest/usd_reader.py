@@ -47,7 +47,7 @@ except ImportError as e:  # reported by main() with a clear message
 
 # Bumped whenever the reader's output for the same input changes, so that
 # caches keyed by the content hash are invalidated.
-READER_VERSION = "pbgi-usd-reader/1"
+READER_VERSION = "pbgi-usd-reader/2"  # 2: textures, vertex colours, dome/cylinder lights, shaping
 _HASH_BLOCK = 1 << 20
 
 

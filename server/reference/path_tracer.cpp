@@ -4,6 +4,7 @@
 #include "server/scene/light_sampling.h"
 #include "server/scene/rng.h"
 #include "server/scene/sample_patterns.h"
+#include "server/scene/surface_colors.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -43,6 +44,7 @@ struct Vertex {
   V3f ng;  // geometric normal, unit
   V3f ns;  // shading normal, unit, in ng's hemisphere
   const Material* material = nullptr;
+  C3f albedo{0, 0, 0}, emission{0, 0, 0};  // of the material at p (textures applied)
 };
 
 float max_component(const C3f& c) { return std::max({c.x, c.y, c.z}); }
@@ -103,6 +105,9 @@ Vertex PathTracer::make_vertex(const Hit& hit, const V3f& ray_dir) const {
   }
   if (v.ns.dot(v.ng) <= 0.f) v.ns = v.ng;
   v.material = &scene_.materials[t.material[hit.triangle]];
+  const SurfaceColors colors = surface_colors(scene_, hit.triangle, hit.u, hit.v);
+  v.albedo = colors.albedo;
+  v.emission = colors.emission;
   return v;
 }
 
@@ -130,8 +135,8 @@ PathSample PathTracer::trace(const Ray& camera_ray, Rng& rng, uint64_t* ray_coun
   }
   if (!hit.valid()) return out;  // black, ao 1, albedo 0
   Vertex v = make_vertex(hit, camera_ray.direction);
-  out.albedo = v.material->albedo;
-  out.direct += v.material->emission;
+  out.albedo = v.albedo;
+  out.direct += v.emission;
 
   // 2. Ambient accessibility at x1, from its own cosine-distributed ray.
   {
@@ -155,7 +160,7 @@ PathSample PathTracer::trace(const Ray& camera_ray, Rng& rng, uint64_t* ray_coun
   };
   C3f beta(1.f, 1.f, 1.f);  // throughput from the camera to x_k, without f(x_k)
   for (uint32_t k = 1;; ++k) {
-    const C3f albedo = v.material->albedo;
+    const C3f albedo = v.albedo;
     const C3f f = albedo * kInvPi;
     const V3f origin = offset_origin(v);
 
@@ -198,7 +203,7 @@ PathSample PathTracer::trace(const Ray& camera_ray, Rng& rng, uint64_t* ray_coun
     v = make_vertex(next, d);
     // Emission of x_{k+1}: it left a surface, so one more than above.
     // Emissive triangles are found only this way, so their weight is 1.
-    add(k, beta * v.material->emission);
+    add(k, beta * v.emission);
 
     // 3c. Continue to x_{k+1}?
     if (k + 1 > options_.max_depth) break;

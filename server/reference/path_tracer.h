@@ -48,8 +48,11 @@
 //             directions around the shading normal whose ray hits no
 //             surface within ao_max_distance (1 = open; 1 where the camera
 //             ray misses). Lights are not occluders.
-// Pixels where the camera ray misses everything are black (scenes have no
-// dome light in this slice).
+// Pixels where the camera ray misses everything show the scene's DomeLights
+// (intersect_light reports a dome for escaping rays; counted in "direct"
+// when lights_visible_to_camera), else black; paths that escape pick up
+// the dome's radiance MIS-weighted against its importance-sampled NEE.
+// Albedo and emission are evaluated with textures (surface_colors.h).
 //
 // Sampling and determinism: sample s of pixel (x, y) draws from its own
 // PCG32 stream seeded by hash(seed, pixel index) with stream s; the pixel

@@ -5,6 +5,7 @@
 #include "server/scene/light_sampling.h"
 #include "server/scene/rng.h"
 #include "server/scene/sample_patterns.h"
+#include "server/scene/surface_colors.h"
 #include "storage/format/errors.h"
 
 #include <fmt/format.h>
@@ -73,7 +74,7 @@ PixelValue shade_sample(const RayScene& rays, Gatherer& gatherer, const Ray& ray
     ns = -ns;
   }
   if (ns.dot(ng) <= 0.f) ns = ng;
-  const Material& mat = scene.materials[t.material[hit.triangle]];
+  const SurfaceColors mat = surface_colors(scene, hit.triangle, hit.u, hit.v);  // textures applied
   const C3f brdf = mat.albedo * kInvPi;
 
   const C3f e_direct = direct_irradiance(rays, p, ns, options.light_samples, light_seed);

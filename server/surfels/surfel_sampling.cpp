@@ -20,9 +20,15 @@
 // twice; the spacing derived from target_surfels accounts for it).
 //
 // Triangles with zero, negative or non-finite area are skipped and counted.
+//
+// Albedo and emission come from the triangle's material; a textured or
+// vertex-coloured one is evaluated at each surfel's point
+// (server/scene/surface_colors.h), with textures averaged over a square of
+// the surfel's area, so that the surfels of a mesh keep the texture's mean.
 #include "server/scene/rng.h"
 #include "server/scene/sample_patterns.h"
 #include "server/scene/scene_validation.h"
+#include "server/scene/surface_colors.h"
 #include "server/surfels/progress_meter.h"
 #include "server/surfels/surfels.h"
 #include "storage/format/errors.h"
@@ -157,7 +163,9 @@ std::vector<Surfel> sample_surfels(const Scene& scene, const SurfelOptions& opti
       const V3f& p2 = t.positions[t.indices[3 * i + 2]];
       const V3f n = (p1 - p0).cross(p2 - p0).normalized();
       const Material& mat = scene.materials[t.material[i]];
+      const bool varying = has_varying_colors(mat);
       const float radius = std::sqrt(p.share * kInvPi);
+      const float footprint = std::sqrt(p.share);  // side of a square of the surfel's area
       const bool twin = is_double_sided(scene, static_cast<uint32_t>(i));
       Rng rng(hash_ids(options.seed, kPlaceDomain, i));
       const Imath::V2f shift(rng.uniform(), rng.uniform());
@@ -170,7 +178,12 @@ std::vector<Surfel> sample_surfels(const Scene& scene, const SurfelOptions& opti
         s.radius = radius;
         s.albedo = mat.albedo;
         s.emission = mat.emission;
-        s.radiance = mat.emission;
+        if (varying) {
+          const SurfaceColors c = surface_colors(scene, static_cast<uint32_t>(i), b.x, b.y, footprint);
+          s.albedo = c.albedo;
+          s.emission = c.emission;
+        }
+        s.radiance = s.emission;
         *out++ = s;
         if (twin) {
           s.normal = -n;

@@ -138,6 +138,8 @@ SurfelTree::SurfelTree(std::vector<Surfel> surfels, SurfelTreeOptions options) {
 tree::PagePtr SurfelTree::page(uint32_t id) const {
   if (id >= pages_.size()) throw InvalidArgument("SurfelTree: no page " + std::to_string(id));
   ++fetches_;
+  const size_t in_use = pages_in_use() + 1;
+  if (in_use > max_in_use_.load()) max_in_use_ = in_use;
   return pages_[id];
 }
 

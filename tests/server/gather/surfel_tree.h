@@ -36,11 +36,14 @@ class SurfelTree final : public tree::TreeSource {
   uint64_t fetches() const { return fetches_.load(); }
   // Pages currently referenced by someone besides this source.
   size_t pages_in_use() const;
+  // The most pages referenced outside this source at any page() call.
+  size_t max_pages_in_use() const { return max_in_use_.load(); }
 
  private:
   std::vector<std::shared_ptr<tree::Page>> pages_;
   size_t node_count_ = 0;
   mutable std::atomic<uint64_t> fetches_{0};
+  mutable std::atomic<size_t> max_in_use_{0};
 };
 
 }  // namespace pbgi::test
