@@ -13,13 +13,11 @@ namespace pbgi::gather {
 
 namespace {
 // Solid angle of the face-plane rectangle [0,x] x [0,y] (signed by x*y).
-double corner_term(double x, double y) {
-  return std::atan2(x * y, std::sqrt(x * x + y * y + 1.0));
-}
+double corner_term(double x, double y) { return std::atan2(x * y, std::sqrt(x * x + y * y + 1.0)); }
 // acos(1/sqrt(3)): the largest angle between a face axis and a direction
 // that still projects onto that face (the face corners).
-constexpr float kCosFaceCorner = 0.57735027f;   // 1/sqrt(3)
-constexpr float kSinFaceCorner = 0.81649658f;   // sqrt(2/3)
+constexpr float kCosFaceCorner = 0.57735027f;  // 1/sqrt(3)
+constexpr float kSinFaceCorner = 0.81649658f;  // sqrt(2/3)
 }  // namespace
 
 double CubeLayout::rect_solid_angle(double u0, double v0, double u1, double v1) {

@@ -77,7 +77,7 @@ bool finite(const Imath::V3f& v) {
 // Starts loading all cache lines of a node (bounds, then payload).
 inline void prefetch(const tree::Node& node) {
   const char* p = reinterpret_cast<const char*>(&node);
-  __builtin_prefetch(p);
+  for (size_t off = 0; off < sizeof(tree::Node); off += 64) __builtin_prefetch(p + off);
 }
 
 // A pending node; it holds a reference on its page's pin.
@@ -202,8 +202,7 @@ void Gatherer::Impl::splat_node(const tree::Node& node, const Imath::V3f& v, flo
   ++counters->nodes_rasterized;
 }
 
-void Gatherer::Impl::leaf_surfels(const tree::Page& page, uint32_t index,
-                                  const tree::Node& node) {
+void Gatherer::Impl::leaf_surfels(const tree::Page& page, uint32_t index, const tree::Node& node) {
   const uint64_t end = uint64_t(node.first_surfel) + node.surfel_count;
   if (end > page.surfels.size()) {
     throw CorruptionError("tree page " + std::to_string(page.id) + " leaf " +

@@ -10,10 +10,10 @@ namespace pbgi {
 void GatherOptions::validate() const {
   if (microbuffer_resolution < kMinMicrobufferResolution ||
       microbuffer_resolution > kMaxMicrobufferResolution) {
-    throw InvalidArgument("GatherOptions.microbuffer_resolution = " +
-                          std::to_string(microbuffer_resolution) + ": must be in [" +
-                          std::to_string(kMinMicrobufferResolution) + ", " +
-                          std::to_string(kMaxMicrobufferResolution) + "]");
+    throw InvalidArgument(
+        "GatherOptions.microbuffer_resolution = " + std::to_string(microbuffer_resolution) +
+        ": must be in [" + std::to_string(kMinMicrobufferResolution) + ", " +
+        std::to_string(kMaxMicrobufferResolution) + "]");
   }
   if (!(std::isfinite(max_solid_angle) && max_solid_angle > 0.f &&
         max_solid_angle <= kMaxMaxSolidAngle)) {

@@ -32,8 +32,8 @@ inline constexpr float kNarrowConeCos = 0.93937271f;
 inline constexpr float kMinCoverage = 1e-4f;
 
 struct Appearance {
-  float coverage = 0.f;            // in [0, 1]
-  Imath::C3f radiance{0, 0, 0};    // >= 0
+  float coverage = 0.f;          // in [0, 1]
+  Imath::C3f radiance{0, 0, 0};  // >= 0
   // Footprint: a flat node looks squashed along its normal by the
   // coverage; a wide-cone node is drawn round (ratio 1).
   Imath::V3f squash{0, 0, 0};

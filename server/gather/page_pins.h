@@ -36,7 +36,8 @@ class PagePins {
     if (!slot.page) {
       tree::PagePtr p = tree_.page(id);
       ++fetches_;
-      if (!p) throw CorruptionError("tree page " + std::to_string(id) + ": source returned no page");
+      if (!p)
+        throw CorruptionError("tree page " + std::to_string(id) + ": source returned no page");
       if (p->id != id) {
         throw CorruptionError("tree page " + std::to_string(id) + ": source returned page " +
                               std::to_string(p->id));

@@ -7,11 +7,11 @@ namespace pbgi::gather {
 
 namespace {
 // CDF at x of a box of half width h convolved with itself: a tent of half
-// width 2h centered at 0.
-// Branch-free: with t = (x + 2h) / 2h clamped to [0, 2], s = min(t, 1) and
-// e = max(t - 1, 0), the CDF is s^2/2 + e - e^2/2.
-inline float tent_cdf(float x, float h) {
-  const float t = std::clamp((x + 2.f * h) / (2.f * h), 0.f, 2.f);
+// width 2h centered at 0, given inv = 1 / (2h). Branch-free: with
+// t = x / 2h + 1 clamped to [0, 2], s = min(t, 1) and e = max(t - 1, 0),
+// the CDF is s^2/2 + e - e^2/2.
+inline float tent_cdf(float x, float inv) {
+  const float t = std::clamp(x * inv + 1.f, 0.f, 2.f);
   const float s = std::min(t, 1.f), e = std::max(t - 1.f, 0.f);
   return 0.5f * s * s + e - 0.5f * e * e;
 }
@@ -82,10 +82,11 @@ void Rasterizer::splat(const Imath::V3f& dir, const Shape& shape, float depth,
   const float sv0 = v - 2.f * hv, sv1 = v + 2.f * hv;
   const float area = 4.f * hu * hv;  // the tent's total, in plane units
   const int ku = (k + 1) % 3, kv = (k + 2) % 3;
-  if (su1 > 1.f) overflow(home, 2 * ku, 1.f, su1, sv0, sv1, area * (1.f - tent_cdf(1.f - u, hu)));
-  if (su0 < -1.f) overflow(home, 2 * ku + 1, su0, -1.f, sv0, sv1, area * tent_cdf(-1.f - u, hu));
-  if (sv1 > 1.f) overflow(home, 2 * kv, su0, su1, 1.f, sv1, area * (1.f - tent_cdf(1.f - v, hv)));
-  if (sv0 < -1.f) overflow(home, 2 * kv + 1, su0, su1, sv0, -1.f, area * tent_cdf(-1.f - v, hv));
+  const float iu = 0.5f / hu, iv = 0.5f / hv;
+  if (su1 > 1.f) overflow(home, 2 * ku, 1.f, su1, sv0, sv1, area * (1.f - tent_cdf(1.f - u, iu)));
+  if (su0 < -1.f) overflow(home, 2 * ku + 1, su0, -1.f, sv0, sv1, area * tent_cdf(-1.f - u, iu));
+  if (sv1 > 1.f) overflow(home, 2 * kv, su0, su1, 1.f, sv1, area * (1.f - tent_cdf(1.f - v, iv)));
+  if (sv0 < -1.f) overflow(home, 2 * kv + 1, su0, su1, sv0, -1.f, area * tent_cdf(-1.f - v, iv));
 
   // 3. Rescale so that the pieces add up to exactly the splat's solid angle.
   if (!(covered_ > 0.f) || candidates_.empty()) return;
@@ -111,8 +112,7 @@ void Rasterizer::splat(const Imath::V3f& dir, const Shape& shape, float depth,
   }
 }
 
-void Rasterizer::overflow(int home, int face, float u0, float u1, float v0, float v1,
-                          float mass) {
+void Rasterizer::overflow(int home, int face, float u0, float u1, float v0, float v1, float mass) {
   if (!(mass > 0.f)) return;
   const int k = home >> 1;
   const float s = (home & 1) ? -1.f : 1.f;
@@ -163,18 +163,19 @@ void Rasterizer::deposit_tent(int face, float uc, float hu, float vc, float hv) 
   const uint32_t j1 = std::min(n - 1, uint32_t((v1 + 1.f) * inv_pw));
   // The tent is separable: its mass over a pixel is the product of the
   // masses of the pixel's column and row.
+  const float inv_u = 0.5f / hu, inv_v = 0.5f / hv;
   float mass_u[CubeLayout::kMaxResolution], mid_u[CubeLayout::kMaxResolution];
   for (uint32_t i = i0; i <= i1; ++i) {
     const float lo = -1.f + pw * float(i);
     const float a = std::max(u0, lo), b = std::min(u1, lo + pw);
-    mass_u[i] = b > a ? tent_cdf(b - uc, hu) - tent_cdf(a - uc, hu) : 0.f;
+    mass_u[i] = b > a ? tent_cdf(b - uc, inv_u) - tent_cdf(a - uc, inv_u) : 0.f;
     mid_u[i] = 0.5f * (a + b);
   }
   for (uint32_t j = j0; j <= j1; ++j) {
     const float lo_v = -1.f + pw * float(j);
     const float a_v = std::max(v0, lo_v), b_v = std::min(v1, lo_v + pw);
     if (b_v <= a_v) continue;
-    const float mass_v = (tent_cdf(b_v - vc, hv) - tent_cdf(a_v - vc, hv)) * scale;
+    const float mass_v = (tent_cdf(b_v - vc, inv_v) - tent_cdf(a_v - vc, inv_v)) * scale;
     const float mid_v = 0.5f * (a_v + b_v);
     const float row_cos = nv * mid_v + nw, row_len = 1.f + mid_v * mid_v;
     const uint32_t row = layout_.index(face, 0, j);
@@ -262,8 +263,7 @@ uint32_t Rasterizer::raycast(const Imath::V3f& offset, const Imath::V3f& normal,
         const float den = normal.x * dx[k] + normal.y * dy[k] + normal.z * dz[k];
         if (!(den < 0.f)) continue;  // parallel to or leaving the disk's plane
         const float t = plane / den;
-        const float hx = dx[k] * t - offset.x, hy = dy[k] * t - offset.y,
-                    hz = dz[k] * t - offset.z;
+        const float hx = dx[k] * t - offset.x, hy = dy[k] * t - offset.y, hz = dz[k] * t - offset.z;
         if (hx * hx + hy * hy + hz * hz <= r2) {
           buffer_.add_hit(k, t, radiance);
           ++hits;

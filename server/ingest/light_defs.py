@@ -12,10 +12,12 @@ normalize = false the schema would make it a radiance over the sun's disk,
 some 1e-4 times dimmer, which no scene authored for Storm expects.
 
 Colour temperature: UsdLux.BlackbodyTemperatureAsRgb, USD's own blackbody
-table (1000 K to 10000 K; CIE 1931 chromaticities of the Planckian locus
-converted to linear Rec.709 and normalized so that 6500 K is white, i.e.
-equal to the D65 white point of the rendering space; temperatures outside
-the table are clamped to it). It multiplies `color`, as the schema says.
+table (CIE 1931 chromaticities of the Planckian locus from 1000 K to
+10000 K, interpolated with a spline, converted to linear Rec.709 and scaled
+to unit luminance; temperatures outside the table are clamped to it),
+divided by its value at 6500 K, (1.043, 0.984, 1.035): the schema asks
+that 6500 K, the D65 white point of the rendering space, be exactly white.
+It multiplies `color`, as the schema says.
 
 Shapes: rect and disk emit from their local -Z side only; spheres and
 cylinders (around local X, no end caps) emit outward. UsdLuxShapingAPI's
@@ -81,8 +83,14 @@ def light_color(api, time):
     color = np.array(_get(api.GetColorAttr(), time, Gf.Vec3f(1, 1, 1)), dtype=np.float64)
     if _get(api.GetEnableColorTemperatureAttr(), time, False):
         kelvin = float(_get(api.GetColorTemperatureAttr(), time, 6500.0))
-        color *= np.array(UsdLux.BlackbodyTemperatureAsRgb(kelvin), dtype=np.float64)
+        color *= blackbody_rgb(kelvin)
     return color
+
+
+def blackbody_rgb(kelvin):
+    """Linear Rec.709 colour of a blackbody, 6500 K = (1, 1, 1)."""
+    white = np.array(UsdLux.BlackbodyTemperatureAsRgb(6500.0), dtype=np.float64)
+    return np.array(UsdLux.BlackbodyTemperatureAsRgb(kelvin), dtype=np.float64) / white
 
 
 def _dome(prim, light, matrix, time, stream, path):

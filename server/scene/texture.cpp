@@ -34,8 +34,10 @@ int64_t wrap_index(int64_t i, int64_t size, TextureWrap wrap) {
 }
 
 // Next pyramid level: each texel averages the 2x2 block above it; an odd
-// last row or column is folded into the previous block (weights 1/3 on
-// each of three), so that every source texel counts and the mean is kept.
+// last row or column is folded into the previous block (a 3-wide average),
+// so that every source texel counts. Blocks of unequal size then weigh
+// their texels slightly differently; the 1x1 top level is set to the exact
+// mean afterwards.
 std::vector<float> downsample(const std::vector<float>& src, uint32_t w, uint32_t h, uint32_t* nw,
                               uint32_t* nh) {
   *nw = std::max(1u, w / 2);
@@ -110,6 +112,7 @@ Texture::Texture(std::string name, uint32_t width, uint32_t height, uint32_t cha
     w = nw;
     h = nh;
   }
+  for (int c = 0; c < 4; ++c) levels_.back().rgba[c] = Imath::half(mean_[c]);
 }
 
 size_t Texture::memory_bytes() const {

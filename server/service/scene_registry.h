@@ -23,7 +23,8 @@ using SceneOpener = std::function<std::shared_ptr<SceneSession>(
     const std::filesystem::path& path, const OpenOptions& options, const StageProgress& progress)>;
 
 // Thread-safe. Sessions stay open for the registry's lifetime (no eviction
-// in this slice: their pages live in the shared, budgeted page cache).
+// in this slice: their pages live in the shared, budgeted page cache), and a
+// scene file edited after its open is not reopened until the daemon restarts.
 class SceneRegistry {
  public:
   explicit SceneRegistry(SceneOpener opener);

@@ -22,7 +22,10 @@ namespace pbgi::storage {
 
 // Codec ids as stored in page headers and the manifest. Never reuse an id.
 enum class CodecId : uint32_t {
-  kFloatSh = 0,  // 27 + 9 float32 SH coefficients, 144 bytes per node
+  kFloatSh = 0,      // 27 + 9 float32 SH coefficients, 144 bytes per node
+  kQuantizedSh = 1,  // k-means LUT index + log scale, bit-packed (needs its LUT)
+  // 2 is reserved for Haar-wavelet radiance of glossy senders
+  // (storage/codecs/wavelet_tree_coding.h), not yet a node payload codec.
 };
 
 class PayloadCodec {
@@ -44,7 +47,19 @@ class PayloadCodec {
 };
 
 // Returns the codec stored under `id`; VersionError if this build does not
-// know it (a page set written by a newer pbgi).
+// know it (a page set written by a newer pbgi). InvalidArgument for a codec
+// that needs state (codec_needs_state()): use the overload below.
 std::shared_ptr<const PayloadCodec> make_payload_codec(uint32_t id);
+
+// Whether this build reads codec `id` at all.
+bool is_known_payload_codec(uint32_t id);
+// Whether codec `id` needs per-page-set state (the quantized SH LUT),
+// stored in the page set's metadata and passed to the overload below.
+bool codec_needs_state(uint32_t id);
+// Returns the codec `id` with its serialized state (ignored by stateless
+// codecs). VersionError for an unknown id or state version;
+// CorruptionError (prefixed with `what`) for damaged state.
+std::shared_ptr<const PayloadCodec> make_payload_codec(uint32_t id, std::span<const uint8_t> state,
+                                                       const std::string& what);
 
 }  // namespace pbgi::storage

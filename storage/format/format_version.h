@@ -19,10 +19,15 @@ inline constexpr uint32_t kPageMagic = fourcc("PBGP");      // each page of page
 inline constexpr uint32_t kManifestMagic = fourcc("PBGM");  // manifest.pbgm
 
 // Page layout versions.
-//   V1: 32-byte header, topology array (64 B/node), payload array (codec),
-//       surfel array (64 B/surfel), 8-byte XXH3-64 trailer.
+//   V1 (retired, refused): 32-byte header, topology array (64 B/node),
+//       payload array (codec), surfel array (64 B/surfel, float32), trailer.
+//   V2: 32-byte header, shape bytes (1 B/node), leaf frames, link records,
+//       payload array (codec, page-boundary nodes only), quantized surfel
+//       records (24 B/surfel), 8-byte XXH3-64 trailer. Bounds, cones, areas
+//       and payloads of the nodes inside a page are derived when it loads.
 inline constexpr uint32_t kPageFormatV1 = 1;
-inline constexpr uint32_t kPageFormatCurrent = kPageFormatV1;
+inline constexpr uint32_t kPageFormatV2 = 2;
+inline constexpr uint32_t kPageFormatCurrent = kPageFormatV2;
 
 // Manifest layout versions.
 //   V1: 16-byte header, body (options, stats, root, codec, page table),
@@ -32,9 +37,13 @@ inline constexpr uint32_t kManifestFormatCurrent = kManifestFormatV1;
 
 // Version of a page set as a whole (manifest + pages + codec set). Build keys
 // hash it, so bumping it makes every daemon rebuild its cached page sets.
-inline constexpr uint32_t kPageSetFormatVersion = 1;
+//   1: V1 pages, trees split at the median of the largest axis.
+//   2: V2 pages, trees over Morton order (storage/tree/streaming_tree_builder.h).
+inline constexpr uint32_t kPageSetFormatVersion = 2;
 
-constexpr bool is_known_page_format(uint32_t v) { return v == kPageFormatV1; }
+// V1 pages are no longer read: their page sets are rebuilt (the build key
+// changed with kPageSetFormatVersion), so a V1 page is a VersionError.
+constexpr bool is_known_page_format(uint32_t v) { return v == kPageFormatV2; }
 constexpr bool is_known_manifest_format(uint32_t v) { return v == kManifestFormatV1; }
 
 }  // namespace pbgi::storage

@@ -1,36 +1,85 @@
-// Fixed-size records inside a V1 page: the topology record of a node (its
-// bounds, cone, area and links, everything but the payload) and the surfel
-// record. Both are 64 bytes of little-endian fields; FORMAT.md gives the
-// offsets. The payload of a node is stored apart, by a codec.
+// Records inside a V2 page (FORMAT.md gives the byte offsets):
+//
+//  * shape byte, one per node in pre-order: child count and which children
+//    live in another page. The shapes alone determine the treelet.
+//  * leaf record: the leaf's frame (bounding sphere, also the quantization
+//    frame of its surfels) and its surfel count.
+//  * link record: a child that lives in another page: that page's id and
+//    the bounds, cone and area of its root (its payload follows in the
+//    page's payload array), so that the ancestors' bounds and payloads can
+//    be derived without loading the other page.
+//  * surfel record: 24 bytes, position and radius relative to the leaf's
+//    frame, octahedral normal, RGB9E5 colours.
+//
+// Precision of a decoded surfel, with R the radius of its leaf's frame:
+// each position coordinate within R / 65534 (plus float rounding), radius
+// within R / 131070, normal within kOctahedralMaxAngle radians, each colour
+// channel within max(r, g, b) / 512 (packed_values.h).
 #pragma once
 
 #include "storage/tree/node.h"
 #include "storage/tree/surfel.h"
+
+#include <Imath/ImathVec.h>
 
 #include <cstddef>
 #include <cstdint>
 
 namespace pbgi::storage {
 
-inline constexpr size_t kTopologyRecordBytes = 64;
-inline constexpr size_t kSurfelRecordBytes = 64;
-// The largest payload any codec of this build stores per node (float32 SH);
-// used to check that a page can always hold one full leaf.
+inline constexpr size_t kShapeBytes = 1;
+inline constexpr size_t kLeafRecordBytes = 18;
+inline constexpr size_t kLinkRecordBytes = 40;
+inline constexpr size_t kSurfelRecordBytes = 24;
+// The largest payload any codec of this build stores per node (float32 SH).
 inline constexpr size_t kMaxPayloadBytesPerNode = 144;
+// Most surfels a leaf record can count (u16).
+inline constexpr uint32_t kMaxLeafSurfels = 65535;
 
-// Writes everything of `n` but the payload (radiance_sh, coverage_sh).
-void write_topology_record(const tree::Node& n, uint8_t* out);
-// Reads the fields written above; payload fields are left untouched.
-void read_topology_record(const uint8_t* in, tree::Node& n);
+// ---- shape byte ----
+// bits 0-1: child count (0 = leaf); bit 2 / bit 3: child 0 / child 1 lives
+// in another page; bits 4-7: zero.
+struct NodeShape {
+  uint8_t child_count = 0;
+  bool external[2] = {false, false};
+};
+uint8_t encode_shape(const NodeShape& s);
+// Returns false for a byte no writer produces (reserved bits, more than two
+// children, an external flag on a missing child).
+bool decode_shape(uint8_t byte, NodeShape& out);
 
-void write_surfel_record(const Surfel& s, uint8_t* out);
-void read_surfel_record(const uint8_t* in, Surfel& s);
+// ---- leaf record ----
+// The frame of a leaf: every decoded surfel disk lies inside the sphere
+// (center, radius), and positions and radii are stored relative to it.
+struct LeafFrame {
+  Imath::V3f center{0, 0, 0};
+  float radius = 0.f;
+};
+void write_leaf_record(const LeafFrame& f, uint32_t surfel_count, uint8_t* out);
+void read_leaf_record(const uint8_t* in, LeafFrame& f, uint32_t& surfel_count);
 
-// Bytes a page needs at most for one leaf of `leaf_size` surfels: the
-// smallest legal page size for that leaf size.
+// ---- link record ----
+// Writes page, center, radius, cone axis, cone cos and area of `n`.
+void write_link_record(uint32_t page, const tree::Node& n, uint8_t* out);
+// Reads them back into `n` (other fields untouched).
+void read_link_record(const uint8_t* in, uint32_t& page, tree::Node& n);
+
+// ---- surfel record ----
+// Encodes `s` relative to `f`; `s` must lie in the frame (its disk inside
+// the sphere) for the stated precision to hold.
+void encode_surfel_record(const Surfel& s, const LeafFrame& f, uint8_t* out);
+void decode_surfel_record(const uint8_t* in, const LeafFrame& f, Surfel& s);
+
+// Bytes around the records of every page: header, trailer and the padding
+// that aligns the leaf records to 4 bytes.
+inline constexpr size_t kPageOverheadBytes = 32 /*header*/ + 8 /*trailer*/ + 3 /*pad*/;
+
+// The smallest legal page size for `leaf_size`: a page must hold one full
+// leaf, and one internal node whose two children both live elsewhere.
 constexpr size_t min_page_bytes(uint32_t leaf_size) {
-  return 32 /*header*/ + 8 /*trailer*/ + kTopologyRecordBytes + kMaxPayloadBytesPerNode +
-         size_t(leaf_size) * kSurfelRecordBytes;
+  const size_t leaf = kShapeBytes + kLeafRecordBytes + size_t(leaf_size) * kSurfelRecordBytes;
+  const size_t fork = kShapeBytes + 2 * (kLinkRecordBytes + kMaxPayloadBytesPerNode);
+  return kPageOverheadBytes + (leaf > fork ? leaf : fork);
 }
 
 }  // namespace pbgi::storage

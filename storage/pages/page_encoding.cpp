@@ -7,30 +7,39 @@
 
 namespace pbgi::storage {
 
-void encode_page(const tree::Page& page, const PayloadCodec& codec, std::vector<uint8_t>& out) {
-  const size_t topo_bytes = page.nodes.size() * kTopologyRecordBytes;
-  out.assign(kPageHeaderBytes + topo_bytes, 0);
-  uint8_t* p = out.data() + kPageHeaderBytes;
-  for (const tree::Node& n : page.nodes) {
-    write_topology_record(n, p);
-    p += kTopologyRecordBytes;
+namespace {
+// Leaf records start at a multiple of 4 from the page start.
+size_t padded(size_t n) { return (n + 3) & ~size_t(3); }
+}  // namespace
+
+void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& codec,
+                 std::vector<uint8_t>& out) {
+  const size_t n = t.shapes.size();
+  const size_t leaves_at = padded(kPageHeaderBytes + n);
+  out.assign(leaves_at, 0);
+  std::copy(t.shapes.begin(), t.shapes.end(), out.begin() + kPageHeaderBytes);
+  out.insert(out.end(), t.leaf_records.begin(), t.leaf_records.end());
+  size_t at = out.size();
+  out.resize(at + t.links.size() * kLinkRecordBytes);
+  std::vector<tree::Node> linked;
+  linked.reserve(t.links.size());
+  for (const tree::TreeletLink& l : t.links) {
+    write_link_record(l.page, l.summary, out.data() + at);
+    at += kLinkRecordBytes;
+    linked.push_back(l.summary);
   }
-  codec.encode(page.nodes, out);
-  const size_t payload_bytes = out.size() - kPageHeaderBytes - topo_bytes;
-  const size_t surfels_at = out.size();
-  out.resize(surfels_at + page.surfels.size() * kSurfelRecordBytes + kPageTrailerBytes);
-  p = out.data() + surfels_at;
-  for (const Surfel& s : page.surfels) {
-    write_surfel_record(s, p);
-    p += kSurfelRecordBytes;
-  }
+  const size_t payload_at = out.size();
+  codec.encode(linked, out);
+  const size_t payload_bytes = out.size() - payload_at;
+  out.insert(out.end(), t.surfel_records.begin(), t.surfel_records.end());
+  out.resize(out.size() + kPageTrailerBytes);
 
   PageHeader h;
   h.format_version = static_cast<uint16_t>(kPageFormatCurrent);
   h.codec = static_cast<uint16_t>(codec.id());
-  h.page_id = page.id;
-  h.node_count = static_cast<uint32_t>(page.nodes.size());
-  h.surfel_count = static_cast<uint32_t>(page.surfels.size());
+  h.page_id = page_id;
+  h.node_count = static_cast<uint32_t>(n);
+  h.surfel_count = static_cast<uint32_t>(t.surfel_count());
   h.payload_bytes = static_cast<uint32_t>(payload_bytes);
   h.page_bytes = static_cast<uint32_t>(out.size());
   write_page_header(h, out.data());
@@ -48,59 +57,53 @@ tree::PagePtr decode_page(std::span<const uint8_t> bytes, const PageLocation& wh
     throw corrupt("payload codec " + std::to_string(h.codec) + " differs from the manifest's " +
                   std::to_string(codec.id()));
   }
-  const uint64_t topo_bytes = uint64_t(h.node_count) * kTopologyRecordBytes;
-  const uint64_t surfel_bytes = uint64_t(h.surfel_count) * kSurfelRecordBytes;
-  const uint64_t need = kPageHeaderBytes + topo_bytes + h.payload_bytes + surfel_bytes + kPageTrailerBytes;
-  if (need != bytes.size()) {
-    throw corrupt("header counts (" + std::to_string(h.node_count) + " nodes, " +
-                  std::to_string(h.payload_bytes) + " payload bytes, " +
-                  std::to_string(h.surfel_count) + " surfels) need " + std::to_string(need) +
-                  " bytes, page has " + std::to_string(bytes.size()));
-  }
+  if (h.flags != 0) throw corrupt("reserved header flags are " + std::to_string(h.flags));
   if (h.node_count == 0) throw corrupt("page has no nodes");
+  // 1. Sizes. Leaf and link counts follow from the shapes (each byte is
+  //    checked when the treelet is parsed).
+  const uint64_t body = bytes.size() - kPageHeaderBytes - kPageTrailerBytes;
+  if (h.node_count > body) {
+    throw corrupt(std::to_string(h.node_count) + " shape bytes do not fit the page");
+  }
+  const std::span<const uint8_t> shapes = bytes.subspan(kPageHeaderBytes, h.node_count);
+  uint64_t leaves = 0, links = 0;
+  for (uint8_t s : shapes) {
+    leaves += (s & 3u) == 0 ? 1 : 0;
+    links += ((s >> 2) & 1u) + ((s >> 3) & 1u);
+  }
+  const uint64_t leaves_at = padded(kPageHeaderBytes + h.node_count);
+  const uint64_t links_at = leaves_at + leaves * kLeafRecordBytes;
+  const uint64_t payload_at = links_at + links * kLinkRecordBytes;
+  const uint64_t surfels_at = payload_at + h.payload_bytes;
+  const uint64_t need = surfels_at + uint64_t(h.surfel_count) * kSurfelRecordBytes + kPageTrailerBytes;
+  if (need != bytes.size()) {
+    throw corrupt("header and shapes (" + std::to_string(h.node_count) + " nodes, " + std::to_string(leaves) +
+                  " leaves, " + std::to_string(links) + " links, " + std::to_string(h.payload_bytes) +
+                  " payload bytes, " + std::to_string(h.surfel_count) + " surfels) need " +
+                  std::to_string(need) + " bytes, page has " + std::to_string(bytes.size()));
+  }
 
+  // 2. Links and their payloads.
+  std::vector<tree::TreeletLink> link(links);
+  std::vector<tree::Node> linked(links);
+  for (uint64_t i = 0; i < links; ++i) {
+    read_link_record(bytes.data() + links_at + i * kLinkRecordBytes, link[i].page, linked[i]);
+    if (link[i].page >= page_count) {
+      throw corrupt("link " + std::to_string(i) + " to page " + std::to_string(link[i].page) +
+                    " outside the " + std::to_string(page_count) + " pages");
+    }
+  }
+  codec.decode(bytes.subspan(payload_at, h.payload_bytes), linked, at);
+  for (uint64_t i = 0; i < links; ++i) link[i].summary = linked[i];
+
+  // 3. The treelet, every summary derived.
+  tree::TreeletView view;
+  view.shapes = shapes;
+  view.leaf_records = bytes.subspan(leaves_at, leaves * kLeafRecordBytes);
+  view.links = link;
+  view.surfel_records = bytes.subspan(surfels_at, uint64_t(h.surfel_count) * kSurfelRecordBytes);
   auto page = std::make_shared<tree::Page>();
-  page->id = h.page_id;
-  page->nodes.resize(h.node_count);
-  page->surfels.resize(h.surfel_count);
-
-  // 1. Topology, with every link checked so that no reader can be sent out
-  //    of bounds by a page that passed its checksum but was written wrong.
-  const uint8_t* p = bytes.data() + kPageHeaderBytes;
-  for (uint32_t i = 0; i < h.node_count; ++i, p += kTopologyRecordBytes) {
-    tree::Node& n = page->nodes[i];
-    read_topology_record(p, n);
-    const std::string node = "node " + std::to_string(i);
-    if (n.child_count > tree::Node::kMaxChildren) {
-      throw corrupt(node + " has " + std::to_string(n.child_count) + " children");
-    }
-    if (n.is_leaf()) {
-      if (n.surfel_count == 0 || uint64_t(n.first_surfel) + n.surfel_count > h.surfel_count) {
-        throw corrupt(node + ": leaf surfels [" + std::to_string(n.first_surfel) + ", +" +
-                      std::to_string(n.surfel_count) + ") outside the page's " +
-                      std::to_string(h.surfel_count));
-      }
-    }
-    for (uint32_t c = 0; c < n.child_count; ++c) {
-      const tree::NodeRef r = n.children[c];
-      // In-page children come after their parent (pre-order): no cycles.
-      const bool ok = r.page == h.page_id ? (r.index > i && r.index < h.node_count) : r.page < page_count;
-      if (!ok) {
-        throw corrupt(node + ": child link {page " + std::to_string(r.page) + ", index " +
-                      std::to_string(r.index) + "} is out of bounds");
-      }
-    }
-  }
-
-  // 2. Payload, through the codec the page set was written with.
-  codec.decode(bytes.subspan(kPageHeaderBytes + topo_bytes, h.payload_bytes), page->nodes, at);
-
-  // 3. Surfels.
-  p = bytes.data() + kPageHeaderBytes + topo_bytes + h.payload_bytes;
-  for (Surfel& s : page->surfels) {
-    read_surfel_record(p, s);
-    p += kSurfelRecordBytes;
-  }
+  tree::expand_treelet(view, h.page_id, at, *page);
   return page;
 }
 

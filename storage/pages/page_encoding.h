@@ -1,12 +1,15 @@
-// A decoded tree::Page <-> the bytes of one V1 page:
-//   header | topology records | payload array (codec) | surfel records | trailer
-// Topology is stored apart from the payload so that a later reader can load
-// the topology alone, or swap the payload codec, without touching the rest.
+// A treelet <-> the bytes of one V2 page (layout in FORMAT.md):
+//   header | shapes | pad | leaf records | link records | payload array |
+//   surfel records | trailer
+// The payload array holds, through the page set's codec, the payloads of
+// the linked children (the roots of other pages) in link order: what the
+// nodes of this page need to derive their own payloads.
 #pragma once
 
 #include "storage/codecs/payload_codec.h"
 #include "storage/format/page_frame.h"
 #include "storage/tree/node.h"
+#include "storage/tree/treelet.h"
 
 #include <cstdint>
 #include <span>
@@ -14,13 +17,15 @@
 
 namespace pbgi::storage {
 
-// Serializes `page` into `out` (replaced), sealed with its checksum.
-// Child links and first_surfel must already be page-relative.
-void encode_page(const tree::Page& page, const PayloadCodec& codec, std::vector<uint8_t>& out);
+// Serializes `t` as page `page_id` into `out` (replaced), sealed with its
+// checksum.
+void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& codec,
+                 std::vector<uint8_t>& out);
 
-// Verifies (checksum, header, sizes, links) and decodes the page at `where`.
-// `page_count` bounds the child links. Throws CorruptionError naming the
-// page, VersionError for an unknown page format.
+// Verifies (checksum, header, sizes, shapes, links) and decodes the page at
+// `where`, deriving every node's summary. Links must point to pages with a
+// smaller id (written before). Throws CorruptionError naming the page,
+// VersionError for an unknown page format.
 tree::PagePtr decode_page(std::span<const uint8_t> bytes, const PageLocation& where,
                           uint32_t expected_version, const PayloadCodec& codec,
                           uint32_t page_count);

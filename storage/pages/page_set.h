@@ -4,7 +4,8 @@
 //                         page table, checksum
 //   <dir>/pages.pbgp      pages of at most options.page_size bytes, each a
 //                         connected subtree (treelet) with header + checksum
-// Published atomically: written into a temporary directory, fsynced, renamed.
+// Built from a stream of surfels with bounded memory (PageSetBuilder) and
+// published atomically: written into a temporary directory, fsynced, renamed.
 // Byte layout: storage/format/FORMAT.md.
 #pragma once
 
@@ -13,9 +14,12 @@
 #include "storage/tree/node.h"
 #include "storage/tree/surfel.h"
 
+#include <Imath/ImathBox.h>
+
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -52,15 +56,75 @@ struct Manifest {
   std::vector<PageExtent> pages;              // page table, indexed by page id
 };
 
-// Builds the tree over `surfels` (consumed) and publishes it as a page set in
-// `dir` (which must not exist yet; its parent must). Returns the manifest.
-// `progress` gets fractions in [0, 1] on the calling thread; an exception it
-// throws cancels the build. On any failure nothing is left behind.
-// Throws InvalidArgument (options, surfels, `dir` exists, parent missing),
-// IoError (naming the file).
+// What a build measured (not stored; for logs and benchmarks).
+struct BuildReport {
+  uint64_t surfels = 0;
+  uint32_t runs = 0;                  // sorted runs spilled to disk (0: sorted in memory)
+  uint32_t merges = 0;                // k-way merges of those runs
+  uint64_t run_bytes = 0;             // bytes written to run files
+  uint64_t sort_peak_bytes = 0;       // largest run + merge buffers (<= options.sort_memory_bytes)
+  uint64_t tree_peak_pending_bytes = 0;  // largest size of nodes waiting for their page
+  double add_seconds = 0;             // inside add(): copying, sorting and spilling runs
+  double finish_seconds = 0;          // merge, tree, pages, manifest, publish
+};
+
+// A streaming build of one page set: surfels arrive in batches in any
+// order, are sorted externally by Morton code within a hard memory bound
+// (options.sort_memory_bytes), and the tree is built bottom-up from the
+// sorted stream, each page written as soon as it is complete
+// (storage/tree/streaming_tree_builder.h). Nothing proportional to the
+// surfel count is held in memory.
+//
+// Everything is written into a staging directory next to `dir` and
+// published by one atomic rename in finish(); a build that fails, is
+// cancelled or destroyed before finish() leaves nothing behind, and one
+// killed outright leaves a staging directory that the next build in the
+// same parent removes (StagingDir).
+//
+// The page set depends only on the surfels (in arrival order), `bounds`
+// and the tree options (leaf_size, page_size): never on the batch sizes or
+// the sort memory.
+//
+// Thread-safety: one thread drives a builder.
+class PageSetBuilder {
+ public:
+  // `bounds` orders the surfels (the cube around it is Morton-coded);
+  // surfels outside it are still stored. Throws InvalidArgument (options,
+  // build key longer than 4096 bytes, `dir` exists, parent missing),
+  // IoError.
+  PageSetBuilder(const tree::BuildOptions& options, std::string build_key,
+                 const std::filesystem::path& dir, const Imath::Box3f& bounds);
+  ~PageSetBuilder();
+  PageSetBuilder(const PageSetBuilder&) = delete;
+  PageSetBuilder& operator=(const PageSetBuilder&) = delete;
+
+  // Appends surfels in arrival order (copied). Throws InvalidArgument for
+  // an invalid surfel, naming its arrival index (storage/tree/surfel_checks.h).
+  void add(std::span<const Surfel> surfels);
+
+  // Merges, builds the tree, writes pages and manifest, fsyncs and
+  // publishes. `progress` gets increasing fractions in [0, 1] on this
+  // thread; an exception it throws cancels the build. InvalidArgument if no
+  // surfel was added. The builder is spent afterwards.
+  Manifest finish(const std::function<void(float)>& progress = {});
+
+  const BuildReport& report() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Builds the page set of `surfels` (consumed) in `dir`: a PageSetBuilder
+// over the bounds of their positions. Returns the manifest. `progress` gets
+// fractions in [0, 1] on the calling thread; an exception it throws cancels
+// the build. On any failure nothing is left behind. Throws InvalidArgument
+// (options, surfels, `dir` exists, parent missing), IoError (naming the
+// file). `report`, if given, receives the build's measurements.
 Manifest build_page_set(std::vector<Surfel> surfels, const tree::BuildOptions& options,
                         const std::string& build_key, const std::filesystem::path& dir,
-                        const std::function<void(float)>& progress = {});
+                        const std::function<void(float)>& progress = {},
+                        BuildReport* report = nullptr);
 
 // Reads a published page set; pages are loaded on demand through `cache`
 // (nullptr: no caching, every page() call reads and decodes).

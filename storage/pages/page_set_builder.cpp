@@ -1,14 +1,22 @@
-// build_page_set(): surfels -> tree -> pages -> manifest -> atomic publish.
+// PageSetBuilder: surfels -> external sort -> streaming tree -> pages ->
+// manifest -> atomic publish.
 #include "storage/codecs/payload_codec.h"
 #include "storage/format/errors.h"
 #include "storage/format/page_records.h"
 #include "storage/pages/file_io.h"
 #include "storage/pages/manifest_file.h"
 #include "storage/pages/page_encoding.h"
-#include "storage/pages/page_layout.h"
 #include "storage/pages/page_set.h"
 #include "storage/pages/staging_dir.h"
+#include "storage/pages/surfel_sorter.h"
+#include "storage/tree/morton.h"
+#include "storage/tree/streaming_tree_builder.h"
+#include "storage/tree/surfel_checks.h"
 #include "storage/tree/tree_builder.h"
+
+#include <chrono>
+#include <limits>
+#include <optional>
 
 namespace pbgi::storage {
 
@@ -24,113 +32,176 @@ constexpr uint64_t kPageAlignment = 4096;
 constexpr size_t kWriteBufferBytes = size_t(4) << 20;
 constexpr size_t kMaxBuildKeyBytes = 4096;
 
-// Assembles page `id` of the plan as a decoded page with page-relative links.
-void assemble_page(const tree::BuiltTree& t, const PagePlan& plan, uint32_t id,
-                   std::vector<uint32_t>& scratch, tree::Page& out) {
-  page_nodes(t, plan, id, scratch);
-  out.id = id;
-  out.nodes.clear();
-  out.surfels.clear();
-  for (uint32_t x : scratch) {
-    tree::Node n = t.nodes[x];
-    for (uint32_t c = 0; c < n.child_count; ++c) {
-      const uint32_t ci = n.children[c].index;
-      n.children[c] = {plan.page_of[ci], plan.index_in_page[ci]};
-    }
-    if (n.is_leaf()) {
-      const auto first = t.surfels.begin() + n.first_surfel;
-      n.first_surfel = static_cast<uint32_t>(out.surfels.size());
-      out.surfels.insert(out.surfels.end(), first, first + n.surfel_count);
-    }
-    out.nodes.push_back(n);
-  }
-}
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-// Writes every page of the plan to `path`; returns the page table.
-std::vector<PageExtent> write_pages(const tree::BuiltTree& t, const PagePlan& plan,
-                                    const PayloadCodec& codec, const fs::path& path,
-                                    const std::function<void(float)>& report) {
-  File file = File::create_new(path);
-  std::vector<PageExtent> table(plan.page_count());
-  std::vector<uint8_t> buffer, encoded;
-  buffer.reserve(kWriteBufferBytes + 2 * kPageAlignment);
-  std::vector<uint32_t> scratch;
-  tree::Page page;
-  uint64_t offset = 0;
-  for (uint32_t id = 0; id < plan.page_count(); ++id) {
-    assemble_page(t, plan, id, scratch, page);
-    encode_page(page, codec, encoded);
-    const uint64_t aligned = (offset + kPageAlignment - 1) / kPageAlignment * kPageAlignment;
-    buffer.resize(buffer.size() + (aligned - offset), 0);
-    buffer.insert(buffer.end(), encoded.begin(), encoded.end());
-    table[id] = {aligned, static_cast<uint32_t>(encoded.size())};
-    offset = aligned + encoded.size();
-    if (buffer.size() >= kWriteBufferBytes) {
-      file.write_all(buffer);
-      buffer.clear();
-    }
-    report(float(id + 1) / float(plan.page_count()));
+// Encodes each treelet as the next page of pages.pbgp, aligned, through a
+// write buffer; keeps the page table.
+class PageWriter final : public tree::TreeletSink {
+ public:
+  PageWriter(const fs::path& path, std::shared_ptr<const PayloadCodec> codec)
+      : file_(File::create_new(path)), codec_(std::move(codec)) {
+    buffer_.reserve(kWriteBufferBytes + 2 * kPageAlignment);
   }
-  file.write_all(buffer);
-  file.sync();
-  file.close();
-  return table;
-}
+
+  uint32_t write(const tree::Treelet& t) override {
+    const uint32_t id = static_cast<uint32_t>(table_.size());
+    if (table_.size() >= std::numeric_limits<uint32_t>::max() - 1) {
+      throw InvalidArgument("tree needs more than 2^32 pages; raise tree.page_size");
+    }
+    encode_page(t, id, *codec_, encoded_);
+    const uint64_t aligned = (offset_ + kPageAlignment - 1) / kPageAlignment * kPageAlignment;
+    buffer_.resize(buffer_.size() + (aligned - offset_), 0);
+    buffer_.insert(buffer_.end(), encoded_.begin(), encoded_.end());
+    table_.push_back({aligned, static_cast<uint32_t>(encoded_.size())});
+    offset_ = aligned + encoded_.size();
+    if (buffer_.size() >= kWriteBufferBytes) flush();
+    return id;
+  }
+
+  // Writes what is buffered, fsyncs and closes; returns the page table.
+  std::vector<PageExtent> close() {
+    flush();
+    file_.sync();
+    file_.close();
+    return std::move(table_);
+  }
+  uint64_t file_bytes() const { return offset_; }
+
+ private:
+  void flush() {
+    file_.write_all(buffer_);
+    buffer_.clear();
+  }
+
+  File file_;
+  std::shared_ptr<const PayloadCodec> codec_;
+  std::vector<PageExtent> table_;
+  std::vector<uint8_t> buffer_, encoded_;
+  uint64_t offset_ = 0;
+};
 
 }  // namespace
 
+struct PageSetBuilder::Impl {
+  tree::BuildOptions options;
+  std::string build_key;
+  tree::MortonFrame frame;
+  StagingDir staging;
+  std::optional<SurfelSorter> sorter;
+  BuildReport report;
+  bool finished = false;
+  std::vector<Surfel> batch;  // checked copies on their way to the sorter
+
+  Impl(const tree::BuildOptions& o, std::string key, const fs::path& dir, const Imath::Box3f& bounds)
+      : options(o), build_key(std::move(key)), frame(bounds), staging(checked(o, build_key, dir)) {
+    sorter.emplace(frame, options.sort_memory_bytes, staging.path());
+  }
+
+  // Checks everything cheap before the staging directory is created.
+  static const fs::path& checked(const tree::BuildOptions& o, const std::string& key, const fs::path& dir) {
+    o.validate();
+    if (key.size() > kMaxBuildKeyBytes) {
+      throw InvalidArgument("build key of " + std::to_string(key.size()) + " bytes is longer than " +
+                            std::to_string(kMaxBuildKeyBytes));
+    }
+    return dir;
+  }
+
+  void add(std::span<const Surfel> surfels) {
+    if (finished) throw InvalidArgument("page set builder: add() after finish()");
+    const auto t0 = Clock::now();
+    // Check a batch at a time: the sorter copies what it is given.
+    constexpr size_t kBatch = 4096;
+    batch.resize(kBatch);
+    for (size_t at = 0; at < surfels.size(); at += kBatch) {
+      const size_t n = std::min(kBatch, surfels.size() - at);
+      for (size_t i = 0; i < n; ++i) {
+        batch[i] = surfels[at + i];
+        tree::check_surfel(batch[i], report.surfels + i);
+      }
+      sorter->add({batch.data(), n});
+      report.surfels += n;
+    }
+    report.add_seconds += seconds_since(t0);
+  }
+
+  Manifest finish(const std::function<void(float)>& progress) {
+    if (finished) throw InvalidArgument("page set builder: finish() called twice");
+    finished = true;
+    const auto t0 = Clock::now();
+    auto report_progress = [&](float f) {
+      if (progress) progress(f);
+    };
+    report_progress(0.f);
+    if (report.surfels == 0) throw InvalidArgument("cannot build a tree over 0 surfels");
+
+    // 1. The sorted stream into the tree builder; pages are written as the
+    //    tree completes them.
+    const auto codec = make_payload_codec(static_cast<uint32_t>(CodecId::kFloatSh));
+    PageWriter pages(staging.path() / kPagesFileName, codec);
+    tree::StreamingTreeBuilder tree(options, options.page_size, codec->bytes_per_node(), pages);
+    sorter->drain([&](const Surfel& s, uint64_t code) { tree.add(s, code); },
+                  [&](float f) { report_progress(0.95f * f); });
+    const tree::StreamingTreeStats stats = tree.finish();
+    const SortStats& sort = sorter->stats();
+    report.runs = sort.runs;
+    report.merges = sort.merges;
+    report.run_bytes = sort.run_bytes;
+    report.sort_peak_bytes = sort.peak_bytes;
+    report.tree_peak_pending_bytes = stats.peak_pending_bytes;
+    sorter.reset();
+
+    // 2. The manifest that describes the pages.
+    Manifest m;
+    m.build_key = build_key;
+    m.options = options;
+    m.codec = codec->id();
+    m.page_format = kPageFormatCurrent;
+    m.root = stats.root;
+    m.stats.file_bytes = pages.file_bytes();
+    m.pages = pages.close();
+    m.stats.surfel_count = stats.surfel_count;
+    m.stats.node_count = stats.node_count;
+    m.stats.leaf_count = stats.leaf_count;
+    m.stats.page_count = stats.page_count;
+    m.stats.max_depth = stats.max_depth;
+    {
+      File f = File::create_new(staging.path() / kManifestFileName);
+      f.write_all(encode_manifest(m));
+      f.sync();
+      f.close();
+    }
+    report_progress(0.97f);
+
+    // 3. Publish: one rename makes the complete page set visible.
+    staging.publish();
+    report.finish_seconds = seconds_since(t0);
+    report_progress(1.f);
+    return m;
+  }
+};
+
+PageSetBuilder::PageSetBuilder(const tree::BuildOptions& options, std::string build_key, const fs::path& dir,
+                               const Imath::Box3f& bounds)
+    : impl_(std::make_unique<Impl>(options, std::move(build_key), dir, bounds)) {}
+
+PageSetBuilder::~PageSetBuilder() = default;
+
+void PageSetBuilder::add(std::span<const Surfel> surfels) { impl_->add(surfels); }
+
+Manifest PageSetBuilder::finish(const std::function<void(float)>& progress) { return impl_->finish(progress); }
+
+const BuildReport& PageSetBuilder::report() const { return impl_->report; }
+
 Manifest build_page_set(std::vector<Surfel> surfels, const tree::BuildOptions& options,
                         const std::string& build_key, const fs::path& dir,
-                        const std::function<void(float)>& progress) {
-  auto report = [&](float f) {
-    if (progress) progress(f);
-  };
-  // 1. Check everything cheap before the long work.
-  options.validate();
-  if (build_key.size() > kMaxBuildKeyBytes) {
-    throw InvalidArgument("build key of " + std::to_string(build_key.size()) +
-                          " bytes is longer than " + std::to_string(kMaxBuildKeyBytes));
-  }
-  StagingDir::check_target(dir);
-  report(0.f);
-
-  // 2. The tree, in memory.
-  const tree::BuiltTree t = tree::build_tree(std::move(surfels), options);
-  report(0.5f);
-
-  // 3. Which nodes go to which page.
-  const auto codec = make_payload_codec(static_cast<uint32_t>(CodecId::kFloatSh));
-  const PagePlan plan =
-      plan_pages(t, options.page_size - kPageHeaderBytes - kPageTrailerBytes,
-                 kTopologyRecordBytes + codec->bytes_per_node(), kSurfelRecordBytes);
-  report(0.55f);
-
-  // 4. Pages, then the manifest that describes them, into the staging dir.
-  StagingDir staging(dir);
-  Manifest m;
-  m.build_key = build_key;
-  m.options = options;
-  m.codec = codec->id();
-  m.page_format = kPageFormatCurrent;
-  m.root = {0, 0};
-  m.pages = write_pages(t, plan, *codec, staging.path() / kPagesFileName,
-                        [&](float f) { report(0.55f + 0.4f * f); });
-  m.stats.surfel_count = t.surfels.size();
-  m.stats.node_count = t.nodes.size();
-  m.stats.leaf_count = t.leaf_count;
-  m.stats.page_count = plan.page_count();
-  m.stats.max_depth = t.max_depth;
-  m.stats.file_bytes = m.pages.empty() ? 0 : m.pages.back().offset + m.pages.back().bytes;
-  {
-    File f = File::create_new(staging.path() / kManifestFileName);
-    f.write_all(encode_manifest(m));
-    f.sync();
-    f.close();
-  }
-
-  // 5. Publish: one rename makes the complete page set visible.
-  staging.publish();
-  report(1.f);
+                        const std::function<void(float)>& progress, BuildReport* report) {
+  PageSetBuilder builder(options, build_key, dir, tree::surfel_bounds(surfels));
+  builder.add(surfels);
+  std::vector<Surfel>().swap(surfels);
+  const Manifest m = builder.finish(progress);
+  if (report) *report = builder.report();
   return m;
 }
 

@@ -14,9 +14,12 @@ PageSetInspection inspect_page_set(const PageSetReader& reader, bool walk) {
   PageSetInspection r;
   const auto codec = make_payload_codec(m.codec);
   r.codec_name = codec->name();
-  r.topology_bytes_per_node = kTopologyRecordBytes;
-  r.payload_bytes_per_node = codec->bytes_per_node();
+  r.topology_bytes_per_node = kShapeBytes;
+  r.payload_bytes_per_node = 0;
   r.surfel_record_bytes = kSurfelRecordBytes;
+  r.leaf_record_bytes = kLeafRecordBytes;
+  r.link_record_bytes = kLinkRecordBytes;
+  r.link_payload_bytes = codec->bytes_per_node();
 
   // 1. Page table.
   r.fill_min = m.pages.empty() ? 0 : std::numeric_limits<double>::infinity();

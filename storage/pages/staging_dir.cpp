@@ -4,13 +4,16 @@
 #include "storage/pages/file_io.h"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <stdio.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <random>
+#include <regex>
 #include <system_error>
 
 namespace pbgi::storage {
@@ -43,8 +46,28 @@ void StagingDir::check_target(const fs::path& final_dir) {
   }
 }
 
+size_t StagingDir::remove_stale(const fs::path& parent) {
+  // <anything>.tmp-<pid>-<16 lowercase hex>, as the constructor names them.
+  static const std::regex kName(R"(.+\.tmp-([0-9]+)-[0-9a-f]{16})");
+  size_t removed = 0;
+  std::error_code ec;
+  for (fs::directory_iterator it(parent, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    std::smatch m;
+    if (!std::regex_match(name, m, kName)) continue;
+    const long long pid = std::stoll(m[1].str());
+    if (pid <= 0 || pid > std::numeric_limits<pid_t>::max() || pid == ::getpid()) continue;
+    // ESRCH: no such process. EPERM means it exists (another user's).
+    if (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;
+    std::error_code rm;
+    if (fs::remove_all(it->path(), rm) > 0 && !rm) ++removed;
+  }
+  return removed;
+}
+
 StagingDir::StagingDir(fs::path final_dir) : final_(without_trailing_slash(std::move(final_dir))) {
   check_target(final_);
+  remove_stale(parent_of(final_));
   std::error_code ec;
   std::random_device rd;
   char suffix[64];

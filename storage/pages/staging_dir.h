@@ -2,7 +2,9 @@
 // directory "<dir>.tmp-<pid>-<random>" next to the final one, fsynced, then
 // renamed onto <dir> in one step, so readers see either no page set or a
 // complete one, never a partial one, even across a crash. A staging
-// directory that is not published is removed by the destructor.
+// directory that is not published is removed by the destructor; one left by
+// a process that was killed is removed by the next StagingDir created in
+// the same parent directory (remove_stale()).
 #pragma once
 
 #include <filesystem>
@@ -20,6 +22,14 @@ class StagingDir {
 
   // The checks of the constructor alone, to fail fast before long work.
   static void check_target(const std::filesystem::path& final_dir);
+
+  // Removes the staging directories in `parent` ("<name>.tmp-<pid>-<16 hex
+  // digits>") whose process no longer exists: builds killed before they
+  // could clean up. Staging directories of live processes (this one
+  // included) are left alone. The parent is assumed to be used by one host
+  // (process ids are host-local). Returns how many were removed; errors
+  // are ignored (the next build tries again).
+  static size_t remove_stale(const std::filesystem::path& parent);
 
   const std::filesystem::path& path() const { return staging_; }
 

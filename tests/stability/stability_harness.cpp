@@ -1,11 +1,13 @@
 #include "tests/stability/stability_harness.h"
 
+#include "client/image/exr_image.h"
 #include "server/engine/scene_session.h"
 #include "server/reference/path_tracer.h"
 #include "server/render/tile_renderer.h"
 #include "storage/format/errors.h"
 
 #include <cmath>
+#include <cstdlib>
 #include <memory>
 #include <system_error>
 #include <unistd.h>
@@ -17,6 +19,13 @@ const Camera& camera_of(const Scene& scene, const std::string& path) {
   const Camera* c = scene.find_camera(path);
   if (!c) throw NotFound(scene.source_path + ": no camera " + path);
   return *c;
+}
+
+std::string dump_name(const Scene& scene, const std::string& camera, const char* renderer) {
+  std::string name = scene.source_path + camera + "-" + renderer;
+  for (char& c : name)
+    if (c == '/') c = '-';
+  return name;
 }
 
 }  // namespace
@@ -52,7 +61,9 @@ Aovs PbgiScene::render(const std::string& camera) const {
   ro.pixel_samples = s.pixel_samples;
   TileAovs t = render_tile(*session_->rays, *session_->tree, camera_of(*session_->scene, camera),
                            s.width, s.height, {0, 0, s.width, s.height}, ro);
-  return {std::move(t.beauty), std::move(t.direct), std::move(t.indirect)};
+  Aovs out{std::move(t.beauty), std::move(t.direct), std::move(t.indirect)};
+  dump_aovs(dump_name(*session_->scene, camera, "pbgi"), out, s);
+  return out;
 }
 
 Aovs render_pbgi(const Scene& scene, const std::string& camera, const RenderSettings& s) {
@@ -69,7 +80,20 @@ Aovs render_path(const Scene& scene, const std::string& camera, const RenderSett
   o.max_depth = s.reference_max_depth;
   o.seed = 7;
   ReferenceImage r = render_reference(rays, camera_of(scene, camera), o);
-  return {std::move(r.beauty), std::move(r.direct), std::move(r.indirect)};
+  Aovs out{std::move(r.beauty), std::move(r.direct), std::move(r.indirect)};
+  dump_aovs(dump_name(scene, camera, "reference"), out, s);
+  return out;
+}
+
+void dump_aovs(const std::string& name, const Aovs& aovs, const RenderSettings& s) {
+  const char* dir = std::getenv("PBGI_STABILITY_DUMP");
+  if (!dir || !*dir) return;
+  std::filesystem::create_directories(dir);
+  image::ExrImage img(s.width, s.height);
+  img.set_rgb("", aovs.beauty);
+  img.set_rgb("direct", aovs.direct);
+  img.set_rgb("indirect", aovs.indirect);
+  image::write_exr((std::filesystem::path(dir) / (name + ".exr")).string(), img);
 }
 
 double relative_rmse(const std::vector<float>& t, const std::vector<float>& r) {

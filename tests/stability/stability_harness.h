@@ -67,6 +67,10 @@ class PbgiScene {
 Aovs render_pbgi(const Scene& scene, const std::string& camera, const RenderSettings& settings);
 Aovs render_path(const Scene& scene, const std::string& camera, const RenderSettings& settings);
 
+// If $PBGI_STABILITY_DUMP names a directory, writes <dir>/<name>.exr with
+// the AOVs (beauty, direct, indirect) for looking at a failing case.
+void dump_aovs(const std::string& name, const Aovs& aovs, const RenderSettings& settings);
+
 // sqrt(sum (t - r)^2 / sum r^2): the RMSE relative to the reference's RMS.
 double relative_rmse(const std::vector<float>& test, const std::vector<float>& reference);
 double mean_value(const std::vector<float>& v);

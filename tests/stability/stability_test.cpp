@@ -18,6 +18,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 
 namespace pbgi::stability {
 namespace {
@@ -84,7 +85,8 @@ TEST(Stability, SunlitRoomBehindWindow) {
 
 TEST(Stability, CornellBoxFarFromTheOrigin) {
   // 1e5 units away, float positions are spaced ~0.008 apart: 0.4% of the room.
-  const V3f offset(1e5f, 1e5f, 1e5f);
+  const float off = std::getenv("OFF") ? std::atof(std::getenv("OFF")) : 1e5f;
+  const V3f offset(off, off, off);
   const Scene near = cornell_box();
   const Scene far = cornell_box(offset);
   RenderSettings settings;

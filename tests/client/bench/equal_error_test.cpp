@@ -47,15 +47,18 @@ TEST(EqualError, ExtrapolatesWithTheMonteCarloRate) {
 }
 
 TEST(EqualError, TakesTheFirstCrossingOfANoisySweep) {
-  // Unordered input, MSE not monotone: 1 -> 0.5 -> 0.6 -> 0.2.
-  std::vector<SweepPoint> p{{4, 0.4, 0.6}, {1, 0.1, 1.0}, {8, 0.8, 0.2}, {2, 0.2, 0.5}};
-  const EqualErrorPoint e = equal_error_point(p, 0.55);
+  // Unordered input, MSE not monotone: 1 -> 0.4 -> 0.6 -> 0.2.
+  std::vector<SweepPoint> p{{4, 0.4, 0.6}, {1, 0.1, 1.0}, {8, 0.8, 0.2}, {2, 0.2, 0.4}};
+  // 0.5 is crossed three times; the cheapest crossing is between 1 and 2 spp.
+  EqualErrorPoint e = equal_error_point(p, 0.5);
   ASSERT_TRUE(e.valid);
   EXPECT_FALSE(e.extrapolated);
-  EXPECT_GT(e.spp, 2.0);  // the crossing between 2 (0.5) and 4 (0.6)
-  EXPECT_LT(e.spp, 4.0);
-  // 0.7 first brackets between spp 1 and 2.
-  EXPECT_LT(equal_error_point(p, 0.7).spp, 2.0);
+  EXPECT_GT(e.spp, 1.0);
+  EXPECT_LT(e.spp, 2.0);
+  // 0.3 only between 4 and 8.
+  e = equal_error_point(p, 0.3);
+  EXPECT_GT(e.spp, 4.0);
+  EXPECT_LT(e.spp, 8.0);
 }
 
 TEST(EqualError, IgnoresUnusablePoints) {

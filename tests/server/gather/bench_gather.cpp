@@ -44,9 +44,15 @@ std::vector<Receiver> receivers(size_t count) {
   for (size_t i = 0; i < count; ++i) {
     const float a = u(rng), b = u(rng);
     switch (i % 3) {
-      case 0: out.push_back({{a, b, 1e-3f}, {0, 0, 1}}); break;               // floor
-      case 1: out.push_back({{1e-3f, a, b}, {1, 0, 0}}); break;               // red wall
-      default: out.push_back({{a, kRoomSize - 1e-3f, b}, {0, -1, 0}}); break;  // back wall
+      case 0:
+        out.push_back({{a, b, 1e-3f}, {0, 0, 1}});
+        break;  // floor
+      case 1:
+        out.push_back({{1e-3f, a, b}, {1, 0, 0}});
+        break;  // red wall
+      default:
+        out.push_back({{a, kRoomSize - 1e-3f, b}, {0, -1, 0}});
+        break;  // back wall
     }
   }
   return out;
@@ -112,10 +118,7 @@ void BM_GatherPageSet(benchmark::State& state) {
   static RoomPageSet set;
   run(state, set.reader());
 }
-BENCHMARK(BM_GatherPageSet)
-    ->Args({8, 30})
-    ->Args({16, 30})
-    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_GatherPageSet)->Args({8, 30})->Args({16, 30})->Unit(benchmark::kMicrosecond);
 #endif
 
 }  // namespace

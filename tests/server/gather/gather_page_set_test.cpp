@@ -55,8 +55,8 @@ std::unique_ptr<storage::PageSetReader> build(const std::vector<Surfel>& surfels
   tree::BuildOptions o;
   o.page_size = 16384;  // several pages even for this small scene
   storage::build_page_set(surfels, o, "gather-test", dir);
-  return std::make_unique<storage::PageSetReader>(dir,
-                                                  std::make_shared<storage::PageCache>(cache_bytes));
+  return std::make_unique<storage::PageSetReader>(
+      dir, std::make_shared<storage::PageCache>(cache_bytes));
 }
 
 TEST(GatherPageSet, MatchesClosedFormAndTheInMemoryTree) {

@@ -28,7 +28,9 @@ bool finite(const GatherResult& r) {
 }
 
 // Emitter: disk of radius 1 at height 2 facing down, radiance 1 (E = pi/5).
-void add_emitter(std::vector<Surfel>& s) { test::add_disk(s, {0, 0, 2}, {0, 0, -1}, 1.f, 8000, C3f(1)); }
+void add_emitter(std::vector<Surfel>& s) {
+  test::add_disk(s, {0, 0, 2}, {0, 0, -1}, 1.f, 8000, C3f(1));
+}
 constexpr float kEmitterE = kPi / 5.f;
 
 TEST(Gather, EmptyTreeGivesNoLightAndFullAccessibility) {
@@ -157,8 +159,8 @@ TEST(Gather, AoMaxDistanceIgnoresFarOccluders) {
 
 TEST(Gather, DegenerateInputStaysFinite) {
   std::vector<Surfel> s;
-  test::add_quad(s, {-1, -1, 0}, {2, 0, 0}, {0, 2, 0}, 30, 30, C3f(1));     // floor
-  test::add_quad(s, {-1, -1, 0}, {0, 2, 0}, {0, 0, 2}, 30, 30, C3f(2));     // wall x=-1, +x
+  test::add_quad(s, {-1, -1, 0}, {2, 0, 0}, {0, 2, 0}, 30, 30, C3f(1));  // floor
+  test::add_quad(s, {-1, -1, 0}, {0, 2, 0}, {0, 0, 2}, 30, 30, C3f(2));  // wall x=-1, +x
   // Zero-radius surfels, some exactly at the receivers below.
   for (int i = 0; i < 50; ++i) {
     Surfel z;
@@ -245,8 +247,8 @@ TEST(Gather, PagesArePinnedOnlyDuringAReceiver) {
   EXPECT_GT(c.pages_fetched, 30u);
   // Pages are released as soon as no pending node needs them: only those
   // along the traversal stack are ever held at once.
-  std::printf("pages: %zu, fetched per receiver %.1f, most held at once %zu\n",
-              tree.page_count(), double(c.pages_fetched) / 3.0, tree.max_pages_in_use());
+  std::printf("pages: %zu, fetched per receiver %.1f, most held at once %zu\n", tree.page_count(),
+              double(c.pages_fetched) / 3.0, tree.max_pages_in_use());
   EXPECT_LT(tree.max_pages_in_use(), 40u);
   EXPECT_GT(c.nodes_visited, c.nodes_rasterized);
   EXPECT_GT(c.nodes_rasterized, 0u);

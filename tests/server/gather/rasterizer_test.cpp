@@ -27,7 +27,9 @@ Rasterizer::Shape round(float omega) {
 }
 
 // Pixel of the +z face nearest the normal (0,0,1) and its weight.
-uint32_t center_pixel(const CubeLayout& c) { return c.index(4, c.resolution() / 2, c.resolution() / 2); }
+uint32_t center_pixel(const CubeLayout& c) {
+  return c.index(4, c.resolution() / 2, c.resolution() / 2);
+}
 
 TEST(Microbuffer, PiecesOfOneSurfaceAddUp) {
   const CubeLayout& c = CubeLayout::get(8);
@@ -49,7 +51,13 @@ TEST(Microbuffer, NearerSurfaceHidesItsShareOfFartherOne) {
     mb.begin(V3f(0, 0, 1));
     const auto near = [&] { mb.add_coverage(k, 0.5f, 0.4f, 0.4f * mb.weight(k), C3f(0)); };
     const auto far = [&] { mb.add_coverage(k, 2.0f, 1.0f, 1.0f * mb.weight(k), C3f(1)); };
-    if (near_first) { near(); far(); } else { far(); near(); }
+    if (near_first) {
+      near();
+      far();
+    } else {
+      far();
+      near();
+    }
     const Resolved r = mb.resolve(0.f);
     EXPECT_NEAR(r.irradiance.x, 0.6f * mb.weight(k), 1e-6f) << near_first;
     EXPECT_NEAR(r.ao, 1.f - mb.weight(k) / kPi, 1e-6f);
@@ -94,8 +102,8 @@ TEST(Rasterizer, SplatOfACapGivesTheCapIrradianceAnywhere) {
     const CubeLayout& c = CubeLayout::get(res);
     Microbuffer mb(c, 0.2f);
     Rasterizer raster(mb);
-    std::vector<V3f> dirs = {V3f(1, 1, 1).normalized(), V3f(1, 1, 0).normalized(),
-                             V3f(0, 0, 1), V3f(1, 0.999f, 0.001f).normalized()};
+    std::vector<V3f> dirs = {V3f(1, 1, 1).normalized(), V3f(1, 1, 0).normalized(), V3f(0, 0, 1),
+                             V3f(1, 0.999f, 0.001f).normalized()};
     for (int i = 0; i < 40; ++i) dirs.push_back(V3f(g(rng), g(rng), g(rng)).normalized());
     for (const float alpha : {0.02f, 0.1f, 0.3f}) {
       for (const V3f& d : dirs) {

@@ -49,15 +49,15 @@ void add_quad(std::vector<Surfel>& out, const Imath::V3f& corner, const Imath::V
   if (flip) n = -n;
   for (uint32_t j = 0; j < nv; ++j) {
     for (uint32_t i = 0; i < nu; ++i) {
-      const Imath::V3f p = corner + u * ((float(i) + 0.5f) / float(nu)) +
-                           v * ((float(j) + 0.5f) / float(nv));
+      const Imath::V3f p =
+          corner + u * ((float(i) + 0.5f) / float(nu)) + v * ((float(j) + 0.5f) / float(nv));
       out.push_back(make(p, n, area, radiance));
     }
   }
 }
 
-void add_sphere(std::vector<Surfel>& out, const Imath::V3f& center, float radius,
-                uint32_t count, const Imath::C3f& radiance) {
+void add_sphere(std::vector<Surfel>& out, const Imath::V3f& center, float radius, uint32_t count,
+                const Imath::C3f& radiance) {
   const float golden = kPi * (3.f - std::sqrt(5.f));
   const float area = 4.f * kPi * radius * radius / float(count);
   for (uint32_t i = 0; i < count; ++i) {
@@ -80,16 +80,16 @@ std::vector<Surfel> box_room(float size, uint32_t target) {
   const Imath::C3f white(0.3f), red(0.4f, 0.05f, 0.05f), green(0.05f, 0.4f, 0.05f);
   const uint32_t n = cells(S);
   // Walls with inward normals (u x v points inside).
-  add_quad(s, {0, 0, 0}, {S, 0, 0}, {0, S, 0}, n, n, white);            // floor z=0, +z
-  add_quad(s, {0, 0, S}, {0, S, 0}, {S, 0, 0}, n, n, white);            // ceiling, -z
-  add_quad(s, {0, 0, 0}, {0, S, 0}, {0, 0, S}, n, n, red);              // x=0, +x
-  add_quad(s, {S, 0, 0}, {0, 0, S}, {0, S, 0}, n, n, green);            // x=S, -x
-  add_quad(s, {0, 0, 0}, {0, 0, S}, {S, 0, 0}, n, n, white);            // y=0, +y
-  add_quad(s, {0, S, 0}, {S, 0, 0}, {0, 0, S}, n, n, white);            // y=S, -y
+  add_quad(s, {0, 0, 0}, {S, 0, 0}, {0, S, 0}, n, n, white);  // floor z=0, +z
+  add_quad(s, {0, 0, S}, {0, S, 0}, {S, 0, 0}, n, n, white);  // ceiling, -z
+  add_quad(s, {0, 0, 0}, {0, S, 0}, {0, 0, S}, n, n, red);    // x=0, +x
+  add_quad(s, {S, 0, 0}, {0, 0, S}, {0, S, 0}, n, n, green);  // x=S, -x
+  add_quad(s, {0, 0, 0}, {0, 0, S}, {S, 0, 0}, n, n, white);  // y=0, +y
+  add_quad(s, {0, S, 0}, {S, 0, 0}, {0, 0, S}, n, n, white);  // y=S, -y
   // A bright patch just below the ceiling, facing down.
   const float l = 0.25f * S;
-  add_quad(s, {0.5f * S - 0.5f * l, 0.5f * S - 0.5f * l, 0.99f * S}, {0, l, 0}, {l, 0, 0},
-           cells(l), cells(l), Imath::C3f(10.f));
+  add_quad(s, {0.5f * S - 0.5f * l, 0.5f * S - 0.5f * l, 0.99f * S}, {0, l, 0}, {l, 0, 0}, cells(l),
+           cells(l), Imath::C3f(10.f));
   // Two blocks (outward normals), tops and sides.
   const auto face = [&](Imath::V3f corner, Imath::V3f u, Imath::V3f v, Imath::V3f outward) {
     add_quad(s, corner, u, v, cells(u.length()), cells(v.length()), white,

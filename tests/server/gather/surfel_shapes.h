@@ -25,8 +25,8 @@ void add_quad(std::vector<Surfel>& out, const Imath::V3f& corner, const Imath::V
               bool flip = false);
 
 // Sphere facing outwards, `count` surfels on a Fibonacci lattice.
-void add_sphere(std::vector<Surfel>& out, const Imath::V3f& center, float radius,
-                uint32_t count, const Imath::C3f& radiance);
+void add_sphere(std::vector<Surfel>& out, const Imath::V3f& center, float radius, uint32_t count,
+                const Imath::C3f& radiance);
 
 // An axis-aligned box room [0,size]^3 seen from inside (normals inwards)
 // with an emissive ceiling patch and two blocks on the floor: a small

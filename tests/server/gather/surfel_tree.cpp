@@ -40,10 +40,9 @@ class Builder {
     const Imath::V3f ext = hi - lo;
     const int axis = ext.x >= ext.y && ext.x >= ext.z ? 0 : (ext.y >= ext.z ? 1 : 2);
     const uint32_t mid = begin + (end - begin) / 2;
-    std::nth_element(s_.begin() + begin, s_.begin() + mid, s_.begin() + end,
-                     [axis](const Surfel& a, const Surfel& b) {
-                       return a.position[axis] < b.position[axis];
-                     });
+    std::nth_element(
+        s_.begin() + begin, s_.begin() + mid, s_.begin() + end,
+        [axis](const Surfel& a, const Surfel& b) { return a.position[axis] < b.position[axis]; });
     const int32_t left = build(begin, mid);
     const int32_t right = build(mid, end);
     nodes_[id].child[0] = left;
@@ -79,7 +78,8 @@ class Builder {
     if (count > 0 && normal_sum.length() > 1e-3f * float(count)) {
       n.cone_axis = normal_sum.normalized();
       float min_cos = 1.f;
-      for (uint32_t i = begin; i < end; ++i) min_cos = std::min(min_cos, n.cone_axis.dot(s_[i].normal));
+      for (uint32_t i = begin; i < end; ++i)
+        min_cos = std::min(min_cos, n.cone_axis.dot(s_[i].normal));
       n.cone_cos = std::max(-1.f, std::cos(std::acos(std::clamp(min_cos, -1.f, 1.f)) + 1e-5f));
     }
     if (area > 0) {

@@ -247,7 +247,8 @@ TEST_F(UsdReader, RecordsUpAxisWithoutRotatingGeometry) {
 
 TEST_F(UsdReader, UnsupportedPrimsAreReportedOnceByPath) {
   EXPECT_EQ(warnings_naming("/W/Hair", "BasisCurves"), 1u);
-  EXPECT_EQ(warnings_naming("/W/Sky", "DomeLight"), 1u);
+  // DomeLights are modelled (looks_ingest_test.cpp): a constant dome, no warning.
+  EXPECT_EQ(warnings_naming("/W/Sky"), 0u);
   EXPECT_TRUE(triangles_of(scene(), "/W/Hair").empty());
 }
 
@@ -327,8 +328,10 @@ TEST_F(UsdReader, GeomSubsetsBindMaterialsPerFace) {
 }
 
 TEST_F(UsdReader, NormalizedRectLightRadianceIsPowerOverArea) {
-  ASSERT_EQ(scene().lights.size(), 1u);
-  const Light& l = scene().lights[0];
+  ASSERT_EQ(scene().lights.size(), 2u);  // and the constant dome /W/Sky
+  EXPECT_EQ(scene().lights[0].prim_path, "/W/Sky");
+  EXPECT_EQ(scene().lights[0].kind, LightKind::Dome);
+  const Light& l = scene().lights[1];
   EXPECT_EQ(l.prim_path, "/W/Panel");
   // intensity 10 * 2^1 exposure / (2 x 0.5) area.
   EXPECT_NEAR(l.radiance.x, 20.f, 1e-5f);

@@ -57,7 +57,8 @@ TEST(Sh, BasisIsOrthonormal) {
     }
   });
   for (int i = 0; i < kCoeffs; ++i) {
-    for (int j = 0; j < kCoeffs; ++j) EXPECT_NEAR(gram[i][j], i == j ? 1.0 : 0.0, 1e-4) << i << "," << j;
+    for (int j = 0; j < kCoeffs; ++j)
+      EXPECT_NEAR(gram[i][j], i == j ? 1.0 : 0.0, 1e-4) << i << "," << j;
   }
 }
 
@@ -76,7 +77,8 @@ TEST(Sh, ClampedCosineIsTheProjectionOfMaxZeroCosine) {
   for (const V3f& n : axes) {
     const Sh9 numeric = project([&](const V3f& w) { return std::max(0.0, double(n.dot(w))); });
     const Sh9 lobe = clamped_cosine(n);
-    for (int i = 0; i < kCoeffs; ++i) EXPECT_NEAR(lobe[i], numeric[i], 1e-3f) << "coeff " << i << " axis " << n;
+    for (int i = 0; i < kCoeffs; ++i)
+      EXPECT_NEAR(lobe[i], numeric[i], 1e-3f) << "coeff " << i << " axis " << n;
   }
 }
 
@@ -99,7 +101,8 @@ TEST(Sh, BandEnergyIsRotationInvariant) {
   std::mt19937 rng(4);
   for (int t = 0; t < 100; ++t) {
     const Sh9 f = clamped_cosine(random_direction(rng));
-    for (int l = 0; l < kBands; ++l) EXPECT_NEAR(band_energy(f, l), band_energy(ref, l), 1e-4f) << l;
+    for (int l = 0; l < kBands; ++l)
+      EXPECT_NEAR(band_energy(f, l), band_energy(ref, l), 1e-4f) << l;
   }
   // And for a general function: a sum of lobes rotated as a whole.
   Sh9 a{}, b{};

@@ -1,0 +1,73 @@
+#include "storage/codecs/codec_selection.h"
+
+#include "storage/codecs/cube_wavelet.h"
+#include "storage/format/errors.h"
+
+namespace pbgi::storage {
+
+PayloadCodecPolicy parse_payload_codec_policy(const std::string& name) {
+  if (name == "auto") return PayloadCodecPolicy::kAuto;
+  if (name == "float32-sh") return PayloadCodecPolicy::kFloatSh;
+  if (name == "kmeans-sh") return PayloadCodecPolicy::kQuantizedSh;
+  throw InvalidArgument("payload codec \"" + name + "\": must be one of auto, float32-sh, kmeans-sh");
+}
+
+std::string to_string(PayloadCodecPolicy policy) {
+  switch (policy) {
+    case PayloadCodecPolicy::kAuto: return "auto";
+    case PayloadCodecPolicy::kFloatSh: return "float32-sh";
+    case PayloadCodecPolicy::kQuantizedSh: return "kmeans-sh";
+  }
+  return "?";
+}
+
+SceneMaterialStats scan_material_stats(std::span<const float> roughness, float glossy_roughness) {
+  SceneMaterialStats s;
+  s.surfels = roughness.size();
+  for (float r : roughness)
+    if (r < glossy_roughness) ++s.glossy_surfels;  // NaN counts as diffuse
+  return s;
+}
+
+CodecSelection select_payload_codecs(const SceneMaterialStats& stats, PayloadCodecPolicy policy,
+                                     const CodecSelectionOptions& options) {
+  CodecSelection out;
+  // 1. Glossy senders: wavelets only if the scene has enough of them.
+  const double glossy_share = stats.surfels ? double(stats.glossy_surfels) / double(stats.surfels) : 0.0;
+  out.glossy_wavelets = stats.glossy_surfels > 0 && glossy_share >= options.min_glossy_fraction;
+  if (out.glossy_wavelets) {
+    CubeLayout{options.cube_resolution}.validate();
+    out.cube_resolution = options.cube_resolution;
+  }
+  const std::string glossy = out.glossy_wavelets
+                                 ? std::to_string(stats.glossy_surfels) + " glossy senders -> haar wavelets " +
+                                       std::to_string(6) + "x" + std::to_string(out.cube_resolution) + "^2"
+                                 : "no glossy senders -> no wavelets";
+  // 2. Diffuse payloads.
+  switch (policy) {
+    case PayloadCodecPolicy::kFloatSh:
+      out.diffuse = CodecId::kFloatSh;
+      out.reason = "float32-sh (requested); " + glossy;
+      return out;
+    case PayloadCodecPolicy::kQuantizedSh:
+      out.diffuse = CodecId::kQuantizedSh;
+      out.reason = "kmeans-sh (requested); " + glossy;
+      return out;
+    case PayloadCodecPolicy::kAuto:
+      break;
+  }
+  if (!options.allow_lossy) {
+    out.diffuse = CodecId::kFloatSh;
+    out.reason = "float32-sh (lossy payloads not allowed); " + glossy;
+  } else if (stats.surfels < options.min_quantized_surfels) {
+    out.diffuse = CodecId::kFloatSh;
+    out.reason = "float32-sh (" + std::to_string(stats.surfels) + " surfels < " +
+                 std::to_string(options.min_quantized_surfels) + ": a LUT would not pay off); " + glossy;
+  } else {
+    out.diffuse = CodecId::kQuantizedSh;
+    out.reason = "kmeans-sh (" + std::to_string(stats.surfels) + " surfels); " + glossy;
+  }
+  return out;
+}
+
+}  // namespace pbgi::storage

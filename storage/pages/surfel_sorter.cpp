@@ -1,0 +1,297 @@
+#include "storage/pages/surfel_sorter.h"
+
+#include "storage/format/checksum.h"
+#include "storage/format/errors.h"
+#include "storage/pages/file_io.h"
+
+#include <tbb/parallel_sort.h>
+
+#include <algorithm>
+#include <cstring>
+#include <deque>
+#include <queue>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+namespace pbgi::storage {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// What a run holds per surfel; compared by (code, index).
+struct Record {
+  uint64_t code;
+  uint64_t index;  // arrival order: breaks ties, so the order is total
+  Surfel surfel;
+  bool operator<(const Record& o) const { return code != o.code ? code < o.code : index < o.index; }
+};
+static_assert(std::is_trivially_copyable_v<Record>);
+
+// A run file is a sequence of blocks: u64 record count, u64 XXH3-64 of the
+// records, then the records as they lie in memory.
+constexpr size_t kBlockHeaderBytes = 16;
+constexpr size_t kMaxBlockRecords = 16384;  // ~1.3 MB: enough to make reads sequential
+
+class RunWriter {
+ public:
+  RunWriter(const fs::path& path, size_t block_records)
+      : file_(File::create_new(path)), block_records_(block_records) {}
+
+  // Writes `records` as blocks of at most block_records.
+  void write(std::span<const Record> records) {
+    for (size_t at = 0; at < records.size(); at += block_records_) {
+      const auto block = records.subspan(at, std::min(block_records_, records.size() - at));
+      const std::span<const uint8_t> bytes(reinterpret_cast<const uint8_t*>(block.data()), block.size_bytes());
+      uint8_t header[kBlockHeaderBytes];
+      const uint64_t count = block.size(), sum = checksum64(bytes.data(), bytes.size());
+      std::memcpy(header, &count, 8);
+      std::memcpy(header + 8, &sum, 8);
+      file_.write_all(header);
+      file_.write_all(bytes);
+      bytes_ += kBlockHeaderBytes + bytes.size();
+    }
+  }
+  void close() { file_.close(); }
+  uint64_t bytes() const { return bytes_; }
+
+ private:
+  File file_;
+  size_t block_records_;
+  uint64_t bytes_ = 0;
+};
+
+class RunReader {
+ public:
+  RunReader(const fs::path& path, uint64_t records, size_t block_records)
+      : file_(File::open_read(path)), remaining_(records), block_(block_records) {}
+
+  // The next record, or nullptr at the end.
+  const Record* peek() {
+    if (pos_ == size_) {
+      if (remaining_ == 0) return nullptr;
+      load_block();
+    }
+    return &block_[pos_];
+  }
+  void pop() { ++pos_; }
+
+ private:
+  void load_block() {
+    uint8_t header[kBlockHeaderBytes];
+    file_.pread_exact(header, offset_);
+    uint64_t count = 0, sum = 0;
+    std::memcpy(&count, header, 8);
+    std::memcpy(&sum, header + 8, 8);
+    if (count == 0 || count > block_.size() || count > remaining_) {
+      throw CorruptionError(file_.path() + ": run block at offset " + std::to_string(offset_) + " claims " +
+                            std::to_string(count) + " records (" + std::to_string(remaining_) + " left, at most " +
+                            std::to_string(block_.size()) + " per block)");
+    }
+    const std::span<uint8_t> bytes(reinterpret_cast<uint8_t*>(block_.data()), count * sizeof(Record));
+    file_.pread_exact(bytes, offset_ + kBlockHeaderBytes);
+    const uint64_t found = checksum64(bytes.data(), bytes.size());
+    if (found != sum) {
+      throw CorruptionError(file_.path() + ": run block at offset " + std::to_string(offset_) +
+                            ": checksum mismatch: expected " + checksum_hex(sum) + ", found " + checksum_hex(found));
+    }
+    offset_ += kBlockHeaderBytes + bytes.size();
+    remaining_ -= count;
+    size_ = count;
+    pos_ = 0;
+  }
+
+  File file_;
+  uint64_t remaining_;
+  std::vector<Record> block_;
+  size_t size_ = 0, pos_ = 0;
+  uint64_t offset_ = 0;
+};
+
+}  // namespace
+
+struct SurfelSorter::Impl {
+  struct Run {
+    fs::path path;
+    uint64_t records = 0;
+  };
+
+  tree::MortonFrame frame;
+  uint64_t memory;
+  fs::path dir;
+  size_t block_records;
+  uint32_t fan_in;
+  size_t capacity;  // records in the run buffer
+  std::vector<Record> buffer;
+  std::deque<Run> runs;
+  uint32_t serial = 0;
+  SortStats stats;
+  bool drained = false;
+
+  Impl(const tree::MortonFrame& f, uint64_t mem, fs::path d, uint32_t max_fan_in)
+      : frame(f), memory(mem), dir(std::move(d)) {
+    if (memory < 64 * 1024) throw InvalidArgument("sort memory of " + std::to_string(memory) + " bytes: at least 64 KiB");
+    max_fan_in = std::max<uint32_t>(max_fan_in, 2);
+    // Merge memory: fan_in input blocks and one output block.
+    block_records = std::clamp<size_t>(memory / ((size_t(max_fan_in) + 1) * sizeof(Record)), 1, kMaxBlockRecords);
+    fan_in = uint32_t(std::clamp<uint64_t>(memory / (block_records * sizeof(Record)) - 1, 2, max_fan_in));
+    capacity = memory / sizeof(Record);
+  }
+
+  ~Impl() {
+    std::error_code ec;  // best effort
+    for (const Run& r : runs) fs::remove(r.path, ec);
+  }
+
+  void note_peak(uint64_t bytes) { stats.peak_bytes = std::max(stats.peak_bytes, bytes); }
+
+  fs::path next_run_path() {
+    char name[32];
+    std::snprintf(name, sizeof name, "run-%06u.tmp", serial++);
+    return dir / name;
+  }
+
+  void spill() {
+    if (buffer.empty()) return;
+    tbb::parallel_sort(buffer.begin(), buffer.end());
+    Run run{next_run_path(), buffer.size()};
+    RunWriter w(run.path, block_records);
+    w.write(buffer);
+    w.close();
+    stats.run_bytes += w.bytes();
+    ++stats.runs;
+    runs.push_back(std::move(run));
+    buffer.clear();
+  }
+
+  void add(std::span<const Surfel> surfels) {
+    if (drained) throw InvalidArgument("surfel sorter: add() after drain()");
+    if (buffer.capacity() < capacity) {
+      // Reserve the whole run buffer at once: it is the budget, and growth
+      // by doubling would briefly need 1.5 times it.
+      buffer.reserve(capacity);
+      note_peak(buffer.capacity() * sizeof(Record));
+    }
+    for (const Surfel& s : surfels) {
+      if (buffer.size() == capacity) spill();
+      buffer.push_back({frame.code(s.position), stats.surfels++, s});
+    }
+  }
+
+  // Merges `inputs` (removed from disk afterwards), handing each record to
+  // `out`; `tick` after each record.
+  template <typename Out>
+  void merge(const std::vector<Run>& inputs, Out&& out, const std::function<void()>& tick) {
+    std::vector<std::unique_ptr<RunReader>> readers;
+    for (const Run& r : inputs) readers.push_back(std::make_unique<RunReader>(r.path, r.records, block_records));
+    struct Head {
+      uint64_t code, index;
+      uint32_t reader;
+      bool operator>(const Head& o) const { return code != o.code ? code > o.code : index > o.index; }
+    };
+    std::priority_queue<Head, std::vector<Head>, std::greater<>> heap;
+    for (uint32_t i = 0; i < readers.size(); ++i) {
+      if (const Record* r = readers[i]->peek()) heap.push({r->code, r->index, i});
+    }
+    while (!heap.empty()) {
+      const uint32_t i = heap.top().reader;
+      heap.pop();
+      const Record* r = readers[i]->peek();
+      out(*r);
+      readers[i]->pop();
+      if (const Record* next = readers[i]->peek()) heap.push({next->code, next->index, i});
+      tick();
+    }
+    readers.clear();
+    for (const Run& r : inputs) fs::remove(r.path);
+  }
+
+  void drain(const std::function<void(const Surfel&, uint64_t)>& emit, const std::function<void(float)>& progress) {
+    if (drained) throw InvalidArgument("surfel sorter: drain() called twice");
+    drained = true;
+    // Progress over all records every pass touches.
+    uint64_t total = stats.surfels, done = 0, next_report = 0;
+    auto tick = [&] {
+      if (++done >= next_report && progress && total > 0) {
+        progress(float(double(done) / double(total)));
+        next_report = done + std::max<uint64_t>(total / 100, 1);
+      }
+    };
+
+    // 1. Everything fitted in memory: no disk at all.
+    if (runs.empty()) {
+      tbb::parallel_sort(buffer.begin(), buffer.end());
+      for (const Record& r : buffer) {
+        emit(r.surfel, r.code);
+        tick();
+      }
+      std::vector<Record>().swap(buffer);
+      return;
+    }
+    spill();
+    std::vector<Record>().swap(buffer);  // the merge buffers take its place
+    {
+      std::deque<uint64_t> sizes;
+      for (const Run& r : runs) sizes.push_back(r.records);
+      while (sizes.size() > fan_in) {
+        uint64_t merged = 0;
+        for (uint32_t k = 0; k < fan_in; ++k) {
+          merged += sizes.front();
+          sizes.pop_front();
+        }
+        total += merged;
+        sizes.push_back(merged);
+      }
+    }
+    note_peak(uint64_t(std::min<size_t>(runs.size(), fan_in) + 1) * block_records * sizeof(Record));
+
+    // 2. Intermediate passes until one merge can take every run.
+    while (runs.size() > fan_in) {
+      std::vector<Run> inputs(runs.begin(), runs.begin() + fan_in);
+      runs.erase(runs.begin(), runs.begin() + fan_in);
+      Run out{next_run_path(), 0};
+      {
+        RunWriter w(out.path, block_records);
+        std::vector<Record> block;
+        block.reserve(block_records);
+        merge(inputs, [&](const Record& r) {
+          block.push_back(r);
+          if (block.size() == block_records) {
+            w.write(block);
+            block.clear();
+          }
+        }, tick);
+        w.write(block);
+        w.close();
+        stats.run_bytes += w.bytes();
+        for (const Run& r : inputs) out.records += r.records;
+      }
+      ++stats.merges;
+      runs.push_back(std::move(out));
+    }
+
+    // 3. The last merge feeds the caller.
+    std::vector<Run> inputs(runs.begin(), runs.end());
+    runs.clear();
+    merge(inputs, [&](const Record& r) { emit(r.surfel, r.code); }, tick);
+    ++stats.merges;
+  }
+};
+
+SurfelSorter::SurfelSorter(const tree::MortonFrame& frame, uint64_t memory_bytes, fs::path run_dir,
+                           uint32_t max_fan_in)
+    : impl_(std::make_unique<Impl>(frame, memory_bytes, std::move(run_dir), max_fan_in)) {}
+
+SurfelSorter::~SurfelSorter() = default;
+
+void SurfelSorter::add(std::span<const Surfel> surfels) { impl_->add(surfels); }
+
+void SurfelSorter::drain(const std::function<void(const Surfel&, uint64_t)>& emit,
+                         const std::function<void(float)>& progress) {
+  impl_->drain(emit, progress);
+}
+
+const SortStats& SurfelSorter::stats() const { return impl_->stats; }
+
+}  // namespace pbgi::storage

@@ -1,0 +1,66 @@
+// External sort of surfels by (Morton code, arrival index) under a hard
+// memory bound, so that a page set of any size is built from a sorted
+// stream (storage/tree/streaming_tree_builder.h).
+//
+// Surfels are copied into a run buffer of memory_bytes; a full buffer is
+// sorted and written to a run file in `run_dir`. drain() streams the sorted
+// sequence: straight from the buffer when nothing was spilled, else by
+// k-way merges of the runs (intermediate passes when there are more runs
+// than the fan-in), each run read through a buffer of one block. The run
+// buffer and the merge buffers never exceed memory_bytes together, and the
+// order never depends on it: ties in code are broken by arrival index.
+//
+// Run files are temporary (host byte order, one XXH3 checksum per block,
+// deleted as soon as merged); `run_dir` is the build's staging directory,
+// so a crashed build leaves nothing that outlives its staging directory.
+//
+// Thread-safety: one sorter per build; not thread-safe.
+#pragma once
+
+#include "storage/tree/morton.h"
+#include "storage/tree/surfel.h"
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <span>
+
+namespace pbgi::storage {
+
+struct SortStats {
+  uint64_t surfels = 0;
+  uint32_t runs = 0;           // runs written to disk (0: sorted in memory)
+  uint32_t merges = 0;         // k-way merges of runs, the last (feeding the caller) included
+  uint64_t run_bytes = 0;      // bytes written to run files, all passes
+  uint64_t peak_bytes = 0;     // largest total of run and merge buffers held
+};
+
+class SurfelSorter {
+ public:
+  // `memory_bytes` >= 64 KiB. `max_fan_in` (>= 2) caps the runs merged at
+  // once (tests lower it to force several passes).
+  SurfelSorter(const tree::MortonFrame& frame, uint64_t memory_bytes, std::filesystem::path run_dir,
+               uint32_t max_fan_in = 64);
+  ~SurfelSorter();  // deletes remaining run files
+  SurfelSorter(const SurfelSorter&) = delete;
+  SurfelSorter& operator=(const SurfelSorter&) = delete;
+
+  // Appends surfels in arrival order (already checked). Spills full runs.
+  void add(std::span<const Surfel> surfels);
+
+  // Calls `emit(surfel, code)` for every surfel in (code, arrival) order;
+  // `progress(fraction)` after each percent of the surfels of every merge
+  // pass, the passes splitting [0, 1] by their data. The sorter is spent
+  // afterwards. Exceptions of the callbacks propagate.
+  void drain(const std::function<void(const Surfel&, uint64_t)>& emit,
+             const std::function<void(float)>& progress = {});
+
+  const SortStats& stats() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace pbgi::storage

@@ -1,0 +1,26 @@
+// Turns the surfels of a leaf into V2 surfel records relative to the leaf's
+// frame (storage/format/page_records.h), and back.
+//
+// The frame is the bounding sphere of the surfel disks, widened until every
+// *decoded* disk lies inside it: the tree's bounds are computed from the
+// decoded surfels, so they hold for exactly what a reader gets. The frame
+// radius is at most ~0.05% larger than the tightest sphere of the input.
+//
+// Thread-safety: pure functions.
+#pragma once
+
+#include "storage/format/page_records.h"
+#include "storage/tree/surfel.h"
+
+#include <cstdint>
+#include <span>
+
+namespace pbgi::tree {
+
+// Encodes `surfels` (non-empty, finite, unit normals, radius >= 0) into
+// `records` (surfels.size() * kSurfelRecordBytes bytes) and writes what a
+// reader will decode into `decoded` (same size). Returns the frame.
+storage::LeafFrame quantize_leaf(std::span<const Surfel> surfels, uint8_t* records,
+                                 std::span<Surfel> decoded);
+
+}  // namespace pbgi::tree

@@ -1,0 +1,29 @@
+// The summary of a node (bounds, normal cone, area, payload; node.h) from
+// what lies below it: a leaf's from its decoded surfels, an internal node's
+// from its children's summaries. The tree build and the page reader both
+// call these, on the same values in the same order, so a node derived when
+// a page loads is bit-identical to the node the build computed (V2 pages
+// store only what cannot be derived: see storage/format/FORMAT.md).
+//
+// Thread-safety: pure functions.
+#pragma once
+
+#include "storage/format/page_records.h"
+#include "storage/tree/node.h"
+#include "storage/tree/surfel.h"
+
+#include <span>
+
+namespace pbgi::tree {
+
+// Leaf over `surfels` (decoded, non-empty) stored in `frame`: sphere =
+// frame, cone around the normals, area and payload from the surfels. Sets
+// child_count = 0 and surfel_count; leaves first_surfel alone.
+void summarize_leaf(std::span<const Surfel> surfels, const storage::LeafFrame& frame, Node& out);
+
+// Internal node over one or two children (`b` may be null): enclosing
+// sphere and cone, summed area, area-weighted payload. Sets child_count;
+// leaves the child links alone.
+void summarize_internal(const Node& a, const Node* b, Node& out);
+
+}  // namespace pbgi::tree

@@ -1,0 +1,294 @@
+#include "storage/tree/streaming_tree_builder.h"
+
+#include "storage/format/errors.h"
+#include "storage/format/page_records.h"
+#include "storage/tree/leaf_quantizer.h"
+#include "storage/tree/node_summary.h"
+
+#include <algorithm>
+#include <bit>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace pbgi::tree {
+
+namespace {
+
+using storage::kLeafRecordBytes;
+using storage::kLinkRecordBytes;
+using storage::kPageOverheadBytes;
+using storage::kShapeBytes;
+using storage::kSurfelRecordBytes;
+
+constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
+
+// A node of the open part of the tree.
+struct Pending {
+  Node node;                    // summary; child_count, surfel_count
+  uint32_t child[2] = {kNone, kNone};
+  uint32_t page = kNone;        // written: the page whose root this node is
+  uint64_t bytes = 0;           // on disk: its pending treelet, or its link if written
+  uint32_t height = 0;          // depth of its deepest leaf below it
+  bool candidate = false;       // leaf not closed yet: `raw` holds its surfels
+  std::vector<Surfel> raw;      // candidate surfels (capacity kept across reuse)
+  storage::LeafFrame frame;     // closed leaf
+  std::vector<uint8_t> records; // closed leaf: its surfel records
+
+  bool written() const { return page != kNone; }
+};
+
+// Level of the separator between consecutive keys (code, index): the
+// highest differing bit of the 128-bit key code:index. Codes differ ->
+// 64 + that bit of the codes; equal codes -> that bit of the indices.
+inline int separator_level(uint64_t prev_code, uint64_t code, uint64_t index) {
+  if (prev_code != code) return 64 + (63 - std::countl_zero(prev_code ^ code));
+  return 63 - std::countl_zero((index - 1) ^ index);
+}
+
+}  // namespace
+
+struct StreamingTreeBuilder::Impl {
+  const BuildOptions options;
+  const uint64_t page_bytes;     // 0 = unbounded
+  const uint64_t link_bytes;     // a link record and its payload
+  TreeletSink& sink;
+
+  std::vector<Pending> arena;
+  std::vector<uint32_t> free_nodes;
+  struct Open {
+    uint32_t node;
+    int level;  // of the separator to its right
+  };
+  std::vector<Open> stack;
+  uint32_t current = kNone;  // the subtree left of the next separator
+  uint64_t prev_code = 0;
+  bool finished = false;
+
+  StreamingTreeStats stats;
+  uint64_t pending_bytes = 0;
+  // Scratch.
+  std::vector<Surfel> decoded;
+  Treelet treelet;
+  std::vector<uint32_t> visited;
+
+  Impl(const BuildOptions& o, uint64_t pb, uint64_t lpb, TreeletSink& s)
+      : options(o), page_bytes(pb), link_bytes(kLinkRecordBytes + lpb), sink(s) {
+    options.validate();
+    if (page_bytes != 0 && page_bytes < storage::min_page_bytes(options.leaf_size)) {
+      throw InvalidArgument("page of " + std::to_string(page_bytes) + " bytes cannot hold a leaf of " +
+                            std::to_string(options.leaf_size) + " surfels");
+    }
+  }
+
+  uint32_t alloc() {
+    if (!free_nodes.empty()) {
+      const uint32_t i = free_nodes.back();
+      free_nodes.pop_back();
+      return i;
+    }
+    arena.emplace_back();
+    return static_cast<uint32_t>(arena.size() - 1);
+  }
+
+  void release(uint32_t i) {
+    Pending& p = arena[i];
+    p.node = Node{};
+    p.child[0] = p.child[1] = kNone;
+    p.page = kNone;
+    p.bytes = 0;
+    p.height = 0;
+    p.candidate = false;
+    p.raw.clear();
+    p.records.clear();
+    free_nodes.push_back(i);
+  }
+
+  void note_pending(int64_t delta) {
+    pending_bytes = uint64_t(int64_t(pending_bytes) + delta);
+    stats.peak_pending_bytes = std::max(stats.peak_pending_bytes, pending_bytes);
+  }
+
+  uint32_t new_candidate(const Surfel& s) {
+    const uint32_t i = alloc();
+    Pending& p = arena[i];
+    p.candidate = true;
+    p.raw.push_back(s);
+    note_pending(sizeof(Surfel));
+    return i;
+  }
+
+  // Quantizes a candidate's surfels and computes its summary.
+  void close_leaf(uint32_t i) {
+    Pending& p = arena[i];
+    const size_t n = p.raw.size();
+    p.records.resize(n * kSurfelRecordBytes);
+    decoded.resize(n);
+    p.frame = quantize_leaf(p.raw, p.records.data(), decoded);
+    summarize_leaf(decoded, p.frame, p.node);
+    p.bytes = kShapeBytes + kLeafRecordBytes + n * kSurfelRecordBytes;
+    p.height = 0;
+    p.candidate = false;
+    note_pending(int64_t(p.records.size()) - int64_t(n * sizeof(Surfel)));
+    p.raw.clear();
+    ++stats.leaf_count;
+    ++stats.node_count;
+  }
+
+  // The node over a (left) and b (right), both complete.
+  uint32_t join(uint32_t a, uint32_t b) {
+    {
+      Pending& pa = arena[a];
+      Pending& pb = arena[b];
+      if (pa.candidate && pb.candidate && pa.raw.size() + pb.raw.size() <= options.leaf_size) {
+        pa.raw.insert(pa.raw.end(), pb.raw.begin(), pb.raw.end());
+        release(b);
+        return a;
+      }
+    }
+    if (arena[a].candidate) close_leaf(a);
+    if (arena[b].candidate) close_leaf(b);
+    const uint32_t n = alloc();  // may reallocate the arena: no references above
+    Pending& p = arena[n];
+    const Pending& pa = arena[a];
+    const Pending& pb = arena[b];
+    p.child[0] = a;
+    p.child[1] = b;
+    summarize_internal(pa.node, &pb.node, p.node);
+    p.height = 1 + std::max(pa.height, pb.height);
+    p.bytes = kShapeBytes + pa.bytes + pb.bytes;
+    note_pending(kShapeBytes);
+    ++stats.node_count;
+    // Write the larger pending child until the node's treelet fits a page.
+    while (page_bytes != 0 && arena[n].bytes + kPageOverheadBytes > page_bytes) {
+      const uint32_t c0 = arena[n].child[0], c1 = arena[n].child[1];
+      const bool w0 = arena[c0].written(), w1 = arena[c1].written();
+      const uint32_t victim = w0 ? c1 : w1 ? c0 : (arena[c0].bytes >= arena[c1].bytes ? c0 : c1);
+      if (arena[victim].written()) {
+        throw Error("internal: a node with two linked children does not fit a page");  // min_page_bytes
+      }
+      write_page(victim);
+      arena[n].bytes = kShapeBytes + arena[c0].bytes + arena[c1].bytes;
+    }
+    return n;
+  }
+
+  // Writes the pending treelet under `root` as the next page; `root` stays
+  // as a written stub (its summary and page id) for its parent's link.
+  uint32_t write_page(uint32_t root) {
+    treelet.clear();
+    visited.clear();
+    // Same recursion as expand_treelet(): node, then all of child 0 (or its
+    // link), then all of child 1.
+    struct Frame {
+      uint32_t node;
+      uint32_t slot;
+    };
+    std::vector<Frame> stack_frames;
+    auto emit = [&](uint32_t i) {
+      Pending& p = arena[i];
+      storage::NodeShape shape;
+      shape.child_count = static_cast<uint8_t>(p.node.child_count);
+      for (uint32_t c = 0; c < p.node.child_count; ++c) shape.external[c] = arena[p.child[c]].written();
+      treelet.shapes.push_back(storage::encode_shape(shape));
+      if (p.node.child_count == 0) {
+        const size_t at = treelet.leaf_records.size();
+        treelet.leaf_records.resize(at + kLeafRecordBytes);
+        storage::write_leaf_record(p.frame, p.node.surfel_count, treelet.leaf_records.data() + at);
+        treelet.surfel_records.insert(treelet.surfel_records.end(), p.records.begin(), p.records.end());
+      } else {
+        stack_frames.push_back({i, 0});
+      }
+      if (i != root) visited.push_back(i);
+    };
+    emit(root);
+    while (!stack_frames.empty()) {
+      Frame& f = stack_frames.back();
+      const Pending& p = arena[f.node];
+      if (f.slot == p.node.child_count) {
+        stack_frames.pop_back();
+        continue;
+      }
+      const uint32_t c = p.child[f.slot++];
+      if (arena[c].written()) {
+        treelet.links.push_back({arena[c].page, arena[c].node});
+        visited.push_back(c);
+      } else {
+        emit(c);  // may grow stack_frames: `f` is not used after this
+      }
+    }
+    const uint32_t id = sink.write(treelet);
+    if (id != stats.page_count) {
+      throw Error("internal: page sink returned id " + std::to_string(id) + ", expected " +
+                  std::to_string(stats.page_count));
+    }
+    ++stats.page_count;
+    // Free what the page now holds; the root becomes a stub.
+    int64_t freed = 0;
+    for (uint32_t i : visited) {
+      if (!arena[i].written()) freed += int64_t(arena[i].node.child_count == 0 ? arena[i].records.size() : kShapeBytes);
+      release(i);
+    }
+    Pending& r = arena[root];
+    freed += int64_t(r.node.child_count == 0 ? r.records.size() : kShapeBytes);
+    note_pending(-freed);
+    r.page = id;
+    r.bytes = link_bytes;
+    r.child[0] = r.child[1] = kNone;
+    r.records.clear();
+    return id;
+  }
+
+  void add(const Surfel& s, uint64_t code) {
+    if (finished) throw InvalidArgument("tree builder: add() after finish()");
+    const uint64_t index = stats.surfel_count;
+    if (index > 0 && code < prev_code) {
+      throw InvalidArgument("tree builder: surfel " + std::to_string(index) + " has Morton code " +
+                            std::to_string(code) + ", below its predecessor's " + std::to_string(prev_code) +
+                            " (the stream must be sorted)");
+    }
+    constexpr uint64_t kMaxSurfels = uint64_t(1) << 40;
+    if (index >= kMaxSurfels) throw InvalidArgument("tree builder: more than 2^40 surfels");
+    const uint32_t leaf = new_candidate(s);
+    if (index > 0) {
+      const int level = separator_level(prev_code, code, index);
+      while (!stack.empty() && stack.back().level < level) {
+        const uint32_t left = stack.back().node;
+        stack.pop_back();
+        current = join(left, current);
+      }
+      stack.push_back({current, level});
+    }
+    current = leaf;
+    prev_code = code;
+    ++stats.surfel_count;
+  }
+
+  StreamingTreeStats finish() {
+    if (finished) throw InvalidArgument("tree builder: finish() called twice");
+    finished = true;
+    if (stats.surfel_count == 0) throw InvalidArgument("cannot build a tree over 0 surfels");
+    while (!stack.empty()) {
+      const uint32_t left = stack.back().node;
+      stack.pop_back();
+      current = join(left, current);
+    }
+    if (arena[current].candidate) close_leaf(current);
+    stats.max_depth = arena[current].height;
+    const uint32_t page = write_page(current);
+    stats.root = {page, 0};
+    return stats;
+  }
+};
+
+StreamingTreeBuilder::StreamingTreeBuilder(const BuildOptions& options, uint64_t page_bytes,
+                                           uint64_t link_payload_bytes, TreeletSink& sink)
+    : impl_(std::make_unique<Impl>(options, page_bytes, link_payload_bytes, sink)) {}
+
+StreamingTreeBuilder::~StreamingTreeBuilder() = default;
+
+void StreamingTreeBuilder::add(const Surfel& s, uint64_t code) { impl_->add(s, code); }
+
+StreamingTreeStats StreamingTreeBuilder::finish() { return impl_->finish(); }
+
+}  // namespace pbgi::tree

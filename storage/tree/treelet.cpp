@@ -1,0 +1,125 @@
+#include "storage/tree/treelet.h"
+
+#include "storage/format/errors.h"
+#include "storage/format/page_records.h"
+#include "storage/tree/node_summary.h"
+
+#include <array>
+
+namespace pbgi::tree {
+
+size_t Treelet::surfel_count() const { return surfel_records.size() / storage::kSurfelRecordBytes; }
+
+void Treelet::clear() {
+  shapes.clear();
+  leaf_records.clear();
+  links.clear();
+  surfel_records.clear();
+}
+
+void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& what, Page& out) {
+  using namespace storage;
+  auto corrupt = [&](const std::string& msg) { return CorruptionError(what + ": " + msg); };
+  const size_t n = t.shapes.size();
+  const size_t leaves = t.leaf_records.size() / kLeafRecordBytes;
+  const size_t surfels = t.surfel_records.size() / kSurfelRecordBytes;
+  if (n == 0) throw corrupt("page has no nodes");
+  out.id = page_id;
+  out.nodes.assign(n, Node{});
+  out.surfels.resize(surfels);
+
+  // 1. Structure: parse the shapes in pre-order with an explicit stack (a
+  //    damaged page must not be able to recurse deeply).
+  std::vector<NodeShape> shape(n);
+  std::vector<std::array<uint32_t, 2>> link_of(n);  // link index per external slot
+  std::vector<LeafFrame> frame(leaves);
+  struct Open {
+    uint32_t node;
+    uint32_t slot;
+  };
+  std::vector<Open> stack;
+  size_t next = 0, leaf = 0, link = 0;
+  uint64_t first_surfel = 0;
+  auto open = [&](uint32_t i) {
+    if (!decode_shape(t.shapes[i], shape[i])) {
+      throw corrupt("node " + std::to_string(i) + " has an invalid shape byte " +
+                    std::to_string(t.shapes[i]));
+    }
+    Node& node = out.nodes[i];
+    node.child_count = shape[i].child_count;
+    if (node.child_count > 0) {
+      stack.push_back({i, 0});
+      return;
+    }
+    if (leaf >= leaves) throw corrupt("more leaves than the " + std::to_string(leaves) + " leaf records");
+    uint32_t count = 0;
+    read_leaf_record(t.leaf_records.data() + leaf * kLeafRecordBytes, frame[leaf], count);
+    if (count == 0 || first_surfel + count > surfels) {
+      throw corrupt("leaf " + std::to_string(leaf) + " (node " + std::to_string(i) + ") has surfels [" +
+                    std::to_string(first_surfel) + ", +" + std::to_string(count) + ") outside the page's " +
+                    std::to_string(surfels));
+    }
+    node.first_surfel = static_cast<uint32_t>(first_surfel);
+    node.surfel_count = count;
+    node.children[0].index = static_cast<uint32_t>(leaf);  // frame index, until step 2
+    first_surfel += count;
+    ++leaf;
+  };
+  open(static_cast<uint32_t>(next++));
+  while (!stack.empty()) {
+    const Open top = stack.back();
+    if (top.slot == shape[top.node].child_count) {
+      stack.pop_back();
+      continue;
+    }
+    ++stack.back().slot;
+    Node& node = out.nodes[top.node];
+    if (shape[top.node].external[top.slot]) {
+      if (link >= t.links.size()) throw corrupt("more links than the " + std::to_string(t.links.size()) + " link records");
+      const uint32_t target = t.links[link].page;
+      if (target >= page_id) {
+        throw corrupt("node " + std::to_string(top.node) + " links to page " + std::to_string(target) +
+                      ", not written before this one");
+      }
+      node.children[top.slot] = {target, 0};
+      link_of[top.node][top.slot] = static_cast<uint32_t>(link++);
+    } else {
+      if (next >= n) throw corrupt("node " + std::to_string(top.node) + " has a child past the " + std::to_string(n) + " nodes");
+      node.children[top.slot] = {page_id, static_cast<uint32_t>(next)};
+      open(static_cast<uint32_t>(next++));
+    }
+  }
+  if (next != n || leaf != leaves || link != t.links.size() || first_surfel != surfels) {
+    throw corrupt("shapes describe " + std::to_string(next) + " nodes, " + std::to_string(leaf) + " leaves, " +
+                  std::to_string(link) + " links, " + std::to_string(first_surfel) + " surfels; the page holds " +
+                  std::to_string(n) + ", " + std::to_string(leaves) + ", " + std::to_string(t.links.size()) +
+                  ", " + std::to_string(surfels));
+  }
+
+  // 2. Summaries, children first (reverse pre-order), exactly as the build
+  //    computed them.
+  for (size_t i = n; i-- > 0;) {
+    Node& node = out.nodes[i];
+    if (node.child_count == 0) {
+      const LeafFrame& f = frame[node.children[0].index];
+      node.children[0].index = 0;
+      Surfel* s = out.surfels.data() + node.first_surfel;
+      const uint8_t* rec = t.surfel_records.data() + size_t(node.first_surfel) * kSurfelRecordBytes;
+      for (uint32_t k = 0; k < node.surfel_count; ++k) decode_surfel_record(rec + k * kSurfelRecordBytes, f, s[k]);
+      const uint32_t first = node.first_surfel;
+      summarize_leaf({s, node.surfel_count}, f, node);
+      node.first_surfel = first;
+      continue;
+    }
+    const Node* child[2] = {nullptr, nullptr};
+    for (uint32_t c = 0; c < node.child_count; ++c) {
+      child[c] = shape[i].external[c] ? &t.links[link_of[i][c]].summary : &out.nodes[node.children[c].index];
+    }
+    const NodeRef links[2] = {node.children[0], node.children[1]};
+    summarize_internal(*child[0], child[1], node);
+    node.children[0] = links[0];
+    node.children[1] = links[1];
+  }
+}
+
+}  // namespace pbgi::tree

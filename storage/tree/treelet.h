@@ -1,0 +1,58 @@
+// A treelet as a V2 page stores it (storage/format/FORMAT.md): the shapes
+// of its nodes in pre-order, the frames of its leaves, the links to
+// children in other pages (with those children's summaries), and the
+// quantized surfel records. Nothing else: bounds, cones, areas and payloads
+// of the nodes inside are derived by expand_treelet(), with the same
+// functions the build used, so they are bit-identical to the build's.
+//
+// Thread-safety: values; expand_treelet() is reentrant.
+#pragma once
+
+#include "storage/tree/node.h"
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace pbgi::tree {
+
+// A child in another page: that page (whose root, index 0, is the child)
+// and the child's summary (center, radius, cone, area, payload).
+struct TreeletLink {
+  uint32_t page = 0;
+  Node summary;
+};
+
+// Borrowed view of a treelet's parts.
+struct TreeletView {
+  std::span<const uint8_t> shapes;          // storage::kShapeBytes per node
+  std::span<const uint8_t> leaf_records;    // storage::kLeafRecordBytes per leaf
+  std::span<const TreeletLink> links;       // in the order the parse meets them
+  std::span<const uint8_t> surfel_records;  // storage::kSurfelRecordBytes per surfel
+};
+
+// An owning treelet, as the builder hands it to a page writer.
+struct Treelet {
+  std::vector<uint8_t> shapes;
+  std::vector<uint8_t> leaf_records;
+  std::vector<TreeletLink> links;
+  std::vector<uint8_t> surfel_records;
+
+  TreeletView view() const { return {shapes, leaf_records, links, surfel_records}; }
+  size_t node_count() const { return shapes.size(); }
+  size_t surfel_count() const;
+  void clear();
+};
+
+// Decodes `t` into `out` (replaced): nodes in pre-order with page-relative
+// links ({page_id, index} inside, {link.page, 0} outside), surfels in leaf
+// order, every summary derived bottom-up. The parse visits a node, then
+// all of child 0 (or its link), then all of child 1: links are consumed in
+// that order. Throws CorruptionError, prefixed with `what`, when the parts
+// disagree (a bad shape byte, counts that do not add up, an empty leaf, a
+// link to a page id >= page_id: pages only link to pages written before
+// them, so no chain of links can cycle).
+void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& what, Page& out);
+
+}  // namespace pbgi::tree

@@ -1,0 +1,318 @@
+#include "storage/codecs/bit_packing.h"
+#include "storage/codecs/float_sh_codec.h"
+#include "storage/codecs/quantized_sh_codec.h"
+#include "storage/format/errors.h"
+#include "tests/storage/codecs/node_payloads.h"
+
+#include <gtest/gtest.h>
+
+#include <cfloat>
+#include <cmath>
+#include <cstring>
+#include <random>
+
+namespace pbgi::storage {
+namespace {
+
+constexpr size_t D = kNormalizedDims;
+
+std::array<float, 36> flat(const tree::Node& n) {
+  std::array<float, 36> v;
+  for (int k = 0; k < 9; ++k) {
+    v[k] = n.radiance_sh.r[k];
+    v[9 + k] = n.radiance_sh.g[k];
+    v[18 + k] = n.radiance_sh.b[k];
+    v[27 + k] = n.coverage_sh[k];
+  }
+  return v;
+}
+
+bool same_bits(const tree::Node& a, const tree::Node& b) {
+  const auto x = flat(a), y = flat(b);
+  return std::memcmp(x.data(), y.data(), sizeof(x)) == 0;
+}
+
+ShLutTraining train(const std::vector<tree::Node>& sample, uint32_t entries, double bright_quantile = 0.9999) {
+  ShLutOptions o;
+  o.entries = entries;
+  o.bright_quantile = bright_quantile;
+  return train_sh_lut(sample, o);
+}
+
+std::shared_ptr<const QuantizedShCodec> codec_of(const ShLutTraining& t) {
+  return std::make_shared<const QuantizedShCodec>(std::make_shared<const QuantizedShTable>(t.table));
+}
+
+// Squared distance from v to the nearest LUT entry, by brute force in the
+// input coordinates (no PCA, no pruning).
+double nearest_entry_distance2(const QuantizedShTable& t, const float* v) {
+  double best = INFINITY;
+  for (uint32_t i = 0; i < t.size(); ++i) {
+    double d = 0;
+    for (size_t k = 0; k < D; ++k) d += double(v[k] - t.entry(i)[k]) * (v[k] - t.entry(i)[k]);
+    best = std::min(best, d);
+  }
+  return best;
+}
+
+TEST(QuantizedSh, ErrorIsTheNearestCentreDistance) {
+  const auto sample = test::payload_nodes(6000, 1);
+  const auto training = train(sample, 512);
+  const auto codec = codec_of(training);
+  const QuantizedShTable& t = codec->table();
+  EXPECT_LE(t.size(), 512u);
+  EXPECT_EQ(codec->code_bits(), t.index_bits() + 12);
+  const LogScaleQuantizer sq = t.scale_quantizer();
+  const auto nodes = test::payload_nodes(2000, 2);  // not the training data
+  for (const tree::Node& n : nodes) {
+    const QuantizedPayload q = codec->quantize(n);
+    ASSERT_FALSE(q.raw);
+    tree::Node back;
+    codec->dequantize(q, back);
+    // In the normalized domain the dequantized vector is the LUT entry
+    // nearest to the node's vector: its error is the nearest distance.
+    const NormalizedPayload p = normalize_payload(n, t.coverage_weight());
+    const float* e = t.entry(q.index);
+    double err2 = 0;
+    for (size_t k = 0; k < D; ++k) err2 += double(e[k] - p.v[k]) * (e[k] - p.v[k]);
+    const double best2 = nearest_entry_distance2(t, p.v);
+    ASSERT_LE(err2, best2 * (1 + 1e-4) + 1e-10);
+    // In radiance units: |rad' - rad| <= s (|e - v| + scale error |e|).
+    const double s = p.scale, s_q = sq.decode(q.scale);
+    EXPECT_LE(std::abs(s_q / s - 1), sq.max_relative_error() * 1.0001 + 1e-6);
+    const auto a = flat(n), b = flat(back);
+    double rad_err2 = 0, e_norm2 = 0;
+    for (size_t k = 0; k < 27; ++k) {
+      rad_err2 += double(a[k] - b[k]) * (a[k] - b[k]);
+      e_norm2 += double(e[k]) * e[k];
+    }
+    const double bound = s * (std::sqrt(err2) + sq.max_relative_error() * 1.0001 * std::sqrt(e_norm2)) + 1e-6 * s;
+    ASSERT_LE(std::sqrt(rad_err2), bound);
+  }
+}
+
+TEST(QuantizedSh, PageRoundTripMatchesPerNodeDequantization) {
+  auto nodes = test::payload_nodes(3000, 3);
+  const auto training = train(nodes, 1024);
+  const auto codec = codec_of(training);
+  // Special nodes: dark, denormal, NaN, zero area, very bright.
+  nodes[10].radiance_sh = {};                               // dark
+  for (float& f : nodes[11].radiance_sh.r) f *= 1e-40f;     // denormal radiance
+  nodes[11].radiance_sh.g = nodes[11].radiance_sh.b = nodes[11].radiance_sh.r;
+  nodes[12].radiance_sh.g[4] = std::nanf("");              // NaN
+  nodes[13].coverage_sh = {};                              // no coverage
+  nodes[13].radiance_sh = {};
+  for (int c = 0; c < 9; ++c) nodes[14].radiance_sh.r[c] *= 1e9f;  // far above the range
+  nodes[14].radiance_sh.g = nodes[14].radiance_sh.b = nodes[14].radiance_sh.r;
+
+  std::vector<uint8_t> bytes{1, 2, 3};
+  codec->encode(nodes, bytes);
+  size_t raw = 0;
+  for (const auto& n : nodes) raw += codec->quantize(n).raw;
+  EXPECT_EQ(raw, 3u);  // NaN, no coverage, too bright
+  ASSERT_EQ(bytes.size(), 3 + packed_bytes(nodes.size(), codec->code_bits()) + raw * 144);
+
+  std::vector<tree::Node> back(nodes.size());
+  codec->decode(std::span(bytes).subspan(3), back, "page 4");
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    const QuantizedPayload q = codec->quantize(nodes[i]);
+    tree::Node expect;
+    if (q.raw) {
+      expect = nodes[i];  // raw nodes are stored verbatim
+    } else {
+      codec->dequantize(q, expect);
+    }
+    ASSERT_TRUE(same_bits(back[i], expect)) << "node " << i;
+  }
+  // Dark and denormal nodes decode to exactly zero radiance, with coverage.
+  for (int i : {10, 11}) {
+    const auto v = flat(back[i]);
+    for (size_t k = 0; k < 27; ++k) EXPECT_EQ(v[k], 0.f) << i;
+    EXPECT_NEAR(back[i].coverage_sh[0], nodes[i].coverage_sh[0], 1e-3f);
+  }
+  EXPECT_TRUE(std::isnan(back[12].radiance_sh.g[4]));
+  EXPECT_EQ(back[14].radiance_sh.r[0], nodes[14].radiance_sh.r[0]);
+
+  // Damaged sizes and indices are corruption naming the page.
+  std::vector<uint8_t> cut(bytes.begin() + 3, bytes.end() - 1);
+  EXPECT_THROW(codec->decode(cut, back, "page 4"), CorruptionError);
+  try {
+    codec->decode(std::span(bytes).subspan(3, 5), back, "page 4");
+    FAIL();
+  } catch (const CorruptionError& e) {
+    EXPECT_NE(std::string(e.what()).find("page 4"), std::string::npos);
+  }
+}
+
+TEST(QuantizedSh, IndexOutsideTheTableIsCorruption) {
+  // A 200-entry table uses 8-bit indices: 255 is representable but invalid.
+  std::mt19937 rng(1);
+  std::normal_distribution<float> g;
+  std::vector<float> entries(200 * D);
+  for (auto& e : entries) e = g(rng);
+  const QuantizedShCodec codec(std::make_shared<const QuantizedShTable>(entries, 12, 1.f, -10.f, 10.f));
+  std::vector<uint8_t> bytes;
+  BitWriter w(bytes);
+  w.put(255, 8);
+  w.put(100, 12);
+  w.finish();
+  std::vector<tree::Node> one(1);
+  EXPECT_THROW(codec.decode(bytes, one, "p"), CorruptionError);
+}
+
+TEST(QuantizedSh, EveryIndexWidthRoundTrips) {
+  // Tables of 2^7 .. 2^16 entries: codes of 7 .. 16 index bits.
+  std::mt19937 rng(9);
+  std::normal_distribution<float> g;
+  const auto nodes = test::payload_nodes(300, 4);
+  for (uint32_t bits = 7; bits <= 16; ++bits) {
+    const size_t l = size_t(1) << bits;
+    std::vector<float> entries(l * D);
+    for (auto& e : entries) e = 0.3f * g(rng);
+    const QuantizedShCodec codec(std::make_shared<const QuantizedShTable>(entries, 10, 1.f, -10.f, 10.f));
+    ASSERT_EQ(codec.table().index_bits(), bits);
+    std::vector<uint8_t> bytes;
+    codec.encode(nodes, bytes);
+    std::vector<tree::Node> back(nodes.size());
+    codec.decode(bytes, back, "p");
+    for (size_t i = 0; i < nodes.size(); ++i) {
+      tree::Node expect;
+      codec.dequantize(codec.quantize(nodes[i]), expect);
+      ASSERT_TRUE(same_bits(back[i], expect)) << bits << " " << i;
+    }
+  }
+}
+
+// HDR: an emitter 10^6 times brighter than the dim surfaces around it.
+TEST(QuantizedSh, HdrKeepsRelativeErrorBounded) {
+  std::mt19937 rng(5);
+  std::vector<tree::Node> sample;
+  for (int i = 0; i < 4000; ++i) sample.push_back(test::payload_node(rng, 0.01f + 0.1f * float(i % 10)));
+  for (int i = 0; i < 40; ++i) sample.push_back(test::payload_node(rng, 1e5f));  // emitters
+  std::vector<tree::Node> scene;
+  for (int i = 0; i < 500; ++i) scene.push_back(test::payload_node(rng, 0.05f));
+  const tree::Node bright = test::payload_node(rng, 5e4f);  // 10^6 x the dim ones
+  scene.push_back(bright);
+
+  auto rel_err = [](const tree::Node& a, const tree::Node& b) {
+    const auto x = flat(a), y = flat(b);
+    double e = 0, n = 0;
+    for (size_t k = 0; k < 27; ++k) {
+      e += double(x[k] - y[k]) * (x[k] - y[k]);
+      n += double(x[k]) * x[k];
+    }
+    return std::sqrt(e / n);
+  };
+  for (double q : {1.0, 0.99}) {
+    const auto training = train(sample, 256, q);
+    const auto codec = codec_of(training);
+    double worst = 0;
+    for (const auto& n : scene) {
+      tree::Node back;
+      const QuantizedPayload code = codec->quantize(n);
+      if (code.raw) {
+        back = n;
+      } else {
+        codec->dequantize(code, back);
+      }
+      worst = std::max(worst, rel_err(n, back));
+    }
+    // Normalization gives dim and bright nodes the same relative accuracy.
+    EXPECT_LT(worst, 0.25) << "bright_quantile " << q;
+    const QuantizedPayload b = codec->quantize(bright);
+    if (q < 1.0) {
+      EXPECT_TRUE(b.raw);  // above the 99 % quantile of the sample: kept exact
+    } else {
+      ASSERT_FALSE(b.raw);
+      tree::Node back;
+      codec->dequantize(b, back);
+      EXPECT_LT(rel_err(bright, back), 0.25);
+    }
+  }
+}
+
+TEST(QuantizedShTable, SerializationRoundTripAndDamage) {
+  const auto training = train(test::payload_nodes(3000, 7), 256);
+  const std::vector<uint8_t> bytes = training.table.serialize();
+  ASSERT_EQ(bytes.size(), 32 + training.table.size() * 144 + 8);
+  const QuantizedShTable back = QuantizedShTable::deserialize(bytes, "lut");
+  EXPECT_EQ(back.entries(), training.table.entries());
+  EXPECT_EQ(back.scale_bits(), training.table.scale_bits());
+  EXPECT_EQ(back.log2_scale_lo(), training.table.log2_scale_lo());
+  EXPECT_EQ(back.log2_scale_hi(), training.table.log2_scale_hi());
+  // Registry: codec 1 built from its state.
+  const auto codec = make_payload_codec(uint32_t(CodecId::kQuantizedSh), bytes, "m");
+  EXPECT_EQ(codec->name(), "kmeans-sh");
+  EXPECT_THROW(make_payload_codec(uint32_t(CodecId::kQuantizedSh)), InvalidArgument);
+  EXPECT_TRUE(codec_needs_state(1));
+  EXPECT_FALSE(codec_needs_state(0));
+
+  auto damaged = bytes;
+  damaged[100] ^= 1;
+  try {
+    QuantizedShTable::deserialize(damaged, "/x/manifest.pbgm");
+    FAIL();
+  } catch (const CorruptionError& e) {
+    EXPECT_NE(std::string(e.what()).find("checksum"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("/x/manifest.pbgm"), std::string::npos);
+  }
+  auto newer = bytes;
+  newer[4] = 2;
+  EXPECT_THROW(QuantizedShTable::deserialize(newer, "lut"), VersionError);
+  EXPECT_THROW(QuantizedShTable::deserialize(std::span(bytes).first(bytes.size() - 1), "lut"), CorruptionError);
+}
+
+TEST(QuantizedSh, TrainingOnFewDistinctNodesGivesASmallTable) {
+  std::mt19937 rng(3);
+  std::vector<tree::Node> sample;
+  const tree::Node a = test::payload_node(rng), b = test::payload_node(rng);
+  for (int i = 0; i < 500; ++i) sample.push_back(i % 2 ? a : b);
+  const auto training = train(sample, 128);
+  EXPECT_EQ(training.table.size(), 2u);
+  EXPECT_EQ(training.table.index_bits(), 1u);
+  const auto codec = codec_of(training);
+  tree::Node back;
+  codec->dequantize(codec->quantize(a), back);
+  EXPECT_NEAR(back.radiance_sh.r[0], a.radiance_sh.r[0], 1e-2f * std::abs(a.radiance_sh.r[0]));
+}
+
+TEST(LogScaleQuantizer, CodesAndBounds) {
+  const LogScaleQuantizer q(12, -20.f, 20.f);
+  EXPECT_EQ(q.encode(0.f), 0u);
+  EXPECT_EQ(q.encode(-1.f), 0u);
+  EXPECT_EQ(q.encode(std::nanf("")), 0u);
+  EXPECT_EQ(q.encode(1e30f), q.escape_code());
+  EXPECT_EQ(q.decode(0), 0.f);
+  EXPECT_LT(q.max_relative_error(), 0.004);
+  std::mt19937 rng(1);
+  std::uniform_real_distribution<float> u(-20.f, 20.f);
+  for (int i = 0; i < 10000; ++i) {
+    const float s = std::exp2(u(rng));
+    const uint32_t c = q.encode(s);
+    ASSERT_GT(c, 0u);
+    ASSERT_LT(c, q.escape_code());
+    ASSERT_LE(std::abs(q.decode(c) / s - 1.f), q.max_relative_error() * 1.001);
+  }
+  // Below the range: absolute error under 2^lo.
+  EXPECT_LE(q.decode(q.encode(std::exp2(-20.5f))), std::exp2(-20.f) * 1.0001f);
+  EXPECT_THROW(LogScaleQuantizer(3, 0.f, 1.f), InvalidArgument);
+  EXPECT_THROW(LogScaleQuantizer(12, 1.f, 1.f), InvalidArgument);
+}
+
+TEST(SampleSurfels, FractionAndDeterminism) {
+  std::vector<Surfel> s(100000);
+  for (size_t i = 0; i < s.size(); ++i) s[i].radius = float(i);
+  ShLutOptions o;
+  o.sample_fraction = 0.03;
+  o.min_sample_surfels = 100;
+  const auto a = sample_surfels(s, o, 4), b = sample_surfels(s, o, 4);
+  ASSERT_EQ(a.size(), 3000u);
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_EQ(a[i].radius, b[i].radius);
+  for (size_t i = 1; i < a.size(); ++i) EXPECT_LT(a[i - 1].radius, a[i].radius);  // order kept, no repeats
+  EXPECT_GT(a.back().radius, 90000.f);  // spread over the whole input
+  o.min_sample_surfels = 200000;
+  EXPECT_EQ(sample_surfels(s, o).size(), s.size());
+}
+
+}  // namespace
+}  // namespace pbgi::storage
