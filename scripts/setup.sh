@@ -18,6 +18,7 @@ DEB_PACKAGES=(
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
   libgtest-dev libgmock-dev libbenchmark-dev
   libspdlog-dev libfmt-dev libcli11-dev libtomlplusplus-dev libxxhash-dev libpng-dev
+  libopenimageio-dev
   python3 python3-venv openimageio-tools
 )
 missing=()

@@ -1,7 +1,8 @@
 // The per-receiver cube microbuffer, kept as an A-buffer: each pixel holds
-// the list of fragments (depth, coverage alpha, premultiplied radiance)
-// rasterized into it, and visibility is resolved once, when the receiver's
-// cut is complete. That makes the result independent of traversal order.
+// the list of fragments (depth interval, coverage alpha, cosine weight,
+// weighted radiance) rasterized into it, and visibility is resolved once,
+// when the receiver's cut is complete. That makes the result independent of
+// traversal order.
 //
 // Compositing rule (resolve, per pixel):
 //  1. Sort the pixel's fragments by depth.

@@ -1,4 +1,5 @@
-"""UsdGeom.Camera -> CameraDef (apertures and focal length as authored, mm)."""
+"""UsdGeom.Camera -> CameraDef (focal length, apertures and their offsets as
+authored, mm; clipping range in scene units)."""
 from pxr import UsdGeom
 
 from chunk_stream import WARNING
@@ -20,8 +21,6 @@ def camera_def(prim, matrix, time, stream):
     if camera.GetProjectionAttr().Get(time) != UsdGeom.Tokens.perspective:
         stream.diagnostic(WARNING, c.prim_path, "orthographic camera: read as perspective",
                           kind="camera-projection")
-    if camera.GetHorizontalApertureOffsetAttr().Get(time) or \
-            camera.GetVerticalApertureOffsetAttr().Get(time):
-        stream.diagnostic(WARNING, c.prim_path, "aperture offsets are not modelled",
-                          kind="camera-offset")
+    c.horizontal_aperture_offset = float(camera.GetHorizontalApertureOffsetAttr().Get(time) or 0.0)
+    c.vertical_aperture_offset = float(camera.GetVerticalApertureOffsetAttr().Get(time) or 0.0)
     return chunk

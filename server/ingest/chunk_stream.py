@@ -30,6 +30,9 @@ class ChunkStream:
         self._last_progress = 0.0
         self.chunk_count = 0  # every frame written, as SceneEnd reports it
         self.triangle_count = 0
+        # Set once the stage is open: diagnostics then name the file that
+        # defines their prim (bad input must be traceable to its layer).
+        self.stage = None
 
     def write(self, chunk):
         data = chunk.SerializeToString()
@@ -44,12 +47,34 @@ class ChunkStream:
             return
         self._reported.add(key)
         label = scene_pb2.Diagnostic.Severity.Name(severity)
-        print(f"usd_reader: {label}: {prim_path}: {message}", file=sys.stderr)
+        layer = self._defining_layer(prim_path)
+        print(f"usd_reader: {label}: {prim_path}: {message}" + (f" (in {layer})" if layer else ""),
+              file=sys.stderr)
         chunk = scene_pb2.SceneChunk()
         chunk.diagnostic.severity = severity
         chunk.diagnostic.prim_path = prim_path
         chunk.diagnostic.message = message
+        chunk.diagnostic.layer = layer
         self.write(chunk)
+
+    def _defining_layer(self, prim_path):
+        """Path of the layer holding the prim's strongest `def` spec (else
+        its strongest spec), or ""."""
+        if self.stage is None or not prim_path.startswith("/"):
+            return ""
+        try:
+            from pxr import Sdf
+            prim = self.stage.GetPrimAtPath(prim_path)
+            if not prim:
+                return ""
+            stack = prim.GetPrimStack()
+            if not stack:
+                return ""
+            files = [s for s in stack if not s.layer.anonymous] or stack
+            spec = next((s for s in files if s.specifier == Sdf.SpecifierDef), files[0])
+            return spec.layer.realPath or spec.layer.identifier
+        except Exception:  # naming the file must never fail the read
+            return ""
 
     def progress(self, stage, fraction, force=False):
         now = time.monotonic()

@@ -17,6 +17,7 @@ from pxr import UsdGeom
 from chunk_stream import WARNING
 from implicit_shapes import tessellate
 from mesh_primvars import expand, material_primvars, needs_unweld
+from mesh_repair import check_counts, check_faces, drop_degenerate, report_non_manifold
 from subdiv_cages import SCHEMES, cage_chunk
 from triangle_chunks import (GeometryError, fan_triangulate, mirrors, transform_normals,
                              transform_points)
@@ -56,9 +57,11 @@ def read_mesh(prim, matrix, time, materials, emitter, stream):
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     counts = np.asarray(counts, dtype=np.int64)
     indices = np.asarray(indices, dtype=np.int64)
-    if len(indices) and (indices.min() < 0 or indices.max() >= len(points)):
-        raise GeometryError(f"faceVertexIndices range [{indices.min()}, {indices.max()}] "
-                            f"but the mesh has {len(points)} points")
+    # Broken faces (out-of-range indices, NaN/Inf points) are skipped and
+    # the arrays made safe to gather from (mesh_repair.py).
+    check_counts(counts, indices)
+    repair = check_faces(path, points, counts, indices, stream)
+    points, indices = repair.points, repair.indices
 
     scheme = mesh.GetSubdivisionSchemeAttr().Get(time)
     subdivided = scheme != UsdGeom.Tokens.none
@@ -69,19 +72,36 @@ def read_mesh(prim, matrix, time, materials, emitter, stream):
     material = materials.for_prim(prim)
     per_face = materials.subset_materials(prim, len(counts), material)
     double_sided = bool(mesh.GetDoubleSidedAttr().Get(time))
-    if scheme in SCHEMES:
+    if scheme in SCHEMES and repair.any_bad:
+        stream.diagnostic(WARNING, path, "subdivision cage with skipped faces: read as its "
+                          "repaired control cage, not refined", kind="subdivision")
+    elif scheme in SCHEMES:
+        report_non_manifold(path, counts, indices, None, stream)
         chunk = cage_chunk(mesh, scheme, transform_points(points, matrix), counts, indices,
                            left_handed != mirrors(matrix), material, per_face, double_sided,
                            time, stream)
         if chunk is not None:
             stream.write(chunk)
             return 0
-    corners, faces = fan_triangulate(counts, indices, left_handed != mirrors(matrix),
-                                     mesh.GetHoleIndicesAttr().Get(time))
+    holes = mesh.GetHoleIndicesAttr().Get(time)
+    if repair.any_bad:
+        holes = np.concatenate([np.asarray(holes if holes is not None else [], dtype=np.int64),
+                                np.flatnonzero(repair.bad_faces)])
+    corners, faces = fan_triangulate(counts, indices, left_handed != mirrors(matrix), holes)
     if len(corners) == 0:
         return 0
 
     world = transform_points(points, matrix)
+    keep = drop_degenerate(path, world, indices[corners], stream)
+    if not keep.all():
+        corners, faces = corners[keep], faces[keep]
+        if len(corners) == 0:
+            return 0
+    # Faces left without triangles (skipped, holes, degenerate) are not
+    # part of the surface whose topology is checked.
+    unused_faces = np.ones(len(counts), dtype=bool)
+    unused_faces[faces] = False
+    report_non_manifold(path, counts, indices, unused_faces, stream)
     normals, interpolation = (None, None) if subdivided else _authored_normals(
         mesh, time, len(points), len(indices), len(counts), stream)
     extras = material_primvars(mesh, time, materials, per_face if per_face is not None else material,

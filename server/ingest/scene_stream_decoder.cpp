@@ -139,6 +139,7 @@ class SceneAssembler {
       case Chunk::kMaterial: material(chunk.material(), at); break;
       case Chunk::kLight: light(chunk.light(), at); break;
       case Chunk::kCamera: camera(chunk.camera(), at); break;
+      case Chunk::kVolume: volume(chunk.volume(), at); break;
       case Chunk::kDiagnostic: diagnostic(chunk.diagnostic()); break;
       case Chunk::kProgress: break;  // handled by the decoder
       case Chunk::kEnd: break;       // checked by the decoder
@@ -183,6 +184,7 @@ class SceneAssembler {
       case Chunk::kMaterial: return "MaterialDef";
       case Chunk::kLight: return "LightDef";
       case Chunk::kCamera: return "CameraDef";
+      case Chunk::kVolume: return "VolumeDef";
       case Chunk::kDiagnostic: return "Diagnostic";
       case Chunk::kProgress: return "Progress";
       case Chunk::kEnd: return "SceneEnd";
@@ -406,12 +408,43 @@ class SceneAssembler {
     c.vertical_aperture = d.vertical_aperture();
     c.near_clip = d.near_clip();
     c.far_clip = d.far_clip();
+    c.horizontal_aperture_offset = d.horizontal_aperture_offset();
+    c.vertical_aperture_offset = d.vertical_aperture_offset();
+    if (!(c.near_clip > 0.f) || !(c.far_clip > c.near_clip) || !std::isfinite(c.near_clip)) {
+      scene_.warnings.push_back(fmt::format("{}: clipping range ({}, {}) is not 0 < near < far: using (0.01, 1e6)",
+                                            c.prim_path, c.near_clip, c.far_clip));
+      c.near_clip = 0.01f;
+      c.far_clip = 1e6f;
+    }
     scene_.cameras[c.prim_path] = std::move(c);
+  }
+
+  // One Scene::Volume per field; server/volumes opens the grids later.
+  void volume(const pbgi::v1::VolumeDef& d, const FramePosition& at) {
+    if (d.local_to_world_size() != 16)
+      fail(at, fmt::format("volume {}: local_to_world has {} values, expected 16", d.prim_path(), d.local_to_world_size()));
+    for (const pbgi::v1::VolumeField& f : d.fields()) {
+      if (f.local_to_world_size() != 0 && f.local_to_world_size() != 16)
+        fail(at, fmt::format("volume {}: field {} local_to_world has {} values", d.prim_path(), f.name(),
+                             f.local_to_world_size()));
+      Volume v;
+      v.prim_path = d.prim_path();
+      v.field = f.name();
+      v.file = f.file();
+      v.grid_name = f.grid_name();
+      v.field_index = f.field_index();
+      v.local_to_world = matrix_from(f.local_to_world_size() == 16 ? f.local_to_world() : d.local_to_world());
+      v.material = d.material_id();  // a stream id until remap_materials
+      scene_.volumes.push_back(std::move(v));
+    }
   }
 
   void diagnostic(const pbgi::v1::Diagnostic& d) {
     if (d.severity() == pbgi::v1::Diagnostic::INFO) return;
-    scene_.warnings.push_back(d.prim_path().empty() ? d.message() : d.prim_path() + ": " + d.message());
+    std::string text = d.prim_path().empty() ? d.message() : d.prim_path() + ": " + d.message();
+    // The file defining the prim, so that bad input can be traced to it.
+    if (!d.layer().empty()) text += " (in " + d.layer() + ")";
+    scene_.warnings.push_back(std::move(text));
   }
 
   void remap_materials(const FramePosition& at) {
@@ -422,6 +455,12 @@ class SceneAssembler {
         fail(at, fmt::format("mesh {} uses material id {}, which the stream never defined",
                              soup.mesh_paths[soup.mesh[t]], soup.material[t]));
       soup.material[t] = it->second;
+    }
+    for (Volume& v : scene_.volumes) {
+      const auto it = material_index_.find(v.material);
+      if (it == material_index_.end())
+        fail(at, fmt::format("volume {} uses material id {}, which the stream never defined", v.prim_path, v.material));
+      v.material = it->second;
     }
   }
 

@@ -8,10 +8,12 @@
 #include <OpenColorIO/OpenColorIO.h>
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
+#include <xxhash.h>
 
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
@@ -127,20 +129,29 @@ TextureWrap wrap_from_metadata(const std::string& modes, int axis) {
   return TextureWrap::Repeat;  // periodic, repeat, default
 }
 
-// FNV-1a, 64 bit: folds the texels into the scene's content hash, so that
-// caches keyed by it notice an edited image (the reader hashes USD layers
-// only).
+// XXH3 over the bytes of every image file read: folded into the scene's
+// content hash, so that caches keyed by it notice an edited image (the
+// reader hashes USD layers only). Files, not texels: a compressed file is
+// a fraction of its decoded size.
 class ContentDigest {
  public:
-  void add(const void* data, size_t n) {
-    const auto* p = static_cast<const unsigned char*>(data);
-    for (size_t i = 0; i < n; ++i) h_ = (h_ ^ p[i]) * 0x100000001b3ull;
-  }
+  ContentDigest() : state_(XXH3_createState(), &XXH3_freeState) { XXH3_64bits_reset(state_.get()); }
+  void add(const void* data, size_t n) { XXH3_64bits_update(state_.get(), data, n); }
   void add(const std::string& s) { add(s.data(), s.size() + 1); }
-  uint64_t value() const { return h_; }
+  // Throws IoError if the file cannot be read.
+  void add_file(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::vector<char> block(size_t(1) << 20);
+    while (in) {
+      in.read(block.data(), std::streamsize(block.size()));
+      add(block.data(), size_t(in.gcount()));
+    }
+    if (in.bad() || !in.eof()) throw IoError("cannot read it for hashing");
+  }
+  uint64_t value() const { return XXH3_64bits_digest(state_.get()); }
 
  private:
-  uint64_t h_ = 0xcbf29ce484222325ull;
+  std::unique_ptr<XXH3_state_t, decltype(&XXH3_freeState)> state_;
 };
 
 // Bumped when decoding changes what a file turns into.
@@ -161,7 +172,7 @@ class Loader {
         Image image = read_image(b.file);
         const bool srgb = decodes_as_srgb(image, b.color_space);
         if (srgb) srgb_.decode(image);
-        digest(b.file, image);
+        digest(b.file, image, srgb);
         entry.wrap_modes = image.wrap_modes;
         entry.texture = std::make_shared<const Texture>(b.file, image.width, image.height, image.channels,
                                                         image.texels);
@@ -192,8 +203,9 @@ class Loader {
       std::string error;
       try {
         Image image = read_image(light.texture_file);
-        if (decodes_as_srgb(image, TextureColorSpace::Auto)) srgb_.decode(image);
-        digest(light.texture_file, image);
+        const bool srgb = decodes_as_srgb(image, TextureColorSpace::Auto);
+        if (srgb) srgb_.decode(image);
+        digest(light.texture_file, image, srgb);
         std::vector<C3f> rgb(size_t(image.width) * image.height);
         for (size_t i = 0; i < rgb.size(); ++i) {
           const float* t = &image.texels[i * image.channels];
@@ -223,12 +235,14 @@ class Loader {
   }
 
  private:
-  void digest(const std::string& file, const Image& image) {
+  // The decode choices are part of the key: the same file read raw and as
+  // sRGB gives two textures.
+  void digest(const std::string& file, const Image& image, bool srgb) {
     ++files_;
     digest_.add(file);
-    const uint32_t dims[3] = {image.width, image.height, image.channels};
+    const uint32_t dims[4] = {image.width, image.height, image.channels, srgb ? 1u : 0u};
     digest_.add(dims, sizeof dims);
-    digest_.add(image.texels.data(), image.texels.size() * sizeof(float));
+    digest_.add_file(file);
   }
 
   struct Entry {

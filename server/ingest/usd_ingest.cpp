@@ -92,9 +92,17 @@ Scene read_usd_scene(const std::filesystem::path& path, const IngestOptions& opt
                                    path.string(),
                                    "--max-triangles-per-chunk",
                                    std::to_string(options.max_triangles_per_chunk)};
-  if (options.time_code != 0.0) {
+  if (options.use_time_code || options.time_code != 0.0) {
     argv.push_back("--time");
     argv.push_back(fmt::format("{:.17g}", options.time_code));
+  }
+  for (const auto& [target, selection] : options.variant_selections) {
+    // "/Prim:set" -> --variant=/Prim:set=selection (one argv entry: no shell).
+    const size_t colon = target.rfind(':');
+    if (target.empty() || target[0] != '/' || colon == std::string::npos || colon + 1 == target.size() ||
+        target.find('=') != std::string::npos)
+      throw InvalidArgument(fmt::format("variant selection key '{}' is not '<prim path>:<variant set>'", target));
+    argv.push_back(fmt::format("--variant={}={}", target, selection));
   }
   ReaderProcess reader(argv, reader_environment());
 

@@ -8,6 +8,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <string>
 
 namespace pbgi {
@@ -15,7 +16,17 @@ namespace pbgi {
 struct IngestOptions {
   std::string python;              // interpreter with usd-core; default: build's venv
   std::filesystem::path reader_script;  // default: <source>/server/ingest/usd_reader.py
-  double time_code = 0.0;          // NaN-free; 0 = default time
+  // Time code at which animated attributes are read (finite). 0 with
+  // use_time_code false = the stage's startTimeCode if authored, else 0.
+  double time_code = 0.0;
+  bool use_time_code = false;      // true: read at time_code even when it is 0
+  // Variant selections per request, authored in a session layer before the
+  // stage is composed, so they win over the file's selections (payloads
+  // inside unselected variants are never loaded). Key: "<prim path>:<variant
+  // set>", e.g. "/Car:color"; value: the variant name. A selection that
+  // selects nothing (no such prim, set or variant) is a warning naming the
+  // prim. The selections are part of Scene::content_hash.
+  std::map<std::string, std::string> variant_selections;
   uint32_t max_triangles_per_chunk = 65536;
   // Subdivision surfaces (subdivisionScheme catmullClark -- USD's default --
   // loop, bilinear) are refined in the daemon until their edges are at most

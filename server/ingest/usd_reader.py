@@ -2,6 +2,7 @@
 """pbgi's USD reader process.
 
     usd_reader.py SCENE [--time CODE] [--max-triangles-per-chunk N]
+                  [--variant /PRIM:SET=SELECTION ...]
 
 Opens SCENE with Pixar's USD (pxr) and writes the scene as framed SceneChunk
 messages (proto/pbgi/v1/scene.proto; 4-byte little-endian length + bytes)
@@ -31,7 +32,7 @@ _STARTED = clock.monotonic()
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 try:
-    from pxr import Tf, Usd, UsdGeom, UsdShade, UsdSkel
+    from pxr import Sdf, Tf, Usd, UsdGeom, UsdShade, UsdSkel, UsdVol
 
     from camera_defs import camera_def
     from chunk_stream import ERROR, WARNING, ChunkStream
@@ -39,15 +40,17 @@ try:
     from implicit_shapes import is_implicit
     from light_defs import is_light, light_def
     from pbgi.v1 import scene_pb2
+    from point_instancers import read_point_instancer
     from preview_materials import MaterialTable
     from triangle_chunks import GeometryError, TriangleEmitter
+    from volume_defs import volume_def
     _IMPORT_ERROR = None
 except ImportError as e:  # reported by main() with a clear message
     _IMPORT_ERROR = e
 
 # Bumped whenever the reader's output for the same input changes, so that
 # caches keyed by the content hash are invalidated.
-READER_VERSION = "pbgi-usd-reader/2"  # 2: textures, vertex colours, dome/cylinder lights, shaping
+READER_VERSION = "pbgi-usd-reader/3"  # 3: mesh repairs, volumes, aperture offsets, variants
 _HASH_BLOCK = 1 << 20
 
 
@@ -84,10 +87,27 @@ def _parse_args(argv):
                         help="time code to read (default: the stage's startTimeCode if "
                              "authored, else 0)")
     parser.add_argument("--max-triangles-per-chunk", type=int, default=65536)
+    parser.add_argument("--variant", action="append", default=[], metavar="/PRIM:SET=SELECTION",
+                        help="variant selection authored in the session layer before the stage "
+                             "is composed (repeatable; wins over the file's selections)")
     args = parser.parse_args(argv)
     if args.max_triangles_per_chunk < 1:
         parser.error("--max-triangles-per-chunk must be >= 1")
+    try:
+        args.variants = [parse_variant(v) for v in args.variant]
+    except ValueError as e:
+        parser.error(str(e))
     return args
+
+
+def parse_variant(text):
+    """'/Prim/Path:set=selection' -> (prim path, set, selection). Prim paths
+    hold no ':' or '=', so the first '=' and the last ':' before it split."""
+    target, eq, selection = text.partition("=")
+    path, colon, variant_set = target.rpartition(":")
+    if not eq or not colon or not path.startswith("/") or not variant_set:
+        raise ValueError(f"--variant '{text}' is not /PRIM:SET=SELECTION")
+    return path, variant_set, selection
 
 
 def content_hash(stage, time_code):
@@ -111,7 +131,39 @@ def content_hash(stage, time_code):
     return total.hexdigest()
 
 
-def open_stage(path):
+def variant_session_layer(variants):
+    """An anonymous session layer holding `over`s with the requested variant
+    selections, or None. Authored before the stage is opened, so the stage
+    composes (and loads payloads) once, with the selections in force --
+    also for variant sets that only exist inside another selected variant."""
+    if not variants:
+        return None
+    layer = Sdf.Layer.CreateAnonymous("pbgi-variant-selections.usda")
+    for path, variant_set, selection in variants:
+        spec = Sdf.CreatePrimInLayer(layer, Sdf.Path(path))
+        spec.variantSelections[variant_set] = selection
+    return layer
+
+
+def report_variants(stage, variants, stream):
+    """One WARNING per requested selection that selects nothing."""
+    for path, variant_set, selection in variants:
+        prim = stage.GetPrimAtPath(path)
+        where = f"variant selection {variant_set}={selection}"
+        if not prim or not prim.IsDefined():  # our own `over` alone defines nothing
+            stream.diagnostic(WARNING, path, f"{where}: no such prim", kind=f"variant:{variant_set}")
+        elif not prim.GetVariantSets().HasVariantSet(variant_set):
+            names = ", ".join(prim.GetVariantSets().GetNames()) or "none"
+            stream.diagnostic(WARNING, path, f"{where}: the prim has no variant set "
+                              f"'{variant_set}' (it has: {names})", kind=f"variant:{variant_set}")
+        else:
+            names = prim.GetVariantSets().GetVariantSet(variant_set).GetVariantNames()
+            if selection not in names:
+                stream.diagnostic(WARNING, path, f"{where}: not one of {', '.join(names)}; the "
+                                  "set contributes nothing", kind=f"variant:{variant_set}")
+
+
+def open_stage(path, variants=()):
     """Returns (stage, None) or (None, error message naming the file)."""
     if not os.path.exists(path):
         return None, f"cannot read scene '{path}': no such file"
@@ -120,7 +172,12 @@ def open_stage(path):
     if not os.access(path, os.R_OK):
         return None, f"cannot read scene '{path}': permission denied"
     try:
-        stage = Usd.Stage.Open(path, Usd.Stage.LoadAll)
+        session = variant_session_layer(variants)
+        if session is None:
+            stage = Usd.Stage.Open(path, Usd.Stage.LoadAll)
+        else:
+            root = Sdf.Layer.FindOrOpen(path)
+            stage = Usd.Stage.Open(root, session, Usd.Stage.LoadAll) if root else None
     except Tf.ErrorException as e:
         return None, f"cannot read scene '{path}': {_usd_error_text(e)}"
     if stage is None:
@@ -201,10 +258,17 @@ class SceneReader:
             read_implicit(prim, matrix, self.time, self.materials, self.emitter, self.stream)
             return None
         if prim.IsA(UsdGeom.PointInstancer):
-            self.stream.diagnostic(WARNING, path, "PointInstancer is not supported yet: its "
-                                   "instances are skipped", kind=type_name)
+            # Its prototypes are read per instance (point_instancers.py),
+            # never as plain prims.
+            read_point_instancer(prim, matrix, self.time, self.xforms, self.materials,
+                                 self.emitter, self.stream)
             return "prune"
-        if prim.IsA(UsdGeom.Gprim):  # curves, points, NURBS, volumes, tet meshes
+        if prim.IsA(UsdVol.Volume):
+            chunk = volume_def(prim, matrix, self.time, self.xforms, self.materials, self.stream)
+            if chunk is not None:
+                self.stream.write(chunk)
+            return None
+        if prim.IsA(UsdGeom.Gprim):  # curves, points, NURBS, tet meshes
             self.stream.diagnostic(WARNING, path, f"{type_name} is not supported yet: skipped",
                                    kind=type_name)
             return None
@@ -240,7 +304,7 @@ def main(argv):
                      "must hold <build>/python and the interpreter must have usd-core", 2)
 
     imported = clock.monotonic()
-    stage, error = open_stage(args.scene)
+    stage, error = open_stage(args.scene, args.variants)
     if error:
         return _fail(error, 2)
     opened = clock.monotonic()
@@ -252,9 +316,11 @@ def main(argv):
         time = Usd.TimeCode(0.0)
 
     stream = ChunkStream(out)
+    stream.stage = stage
     try:
         _write_header(stage, args.scene, time, stream)
         _report_composition_errors(stage, stream)
+        report_variants(stage, args.variants, stream)
         SceneReader(stage, time, stream, args.max_triangles_per_chunk).run()
         stream.end()
         out.close()

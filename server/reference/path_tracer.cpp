@@ -117,7 +117,7 @@ PathSample PathTracer::trace(const Ray& camera_ray, Rng& rng, uint64_t* ray_coun
 
   // 1. The camera ray. A visible area light in front of the first surface
   // is what the pixel shows, as in the daemon's tile renderer.
-  const Hit hit = rays_.intersect(camera_ray.origin, camera_ray.direction);
+  const Hit hit = rays_.intersect(camera_ray.origin, camera_ray.direction, camera_ray.tmin, camera_ray.tmax);
   ++*ray_count;
   if (options_.lights_visible_to_camera) {
     float tmax = hit.t;

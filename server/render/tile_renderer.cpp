@@ -46,7 +46,7 @@ PixelValue shade_sample(const RayScene& rays, Gatherer& gatherer, const Ray& ray
                         const RenderOptions& options, uint64_t light_seed) {
   PixelValue v;
   const Scene& scene = rays.scene();
-  const Hit hit = rays.intersect(ray.origin, ray.direction);
+  const Hit hit = rays.intersect(ray.origin, ray.direction, ray.tmin, ray.tmax);  // clipping range
 
   // 1. An emitter in front of the first surface: its radiance, nothing to gather.
   C3f emitted;

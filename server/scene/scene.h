@@ -22,6 +22,7 @@ namespace pbgi {
 
 class Texture;          // server/scene/texture.h
 class EnvironmentMap;   // server/scene/environment_map.h
+class VolumeGrid;       // server/volumes/volume_grid.h (an OpenVDB grid)
 
 using Imath::V2f;
 using Imath::V3f;
@@ -120,6 +121,33 @@ struct Camera {
   float vertical_aperture = 15.2908f;
   float near_clip = 0.01f;
   float far_clip = 1e6f;
+  // Film-back shift (USD horizontal/verticalApertureOffset, mm like the
+  // apertures): the image window is centred at (offset x, offset y) on the
+  // film instead of on the optical axis.
+  float horizontal_aperture_offset = 0.f;
+  float vertical_aperture_offset = 0.f;
+};
+
+// One grid of a UsdVol.Volume field (or of a .vdb file given directly).
+// Level sets are turned into triangles of the soup by server/volumes
+// (mesh path = prim_path, the volume's material); fog/density grids stay
+// here as data for occlusion (extinction) -- the grid, its voxel size and
+// world bounds. The grid is shared and immutable: safe from any thread.
+enum class VolumeKind : uint8_t { Fog, LevelSet };
+
+struct Volume {
+  std::string prim_path;
+  std::string field;          // USD field name ("density"); the grid name for .vdb files
+  std::string file;           // .vdb path
+  std::string grid_name;      // grid in the file ("" = by field_index)
+  int field_index = -1;
+  M44f local_to_world;        // grid world space -> scene world (row vectors)
+  uint32_t material = 0;      // index into Scene::materials
+  VolumeKind kind = VolumeKind::Fog;
+  float voxel_size = 0.f;     // world units (largest voxel edge after the transform)
+  Box3f bounds;               // world-space bounds of the active voxels
+  std::shared_ptr<const VolumeGrid> grid;  // null: not loaded or unreadable
+  uint64_t triangle_count = 0;             // level sets: triangles meshed into the soup
 };
 
 struct Scene {
@@ -131,6 +159,7 @@ struct Scene {
   std::vector<Material> materials;
   std::vector<Light> lights;
   std::map<std::string, Camera> cameras;
+  std::vector<Volume> volumes;
   std::vector<std::string> warnings;
 
   Box3f bounds() const;

@@ -20,14 +20,33 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// What a run holds per surfel; compared by (code, index).
+// What a run holds per surfel; compared by (code, index). Plain floats
+// (Imath types are not trivially copyable) so that blocks are raw bytes.
 struct Record {
   uint64_t code;
   uint64_t index;  // arrival order: breaks ties, so the order is total
-  Surfel surfel;
+  float f[16];     // position, normal, radius, albedo, emission, radiance
+
   bool operator<(const Record& o) const { return code != o.code ? code < o.code : index < o.index; }
+
+  static Record of(uint64_t code, uint64_t index, const Surfel& s) {
+    return {code, index,
+            {s.position.x, s.position.y, s.position.z, s.normal.x, s.normal.y, s.normal.z, s.radius,
+             s.albedo.x, s.albedo.y, s.albedo.z, s.emission.x, s.emission.y, s.emission.z, s.radiance.x,
+             s.radiance.y, s.radiance.z}};
+  }
+  Surfel surfel() const {
+    Surfel s;
+    s.position = {f[0], f[1], f[2]};
+    s.normal = {f[3], f[4], f[5]};
+    s.radius = f[6];
+    s.albedo = {f[7], f[8], f[9]};
+    s.emission = {f[10], f[11], f[12]};
+    s.radiance = {f[13], f[14], f[15]};
+    return s;
+  }
 };
-static_assert(std::is_trivially_copyable_v<Record>);
+static_assert(std::is_trivially_copyable_v<Record> && sizeof(Record) == 80);
 
 // A run file is a sequence of blocks: u64 record count, u64 XXH3-64 of the
 // records, then the records as they lie in memory.
@@ -175,7 +194,7 @@ struct SurfelSorter::Impl {
     }
     for (const Surfel& s : surfels) {
       if (buffer.size() == capacity) spill();
-      buffer.push_back({frame.code(s.position), stats.surfels++, s});
+      buffer.push_back(Record::of(frame.code(s.position), stats.surfels++, s));
     }
   }
 
@@ -223,7 +242,7 @@ struct SurfelSorter::Impl {
     if (runs.empty()) {
       tbb::parallel_sort(buffer.begin(), buffer.end());
       for (const Record& r : buffer) {
-        emit(r.surfel, r.code);
+        emit(r.surfel(), r.code);
         tick();
       }
       std::vector<Record>().swap(buffer);
@@ -274,7 +293,7 @@ struct SurfelSorter::Impl {
     // 3. The last merge feeds the caller.
     std::vector<Run> inputs(runs.begin(), runs.end());
     runs.clear();
-    merge(inputs, [&](const Record& r) { emit(r.surfel, r.code); }, tick);
+    merge(inputs, [&](const Record& r) { emit(r.surfel(), r.code); }, tick);
     ++stats.merges;
   }
 };

@@ -6,7 +6,9 @@
 #include "server/render/tile_renderer.h"
 #include "storage/format/errors.h"
 
+#include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <memory>
 #include <system_error>
@@ -19,6 +21,10 @@ const Camera& camera_of(const Scene& scene, const std::string& path) {
   const Camera* c = scene.find_camera(path);
   if (!c) throw NotFound(scene.source_path + ": no camera " + path);
   return *c;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 std::string dump_name(const Scene& scene, const std::string& camera, const char* renderer) {
@@ -49,7 +55,9 @@ PbgiScene::PbgiScene(const Scene& scene, const RenderSettings& s)
   EngineContext ctx;
   ctx.cache_dir = dir_.path();
   ctx.cache = std::make_shared<storage::PageCache>(1ull << 30);
+  const auto t0 = std::chrono::steady_clock::now();
   session_ = open_scene_model(std::make_unique<Scene>(scene), open, ctx);
+  std::printf("[ timing   ] %s: PBGI build %.2f s\n", scene.source_path.c_str(), seconds_since(t0));
 }
 
 PbgiScene::~PbgiScene() = default;
@@ -59,8 +67,11 @@ Aovs PbgiScene::render(const std::string& camera) const {
   RenderOptions ro;
   ro.gather = s.gather;
   ro.pixel_samples = s.pixel_samples;
+  const auto t0 = std::chrono::steady_clock::now();
   TileAovs t = render_tile(*session_->rays, *session_->tree, camera_of(*session_->scene, camera),
                            s.width, s.height, {0, 0, s.width, s.height}, ro);
+  std::printf("[ timing   ] %s%s: PBGI render %.2f s\n", session_->scene->source_path.c_str(),
+              camera.c_str(), seconds_since(t0));
   Aovs out{std::move(t.beauty), std::move(t.direct), std::move(t.indirect)};
   dump_aovs(dump_name(*session_->scene, camera, "pbgi"), out, s);
   return out;
@@ -79,7 +90,10 @@ Aovs render_path(const Scene& scene, const std::string& camera, const RenderSett
   o.pass_spp = s.reference_spp;
   o.max_depth = s.reference_max_depth;
   o.seed = 7;
+  const auto t0 = std::chrono::steady_clock::now();
   ReferenceImage r = render_reference(rays, camera_of(scene, camera), o);
+  std::printf("[ timing   ] %s%s: reference %u spp %.2f s\n", scene.source_path.c_str(),
+              camera.c_str(), o.spp, seconds_since(t0));
   Aovs out{std::move(r.beauty), std::move(r.direct), std::move(r.indirect)};
   dump_aovs(dump_name(scene, camera, "reference"), out, s);
   return out;

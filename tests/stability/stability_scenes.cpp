@@ -207,19 +207,19 @@ Scene sunlit_room() {
   return b.take();
 }
 
-Scene tiny_emitter_room() {
+Scene tiny_emitter_floor() {
   SceneBuilder b("tiny-emitter");
-  add_cornell(b);
-  // A 2 cm square facing down, 1 cm below the ceiling, with the rect light's
-  // power (0.5 * 0.4 * 40 = 8 W/sr in radiance times area).
-  constexpr float kHalf = 0.01f;
-  constexpr float kRadiance = 8.f / (4 * kHalf * kHalf);
-  const uint32_t emitter = b.material({0, 0, 0}, {kRadiance, kRadiance, kRadiance});
-  const float y = 1.99f;
-  b.quad({-kHalf, y, -kHalf}, {kHalf, y, -kHalf}, {kHalf, y, kHalf}, {-kHalf, y, kHalf}, emitter,
-         "/World/Emitter");  // counter-clockwise seen from below: faces -Y
-  // Looking down at the floor and boxes: the ceiling is out of frame.
-  b.camera("/Camera", {0, 1.5f, 2.6f}, {0, 0.25f, -0.2f});
+  const uint32_t floor = b.material({kTinyEmitterFloorAlbedo, kTinyEmitterFloorAlbedo,
+                                     kTinyEmitterFloorAlbedo});
+  b.quad({-5, 0, -7}, {-5, 0, 3}, {5, 0, 3}, {5, 0, -7}, floor, "/floor");
+  const float h = 0.5f * kTinyEmitterSize, y = kTinyEmitterHeight;
+  const float L = kTinyEmitterRadiance;
+  const uint32_t emitter = b.material({0, 0, 0}, {L, L, L});
+  // Counter-clockwise seen from below: faces -Y.
+  b.quad({-h, y, -h}, {h, y, -h}, {h, y, h}, {-h, y, h}, emitter, "/emitter");
+  // Pitched down 14 degrees: the emitter is 25 degrees above the view axis,
+  // out of the 20-degree half field of view.
+  b.camera("/Camera", {0, 0.5f, 2.5f}, {0, 0, 0.5f});
   return b.take();
 }
 
@@ -244,14 +244,22 @@ Scene cornell_with_degenerates() {
   return b.take();
 }
 
-Scene cornell_with_coplanar_copies() {
-  SceneBuilder b("cornell-coplanar");
+Scene cornell_with_duplicate_floor() {
+  SceneBuilder b("cornell-duplicate-floor");
   const CornellMaterials m = add_cornell(b);
   b.rect_light({0, 1.98f, 0}, {0, -1, 0}, 0.5f, 0.4f, {40, 40, 40});
-  // The whole floor again, a partial overlap of it, and the back wall again
-  // with the opposite winding (facing into the wall).
+  // The whole floor again, and a partial overlap of it (three layers there).
   b.quad({-1, 0, -1}, {-1, 0, 1}, {1, 0, 1}, {1, 0, -1}, m.white, "/copy/floor");
-  b.quad({-0.5f, 0, -0.8f}, {-0.5f, 0, 0.9f}, {0.9f, 0, 0.9f}, {0.9f, 0, -0.8f}, m.white, "/copy/floor_part");
+  b.quad({-0.5f, 0, -0.8f}, {-0.5f, 0, 0.9f}, {0.9f, 0, 0.9f}, {0.9f, 0, -0.8f}, m.white,
+         "/copy/floor_part");
+  return b.take();
+}
+
+Scene cornell_with_reversed_copy() {
+  SceneBuilder b("cornell-reversed-copy");
+  const CornellMaterials m = add_cornell(b);
+  b.rect_light({0, 1.98f, 0}, {0, -1, 0}, 0.5f, 0.4f, {40, 40, 40});
+  // The back wall again, wound the other way (facing into the wall).
   b.quad({-1, 0, -1}, {-1, 2, -1}, {1, 2, -1}, {1, 0, -1}, m.white, "/copy/back_reversed");
   return b.take();
 }

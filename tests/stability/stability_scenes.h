@@ -59,19 +59,25 @@ Scene thin_wall_rooms(float wall_thickness);
 // (the sun) shines through it onto the floor. Camera /Camera.
 Scene sunlit_room();
 
-// The Cornell box lit only by a 2 cm emissive square just below the ceiling
-// with the rect light's power; /Camera looks down so the ceiling (and the
-// emitter) stay out of frame.
-Scene tiny_emitter_room();
+// A 2 cm emissive square facing down at height 1 above a large floor, with
+// the power of the Cornell box's rect light; nothing else. /Camera sees
+// the floor, not the emitter. Its exact image is known (point source).
+inline constexpr float kTinyEmitterSize = 0.02f;
+inline constexpr float kTinyEmitterHeight = 1.f;
+inline constexpr float kTinyEmitterRadiance = 8.f / (kTinyEmitterSize * kTinyEmitterSize);
+inline constexpr float kTinyEmitterFloorAlbedo = 0.5f;
+Scene tiny_emitter_floor();
 
 // The Cornell box with degenerate triangles (repeated and collinear
 // vertices) and sliver triangles (aspect ratio ~1e5) mixed into its meshes.
 Scene cornell_with_degenerates();
 
-// The Cornell box with coplanar overlapping surfaces: the floor twice (one
-// copy whole, one a partial overlap), and a copy of the back wall facing
-// into the wall.
-Scene cornell_with_coplanar_copies();
+// The Cornell box with its floor twice more: one whole copy and one partial
+// overlap (coplanar, same facing, same material).
+Scene cornell_with_duplicate_floor();
+
+// The Cornell box with a copy of the back wall facing into the wall.
+Scene cornell_with_reversed_copy();
 
 // A long floor with a lit coloured wall at its end, seen by /Camera from
 // 5 cm above the floor: most pixels are receivers at grazing angles.

@@ -362,6 +362,8 @@ TEST_F(LooksIngest, EightBitTextureIsDecodedFromSrgbByDefault) {
   EXPECT_NEAR(at("/W/Quad", 0.2f, 0.5f).albedo.x, srgb_to_linear(128.f / 255), 2e-3f);
   EXPECT_NEAR(at("/W/Quad", 0.2f, 0.5f).albedo.x, 0.2158f, 2e-3f);
   EXPECT_NEAR(at("/W/Quad", 0.9f, 0.5f).albedo.y, 1.f, 2e-3f);
+  // Decoded through the shipped OpenColorIO config, not the fallback.
+  for (const std::string& w : scene().warnings) EXPECT_EQ(w.find("OpenColorIO"), std::string::npos) << w;
 }
 
 TEST_F(LooksIngest, RawTextureWithScaleBiasAndAnInterfaceVarname) {

@@ -134,10 +134,16 @@ class CacheOverPageSet : public ::testing::Test {
  protected:
   void SetUp() override {
     surfels_ = test::random_surfels(2000, 21);
-    options_.page_size = 8192;
+    options_.page_size = 4096;
     build_page_set(surfels_, options_, "k", tmp_.path() / "set");
     want_ = test::walk(tree::MemoryTree(tree::build_tree(surfels_, options_)));
+    // The largest decoded page (what the budget counts; pages decode to
+    // several times their size on disk).
+    PageSetReader probe(tmp_.path() / "set", nullptr);
+    for (uint32_t p = 0; p < probe.manifest().stats.page_count; ++p)
+      one_page_ = std::max<uint64_t>(one_page_, probe.page(p)->memory_bytes());
   }
+  uint64_t one_page_ = 0;
   test::TempDir tmp_;
   std::vector<Surfel> surfels_;
   tree::BuildOptions options_;
@@ -145,13 +151,7 @@ class CacheOverPageSet : public ::testing::Test {
 };
 
 TEST_F(CacheOverPageSet, TraversalsIdenticalWhateverTheBudget) {
-  // The largest decoded page: a budget of exactly one page.
-  uint64_t one_page = 0;
-  {
-    PageSetReader probe(tmp_.path() / "set", nullptr);
-    for (uint32_t p = 0; p < probe.manifest().stats.page_count; ++p)
-      one_page = std::max<uint64_t>(one_page, probe.page(p)->memory_bytes());
-  }
+  const uint64_t one_page = one_page_;  // a budget of exactly one page
   for (uint64_t budget : {uint64_t(0), one_page, ~uint64_t(0)}) {
     auto cache = std::make_shared<PageCache>(budget);
     PageSetReader reader(tmp_.path() / "set", cache);
@@ -180,7 +180,7 @@ TEST_F(CacheOverPageSet, TraversalsIdenticalWhateverTheBudget) {
 }
 
 TEST_F(CacheOverPageSet, BudgetHoldsUnderConcurrentReaders) {
-  const uint64_t budget = 3 * options_.page_size;
+  const uint64_t budget = 3 * one_page_;
   auto cache = std::make_shared<PageCache>(budget);
   PageSetReader reader(tmp_.path() / "set", cache);
   std::atomic<bool> over{false};

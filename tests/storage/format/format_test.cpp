@@ -6,11 +6,16 @@
 #include "storage/format/format_version.h"
 #include "storage/format/manifest_frame.h"
 #include "storage/format/page_frame.h"
+#include "storage/format/packed_values.h"
 #include "storage/format/page_records.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <numeric>
+#include <random>
 
 namespace pbgi::storage {
 namespace {
@@ -157,47 +162,121 @@ TEST(ManifestFrame, RoundTripAndDamage) {
   EXPECT_THROW(unframe_manifest(std::span(file).first(10), "m.pbgm"), CorruptionError);
 }
 
-TEST(PageRecords, RoundTrip) {
+TEST(PageRecords, ShapeLeafAndLinkRoundTrip) {
+  for (uint8_t byte = 0;; ++byte) {
+    NodeShape sh;
+    const bool ok = decode_shape(byte, sh);
+    // Valid: 0 (leaf), 1 child (+ext0), 2 children (+ext0, +ext1).
+    const uint8_t count = byte & 3;
+    const bool e0 = byte & 4, e1 = byte & 8;
+    const bool want = (byte & 0xf0) == 0 && count <= 2 && (!e0 || count >= 1) && (!e1 || count >= 2);
+    EXPECT_EQ(ok, want) << int(byte);
+    if (ok) EXPECT_EQ(encode_shape(sh), byte);
+    if (byte == 255) break;
+  }
+
+  uint8_t leaf[kLeafRecordBytes];
+  write_leaf_record({{1, -2, 3.5f}, 0.25f}, 4096, leaf);
+  LeafFrame f;
+  uint32_t count = 0;
+  read_leaf_record(leaf, f, count);
+  EXPECT_EQ(f.center, Imath::V3f(1, -2, 3.5f));
+  EXPECT_EQ(f.radius, 0.25f);
+  EXPECT_EQ(count, 4096u);
+  EXPECT_EQ(load_le<uint16_t>(leaf + 16), 4096u);  // at the documented offset
+
   tree::Node n;
   n.center = {1, -2, 3.5f};
   n.radius = 0.25f;
   n.cone_axis = {0, 1, 0};
   n.cone_cos = 0.5f;
   n.area = 9;
-  n.child_count = 2;
-  n.children[0] = {3, 4};
-  n.children[1] = {5, 6};
-  uint8_t buf[kTopologyRecordBytes];
-  write_topology_record(n, buf);
+  uint8_t link[kLinkRecordBytes];
+  write_link_record(77, n, link);
   tree::Node m;
-  read_topology_record(buf, m);
+  uint32_t page = 0;
+  read_link_record(link, page, m);
+  EXPECT_EQ(page, 77u);
   EXPECT_EQ(m.center, n.center);
   EXPECT_EQ(m.radius, n.radius);
   EXPECT_EQ(m.cone_axis, n.cone_axis);
   EXPECT_EQ(m.cone_cos, n.cone_cos);
   EXPECT_EQ(m.area, n.area);
-  EXPECT_EQ(m.child_count, 2u);
-  EXPECT_EQ(m.children[0], n.children[0]);
-  EXPECT_EQ(m.children[1], n.children[1]);
+  EXPECT_EQ(load_le<float>(link + 36), 9.f);  // last field at the documented offset
+}
 
-  Surfel s;
-  s.position = {1, 2, 3};
-  s.normal = {0, 0, 1};
-  s.radius = 0.1f;
-  s.albedo = {0.1f, 0.2f, 0.3f};
-  s.emission = {4, 5, 6};
-  s.radiance = {7, 8, 9};
-  uint8_t sb[kSurfelRecordBytes];
-  write_surfel_record(s, sb);
-  Surfel t;
-  read_surfel_record(sb, t);
-  EXPECT_EQ(t.position, s.position);
-  EXPECT_EQ(t.normal, s.normal);
-  EXPECT_EQ(t.radius, s.radius);
-  EXPECT_EQ(t.albedo, s.albedo);
-  EXPECT_EQ(t.emission, s.emission);
-  EXPECT_EQ(t.radiance, s.radiance);
-  EXPECT_EQ(load_le<float>(sb + 60), 9.f);  // last field at the documented offset
+TEST(PackedValues, Rgb9e5WithinItsStatedPrecision) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  for (int i = 0; i < 200000; ++i) {
+    // Magnitudes from 1e-6 to 6e4, channels from equal to 1000:1 apart.
+    const float scale = std::pow(10.f, -6.f + 10.7f * u(rng));
+    const Imath::C3f c(scale * u(rng), scale * std::pow(u(rng), 3.f), scale * u(rng));
+    const Imath::C3f d = decode_rgb9e5(encode_rgb9e5(c));
+    const float maxc = std::max({c.x, c.y, c.z});
+    const float tol = std::max(maxc / 512.f, 0x1p-25f) * 1.0001f;
+    ASSERT_NEAR(d.x, c.x, tol) << c;
+    ASSERT_NEAR(d.y, c.y, tol) << c;
+    ASSERT_NEAR(d.z, c.z, tol) << c;
+  }
+  EXPECT_EQ(decode_rgb9e5(encode_rgb9e5({0, 0, 0})), Imath::C3f(0.f));
+  EXPECT_EQ(decode_rgb9e5(encode_rgb9e5({1, 0.5f, 0.25f})), Imath::C3f(1, 0.5f, 0.25f));  // exact
+  EXPECT_EQ(decode_rgb9e5(encode_rgb9e5({1e9f, 0, 0})).x, kRgb9e5Max);  // clamped
+  EXPECT_EQ(decode_rgb9e5(encode_rgb9e5({-1, 2, 0})).x, 0.f);
+}
+
+// Angle between unit vectors, accurate also for tiny angles (acos of a
+// float dot product cannot resolve below ~3e-4 rad).
+double angle_between(const Imath::V3f& a, const Imath::V3f& b) {
+  const Imath::V3d x(a.x, a.y, a.z), y(b.x, b.y, b.z);
+  return std::atan2(x.cross(y).length(), x.dot(y));
+}
+
+TEST(PackedValues, OctahedralWithinItsStatedAngle) {
+  std::mt19937 rng(6);
+  std::normal_distribution<float> g(0.f, 1.f);
+  double worst = 0;
+  auto check = [&](Imath::V3f n) {
+    n.normalize();
+    const Imath::V3f d = decode_octahedral(encode_octahedral(n));
+    ASSERT_NEAR(d.length(), 1.f, 1e-6f);
+    const double angle = angle_between(d, n);
+    worst = std::max(worst, angle);
+    ASSERT_LE(angle, kOctahedralMaxAngle) << n;
+  };
+  for (int i = 0; i < 200000; ++i) check({g(rng), g(rng), g(rng)});
+  for (const Imath::V3f& n : {Imath::V3f(0, 0, 1), Imath::V3f(0, 0, -1), Imath::V3f(1, 0, 0), Imath::V3f(0, -1, 0),
+                              Imath::V3f(1, 1, 0), Imath::V3f(-1, 1, -1e-8f)})
+    check(n);
+  std::printf("octahedral 2x16 bits: worst angle %.3g rad\n", worst);
+}
+
+TEST(PageRecords, SurfelRecordWithinItsStatedPrecision) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  const LeafFrame frame{{10.f, -3.f, 250.f}, 0.37f};
+  for (int i = 0; i < 100000; ++i) {
+    Surfel s;
+    s.position = frame.center + 0.55f * frame.radius * Imath::V3f(u(rng), u(rng), u(rng));
+    s.normal = Imath::V3f(u(rng), u(rng), u(rng) + 0.01f).normalized();
+    s.radius = 0.4f * frame.radius * (u(rng) + 1.f) / 2.f;
+    s.albedo = {0.5f + 0.5f * u(rng), 0.25f, 0.f};
+    s.emission = {0, 0, 0};
+    s.radiance = {100.f * (u(rng) + 1.f), 3.f, 0.125f};
+    uint8_t rec[kSurfelRecordBytes];
+    encode_surfel_record(s, frame, rec);
+    Surfel d;
+    decode_surfel_record(rec, frame, d);
+    // Documented: R/65534 per coordinate, R/131070 for the radius (plus
+    // float rounding of center + offset).
+    const float ulp = 250.f * 0x1p-23f;
+    for (int k = 0; k < 3; ++k) ASSERT_NEAR(d.position[k], s.position[k], frame.radius / 65534.f + ulp);
+    ASSERT_NEAR(d.radius, s.radius, frame.radius / 131070.f + 1e-7f);
+    ASSERT_LE(angle_between(d.normal, s.normal), kOctahedralMaxAngle);
+    ASSERT_NEAR(d.albedo.x, s.albedo.x, std::max(s.albedo.x, 0.25f) / 512.f);
+    ASSERT_EQ(d.emission, Imath::C3f(0.f));
+    ASSERT_NEAR(d.radiance.x, s.radiance.x, std::max(s.radiance.x, 3.f) / 512.f);
+  }
 }
 
 }  // namespace

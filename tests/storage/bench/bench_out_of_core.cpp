@@ -1,0 +1,250 @@
+// Out-of-core scale benchmark: builds the page set of N synthetic surfels
+// (tests/storage/bench/synthetic_city.h) with a sort-memory budget, then
+// serves gathers from it with a page cache of 1/8 of the page set's size
+// and with a cache that holds everything.
+//
+//   bench_out_of_core --surfels 10000000 --dir /work/tmp --sort-memory 2GiB
+//
+// Reports: build throughput (surfels/s of sorting + tree + pages), bytes per
+// surfel on disk, peak RSS of the build (getrusage), receivers/s of the
+// gathers for each cache budget, and cache counters. A JSON line at the end
+// repeats the figures. --reuse skips the build when the page set exists.
+#include "server/gather/gather.h"
+#include "storage/cache/page_cache.h"
+#include "storage/pages/page_set.h"
+#include "storage/pages/page_set_inspection.h"
+#include "tests/storage/bench/synthetic_city.h"
+
+#include <sys/resource.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <random>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace pbgi {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+double peak_rss_gib() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return double(u.ru_maxrss) / (1024.0 * 1024.0);  // ru_maxrss is in KiB on Linux
+}
+
+uint64_t parse_size(const std::string& s) {
+  char* end = nullptr;
+  const double v = std::strtod(s.c_str(), &end);
+  const std::string unit = end;
+  double mult = 1;
+  if (unit == "KiB" || unit == "K") mult = 1024.0;
+  else if (unit == "MiB" || unit == "M") mult = 1024.0 * 1024;
+  else if (unit == "GiB" || unit == "G") mult = 1024.0 * 1024 * 1024;
+  else if (!unit.empty()) {
+    std::fprintf(stderr, "bad size '%s'\n", s.c_str());
+    std::exit(2);
+  }
+  return uint64_t(v * mult);
+}
+
+struct Args {
+  uint64_t surfels = 1000000;
+  fs::path dir = fs::temp_directory_path();
+  uint64_t sort_memory = uint64_t(2) << 30;
+  uint32_t leaf_size = 4;
+  uint32_t page_size = 65536;
+  uint32_t receivers = 4096;
+  uint32_t threads = 2;
+  bool reuse = false;
+  bool keep = false;
+};
+
+Args parse(int argc, char** argv) {
+  Args a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string k = argv[i];
+    auto val = [&]() -> std::string {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "%s needs a value\n", k.c_str());
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (k == "--surfels") a.surfels = parse_size(val());
+    else if (k == "--dir") a.dir = val();
+    else if (k == "--sort-memory") a.sort_memory = parse_size(val());
+    else if (k == "--leaf-size") a.leaf_size = uint32_t(parse_size(val()));
+    else if (k == "--page-size") a.page_size = uint32_t(parse_size(val()));
+    else if (k == "--receivers") a.receivers = uint32_t(parse_size(val()));
+    else if (k == "--threads") a.threads = uint32_t(parse_size(val()));
+    else if (k == "--reuse") a.reuse = true;
+    else if (k == "--keep") a.keep = true;
+    else {
+      std::fprintf(stderr,
+                   "usage: bench_out_of_core [--surfels N] [--dir DIR] [--sort-memory SIZE] [--leaf-size N]\n"
+                   "       [--page-size BYTES] [--receivers N] [--threads N] [--reuse] [--keep]\n");
+      std::exit(2);
+    }
+  }
+  return a;
+}
+
+// Receivers in tile-like groups (64 close points, as a shading tile asks),
+// groups spread over the city's ground and roofs.
+std::vector<Receiver> make_receivers(const test::SyntheticCity& city, uint32_t count) {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  std::vector<Receiver> out;
+  while (out.size() < count) {
+    const float x = city.size() * u(rng), y = city.size() * u(rng);
+    for (int k = 0; k < 64 && out.size() < count; ++k) {
+      out.push_back({{x + 0.25f * float(k % 8), y + 0.25f * float(k / 8), 1e-3f}, {0, 0, 1}});
+    }
+  }
+  return out;
+}
+
+struct GatherRun {
+  double receivers_per_s = 0;
+  storage::CacheCounters cache;
+  double pages_per_receiver = 0;
+};
+
+// Two passes over the receivers with `threads` gatherers; the second pass
+// is timed (steady state of the cache). Counters are of the timed pass.
+GatherRun gather(const fs::path& set, uint64_t budget, const std::vector<Receiver>& rs, uint32_t threads) {
+  auto cache = std::make_shared<storage::PageCache>(budget);
+  storage::PageSetReader reader(set, cache);
+  GatherRun out;
+  for (int pass = 0; pass < 2; ++pass) {
+    const storage::CacheCounters before = cache->counters();
+    std::atomic<size_t> next{0};
+    std::atomic<uint64_t> pages{0};
+    const auto t0 = Clock::now();
+    std::vector<std::thread> pool;
+    for (uint32_t t = 0; t < threads; ++t) {
+      pool.emplace_back([&] {
+        Gatherer g(reader, GatherOptions{});
+        constexpr size_t kChunk = 64;  // one tile at a time
+        for (size_t at = next.fetch_add(kChunk); at < rs.size(); at = next.fetch_add(kChunk)) {
+          for (size_t i = at; i < std::min(rs.size(), at + kChunk); ++i) g.gather(rs[i]);
+        }
+        pages += g.counters().pages_fetched;
+      });
+    }
+    for (auto& t : pool) t.join();
+    const double s = seconds_since(t0);
+    const storage::CacheCounters after = cache->counters();
+    out.receivers_per_s = double(rs.size()) / s;
+    out.cache = {after.hits - before.hits, after.misses - before.misses, after.evictions - before.evictions,
+                 after.bytes_read - before.bytes_read, after.bytes_held};
+    out.pages_per_receiver = double(pages.load()) / double(rs.size());
+  }
+  return out;
+}
+
+int run(const Args& a) {
+  const test::SyntheticCity city(a.surfels);
+  fs::create_directories(a.dir);
+  const fs::path set = a.dir / ("bench-ooc-" + std::to_string(city.count()) + "-l" + std::to_string(a.leaf_size) +
+                                "-p" + std::to_string(a.page_size));
+  std::printf("surfels        %llu (spacing %.4g over a %.0f m city)\n", (unsigned long long)city.count(),
+              city.spacing(), city.size());
+
+  // 1. Build.
+  storage::BuildReport report;
+  double generate_seconds = 0, build_seconds = 0;
+  bool built = false;
+  if (!(a.reuse && fs::exists(set / storage::kManifestFileName))) {
+    fs::remove_all(set);
+    tree::BuildOptions o;
+    o.leaf_size = a.leaf_size;
+    o.page_size = a.page_size;
+    o.sort_memory_bytes = a.sort_memory;
+    const auto t0 = Clock::now();
+    storage::PageSetBuilder b(o, "bench-ooc", set, city.bounds());
+    int last = -1;
+    city.generate(65536, [&](std::span<const Surfel> batch) { b.add(batch); });
+    b.finish([&](float f) {
+      const int pct = int(f * 20);
+      if (pct != last) {
+        last = pct;
+        std::fprintf(stderr, "\rbuild %3d%%", pct * 5);
+      }
+    });
+    std::fprintf(stderr, "\n");
+    build_seconds = seconds_since(t0);
+    report = b.report();
+    generate_seconds = build_seconds - report.add_seconds - report.finish_seconds;
+    built = true;
+  }
+  const double build_rss = peak_rss_gib();
+  storage::PageSetReader probe(set, nullptr);
+  const storage::Manifest& m = probe.manifest();
+  const storage::PageSetInspection ins = storage::inspect_page_set(probe, false);
+  const double bytes_per_surfel = double(m.stats.file_bytes) / double(m.stats.surfel_count);
+  if (built) {
+    const double tree_seconds = report.add_seconds + report.finish_seconds;
+    std::printf("build          %.1f s: generate %.1f s, sort runs %.1f s, merge+tree+pages %.1f s\n", build_seconds,
+                generate_seconds, report.add_seconds, report.finish_seconds);
+    std::printf("tree build     %.3g surfels/s (sort + merge + tree + pages, generation excluded)\n",
+                double(report.surfels) / tree_seconds);
+    std::printf("sort           %u runs, %u merges, %.2f GiB of runs, peak sort buffers %.1f MiB (budget %.1f MiB)\n",
+                report.runs, report.merges, double(report.run_bytes) / (1 << 30),
+                double(report.sort_peak_bytes) / (1 << 20), double(a.sort_memory) / (1 << 20));
+    std::printf("tree           peak pending nodes %.1f MiB\n", double(report.tree_peak_pending_bytes) / (1 << 20));
+  }
+  std::printf("page set       %s: %.2f GiB, %u pages (fill %.0f%%), %llu nodes, %llu leaves, depth %u\n",
+              set.c_str(), double(m.stats.file_bytes) / (1 << 30), m.stats.page_count, 100 * ins.fill_mean,
+              (unsigned long long)m.stats.node_count, (unsigned long long)m.stats.leaf_count, m.stats.max_depth);
+  std::printf("bytes/surfel   %.2f\n", bytes_per_surfel);
+  std::printf("peak RSS       %.2f GiB after the build\n", build_rss);
+
+  // 2. Gathers: 1/8 of the page set's size, then everything.
+  const std::vector<Receiver> rs = make_receivers(city, a.receivers);
+  const uint64_t eighth = m.stats.file_bytes / 8;
+  const GatherRun small = gather(set, eighth, rs, a.threads);
+  const GatherRun full = gather(set, ~uint64_t(0), rs, a.threads);
+  auto print_run = [](const char* name, uint64_t budget, const GatherRun& r) {
+    const double lookups = double(r.cache.hits + r.cache.misses);
+    std::printf("gather %-7s budget %8.1f MiB: %8.1f receivers/s, %.1f pages/receiver, hit rate %.3f, "
+                "%.1f MiB read, %.1f MiB held\n",
+                name, budget == ~uint64_t(0) ? -1.0 : double(budget) / (1 << 20), r.receivers_per_s,
+                r.pages_per_receiver, lookups > 0 ? double(r.cache.hits) / lookups : 0.0,
+                double(r.cache.bytes_read) / (1 << 20), double(r.cache.bytes_held) / (1 << 20));
+  };
+  print_run("1/8", eighth, small);
+  print_run("all", ~uint64_t(0), full);
+  std::printf("peak RSS       %.2f GiB at the end (the unlimited cache included)\n", peak_rss_gib());
+  std::printf("{\"surfels\": %llu, \"bytes_per_surfel\": %.3f, \"file_bytes\": %llu, \"build_seconds\": %.2f, "
+              "\"tree_surfels_per_s\": %.4g, \"build_peak_rss_gib\": %.3f, \"runs\": %u, \"merges\": %u, "
+              "\"receivers\": %u, \"threads\": %u, \"receivers_per_s_eighth\": %.2f, \"receivers_per_s_all\": %.2f}\n",
+              (unsigned long long)m.stats.surfel_count, bytes_per_surfel, (unsigned long long)m.stats.file_bytes,
+              build_seconds, built ? double(report.surfels) / (report.add_seconds + report.finish_seconds) : 0.0,
+              build_rss, report.runs, report.merges, a.receivers, a.threads, small.receivers_per_s,
+              full.receivers_per_s);
+  if (!a.keep && !a.reuse) fs::remove_all(set);
+  return 0;
+}
+
+}  // namespace
+}  // namespace pbgi
+
+int main(int argc, char** argv) {
+  try {
+    return pbgi::run(pbgi::parse(argc, argv));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_out_of_core: %s\n", e.what());
+    return 1;
+  }
+}
