@@ -304,4 +304,12 @@ GatherResult Gatherer::gather(const Receiver& r) {
   return out;
 }
 
+void Gatherer::gather_tile(std::span<const Receiver> receivers, std::span<GatherResult> results) {
+  if (receivers.size() != results.size()) {
+    throw InvalidArgument("gather_tile: " + std::to_string(receivers.size()) + " receivers but " +
+                          std::to_string(results.size()) + " results");
+  }
+  for (size_t i = 0; i < receivers.size(); ++i) results[i] = gather(receivers[i]);
+}
+
 }  // namespace pbgi

@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <span>
 
 namespace pbgi {
 
@@ -57,6 +58,14 @@ class Gatherer {
   Gatherer& operator=(const Gatherer&) = delete;
 
   GatherResult gather(const Receiver& r);
+
+  // Gathers a batch of receivers, typically one image tile in scan order,
+  // with options.method: PBGI gathers each receiver alone (as gather());
+  // FPBGI clusters them and shares the far part of the work (see
+  // docs/gather.md). results[i] belongs to receivers[i]. Throws
+  // InvalidArgument if the spans differ in size, else as gather(); pages
+  // are pinned only while the batch runs.
+  void gather_tile(std::span<const Receiver> receivers, std::span<GatherResult> results);
   const GatherCounters& counters() const { return counters_; }
 
  private:

@@ -8,6 +8,10 @@
 namespace pbgi {
 
 void GatherOptions::validate() const {
+  if (method != GatherMethod::kPbgi && method != GatherMethod::kFpbgi) {
+    throw InvalidArgument("GatherOptions.method = " + std::to_string(int(method)) +
+                          ": unknown gather method");
+  }
   if (microbuffer_resolution < kMinMicrobufferResolution ||
       microbuffer_resolution > kMaxMicrobufferResolution) {
     throw InvalidArgument(
@@ -23,6 +27,18 @@ void GatherOptions::validate() const {
   if (!(std::isfinite(ao_max_distance) && ao_max_distance >= 0.f)) {
     throw InvalidArgument("GatherOptions.ao_max_distance = " + std::to_string(ao_max_distance) +
                           ": must be finite and >= 0 (0 = unbounded)");
+  }
+  if (clusters < 1 || clusters > kMaxClusters) {
+    throw InvalidArgument("GatherOptions.clusters = " + std::to_string(clusters) +
+                          ": must be in [1, " + std::to_string(kMaxClusters) + "]");
+  }
+  if (!(std::isfinite(epsilon) && epsilon > 0.f && epsilon <= kMaxEpsilon)) {
+    throw InvalidArgument("GatherOptions.epsilon = " + std::to_string(epsilon) +
+                          ": must be in (0, " + std::to_string(kMaxEpsilon) + "]");
+  }
+  if (!(std::isfinite(hdr_refine) && hdr_refine >= 0.f)) {
+    throw InvalidArgument("GatherOptions.hdr_refine = " + std::to_string(hdr_refine) +
+                          ": must be finite and >= 0 (0 = off)");
   }
 }
 

@@ -6,13 +6,27 @@
 
 namespace pbgi {
 
+// How a batch of receivers (an image tile) is gathered (docs/gather.md).
+enum class GatherMethod : uint8_t {
+  // Every receiver walks the tree from the root into its own microbuffer
+  // (Christensen 2008).
+  kPbgi = 0,
+  // Factorized PBGI (Wang, Meng, Boubekeur 2013): receivers of a tile are
+  // clustered; each cluster shares the cut and microbuffer of its far
+  // nodes, each receiver refines only the near ones.
+  kFpbgi = 1,
+};
+
 struct GatherOptions {
   static constexpr uint32_t kMinMicrobufferResolution = 4;
   static constexpr uint32_t kMaxMicrobufferResolution = 32;
   // Largest accepted max_solid_angle (steradians): beyond it splats are so
   // large that a disk is a poor model of a node.
   static constexpr float kMaxMaxSolidAngle = 1.f;
+  static constexpr uint32_t kMaxClusters = 1024;
+  static constexpr float kMaxEpsilon = 0.5f;
 
+  GatherMethod method = GatherMethod::kPbgi;
   // Pixels per side of each cube face of the microbuffer (4..32).
   uint32_t microbuffer_resolution = 8;
   // Cut threshold: a node is rasterized as one splat once its solid angle,
@@ -21,6 +35,21 @@ struct GatherOptions {
   float max_solid_angle = 0.03f;
   // Occluders farther than this do not darken AO (0 = unbounded).
   float ao_max_distance = 0.f;
+
+  // FPBGI: k, clusters per 1024 receivers (a 32 x 32 tile; a batch of n
+  // receivers gets ceil(k n / 1024) clusters, at least 1), 1..1024.
+  uint32_t clusters = 100;
+  // FPBGI: far/near split. A node is far for a cluster of radius r when
+  // r / d <= epsilon (d: its distance to the cluster's active receiver);
+  // far nodes go into the cluster's shared microbuffer. (0, 0.5].
+  float epsilon = 0.01f;
+
+  // HDR-aware cut: a node is refined below the cut while the light it
+  // alone would bring, solid angle times its mean radiance, exceeds this
+  // fraction of pi times the scene's mean radiance (the irradiance of a
+  // receiver surrounded by average surfaces), so that small very bright
+  // emitters are resolved rather than smeared. 0 disables. >= 0.
+  float hdr_refine = 0.f;
 
   // Throws pbgi::InvalidArgument naming the field when out of range.
   void validate() const;

@@ -1,6 +1,7 @@
 #include "server/ingest/scene_stream_decoder.h"
 
 #include "pbgi/v1/scene.pb.h"
+#include "server/ingest/draco_mesh.h"
 #include "server/ingest/subdiv_cage_message.h"
 #include "server/ingest/texture_loader.h"
 #include "server/scene/scene_validation.h"
@@ -204,7 +205,12 @@ class SceneAssembler {
     if (!h.up_axis().empty()) scene_.up_axis = h.up_axis();
   }
 
-  void mesh(const pbgi::v1::MeshChunk& m, const FramePosition& at) {
+  void mesh(const pbgi::v1::MeshChunk& chunk, const FramePosition& at) {
+    // A Draco-compressed chunk (the chunk store's) is expanded into the
+    // packed arrays first and then checked like any other.
+    pbgi::v1::MeshChunk expanded;
+    if (!chunk.draco().empty()) expanded = expand_draco_chunk(chunk, at);
+    const pbgi::v1::MeshChunk& m = chunk.draco().empty() ? chunk : expanded;
     const std::string& prim = m.prim_path();
     const std::string& pos = m.positions();
     const std::string& nrm = m.normals();
@@ -268,6 +274,35 @@ class SceneAssembler {
     chunks_.push_back({static_cast<uint32_t>(base), static_cast<uint32_t>(vertex_count), first_index, index_count,
                        has_normals});
     streamed_triangles_ += triangles;
+  }
+
+  pbgi::v1::MeshChunk expand_draco_chunk(const pbgi::v1::MeshChunk& chunk, const FramePosition& at) const {
+    if (!chunk.positions().empty() || !chunk.indices().empty())
+      fail(at, fmt::format("mesh {}: both Draco data and packed arrays", chunk.prim_path()));
+    DracoMesh d;
+    try {
+      d = decode_draco_mesh(chunk.draco(), fmt::format("{} (mesh {})", source_, chunk.prim_path()));
+    } catch (const SceneError& e) {
+      fail(at, e.what());
+    }
+    // Octahedral quantization leaves normals slightly off unit length.
+    for (V3f& n : d.normals) {
+      const float length = n.length();
+      n = length > 0.f && std::isfinite(length) ? n / length : V3f(0.f, 0.f, 1.f);
+    }
+    pbgi::v1::MeshChunk m;
+    m.set_prim_path(chunk.prim_path());
+    m.set_material_id(chunk.material_id());
+    m.set_double_sided(chunk.double_sided());
+    auto bytes = [](const auto& v) {
+      return std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(v[0]));
+    };
+    m.set_positions(bytes(d.positions));
+    m.set_normals(bytes(d.normals));
+    m.set_uvs(bytes(d.uvs));
+    m.set_colors(bytes(d.colors));
+    m.set_indices(bytes(d.indices));
+    return m;
   }
 
   // Keeps a per-vertex primvar array parallel to the positions: NaN for

@@ -1,17 +1,24 @@
 #include "server/ingest/usd_ingest.h"
 
 #include "pbgi_build_config.h"
+#include "server/ingest/draco_mesh.h"
 #include "server/ingest/reader_process.h"
 #include "server/ingest/scene_stream_decoder.h"
+#include "server/scene/scene_validation.h"
+#include "server/volumes/scene_volumes.h"
 #include "storage/format/errors.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <optional>
+#include <vector>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
+#include <xxhash.h>
 
 extern char** environ;
 
@@ -48,6 +55,19 @@ std::string describe(const ReaderProcess::Exit& exit) {
                        : fmt::format("exited with status {}", exit.code);
 }
 
+std::string lowercase_extension(const std::filesystem::path& path) {
+  std::string e = path.extension().string();
+  for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return e;
+}
+
+VolumeOptions volume_options(const IngestOptions& options) {
+  VolumeOptions v;
+  v.target_edge_length = options.target_edge_length;
+  v.adaptivity = options.volume_adaptivity;
+  return v;
+}
+
 }  // namespace
 
 SubdivisionOptions subdivision_options(const IngestOptions& options) {
@@ -65,8 +85,12 @@ Scene decode_scene_stream(int fd, const std::string& source_name,
   return SceneStreamDecoder(source_name, progress, subdivision).decode(fd);
 }
 
-Scene read_usd_scene(const std::filesystem::path& path, const IngestOptions& options,
-                     const std::function<void(const std::string&, float)>& progress) {
+namespace {
+
+// Runs the USD reader on `path` and decodes its stream; with `hash_only`
+// the reader stops after the header (the content hash).
+Scene run_usd_reader(const std::filesystem::path& path, const IngestOptions& options,
+                     const std::function<void(const std::string&, float)>& progress, bool hash_only) {
   // 1. Resolve options (empty = the build's defaults).
   const std::string python = options.python.empty() ? std::string(PBGI_PYTHON) : options.python;
   const std::filesystem::path script = options.reader_script.empty()
@@ -104,6 +128,7 @@ Scene read_usd_scene(const std::filesystem::path& path, const IngestOptions& opt
       throw InvalidArgument(fmt::format("variant selection key '{}' is not '<prim path>:<variant set>'", target));
     argv.push_back(fmt::format("--variant={}={}", target, selection));
   }
+  if (hash_only) argv.push_back("--hash-only");
   ReaderProcess reader(argv, reader_environment());
 
   // 3. Decode its stream; on a rejected stream stop the reader.
@@ -134,6 +159,43 @@ Scene read_usd_scene(const std::filesystem::path& path, const IngestOptions& opt
     throw SceneError(log.empty() ? stream_error : fmt::format("{} (reader stderr: {})", stream_error, log));
   if (!log.empty()) spdlog::debug("USD reader on '{}':\n{}", path.string(), log);
   return std::move(*scene);
+}
+
+std::string file_digest(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw SceneError(fmt::format("cannot read scene '{}': no such file or not readable", path.string()));
+  XXH64_state_t* state = XXH64_createState();
+  XXH64_reset(state, 0);
+  std::vector<char> buffer(1 << 20);
+  while (in) {
+    in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+    XXH64_update(state, buffer.data(), static_cast<size_t>(in.gcount()));
+  }
+  const uint64_t h = XXH64_digest(state);
+  XXH64_freeState(state);
+  return fmt::format("{:016x}", h);
+}
+
+}  // namespace
+
+Scene read_usd_scene(const std::filesystem::path& path, const IngestOptions& options,
+                     const std::function<void(const std::string&, float)>& progress) {
+  const std::string extension = lowercase_extension(path);
+  if (extension == ".vdb") return read_vdb_scene(path, volume_options(options));
+  if (extension == ".drc") return read_draco_scene(path);
+  Scene scene = run_usd_reader(path, options, progress, /*hash_only=*/false);
+  if (!scene.volumes.empty()) {
+    if (progress) progress("volumes", 0.f);
+    load_scene_volumes(scene, volume_options(options));
+    validate_scene(scene);
+  }
+  return scene;
+}
+
+std::string usd_content_hash(const std::filesystem::path& path, const IngestOptions& options) {
+  const std::string extension = lowercase_extension(path);
+  if (extension == ".vdb" || extension == ".drc") return extension.substr(1) + "-file:" + file_digest(path);
+  return run_usd_reader(path, options, {}, /*hash_only=*/true).content_hash;
 }
 
 }  // namespace pbgi

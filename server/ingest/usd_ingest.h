@@ -37,6 +37,10 @@ struct IngestOptions {
   float target_edge_length = 0.f;
   // Refinement never goes deeper (a warning names each capped mesh).
   uint32_t max_subdivision_level = 6;
+  // OpenVDB level sets (UsdVol.Volume fields, .vdb scenes) are meshed at
+  // target_edge_length (above; 0 = the grid's voxel) with this
+  // volumeToMesh adaptivity in [0, 1] (server/volumes/scene_volumes.h).
+  double volume_adaptivity = 0.0;
 };
 
 // The refinement options read_usd_scene uses for `options`.
@@ -44,8 +48,22 @@ SubdivisionOptions subdivision_options(const IngestOptions& options);
 
 // Throws SceneError naming the file (and prim) if the scene cannot be read,
 // IoError if the reader process cannot be started.
+//
+// Besides USD (.usd/.usda/.usdc/.usdz, read by the reader process), the
+// path may name an OpenVDB file (.vdb: server/volumes/scene_volumes.h) or a
+// Draco mesh (.drc: server/ingest/draco_mesh.h), read in-process. OpenVDB
+// grids named by UsdVol.Volume prims are loaded after the stream (level sets
+// meshed into the triangles, fog grids in Scene::volumes).
 Scene read_usd_scene(const std::filesystem::path& path, const IngestOptions& options,
                      const std::function<void(const std::string&, float)>& progress = {});
+
+// The content hash read_usd_scene would put in Scene::content_hash before
+// the daemon's own suffixes (refinement, volumes): for USD the hash of every
+// layer the stage uses, the time code and the variant selections (the
+// reader stops after opening the stage: no traversal); for .vdb/.drc files
+// "<ext>-file:" + xxh64 of the file. What a cache of ingested scenes is
+// keyed by (server/ingest/chunk_store.h). Throws like read_usd_scene.
+std::string usd_content_hash(const std::filesystem::path& path, const IngestOptions& options);
 
 // Decodes a framed SceneChunk stream from a file descriptor into a Scene
 // (exposed for tests and fuzzing). Throws SceneError on malformed input.

@@ -2,7 +2,7 @@
 """pbgi's USD reader process.
 
     usd_reader.py SCENE [--time CODE] [--max-triangles-per-chunk N]
-                  [--variant /PRIM:SET=SELECTION ...]
+                  [--variant /PRIM:SET=SELECTION ...] [--hash-only]
 
 Opens SCENE with Pixar's USD (pxr) and writes the scene as framed SceneChunk
 messages (proto/pbgi/v1/scene.proto; 4-byte little-endian length + bytes)
@@ -87,6 +87,9 @@ def _parse_args(argv):
                         help="time code to read (default: the stage's startTimeCode if "
                              "authored, else 0)")
     parser.add_argument("--max-triangles-per-chunk", type=int, default=65536)
+    parser.add_argument("--hash-only", action="store_true",
+                        help="write only SceneHeader (with the content hash) and SceneEnd: "
+                             "what a cache needs to know whether the scene changed")
     parser.add_argument("--variant", action="append", default=[], metavar="/PRIM:SET=SELECTION",
                         help="variant selection authored in the session layer before the stage "
                              "is composed (repeatable; wins over the file's selections)")
@@ -319,6 +322,10 @@ def main(argv):
     stream.stage = stage
     try:
         _write_header(stage, args.scene, time, stream)
+        if args.hash_only:
+            stream.end()
+            out.close()
+            return 0
         _report_composition_errors(stage, stream)
         report_variants(stage, args.variants, stream)
         SceneReader(stage, time, stream, args.max_triangles_per_chunk).run()

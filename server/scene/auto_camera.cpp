@@ -9,7 +9,11 @@
 
 namespace pbgi {
 
-Camera auto_camera(const Scene& scene, float aspect) { return auto_camera(scene.bounds(), scene.up_axis, aspect); }
+Camera auto_camera(const Scene& scene, float aspect) {
+  Box3f box = scene.bounds();
+  for (const Volume& v : scene.volumes) box.extendBy(v.bounds);  // fog has no triangles
+  return auto_camera(box, scene.up_axis, aspect);
+}
 
 Camera auto_camera(const Box3f& bounds, const std::string& up_axis, float aspect) {
   if (!(aspect > 0.f) || !std::isfinite(aspect))

@@ -1,7 +1,8 @@
 // `--camera auto`: a camera framing the scene's world bounds, for scenes
 // without a UsdGeom.Camera (or when the client asks for it).
 //
-// Default direction: the camera looks at the centre of Scene::bounds() from
+// Default direction: the camera looks at the centre of the scene's bounds
+// (triangles and volumes) from
 // azimuth kAutoCameraAzimuthDegrees (30 deg, from the stage's front axis
 // toward +X) and elevation kAutoCameraElevationDegrees (20 deg above the
 // horizon), in the stage's up-axis convention: with upAxis Y the front is

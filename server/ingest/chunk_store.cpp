@@ -1,0 +1,409 @@
+#include "server/ingest/chunk_store.h"
+
+#include "pbgi/v1/scene.pb.h"
+#include "server/volumes/scene_volumes.h"
+#include "storage/format/errors.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+#include <xxhash.h>
+
+namespace pbgi {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Bumped whenever the entry layout or what is stored changes.
+constexpr int kStoreFormatVersion = 1;
+constexpr const char* kEntryExtension = ".pbgiscene";
+constexpr const char* kDepsExtension = ".deps";
+
+std::string hex_key(const std::string& text) {
+  return fmt::format("{:016x}{:016x}", XXH64(text.data(), text.size(), 0),
+                     XXH64(text.data(), text.size(), 0x9E3779B97F4A7C15ull));
+}
+
+std::string file_digest(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return "missing";
+  XXH64_state_t* state = XXH64_createState();
+  XXH64_reset(state, 0);
+  std::vector<char> buffer(1 << 20);
+  while (in) {
+    in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+    XXH64_update(state, buffer.data(), static_cast<size_t>(in.gcount()));
+  }
+  const uint64_t h = XXH64_digest(state);
+  XXH64_freeState(state);
+  return fmt::format("{:016x}", h);
+}
+
+void set_vec3(pbgi::v1::Vec3* out, float x, float y, float z) {
+  out->set_x(x);
+  out->set_y(y);
+  out->set_z(z);
+}
+
+void add_matrix(google::protobuf::RepeatedField<float>* out, const M44f& m) {
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) out->Add(m[i][j]);
+}
+
+pbgi::v1::TextureRef::Wrap wrap_to(TextureWrap w) {
+  switch (w) {
+    case TextureWrap::Black: return pbgi::v1::TextureRef::BLACK;
+    case TextureWrap::Clamp: return pbgi::v1::TextureRef::CLAMP;
+    case TextureWrap::Repeat: return pbgi::v1::TextureRef::REPEAT;
+    case TextureWrap::Mirror: return pbgi::v1::TextureRef::MIRROR;
+    case TextureWrap::UseMetadata: break;
+  }
+  return pbgi::v1::TextureRef::USE_METADATA;
+}
+
+// Inverse of the stream decoder's binding_from.
+void texture_ref(const TextureBinding& b, pbgi::v1::TextureRef* r) {
+  r->set_file(b.file);
+  r->set_wrap_s(wrap_to(b.wrap_s));
+  r->set_wrap_t(wrap_to(b.wrap_t));
+  set_vec3(r->mutable_scale(), b.scale.x, b.scale.y, b.scale.z);
+  set_vec3(r->mutable_bias(), b.bias.x, b.bias.y, b.bias.z);
+  switch (b.color_space) {
+    case TextureColorSpace::Srgb: r->set_source_color_space(pbgi::v1::TextureRef::SRGB); break;
+    case TextureColorSpace::Raw: r->set_source_color_space(pbgi::v1::TextureRef::RAW); break;
+    case TextureColorSpace::Auto: r->set_source_color_space(pbgi::v1::TextureRef::COLOR_SPACE_AUTO); break;
+  }
+  switch (b.channel) {
+    case TextureChannel::R: r->set_channel(pbgi::v1::TextureRef::R); break;
+    case TextureChannel::G: r->set_channel(pbgi::v1::TextureRef::G); break;
+    case TextureChannel::B: r->set_channel(pbgi::v1::TextureRef::B); break;
+    case TextureChannel::A: r->set_channel(pbgi::v1::TextureRef::A); break;
+    case TextureChannel::Rgb: r->set_channel(pbgi::v1::TextureRef::RGB); break;
+  }
+  // [a b tx; c d ty] from Imath's row-vector M33f (see binding_from).
+  const Imath::M33f& m = b.st_transform;
+  for (const float v : {m[0][0], m[1][0], m[2][0], m[0][1], m[1][1], m[2][1]}) r->add_st_transform(v);
+  r->set_uses_uvs(b.uses_uvs);
+  r->set_constant_s(b.constant_st.x);
+  r->set_constant_t(b.constant_st.y);
+}
+
+pbgi::v1::LightDef::Kind light_kind(LightKind k) {
+  switch (k) {
+    case LightKind::Rect: return pbgi::v1::LightDef::RECT;
+    case LightKind::Sphere: return pbgi::v1::LightDef::SPHERE;
+    case LightKind::Distant: return pbgi::v1::LightDef::DISTANT;
+    case LightKind::Disk: return pbgi::v1::LightDef::DISK;
+    case LightKind::Dome: return pbgi::v1::LightDef::DOME;
+    case LightKind::Cylinder: return pbgi::v1::LightDef::CYLINDER;
+  }
+  return pbgi::v1::LightDef::KIND_UNSPECIFIED;
+}
+
+// Writes framed SceneChunks (4-byte little-endian length + message).
+class FrameWriter {
+ public:
+  explicit FrameWriter(std::ofstream& out) : out_(out) {}
+  void write(const pbgi::v1::SceneChunk& chunk) {
+    const std::string data = chunk.SerializeAsString();
+    const uint32_t n = static_cast<uint32_t>(data.size());
+    const unsigned char prefix[4] = {static_cast<unsigned char>(n), static_cast<unsigned char>(n >> 8),
+                                     static_cast<unsigned char>(n >> 16), static_cast<unsigned char>(n >> 24)};
+    out_.write(reinterpret_cast<const char*>(prefix), 4);
+    out_.write(data.data(), static_cast<std::streamsize>(data.size()));
+    ++count_;
+  }
+  uint64_t count() const { return count_; }
+
+ private:
+  std::ofstream& out_;
+  uint64_t count_ = 0;
+};
+
+template <typename T>
+bool all_finite(const std::vector<T>& values, const std::vector<uint32_t>& used) {
+  for (const uint32_t v : used)
+    for (size_t k = 0; k < sizeof(T) / sizeof(float); ++k)
+      if (!std::isfinite(values[v][k])) return false;
+  return true;
+}
+
+// The soup's triangles as Draco MeshChunks: runs of one mesh and material,
+// at most `max` triangles each; returns the triangle count written.
+uint64_t write_meshes(const Scene& scene, const ChunkStoreOptions& options, FrameWriter& writer) {
+  const TriangleSoup& soup = scene.triangles;
+  const size_t triangles = soup.triangle_count();
+  std::vector<int64_t> local(soup.positions.size(), -1);
+  uint64_t written = 0;
+  size_t begin = 0;
+  while (begin < triangles) {
+    size_t end = begin + 1;
+    while (end < triangles && end - begin < options.max_triangles_per_chunk && soup.mesh[end] == soup.mesh[begin] &&
+           soup.material[end] == soup.material[begin])
+      ++end;
+    DracoMesh m;
+    std::vector<uint32_t> used;
+    for (size_t i = 3 * begin; i < 3 * end; ++i) {
+      const uint32_t v = soup.indices[i];
+      if (local[v] < 0) {
+        local[v] = static_cast<int64_t>(used.size());
+        used.push_back(v);
+      }
+      m.indices.push_back(static_cast<uint32_t>(local[v]));
+    }
+    for (const uint32_t v : used) {
+      m.positions.push_back(soup.positions[v]);
+      if (!soup.normals.empty()) m.normals.push_back(soup.normals[v]);
+    }
+    if (!soup.uvs.empty() && all_finite(soup.uvs, used))
+      for (const uint32_t v : used) m.uvs.push_back(soup.uvs[v]);
+    if (!soup.colors.empty() && all_finite(soup.colors, used))
+      for (const uint32_t v : used) m.colors.push_back(soup.colors[v]);
+    for (const uint32_t v : used) local[v] = -1;
+
+    pbgi::v1::SceneChunk chunk;
+    pbgi::v1::MeshChunk* mesh = chunk.mutable_mesh();
+    mesh->set_prim_path(soup.mesh_paths[soup.mesh[begin]]);
+    mesh->set_material_id(soup.material[begin]);
+    mesh->set_double_sided(soup.double_sided[soup.mesh[begin]] != 0);
+    mesh->set_draco(encode_draco_mesh(m, options.draco));
+    writer.write(chunk);
+    written += end - begin;
+    begin = end;
+  }
+  return written;
+}
+
+void write_scene(const Scene& scene, const ChunkStoreOptions& options, std::ofstream& out) {
+  FrameWriter writer(out);
+  pbgi::v1::SceneChunk chunk;
+  pbgi::v1::SceneHeader* h = chunk.mutable_header();
+  h->set_source_path(scene.source_path);
+  h->set_content_hash(scene.content_hash);
+  h->set_meters_per_unit(scene.meters_per_unit);
+  h->set_up_axis(scene.up_axis);
+  writer.write(chunk);
+
+  for (size_t i = 0; i < scene.materials.size(); ++i) {
+    const Material& m = scene.materials[i];
+    chunk.Clear();
+    pbgi::v1::MaterialDef* d = chunk.mutable_material();
+    d->set_id(static_cast<uint32_t>(i));
+    d->set_prim_path(m.prim_path);
+    set_vec3(d->mutable_diffuse_color(), m.albedo.x, m.albedo.y, m.albedo.z);
+    set_vec3(d->mutable_emissive_color(), m.emission.x, m.emission.y, m.emission.z);
+    d->set_roughness(m.roughness);
+    d->set_metallic(m.metallic);
+    if (!m.albedo_texture.file.empty()) texture_ref(m.albedo_texture, d->mutable_diffuse_texture());
+    if (!m.emission_texture.file.empty()) texture_ref(m.emission_texture, d->mutable_emissive_texture());
+    d->set_diffuse_from_vertex_colors(m.albedo_from_vertex_colors);
+    writer.write(chunk);
+  }
+  const uint64_t triangles = write_meshes(scene, options, writer);
+
+  for (const Light& l : scene.lights) {
+    chunk.Clear();
+    pbgi::v1::LightDef* d = chunk.mutable_light();
+    d->set_prim_path(l.prim_path);
+    d->set_kind(light_kind(l.kind));
+    add_matrix(d->mutable_local_to_world(), l.local_to_world);
+    set_vec3(d->mutable_radiance(), l.radiance.x, l.radiance.y, l.radiance.z);
+    d->set_width(l.width);
+    d->set_height(l.height);
+    d->set_radius(l.radius);
+    d->set_angle_degrees(l.angle_degrees);
+    d->set_length(l.length);
+    d->set_texture_file(l.texture_file);
+    if (l.shaping.enabled) {
+      pbgi::v1::LightShaping* s = d->mutable_shaping();
+      s->set_cone_angle_degrees(l.shaping.cone_angle_degrees);
+      s->set_cone_softness(l.shaping.cone_softness);
+      s->set_focus(l.shaping.focus);
+      set_vec3(s->mutable_focus_tint(), l.shaping.focus_tint.x, l.shaping.focus_tint.y, l.shaping.focus_tint.z);
+    }
+    writer.write(chunk);
+  }
+  for (const auto& [path, c] : scene.cameras) {
+    chunk.Clear();
+    pbgi::v1::CameraDef* d = chunk.mutable_camera();
+    d->set_prim_path(c.prim_path);
+    add_matrix(d->mutable_local_to_world(), c.local_to_world);
+    d->set_focal_length(c.focal_length);
+    d->set_horizontal_aperture(c.horizontal_aperture);
+    d->set_vertical_aperture(c.vertical_aperture);
+    d->set_near_clip(c.near_clip);
+    d->set_far_clip(c.far_clip);
+    d->set_horizontal_aperture_offset(c.horizontal_aperture_offset);
+    d->set_vertical_aperture_offset(c.vertical_aperture_offset);
+    writer.write(chunk);
+  }
+  for (const Volume& v : scene.volumes) {
+    chunk.Clear();
+    pbgi::v1::VolumeDef* d = chunk.mutable_volume();
+    d->set_prim_path(v.prim_path);
+    d->set_material_id(v.material);
+    add_matrix(d->mutable_local_to_world(), v.local_to_world);
+    pbgi::v1::VolumeField* f = d->add_fields();
+    f->set_name(v.field);
+    f->set_file(v.file);
+    f->set_grid_name(v.grid_name);
+    f->set_field_index(v.field_index);
+    writer.write(chunk);
+  }
+  for (const std::string& w : scene.warnings) {
+    chunk.Clear();
+    chunk.mutable_diagnostic()->set_severity(pbgi::v1::Diagnostic::WARNING);
+    chunk.mutable_diagnostic()->set_message(w);
+    writer.write(chunk);
+  }
+  chunk.Clear();
+  chunk.mutable_end()->set_triangle_count(triangles);
+  chunk.mutable_end()->set_chunk_count(writer.count());
+  writer.write(chunk);
+}
+
+// Dependencies the content hash does not cover: "<xxh64>\t<path>" lines.
+std::string dependencies(const Scene& scene) {
+  std::set<std::string> files;
+  for (const Volume& v : scene.volumes) files.insert(v.file);
+  std::string out;
+  for (const std::string& f : files) out += file_digest(f) + "\t" + f + "\n";
+  return out;
+}
+
+bool dependencies_unchanged(const fs::path& deps) {
+  std::ifstream in(deps);
+  if (!in) return false;
+  std::string line;
+  while (std::getline(in, line)) {
+    const size_t tab = line.find('\t');
+    if (tab == std::string::npos) return false;
+    if (file_digest(line.substr(tab + 1)) != line.substr(0, tab)) return false;
+  }
+  return true;
+}
+
+void write_file_atomically(const fs::path& path, const std::function<void(std::ofstream&)>& fill) {
+  const fs::path temp = path.string() + fmt::format(".tmp-{}-{}", getpid(), std::hash<std::string>{}(path.string()));
+  {
+    std::ofstream out(temp, std::ios::binary | std::ios::trunc);
+    if (!out) throw IoError(fmt::format("chunk store: cannot write '{}'", temp.string()));
+    fill(out);
+    out.flush();
+    if (!out) {
+      std::error_code ec;
+      fs::remove(temp, ec);
+      throw IoError(fmt::format("chunk store: writing '{}' failed (disk full?)", temp.string()));
+    }
+  }
+  std::error_code ec;
+  fs::rename(temp, path, ec);
+  if (ec) {
+    fs::remove(temp, ec);
+    throw IoError(fmt::format("chunk store: cannot rename into '{}': {}", path.string(), ec.message()));
+  }
+}
+
+}  // namespace
+
+void ChunkStoreOptions::validate() const {
+  if (directory.empty()) throw InvalidArgument("chunk store: directory must be set");
+  draco.validate();
+  if (max_triangles_per_chunk == 0) throw InvalidArgument("chunk store: max_triangles_per_chunk must be > 0");
+}
+
+ChunkStore::ChunkStore(ChunkStoreOptions options) : options_(std::move(options)) {
+  options_.validate();
+  std::error_code ec;
+  fs::create_directories(options_.directory, ec);
+  if (ec) throw IoError(fmt::format("chunk store: cannot create '{}': {}", options_.directory.string(), ec.message()));
+}
+
+std::string ChunkStore::key(const std::string& content_hash, const IngestOptions& ingest) const {
+  const DracoOptions& d = options_.draco;
+  return hex_key(fmt::format("pbgi-chunk-store/{}|{}|edge={}|maxlevel={}|adaptivity={}|draco={},{},{},{},{}",
+                             kStoreFormatVersion, content_hash, ingest.target_edge_length,
+                             ingest.max_subdivision_level, ingest.volume_adaptivity, d.position_bits, d.normal_bits,
+                             d.uv_bits, d.color_bits, d.preserve_order));
+}
+
+fs::path ChunkStore::entry_path(const std::string& key) const { return options_.directory / (key + kEntryExtension); }
+
+bool ChunkStore::contains(const std::string& key) const {
+  std::error_code ec;
+  return fs::is_regular_file(entry_path(key), ec);
+}
+
+void ChunkStore::remove(const std::string& key) const {
+  std::error_code ec;
+  fs::remove(entry_path(key), ec);
+  fs::remove(options_.directory / (key + kDepsExtension), ec);
+}
+
+void ChunkStore::save(const std::string& key, const Scene& scene) const {
+  // The sidecar first: an entry never exists without its dependencies.
+  const std::string deps = dependencies(scene);
+  write_file_atomically(options_.directory / (key + kDepsExtension), [&](std::ofstream& out) { out << deps; });
+  write_file_atomically(entry_path(key), [&](std::ofstream& out) { write_scene(scene, options_, out); });
+}
+
+std::optional<Scene> ChunkStore::load(const std::string& key,
+                                      const std::function<void(const std::string&, float)>& progress) const {
+  const fs::path path = entry_path(key);
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return std::nullopt;
+  if (!dependencies_unchanged(options_.directory / (key + kDepsExtension))) {
+    ::close(fd);
+    spdlog::info("chunk store: entry {} is stale (a volume file changed): re-ingesting", key);
+    remove(key);
+    return std::nullopt;
+  }
+  Scene scene;
+  try {
+    scene = decode_scene_stream(fd, path.string(), progress);
+  } catch (const SceneError& e) {
+    ::close(fd);
+    spdlog::warn("chunk store: entry {} is unreadable ({}): removed", key, e.what());
+    remove(key);
+    return std::nullopt;
+  }
+  ::close(fd);
+  const std::string content_hash = scene.content_hash;
+  if (!scene.volumes.empty()) {
+    VolumeOptions reload;
+    reload.mesh_level_sets = false;  // their triangles were stored
+    load_scene_volumes(scene, reload);
+  }
+  scene.content_hash = content_hash;
+  // Texture warnings are raised again by the reload: keep each once.
+  std::set<std::string> seen;
+  std::erase_if(scene.warnings, [&](const std::string& w) { return !seen.insert(w).second; });
+  return scene;
+}
+
+Scene read_usd_scene_cached(const fs::path& path, const IngestOptions& options, const ChunkStore& store,
+                            const std::function<void(const std::string&, float)>& progress, bool* from_store) {
+  const std::string key = store.key(usd_content_hash(path, options), options);
+  if (std::optional<Scene> stored = store.load(key, progress)) {
+    if (from_store) *from_store = true;
+    return std::move(*stored);
+  }
+  Scene scene = read_usd_scene(path, options, progress);
+  try {
+    store.save(key, scene);
+  } catch (const Error& e) {
+    spdlog::warn("chunk store: cannot save '{}': {}", path.string(), e.what());
+  }
+  if (from_store) *from_store = false;
+  return scene;
+}
+
+}  // namespace pbgi

@@ -1,0 +1,91 @@
+// The daemon's on-disk store of ingested scenes: reopening an unchanged
+// scene skips the USD traversal, triangulation, subdivision refinement and
+// level-set meshing.
+//
+// An entry is the scene as ingested -- refined meshes, materials, lights,
+// cameras, volumes, warnings -- written as the same framed SceneChunk
+// stream the USD reader writes (proto/pbgi/v1/scene.proto), except that
+// every MeshChunk carries its arrays Draco-compressed (MeshChunk.draco,
+// server/ingest/draco_mesh.h). Loading decodes it with the ordinary stream
+// decoder, then loads textures and OpenVDB grids again (fog grids are not
+// stored; level sets are not meshed again).
+//
+// Keys. key() hashes the reader's content hash (usd_content_hash: every
+// layer the stage uses, time code, variant selections), the ingest options
+// that change triangles (target edge length, subdivision cap, volume
+// adaptivity), the Draco options and the store format version. Files the
+// layers do not cover -- the .vdb files of volumes -- are listed with their
+// xxh64 in a sidecar; an entry whose dependencies changed is a miss.
+//
+// Error bound. Positions are quantized per chunk (at most
+// max_triangles_per_chunk triangles of one mesh and material): every
+// coordinate is within draco_position_error_bound(R, position_bits) =
+// R / (2 (2^bits - 1)) of the ingested value, R the largest extent of the
+// chunk's bounding box (16 bits: R / 131070). Normals: octahedral,
+// normal_bits (12: ~0.09 deg). uvs/colours: uv_bits / color_bits over their
+// range. A chunk whose uvs or colours are partly missing (NaN) stores none.
+//
+// Files: <directory>/<key>.pbgiscene (+ <key>.deps); written to a temporary
+// name and renamed, so readers never see partial entries and concurrent
+// writers of one key leave one complete entry. Thread-safe: every method is
+// const and touches only the entry's files.
+#pragma once
+
+#include "server/ingest/draco_mesh.h"
+#include "server/ingest/usd_ingest.h"
+#include "server/scene/scene.h"
+
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+
+namespace pbgi {
+
+struct ChunkStoreOptions {
+  std::filesystem::path directory;     // required; created if missing
+  DracoOptions draco;                  // quantization (see the error bound above)
+  uint32_t max_triangles_per_chunk = 65536;
+
+  void validate() const;               // throws InvalidArgument
+};
+
+class ChunkStore {
+ public:
+  // Throws InvalidArgument for bad options, IoError if the directory
+  // cannot be created.
+  explicit ChunkStore(ChunkStoreOptions options);
+
+  const ChunkStoreOptions& options() const { return options_; }
+
+  // The entry key of a scene with this reader content hash read with these
+  // options (32 hex digits).
+  std::string key(const std::string& content_hash, const IngestOptions& ingest) const;
+
+  // Writes the entry (replacing one with the same key). Throws IoError.
+  void save(const std::string& key, const Scene& scene) const;
+
+  // The stored scene, or nullopt if there is no entry, a dependency changed
+  // or the entry is unreadable (a corrupt entry is removed, with a log line).
+  std::optional<Scene> load(const std::string& key,
+                            const std::function<void(const std::string&, float)>& progress = {}) const;
+
+  bool contains(const std::string& key) const;
+  void remove(const std::string& key) const;
+  std::filesystem::path entry_path(const std::string& key) const;
+
+ private:
+  ChunkStoreOptions options_;
+};
+
+// What the engine calls instead of read_usd_scene when it has a store:
+// hashes the scene (the reader stops after opening the stage), loads the
+// entry if there is one, else ingests and saves. `from_store` (optional)
+// tells which happened. A failure to save is logged, not thrown: the scene
+// was read.
+Scene read_usd_scene_cached(const std::filesystem::path& path, const IngestOptions& options,
+                            const ChunkStore& store,
+                            const std::function<void(const std::string&, float)>& progress = {},
+                            bool* from_store = nullptr);
+
+}  // namespace pbgi
