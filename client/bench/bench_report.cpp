@@ -38,15 +38,21 @@ void write_aov(JsonWriter& w, const AovError& a) {
 void write_equal_error(JsonWriter& w, const EqualError& e) {
   w.begin_object();
   w.field("valid", e.valid);
+  w.field("note", e.note);
   w.field("pbgi", e.pbgi_name);
   w.field("pbgi_mse", e.pbgi_mse);
+  w.field("noise_floor", e.noise_floor);
   w.field("pbgi_render_seconds", e.pbgi_render_seconds);
   w.field("pbgi_total_seconds", e.pbgi_total_seconds);
+  w.field("pbgi_render_cpu_seconds", e.pbgi_render_cpu_seconds);
+  w.field("pbgi_total_cpu_seconds", e.pbgi_total_cpu_seconds);
   w.field("path_spp", e.path_spp);
   w.field("path_seconds", e.path_seconds);
+  w.field("path_cpu_seconds", e.path_cpu_seconds);
   w.field("extrapolated", e.extrapolated);
   w.field("speedup", e.speedup);
   w.field("speedup_including_build", e.speedup_including_build);
+  w.field("speedup_cpu", e.speedup_cpu);
   w.end_object();
 }
 
@@ -65,22 +71,23 @@ std::string find_param(const std::vector<Param>& params, const std::string& key)
   return "";
 }
 
-std::string equal_error_text(const EqualError& e, const ReferenceRecord& ref) {
-  if (!e.valid) return fmt::format("{}: no equal-error figure (needs the default PBGI "
-                                   "configuration and path-tracer rows)\n", e.aov);
+std::string equal_error_text(const EqualError& e) {
+  if (!e.valid) return fmt::format("{}: no equal-error figure: {}\n", e.aov, e.note);
   std::string s = fmt::format(
-      "{}: PBGI default {} has MSE {:.4g}: render {:.3f} s ({:.3f} s with build and load).\n"
-      "  The path tracer reaches that MSE at {:.1f} spp in {:.3f} s ({}).\n"
-      "  Speed-up of PBGI: {:.2f}x render only, {:.2f}x including build.\n",
-      e.aov, e.pbgi_name, e.pbgi_mse, e.pbgi_render_seconds, e.pbgi_total_seconds, e.path_spp,
-      e.path_seconds, e.extrapolated ? "EXTRAPOLATED beyond the sweep with MSE ~ 1/spp"
-                                     : "interpolated log-log between sweep points",
-      e.speedup, e.speedup_including_build);
-  const double floor = e.aov == "indirect" ? ref.noise_mse_indirect : ref.noise_mse_beauty;
-  if (floor > 0.25 * e.pbgi_mse)
-    s += fmt::format("  Warning: the reference's own noise (~{:.3g}) is a large part of this "
-                     "MSE; raise --reference-spp.\n",
-                     floor);
+      "{}: PBGI default {} has MSE {:.4g} ({:.4g} after removing the reference's noise {:.3g}):\n"
+      "  render {:.3f} s wall / {:.3f} s CPU ({:.3f} s / {:.3f} s with build and load).\n"
+      "  The path tracer reaches that MSE at {:.1f} spp in {:.3f} s wall / {:.3f} s CPU ({}).\n"
+      "  Speed-up of PBGI: {:.2f}x render only, {:.2f}x including build; {:.2f}x in CPU time.\n",
+      e.aov, e.pbgi_name, e.pbgi_mse, e.pbgi_mse - e.noise_floor, e.noise_floor,
+      e.pbgi_render_seconds, e.pbgi_render_cpu_seconds, e.pbgi_total_seconds,
+      e.pbgi_total_cpu_seconds, e.path_spp, e.path_seconds, e.path_cpu_seconds,
+      e.extrapolated ? "EXTRAPOLATED beyond the sweep with MSE ~ 1/spp"
+                     : "interpolated log-log between sweep points",
+      e.speedup, e.speedup_including_build, e.speedup_cpu);
+  if (e.noise_floor > 0.25 * e.pbgi_mse)
+    s += fmt::format("  Warning: the reference's own noise is {:.0f}% of this MSE; raise the "
+                     "reference spp for a firmer figure.\n",
+                     100 * e.noise_floor / e.pbgi_mse);
   return s;
 }
 
@@ -104,6 +111,7 @@ std::string bench_json(const BenchResult& r) {
   w.field("spp", r.reference.spp);
   w.field("seed", r.reference.seed);
   w.field("seconds", r.reference.seconds);
+  w.field("cpu_seconds", r.reference.cpu_seconds);
   w.field("cached", r.reference.cached);
   w.field("key", r.reference.key);
   w.field("file", r.reference.file.string());
@@ -122,6 +130,8 @@ std::string bench_json(const BenchResult& r) {
     write_params(w, b.facts);
     w.field("build_seconds", b.build_seconds);
     w.field("load_seconds", b.load_seconds);
+    w.field("build_cpu_seconds", b.build_cpu_seconds);
+    w.field("load_cpu_seconds", b.load_cpu_seconds);
     w.end_object();
   }
   w.end_array();
@@ -141,6 +151,9 @@ std::string bench_json(const BenchResult& r) {
     w.field("render_seconds", row.render_seconds);
     w.field("build_seconds", row.build_seconds);
     w.field("total_seconds", row.total_seconds);
+    w.field("render_cpu_seconds", row.render_cpu_seconds);
+    w.field("build_cpu_seconds", row.build_cpu_seconds);
+    w.field("total_cpu_seconds", row.total_cpu_seconds);
     w.key("indirect");
     write_aov(w, row.indirect);
     w.key("beauty");
@@ -177,7 +190,8 @@ std::string bench_csv(const BenchResult& r) {
 
   std::string out = "method,name,series,build";
   for (const auto& c : param_cols) out += "," + csv_cell(c);
-  out += ",is_default,build_seconds,render_seconds,total_seconds";
+  out += ",is_default,build_seconds,render_seconds,total_seconds,build_cpu_seconds,"
+         "render_cpu_seconds,total_cpu_seconds";
   for (const char* aov : {"indirect", "beauty"})
     out += fmt::format(",{0}_mse,{0}_rmse,{0}_psnr,{0}_relmse,{0}_pdiff_pixels,{0}_pdiff_fraction",
                        aov);
@@ -187,8 +201,10 @@ std::string bench_csv(const BenchResult& r) {
     out += fmt::format("{},{},{},{}", csv_cell(row.method), csv_cell(row.name),
                        csv_cell(row.series), csv_cell(row.build));
     for (const auto& c : param_cols) out += "," + csv_cell(find_param(row.params, c));
-    out += fmt::format(",{},{},{},{}", row.is_default ? 1 : 0, num(row.build_seconds),
-                       num(row.render_seconds), num(row.total_seconds));
+    out += fmt::format(",{},{},{},{},{},{},{}", row.is_default ? 1 : 0, num(row.build_seconds),
+                       num(row.render_seconds), num(row.total_seconds),
+                       num(row.build_cpu_seconds), num(row.render_cpu_seconds),
+                       num(row.total_cpu_seconds));
     for (const AovError* a : {&row.indirect, &row.beauty})
       out += fmt::format(",{},{},{},{},{},{}", num(a->error.mse), num(a->error.rmse),
                          num(a->error.psnr), num(a->error.rel_mse), a->pdiff_pixels,
@@ -201,27 +217,30 @@ std::string bench_csv(const BenchResult& r) {
 std::string bench_summary(const BenchResult& r) {
   std::string s = fmt::format(
       "scene {} ({}), camera {}, {}x{}, max depth {}, {} threads\n"
-      "reference: {} spp, seed {:#x}, {:.1f} s{}\n\n",
+      "reference: {} spp, seed {:#x}, {:.1f} s ({:.1f} s CPU){}\n\n",
       r.scene, r.scene_hash, r.camera, r.width, r.height, r.max_depth, r.threads, r.reference.spp,
-      r.reference.seed, r.reference.seconds, r.reference.cached ? " (cached)" : "");
+      r.reference.seed, r.reference.seconds, r.reference.cpu_seconds,
+      r.reference.cached ? " (cached)" : "");
   for (const BuildRecord& b : r.builds)
     s += fmt::format("build {:<14} {:8.3f} s build, {:6.3f} s load  ({} surfels, {} pages)\n",
                      b.name, b.build_seconds, b.load_seconds, find_param(b.facts, "surfels"),
                      find_param(b.facts, "pages"));
   if (!r.builds.empty()) s += "\n";
 
-  s += fmt::format("{:<26} {:>8} {:>8} {:>8} | {:>10} {:>6} {:>9} {:>6} | {:>10} {:>6} {:>9} {:>6}  {}\n",
-                   "configuration", "build s", "render s", "total s", "ind MSE", "PSNR", "relMSE",
-                   "pdiff", "beauty MSE", "PSNR", "relMSE", "pdiff", "flags");
+  s += fmt::format(
+      "{:<31} {:>8} {:>8} {:>8} {:>8} | {:>10} {:>6} {:>9} {:>6} | {:>10} {:>6} {:>9} {:>6}  {}\n",
+      "configuration", "build s", "render s", "total s", "CPU s", "ind MSE", "PSNR", "relMSE",
+      "pdiff", "beauty MSE", "PSNR", "relMSE", "pdiff", "flags");
   for (const BenchRow& row : r.rows) {
     std::string flags;
     if (row.is_default) flags += "default ";
     if (row.pareto_indirect) flags += "P-ind ";
     if (row.pareto_beauty) flags += "P-beauty";
     s += fmt::format(
-        "{:<26} {:8.3f} {:8.3f} {:8.3f} | {:10.4g} {:6.2f} {:9.4g} {:6} | {:10.4g} {:6.2f} {:9.4g} "
-        "{:6}  {}\n",
-        row.name, row.build_seconds, row.render_seconds, row.total_seconds, row.indirect.error.mse,
+        "{:<31} {:8.3f} {:8.3f} {:8.3f} {:8.3f} | {:10.4g} {:6.2f} {:9.4g} {:6} | {:10.4g} {:6.2f} "
+        "{:9.4g} {:6}  {}\n",
+        row.name, row.build_seconds, row.render_seconds, row.total_seconds,
+        row.render_cpu_seconds, row.indirect.error.mse,
         row.indirect.error.psnr, row.indirect.error.rel_mse, row.indirect.pdiff_pixels,
         row.beauty.error.mse, row.beauty.error.psnr, row.beauty.error.rel_mse,
         row.beauty.pdiff_pixels, flags);
@@ -229,8 +248,8 @@ std::string bench_summary(const BenchResult& r) {
   s += fmt::format("\nreference noise (estimated MSE of the reference itself): indirect {:.3g}, "
                    "beauty {:.3g}\n\n",
                    r.reference.noise_mse_indirect, r.reference.noise_mse_beauty);
-  s += equal_error_text(r.equal_indirect, r.reference);
-  s += equal_error_text(r.equal_beauty, r.reference);
+  s += equal_error_text(r.equal_indirect);
+  s += equal_error_text(r.equal_beauty);
   for (const auto& w : r.warnings) s += "warning: " + w + "\n";
   return s;
 }

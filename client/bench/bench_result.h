@@ -25,9 +25,11 @@ struct BenchRow {
   std::vector<Param> params;
   uint32_t spp = 0;
   bool is_default = false;
-  double render_seconds = 0.0;    // the render alone
-  double build_seconds = 0.0;     // its build + load (0 without a build)
-  double total_seconds = 0.0;     // render + build + load
+  // Wall-clock seconds (stopwatch.h): the render alone, its build + load
+  // (0 without a build), and their sum.
+  double render_seconds = 0.0, build_seconds = 0.0, total_seconds = 0.0;
+  // The same as process CPU seconds (all threads).
+  double render_cpu_seconds = 0.0, build_cpu_seconds = 0.0, total_cpu_seconds = 0.0;
   AovError indirect, beauty;
   // Not dominated by another row (lower-or-equal render time and MSE, one
   // of them strictly), per AOV.
@@ -38,14 +40,16 @@ struct BuildRecord {
   std::string name;
   std::vector<Param> params;
   std::vector<Param> facts;       // BuiltState::describe()
-  double build_seconds = 0.0;     // BuildSpec::build
-  double load_seconds = 0.0;      // BuiltState::load
+  double build_seconds = 0.0;     // BuildSpec::build, wall clock
+  double load_seconds = 0.0;      // BuiltState::load, wall clock
+  double build_cpu_seconds = 0.0, load_cpu_seconds = 0.0;
 };
 
 struct ReferenceRecord {
   uint32_t spp = 0;
   uint64_t seed = 0;
   double seconds = 0.0;           // render time when it was made (cached: then)
+  double cpu_seconds = 0.0;       // its CPU time
   bool cached = false;            // read from the cache in this run
   std::string key;
   std::filesystem::path file;
@@ -56,19 +60,28 @@ struct ReferenceRecord {
 };
 
 // The path tracer's cost at the error of PBGI's default configuration.
+// Every measured MSE includes the reference's own variance (noise_floor,
+// see ReferenceRecord); it is subtracted from PBGI's MSE and the path
+// tracer's before they are matched, so that a noisy reference does not
+// flatter either side (equal_error.h).
 struct EqualError {
   std::string aov;                // "indirect" or "beauty"
-  bool valid = false;             // false: no default row or no path rows
+  bool valid = false;             // false: see `note`
+  std::string note;               // why not valid
   std::string pbgi_name;
-  double pbgi_mse = 0.0;
+  double pbgi_mse = 0.0;          // as measured (noise floor included)
+  double noise_floor = 0.0;       // subtracted before matching
   double pbgi_render_seconds = 0.0, pbgi_total_seconds = 0.0;
+  double pbgi_render_cpu_seconds = 0.0, pbgi_total_cpu_seconds = 0.0;
   double path_spp = 0.0;          // interpolated (log-log) samples per pixel
-  double path_seconds = 0.0;      // interpolated render time
+  double path_seconds = 0.0;      // interpolated render time, wall clock
+  double path_cpu_seconds = 0.0;  // the same in CPU seconds
   // The target lies outside the sweep's MSE range: extrapolated with
   // MSE ~ 1/spp and time ~ spp from the nearest end.
   bool extrapolated = false;
-  double speedup = 0.0;               // path_seconds / pbgi_render_seconds
+  double speedup = 0.0;                  // path_seconds / pbgi_render_seconds
   double speedup_including_build = 0.0;  // path_seconds / pbgi_total_seconds
+  double speedup_cpu = 0.0;              // path_cpu_seconds / pbgi_render_cpu_seconds
 };
 
 struct BenchResult {

@@ -5,6 +5,7 @@
 #include "client/bench/plot_runner.h"
 #include "client/bench/reference_cache.h"
 #include "client/bench/scene_hash.h"
+#include "client/bench/stopwatch.h"
 #include "client/image/exr_image.h"
 #include "client/metrics/perceptual_diff.h"
 #include "server/ingest/usd_ingest.h"
@@ -93,6 +94,7 @@ ReferenceImage obtain_reference(const BenchInput& in, const BenchOptions& o, Ben
   if (auto cached = load_cached_reference(rec.file, rec.key, ro.width, ro.height, &warning)) {
     rec.cached = true;
     rec.seconds = cached->seconds;
+    rec.cpu_seconds = cached->cpu_seconds;
     if (o.log) o.log(fmt::format("reference: cached {} ({} spp)", rec.file.string(), rec.spp));
     return std::move(cached->image);
   }
@@ -100,27 +102,30 @@ ReferenceImage obtain_reference(const BenchInput& in, const BenchOptions& o, Ben
 
   if (o.log) o.log(fmt::format("reference: path tracing {} spp at {}x{}", ro.spp, ro.width, ro.height));
   ReferenceStats stats;
+  const Stopwatch watch;
   const auto progress = [&](const ReferenceProgress& p) {
     if (o.log && p.spp_done < p.spp_total)
       o.log(fmt::format("reference: {}/{} spp, {:.1f} s", p.spp_done, p.spp_total, p.seconds));
     return true;
   };
   ReferenceImage image = render_reference(in.rays, in.camera, ro, progress, &stats);
-  rec.seconds = stats.seconds;
+  rec.seconds = watch.wall_seconds();
+  rec.cpu_seconds = watch.cpu_seconds();
   if (stats.nonfinite_samples > 0)
     result.warnings.push_back(fmt::format("reference: {} non-finite samples dropped",
                                           stats.nonfinite_samples));
-  store_cached_reference(rec.file, rec.key, image, stats.seconds);
+  store_cached_reference(rec.file, rec.key, image, rec.seconds, rec.cpu_seconds);
   return image;
 }
 
 // Renders one configuration and measures it.
 BenchRow run_config(const MethodConfig& c, const BenchInput& in, const BuiltState* built,
-                    double build_seconds, const ReferenceImage& ref, const BenchOptions& o) {
-  const auto t0 = Clock::now();
+                    const BuildRecord* build, const ReferenceImage& ref, const BenchOptions& o) {
+  const Stopwatch watch;
   const RenderedAovs aovs = c.render(in, built);
   BenchRow row;
-  row.render_seconds = seconds_since(t0);
+  row.render_seconds = watch.wall_seconds();
+  row.render_cpu_seconds = watch.cpu_seconds();
   row.method = c.method;
   row.name = c.name;
   row.series = c.series;
@@ -128,14 +133,19 @@ BenchRow run_config(const MethodConfig& c, const BenchInput& in, const BuiltStat
   row.params = c.params;
   row.spp = c.spp;
   row.is_default = c.is_default;
-  row.build_seconds = build_seconds;
-  row.total_seconds = row.render_seconds + build_seconds;
+  if (build) {
+    row.build_seconds = build->build_seconds + build->load_seconds;
+    row.build_cpu_seconds = build->build_cpu_seconds + build->load_cpu_seconds;
+  }
+  row.total_seconds = row.render_seconds + row.build_seconds;
+  row.total_cpu_seconds = row.render_cpu_seconds + row.build_cpu_seconds;
   row.indirect = measure(aovs.indirect, ref.indirect, in.width, in.height, c.name + " indirect");
   row.beauty = measure(aovs.beauty, ref.beauty, in.width, in.height, c.name + " beauty");
   if (o.save_images) save_image(o.out_dir / "images" / (file_name_of(c.name) + ".exr"), in.width, in.height, aovs);
   if (o.log)
-    o.log(fmt::format("{}: render {:.3f} s, indirect MSE {:.4g}, beauty MSE {:.4g}", c.name,
-                      row.render_seconds, row.indirect.error.mse, row.beauty.error.mse));
+    o.log(fmt::format("{}: render {:.3f} s ({:.3f} s CPU), indirect MSE {:.4g}, beauty MSE {:.4g}",
+                      c.name, row.render_seconds, row.render_cpu_seconds, row.indirect.error.mse,
+                      row.beauty.error.mse));
   return row;
 }
 
@@ -147,22 +157,40 @@ EqualError equal_error(const BenchResult& r, bool indirect) {
   };
   const auto def = std::find_if(r.rows.begin(), r.rows.end(),
                                 [](const BenchRow& row) { return row.is_default; });
-  std::vector<SweepPoint> path;
-  for (const BenchRow& row : r.rows)
-    if (row.method == "path") path.push_back({double(row.spp), row.render_seconds, mse(row)});
-  if (def == r.rows.end() || path.empty()) return e;
-  const EqualErrorPoint p = equal_error_point(path, mse(*def));
+  std::vector<SweepPoint> wall, cpu;
+  for (const BenchRow& row : r.rows) {
+    if (row.method != "path") continue;
+    wall.push_back({double(row.spp), row.render_seconds, mse(row)});
+    cpu.push_back({double(row.spp), row.render_cpu_seconds, mse(row)});
+  }
+  if (def == r.rows.end() || wall.empty()) {
+    e.note = "needs the default PBGI configuration and path-tracer rows";
+    return e;
+  }
   e.pbgi_name = def->name;
   e.pbgi_mse = mse(*def);
+  e.noise_floor = indirect ? r.reference.noise_mse_indirect : r.reference.noise_mse_beauty;
   e.pbgi_render_seconds = def->render_seconds;
   e.pbgi_total_seconds = def->total_seconds;
-  if (!p.valid) return e;
+  e.pbgi_render_cpu_seconds = def->render_cpu_seconds;
+  e.pbgi_total_cpu_seconds = def->total_cpu_seconds;
+  const EqualErrorPoint p = equal_error_point(wall, e.pbgi_mse, e.noise_floor);
+  const EqualErrorPoint pc = equal_error_point(cpu, e.pbgi_mse, e.noise_floor);
+  if (!p.valid || !pc.valid) {
+    e.note = e.pbgi_mse <= e.noise_floor
+                 ? "PBGI's MSE is within the reference's own noise: raise the reference spp"
+                 : "no usable path-tracer rows";
+    return e;
+  }
   e.valid = true;
   e.path_spp = p.spp;
   e.path_seconds = p.seconds;
+  e.path_cpu_seconds = pc.seconds;
   e.extrapolated = p.extrapolated;
-  e.speedup = e.pbgi_render_seconds > 0 ? e.path_seconds / e.pbgi_render_seconds : 0.0;
-  e.speedup_including_build = e.pbgi_total_seconds > 0 ? e.path_seconds / e.pbgi_total_seconds : 0.0;
+  auto ratio = [](double a, double b) { return b > 0 ? a / b : 0.0; };
+  e.speedup = ratio(e.path_seconds, e.pbgi_render_seconds);
+  e.speedup_including_build = ratio(e.path_seconds, e.pbgi_total_seconds);
+  e.speedup_cpu = ratio(e.path_cpu_seconds, e.pbgi_render_cpu_seconds);
   return e;
 }
 
@@ -242,12 +270,14 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& o) {
     rec.name = b.name;
     rec.params = b.params;
     if (o.log) o.log(fmt::format("{}: building", b.name));
-    const auto t0 = Clock::now();
+    const Stopwatch build_watch;
     std::unique_ptr<BuiltState> built = b.build(in);
-    rec.build_seconds = seconds_since(t0);
-    const auto t1 = Clock::now();
+    rec.build_seconds = build_watch.wall_seconds();
+    rec.build_cpu_seconds = build_watch.cpu_seconds();
+    const Stopwatch load_watch;
     built->load();
-    rec.load_seconds = seconds_since(t1);
+    rec.load_seconds = load_watch.wall_seconds();
+    rec.load_cpu_seconds = load_watch.cpu_seconds();
     rec.facts = built->describe();
     if (o.log)
       o.log(fmt::format("{}: build {:.3f} s, load {:.3f} s", b.name, rec.build_seconds,
@@ -260,13 +290,12 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& o) {
             b.name, v));
     for (const MethodConfig& c : plan.configs)
       if (c.build == b.name)
-        result.rows.push_back(
-            run_config(c, in, built.get(), rec.build_seconds + rec.load_seconds, ref, o));
+        result.rows.push_back(run_config(c, in, built.get(), &rec, ref, o));
     result.builds.push_back(std::move(rec));
   }
   // 4. Configurations without a build.
   for (const MethodConfig& c : plan.configs)
-    if (c.build.empty()) result.rows.push_back(run_config(c, in, nullptr, 0.0, ref, o));
+    if (c.build.empty()) result.rows.push_back(run_config(c, in, nullptr, nullptr, ref, o));
 
   // 5. Pareto flags, reference noise, equal-error figure.
   analyse(result);

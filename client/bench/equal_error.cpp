@@ -26,7 +26,11 @@ EqualErrorPoint along_rate(const SweepPoint& p, double target) {
 
 }  // namespace
 
-EqualErrorPoint equal_error_point(std::vector<SweepPoint> points, double target) {
+EqualErrorPoint equal_error_point(std::vector<SweepPoint> points, double target,
+                                  double noise_floor) {
+  if (!(noise_floor >= 0) || !std::isfinite(noise_floor)) return {};
+  for (SweepPoint& p : points) p.mse -= noise_floor;
+  target -= noise_floor;
   points.erase(std::remove_if(points.begin(), points.end(), [](const SweepPoint& p) { return !usable(p); }),
                points.end());
   if (points.empty() || !std::isfinite(target) || target <= 0) return {};

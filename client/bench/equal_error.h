@@ -22,13 +22,18 @@ struct EqualErrorPoint {
 };
 
 // The (spp, seconds) at which a Monte Carlo sweep's MSE equals `target_mse`.
-// Points are taken in order of spp; points with a non-finite or
-// non-positive spp, seconds or MSE are ignored. The first segment (from low
+// `noise_floor` (>= 0) is first subtracted from every MSE and the target:
+// measured against a reference of finite spp, MSE = s^2/spp + floor, so
+// without the floor the sweep is an exact power law. Points are taken in
+// order of spp; points with a non-finite or non-positive spp, seconds or
+// (floor-corrected) MSE are ignored; a target at or below the floor has no
+// answer (invalid). The first segment (from low
 // spp) whose MSE brackets the target is interpolated linearly in
 // (log MSE) -> (log spp, log seconds). A target below every point's MSE
 // (or above) is extrapolated from the nearest end with MSE ~ 1/spp and
 // seconds ~ spp, the Monte Carlo rate, and flagged.
-EqualErrorPoint equal_error_point(std::vector<SweepPoint> points, double target_mse);
+EqualErrorPoint equal_error_point(std::vector<SweepPoint> points, double target_mse,
+                                  double noise_floor = 0.0);
 
 // Pareto flags of (seconds, error) points to be minimized together: a point
 // is optimal unless another has seconds <= and error <=, one strictly.

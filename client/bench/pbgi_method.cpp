@@ -124,6 +124,12 @@ void PbgiSweep::validate() const {
   r.pixel_samples = pixel_samples;
   r.light_samples = light_samples;
   r.validate();
+  for (uint32_t px : extra_pixel_samples) {
+    r.pixel_samples = px;
+    r.validate();
+    if (px == pixel_samples || std::count(extra_pixel_samples.begin(), extra_pixel_samples.end(), px) > 1)
+      throw InvalidArgument(fmt::format("bench: extra_pixel_samples {} repeats a pixel sample count", px));
+  }
   if (!contains(target_surfels, default_target_surfels) ||
       !contains(microbuffer_resolutions, default_microbuffer_resolution) ||
       !contains(max_solid_angles, default_max_solid_angle))
@@ -132,6 +138,41 @@ void PbgiSweep::validate() const {
         "max_solid_angle {}) must be part of the sweep",
         default_target_surfels, default_microbuffer_resolution, default_max_solid_angle));
 }
+
+namespace {
+
+MethodConfig pbgi_config(const PbgiSweep& sweep, const std::string& build, uint64_t surfels,
+                         uint32_t mb, float sa, uint32_t pixel_samples) {
+  RenderOptions options;
+  options.gather.microbuffer_resolution = mb;
+  options.gather.max_solid_angle = sa;
+  options.pixel_samples = pixel_samples;
+  options.light_samples = sweep.light_samples;
+  options.seed = sweep.seed;
+  MethodConfig c;
+  c.method = "pbgi";
+  c.name = fmt::format("{}/mb{}/sa{:g}", build, mb, sa);
+  c.series = fmt::format("pbgi s{} mb{}", surfel_label(surfels), mb);
+  if (pixel_samples != sweep.pixel_samples) {
+    c.name += fmt::format("/px{}", pixel_samples);
+    c.series = fmt::format("pbgi s{} mb{} sa{:g} px", surfel_label(surfels), mb, sa);
+  }
+  c.build = build;
+  c.params = {{"target_surfels", std::to_string(surfels)},
+              {"microbuffer_resolution", std::to_string(mb)},
+              {"max_solid_angle", fmt::format("{:g}", sa)},
+              {"pixel_samples", std::to_string(pixel_samples)},
+              {"light_samples", std::to_string(sweep.light_samples)}};
+  c.is_default = surfels == sweep.default_target_surfels &&
+                 mb == sweep.default_microbuffer_resolution &&
+                 sa == sweep.default_max_solid_angle && pixel_samples == sweep.pixel_samples;
+  c.render = [options](const BenchInput& in, const BuiltState* built) {
+    return render_pbgi(in, built, options);
+  };
+  return c;
+}
+
+}  // namespace
 
 MethodPlan pbgi_plan(const PbgiSweep& sweep) {
   sweep.validate();
@@ -144,33 +185,12 @@ MethodPlan pbgi_plan(const PbgiSweep& sweep) {
                            [sweep, surfels, dir_name](const BenchInput& in) {
                              return build_pbgi(in, sweep, surfels, dir_name);
                            }});
-    for (uint32_t mb : sweep.microbuffer_resolutions) {
-      for (float sa : sweep.max_solid_angles) {
-        RenderOptions options;
-        options.gather.microbuffer_resolution = mb;
-        options.gather.max_solid_angle = sa;
-        options.pixel_samples = sweep.pixel_samples;
-        options.light_samples = sweep.light_samples;
-        options.seed = sweep.seed;
-        MethodConfig c;
-        c.method = "pbgi";
-        c.name = fmt::format("{}/mb{}/sa{:g}", build, mb, sa);
-        c.series = fmt::format("pbgi s{} mb{}", surfel_label(surfels), mb);
-        c.build = build;
-        c.params = {{"target_surfels", std::to_string(surfels)},
-                    {"microbuffer_resolution", std::to_string(mb)},
-                    {"max_solid_angle", fmt::format("{:g}", sa)},
-                    {"pixel_samples", std::to_string(sweep.pixel_samples)},
-                    {"light_samples", std::to_string(sweep.light_samples)}};
-        c.is_default = surfels == sweep.default_target_surfels &&
-                       mb == sweep.default_microbuffer_resolution &&
-                       sa == sweep.default_max_solid_angle;
-        c.render = [options](const BenchInput& in, const BuiltState* built) {
-          return render_pbgi(in, built, options);
-        };
-        plan.configs.push_back(std::move(c));
-      }
-    }
+    for (uint32_t mb : sweep.microbuffer_resolutions)
+      for (float sa : sweep.max_solid_angles)
+        plan.configs.push_back(pbgi_config(sweep, build, surfels, mb, sa, sweep.pixel_samples));
+    for (uint32_t px : sweep.extra_pixel_samples)
+      plan.configs.push_back(pbgi_config(sweep, build, surfels, sweep.default_microbuffer_resolution,
+                                         sweep.default_max_solid_angle, px));
   }
   return plan;
 }

@@ -18,6 +18,7 @@ constexpr int kCacheVersion = 1;
 
 constexpr char kKeyAttribute[] = "pbgi/bench_reference_key";
 constexpr char kSecondsAttribute[] = "pbgi/render_seconds";
+constexpr char kCpuSecondsAttribute[] = "pbgi/render_cpu_seconds";
 constexpr char kSppAttribute[] = "pbgi/spp";
 
 }  // namespace
@@ -67,6 +68,8 @@ std::optional<CachedReference> load_cached_reference(const std::filesystem::path
     if (const auto s = attrs.find(kSppAttribute); s != attrs.end()) r.spp = std::stoul(s->second);
     if (const auto s = attrs.find(kSecondsAttribute); s != attrs.end())
       out.seconds = std::stod(s->second);
+    if (const auto s = attrs.find(kCpuSecondsAttribute); s != attrs.end())
+      out.cpu_seconds = std::stod(s->second);
     return out;
   } catch (const std::exception& e) {
     if (warning)
@@ -77,7 +80,7 @@ std::optional<CachedReference> load_cached_reference(const std::filesystem::path
 }
 
 void store_cached_reference(const std::filesystem::path& file, const std::string& key,
-                            const ReferenceImage& r, double seconds) {
+                            const ReferenceImage& r, double seconds, double cpu_seconds) {
   std::error_code ec;
   std::filesystem::create_directories(file.parent_path(), ec);
   if (ec)
@@ -93,6 +96,7 @@ void store_cached_reference(const std::filesystem::path& file, const std::string
   img.attributes()[kKeyAttribute] = key;
   img.attributes()[kSppAttribute] = std::to_string(r.spp);
   img.attributes()[kSecondsAttribute] = fmt::format("{:.6f}", seconds);
+  img.attributes()[kCpuSecondsAttribute] = fmt::format("{:.6f}", cpu_seconds);
   image::write_exr(file.string(), img);  // float: metrics are computed against it
 }
 

@@ -25,7 +25,8 @@ std::filesystem::path reference_cache_file(const std::filesystem::path& cache_di
 
 struct CachedReference {
   ReferenceImage image;
-  double seconds = 0.0;  // render time recorded when it was made
+  double seconds = 0.0;      // render time recorded when it was made
+  double cpu_seconds = 0.0;  // and its CPU time
 };
 
 // The cached reference for `key`, or nothing if the file does not exist.
@@ -37,8 +38,8 @@ std::optional<CachedReference> load_cached_reference(const std::filesystem::path
                                                      uint32_t height, std::string* warning);
 
 // Writes the reference (beauty, direct, indirect, indirect1, albedo, ao as
-// float) with its key and render time. Throws IoError naming the file.
+// float) with its key and render times. Throws IoError naming the file.
 void store_cached_reference(const std::filesystem::path& file, const std::string& key,
-                            const ReferenceImage& image, double seconds);
+                            const ReferenceImage& image, double seconds, double cpu_seconds);
 
 }  // namespace pbgi::bench

@@ -49,6 +49,7 @@ CubeLayout::CubeLayout(uint32_t resolution)
   my_.resize(count);
   mz_.resize(count);
   omega_.resize(count);
+  margin_.resize(count);
   const double pw = 2.0 / n_;
   for (int f = 0; f < kFaces; ++f) {
     const int k = f >> 1;
@@ -95,6 +96,14 @@ CubeLayout::CubeLayout(uint32_t resolution)
         mx_[idx] = float(m[0] / total);
         my_[idx] = float(m[1] / total);
         mz_[idx] = float(m[2] / total);
+        // All corners c are above the horizon of n when the angle between n
+        // and the mean direction is below 90 degrees minus the largest
+        // angle rho to a corner: n . m > |m| sin(rho), rounded up a hair.
+        const Imath::V3d mean = Imath::V3d(m[0], m[1], m[2]) / total;
+        double min_cos = 1.0;
+        for (int c = 0; c < 4; ++c) min_cos = std::min(min_cos, mean.normalized().dot(corner[c]));
+        const double sin_rho = std::sqrt(std::max(0.0, 1.0 - min_cos * min_cos));
+        margin_[idx] = float(mean.length() * sin_rho * 1.0001 + 1e-6);
       }
     }
   }

@@ -50,6 +50,10 @@ class CubeLayout {
   const float* mean_dir_x() const { return mx_.data(); }
   const float* mean_dir_y() const { return my_.data(); }
   const float* mean_dir_z() const { return mz_.data(); }
+  // A pixel lies wholly above the horizon of unit normal n when
+  // n . mean_dir(k) > horizon_margin(k) (|mean_dir| times the sine of the
+  // largest angle between the mean direction and a corner).
+  const float* horizon_margins() const { return margin_.data(); }
   // Exact solid angle of each pixel (steradians); they sum to 4 pi.
   const float* solid_angles() const { return omega_.data(); }
   float solid_angle(uint32_t k) const { return omega_[k]; }
@@ -79,7 +83,7 @@ class CubeLayout {
   uint32_t n_;
   float pixel_width_;
   float mean_omega_;
-  std::vector<float> dx_, dy_, dz_, mx_, my_, mz_, omega_;
+  std::vector<float> dx_, dy_, dz_, mx_, my_, mz_, omega_, margin_;
 };
 
 }  // namespace pbgi::gather

@@ -37,6 +37,11 @@
 // pi. Then E = sum over clusters of transmittance * sum weight * radiance,
 // and AO = 1 - sum transmittance * weight / pi.
 //
+// Factorized PBGI: resolve() can take a cluster's FarBuffer (far_field.h).
+// Its resolved content is composited per pixel at the depth where it
+// starts: near clusters in front of it attenuate it, and it attenuates
+// near clusters behind it by its own transmittance.
+//
 // Thread-safety: none; one per Gatherer. No allocation per receiver once
 // the fragment pool has grown to its working size.
 #pragma once
@@ -52,6 +57,8 @@
 #include <vector>
 
 namespace pbgi::gather {
+
+class FarBuffer;
 
 struct Resolved {
   Imath::C3f irradiance{0, 0, 0};
@@ -93,8 +100,9 @@ class Microbuffer {
     push(k, {depth, depth, -1.f, w, radiance.x * w, radiance.y * w, radiance.z * w});
   }
 
-  // Resolves visibility (rule above) and convolves with the cosine lobe.
-  Resolved resolve(float ao_max_distance);
+  // Resolves visibility (rule above) and convolves with the cosine lobe,
+  // with the resolved far content of `far` if given.
+  Resolved resolve(float ao_max_distance, const FarBuffer* far = nullptr);
 
   size_t fragment_count() const { return fragments_.size(); }
   size_t touched_pixel_count() const { return touched_.size(); }
@@ -139,6 +147,7 @@ class Microbuffer {
   float grow_;  // 1 + band_
   Imath::V3f normal_{0, 0, 1};
   std::vector<float> weight_;
+  std::vector<float> cos_;  // n . mean direction, unnormalized
   // A pixel's list is valid only when its stamp equals the generation, so
   // starting a receiver does not touch every pixel.
   std::vector<uint32_t> stamp_;

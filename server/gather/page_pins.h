@@ -7,6 +7,9 @@
 // stack (a few dozen) instead of every page the receiver touched (hundreds
 // for a 200k-surfel tree).
 //
+// Each page entering a traversal also gets its PageView (page_views.h),
+// the compact node data the traversal's hot loop reads.
+//
 // Slots live in an append-only array (their numbers stay valid while the
 // receiver runs); an open-addressing hash index (linear probing,
 // power-of-two size) maps page ids to slots. Nothing allocates per
@@ -14,6 +17,7 @@
 // Thread-safety: none; one per Gatherer.
 #pragma once
 
+#include "server/gather/page_views.h"
 #include "storage/format/errors.h"
 #include "storage/tree/node.h"
 
@@ -25,12 +29,14 @@ namespace pbgi::gather {
 
 class PagePins {
  public:
-  explicit PagePins(const tree::TreeSource& tree) : tree_(tree), index_(64, kNone) {}
+  PagePins(const tree::TreeSource& tree, PageViews& views)
+      : tree_(tree), views_(views), index_(64, kNone) {}
 
   // Adds a reference to page `id`, fetching it if it is not pinned. Returns
-  // the slot to pass to release(); `page` receives the page. Throws what the
-  // TreeSource throws, or CorruptionError if it returns no or another page.
-  uint32_t acquire(uint32_t id, const tree::Page*& page) {
+  // the slot to pass to release(); `page` receives the page and `view` its
+  // traversal view. Throws what the TreeSource throws, CorruptionError if
+  // it returns no or another page, or if the view finds broken links.
+  uint32_t acquire(uint32_t id, const tree::Page*& page, const PageView*& view) {
     const uint32_t s = slot_of(id);
     Slot& slot = slots_[s];
     if (!slot.page) {
@@ -42,21 +48,28 @@ class PagePins {
         throw CorruptionError("tree page " + std::to_string(id) + ": source returned page " +
                               std::to_string(p->id));
       }
+      slot.view = &views_.get(*p);
       slot.page = std::move(p);
       ++pinned_;
     }
     ++slot.refs;
     page = slot.page.get();
+    view = slot.view;
     return s;
   }
+
+  // The page and view of a pinned slot.
+  const tree::Page& page(uint32_t s) const { return *slots_[s].page; }
+  const PageView& view(uint32_t s) const { return *slots_[s].view; }
 
   // Adds a reference to a pinned slot.
   void retain(uint32_t s) { ++slots_[s].refs; }
 
-  // Drops a reference; the page is unpinned with its last one.
+  // Drops a reference; the page is unpinned with its last one (unless
+  // holding).
   void release(uint32_t s) {
     Slot& slot = slots_[s];
-    if (--slot.refs == 0) {
+    if (--slot.refs == 0 && !hold_) {
       slot.page.reset();
       --pinned_;
     }
@@ -69,6 +82,10 @@ class PagePins {
     slots_.clear();
     pinned_ = 0;
   }
+
+  // While holding, pages stay pinned until clear() even without references:
+  // a factorized cluster revisits the same pages for each of its receivers.
+  void set_hold(bool hold) { hold_ = hold; }
 
   // Pages pinned right now.
   size_t pinned() const { return pinned_; }
@@ -86,6 +103,7 @@ class PagePins {
     uint32_t refs = 0;
     uint32_t bucket = 0;  // its position in index_
     tree::PagePtr page;   // null when released
+    const PageView* view = nullptr;
   };
   static size_t hash(uint32_t id) { return size_t(id) * 0x9E3779B1u; }
 
@@ -103,7 +121,7 @@ class PagePins {
       while (index_[b] != kNone) b = (b + 1) & mask;
     }
     const uint32_t s = uint32_t(slots_.size());
-    slots_.push_back({id, 0, uint32_t(b), nullptr});
+    slots_.push_back({id, 0, uint32_t(b), nullptr, nullptr});
     index_[b] = s;
     return s;
   }
@@ -120,10 +138,12 @@ class PagePins {
   }
 
   const tree::TreeSource& tree_;
+  PageViews& views_;
   std::vector<Slot> slots_;
   std::vector<uint32_t> index_;
   size_t pinned_ = 0;
   uint64_t fetches_ = 0;
+  bool hold_ = false;
 };
 
 }  // namespace pbgi::gather

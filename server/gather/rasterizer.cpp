@@ -1,11 +1,16 @@
 #include "server/gather/rasterizer.h"
 
+#include "server/gather/far_field.h"
+
 #include <algorithm>
 #include <cmath>
 
 namespace pbgi::gather {
 
 namespace {
+
+constexpr float kInvPi = 0.31830989f;
+
 // CDF at x of a box of half width h convolved with itself: a tent of half
 // width 2h centered at 0, given inv = 1 / (2h). Branch-free: with
 // t = x / 2h + 1 clamped to [0, 2], s = min(t, 1) and e = max(t - 1, 0),
@@ -15,63 +20,119 @@ inline float tent_cdf(float x, float inv) {
   const float s = std::min(t, 1.f), e = std::max(t - 1.f, 0.f);
   return 0.5f * s * s + e - 0.5f * e * e;
 }
+
+// Components of a vector in the frame of cube face axis k (0..2): w along
+// the axis (before its sign), u and v across (see cube_layout.h).
+inline void axis_coords(int k, const Imath::V3f& d, float& u, float& v, float& w) {
+  switch (k) {
+    case 0: u = d.y; v = d.z; w = d.x; return;
+    case 1: u = d.z; v = d.x; w = d.y; return;
+    default: u = d.x; v = d.y; w = d.z; return;
+  }
+}
+
+// Tent masses of the columns [i0, i1] over the support [s0, s1] (clipped to
+// the face) of a tent centered at c, and the centers of their covered parts.
+// Returns false when the clipped support is empty.
+inline bool tent_masses(float c, float s0, float s1, float inv, float pw, uint32_t n,
+                        uint32_t& i0, uint32_t& i1, float* mass, float* mid) {
+  const float a0 = std::max(-1.f, s0), b1 = std::min(1.f, s1);
+  if (!(a0 < b1)) return false;
+  const float inv_pw = 1.f / pw;
+  i0 = std::min(n - 1, uint32_t((a0 + 1.f) * inv_pw));
+  i1 = std::min(n - 1, uint32_t((b1 + 1.f) * inv_pw));
+  // The CDF is 0 at s0 and 1 at s1: only clipped ends and inner column
+  // edges need evaluating.
+  float prev = a0 > s0 ? tent_cdf(a0 - c, inv) : 0.f;
+  float lo = a0;
+  for (uint32_t i = i0; i <= i1; ++i) {
+    const float edge = -1.f + pw * float(i + 1);
+    const bool last = i == i1;
+    const float hi = last ? b1 : edge;
+    const float cdf = last ? (b1 < s1 ? tent_cdf(b1 - c, inv) : 1.f) : tent_cdf(edge - c, inv);
+    mass[i - i0] = cdf - prev;
+    mid[i - i0] = 0.5f * (lo + hi);
+    prev = cdf;
+    lo = hi;
+  }
+  return true;
+}
+
 }  // namespace
 
 Rasterizer::Rasterizer(Microbuffer& buffer) : buffer_(buffer), layout_(buffer.layout()) {
   candidates_.reserve(layout_.pixel_count());
 }
 
-void Rasterizer::splat(const Imath::V3f& dir, const Shape& shape, float depth,
-                       const Imath::C3f& radiance) {
+bool Rasterizer::footprint(const Imath::V3f& dir, const Shape& shape, bool clip_horizon,
+                           float& major, float& minor) {
   const float omega = shape.omega;
-  if (!(omega > 0.f) || !(depth > 0.f)) return;
   candidates_.clear();
   covered_ = 0.f;
+  weighted_ = 0.f;
+  clip_ = clip_horizon;
 
   // Semi-axes (radians): pi * major * minor = omega, minor = ratio * major,
   // and the major axis no longer than the node itself.
-  constexpr float kInvPi = 0.31830989f;
   const float ratio = std::clamp(shape.ratio, 1e-3f, 1.f);
-  const float major = std::min(std::sqrt(omega * kInvPi / ratio),
-                               std::max(shape.max_radius, std::sqrt(omega * kInvPi)));
-  const float minor = omega * kInvPi / major;
-  // Tangent frame: e2 along the squash direction, e1 across it.
-  Imath::V3f e2 = shape.squash - dir * dir.dot(shape.squash);
-  const float e2_len = e2.length();
-  if (ratio >= 1.f || !(e2_len > 1e-6f)) {
-    e2 = std::abs(dir.x) < 0.9f ? Imath::V3f(1, 0, 0) : Imath::V3f(0, 1, 0);
-    e2 = (e2 - dir * dir.dot(e2)).normalized();
-  } else {
-    e2 /= e2_len;
-  }
-  const Imath::V3f e1 = dir.cross(e2);
+  const float a2 = omega * kInvPi;  // major * minor
+  const float round_r = std::sqrt(a2);
+  major = ratio >= 1.f ? round_r : std::min(round_r / std::sqrt(ratio), std::max(shape.max_radius, round_r));
+  minor = a2 / major;
 
   // 1. Home face: the one the center projects onto (largest component).
   const float ax = std::abs(dir.x), ay = std::abs(dir.y), az = std::abs(dir.z);
   const int k = ax >= ay && ax >= az ? 0 : (ay >= az ? 1 : 2);
-  const int home = 2 * k + (dir[k] < 0.f ? 1 : 0);
   float cu, cv, cw;
-  CubeLayout::face_coords(home, dir, cu, cv, cw);
-  const float inv_w = 1.f / cw;
+  axis_coords(k, dir, cu, cv, cw);
+  const int home = 2 * k + (cw < 0.f ? 1 : 0);
+  const float inv_w = 1.f / std::abs(cw);
+  if (cw < 0.f) {
+    // Face coordinates of the odd face: w is negated, u and v are not.
+    cw = -cw;
+  }
   const float u = cu * inv_w, v = cv * inv_w;
-  // The ellipse's semi-axis vectors mapped to the face plane: a tangent
-  // displacement t moves (u, v) by ((t_u - u t_w) / w, (t_v - v t_w) / w).
-  float au, av, aw, bu, bv, bw;
-  CubeLayout::face_coords(home, e1, au, av, aw);
-  CubeLayout::face_coords(home, e2, bu, bv, bw);
-  const float p1u = major * (au - u * aw) * inv_w, p1v = major * (av - v * aw) * inv_w;
-  const float p2u = minor * (bu - u * bw) * inv_w, p2v = minor * (bv - v * bw) * inv_w;
-  // Rectangle of the ellipse's area with its bounding box's aspect.
-  const float box_u = std::sqrt(p1u * p1u + p2u * p2u);
-  const float box_v = std::sqrt(p1v * p1v + p2v * p2v);
-  const float ellipse_area = 3.14159265f * std::abs(p1u * p2v - p1v * p2u);
-  const float box_area = 4.f * box_u * box_v;
-  if (!(box_area > 0.f)) return;
-  const float shrink = std::sqrt(ellipse_area / box_area);
-  const float hu = box_u * shrink, hv = box_v * shrink;
+
+  // 2. The ellipse mapped to the face plane (linearized at its center). The
+  // gnomonic projection scales solid angle by q^(3/2), q = 1 + u^2 + v^2, so
+  // the ellipse's plane area is omega q^(3/2). Its bounding box: the
+  // tangent-plane gradient of u is (e_u - u e_w)/w, of squared length
+  // (1 + u^2) q, and the ellipse's extent along it is
+  // sqrt(major^2 |grad u|^2 - (major^2 - minor^2) (grad u . e2)^2) with e2
+  // the minor axis (along the squash direction).
+  const float q = 1.f + u * u + v * v;
+  const float M2 = major * major;
+  float bu2 = M2 * (1.f + u * u) * q, bv2 = M2 * (1.f + v * v) * q;
+  if (major > minor) {
+    Imath::V3f e2 = shape.squash - dir * dir.dot(shape.squash);
+    const float len2 = e2.length2();
+    float gu2, gv2;
+    if (len2 > 1e-12f) {
+      float su, sv, sw;
+      axis_coords(k, e2, su, sv, sw);
+      if (home & 1) sw = -sw;
+      const float inv_len = 1.f / std::sqrt(len2);
+      const float gu = (su - u * sw) * inv_w * inv_len, gv = (sv - v * sw) * inv_w * inv_len;
+      gu2 = gu * gu;
+      gv2 = gv * gv;
+    } else {
+      // No squash direction (seen face-on): any orientation; take the mean.
+      gu2 = 0.5f * (1.f + u * u) * q;
+      gv2 = 0.5f * (1.f + v * v) * q;
+    }
+    const float d2 = M2 - minor * minor;
+    bu2 = std::max(bu2 - d2 * gu2, 1e-3f * bu2);
+    bv2 = std::max(bv2 - d2 * gv2, 1e-3f * bv2);
+  }
+  // The axis-aligned rectangle of the ellipse's area and its box's aspect,
+  // half sizes hu, hv; the splat is that rectangle convolved with itself.
+  const float area = omega * q * std::sqrt(q);
+  const float hu = 0.5f * std::sqrt(area * std::sqrt(bu2 / bv2));
+  const float hv = 0.25f * area / hu;
+  if (!(hu > 0.f) || !(hv > 0.f) || !std::isfinite(hu * hv)) return false;
   deposit_tent(home, u, hu, v, hv);
 
-  // 2. Overflow across the home face's edges goes to the neighbouring face
+  // 3. Overflow across the home face's edges goes to the neighbouring face
   // sharing that edge. The overflow rectangle R (on the home face's plane,
   // the part of the tent's support beyond the edge) is mapped exactly,
   // corner by corner, onto the neighbour's plane; its bounding box B there
@@ -80,16 +141,30 @@ void Rasterizer::splat(const Imath::V3f& dir, const Shape& shape, float depth,
   // each lands on the one face it belongs to.
   const float su0 = u - 2.f * hu, su1 = u + 2.f * hu;
   const float sv0 = v - 2.f * hv, sv1 = v + 2.f * hv;
-  const float area = 4.f * hu * hv;  // the tent's total, in plane units
-  const int ku = (k + 1) % 3, kv = (k + 2) % 3;
-  const float iu = 0.5f / hu, iv = 0.5f / hv;
-  if (su1 > 1.f) overflow(home, 2 * ku, 1.f, su1, sv0, sv1, area * (1.f - tent_cdf(1.f - u, iu)));
-  if (su0 < -1.f) overflow(home, 2 * ku + 1, su0, -1.f, sv0, sv1, area * tent_cdf(-1.f - u, iu));
-  if (sv1 > 1.f) overflow(home, 2 * kv, su0, su1, 1.f, sv1, area * (1.f - tent_cdf(1.f - v, iv)));
-  if (sv0 < -1.f) overflow(home, 2 * kv + 1, su0, su1, sv0, -1.f, area * tent_cdf(-1.f - v, iv));
+  if (su0 < -1.f || su1 > 1.f || sv0 < -1.f || sv1 > 1.f) {
+    const float tent_area = 4.f * hu * hv;  // the tent's total, in plane units
+    const int ku = (k + 1) % 3, kv = (k + 2) % 3;
+    const float iu = 0.5f / hu, iv = 0.5f / hv;
+    if (su1 > 1.f)
+      overflow(home, 2 * ku, 1.f, su1, sv0, sv1, tent_area * (1.f - tent_cdf(1.f - u, iu)));
+    if (su0 < -1.f)
+      overflow(home, 2 * ku + 1, su0, -1.f, sv0, sv1, tent_area * tent_cdf(-1.f - u, iu));
+    if (sv1 > 1.f)
+      overflow(home, 2 * kv, su0, su1, 1.f, sv1, tent_area * (1.f - tent_cdf(1.f - v, iv)));
+    if (sv0 < -1.f)
+      overflow(home, 2 * kv + 1, su0, su1, sv0, -1.f, tent_area * tent_cdf(-1.f - v, iv));
+  }
+  return covered_ > 0.f && !candidates_.empty();
+}
 
-  // 3. Rescale so that the pieces add up to exactly the splat's solid angle.
-  if (!(covered_ > 0.f) || candidates_.empty()) return;
+void Rasterizer::splat(const Imath::V3f& dir, const Shape& shape, float depth,
+                       const Imath::C3f& radiance) {
+  const float omega = shape.omega;
+  if (!(omega > 0.f) || !(depth > 0.f)) return;
+  float major, minor;
+  if (!footprint(dir, shape, true, major, minor)) return;
+
+  // Rescale so that the pieces add up to exactly the splat's solid angle.
   const float* solid = layout_.solid_angles();
   const float scale = omega / covered_;
   // The tent blurs the splat, which lowers its cosine-weighted solid angle
@@ -99,16 +174,33 @@ void Rasterizer::splat(const Imath::V3f& dir, const Shape& shape, float depth,
   const float cos_center = buffer_.normal().dot(dir);
   const float reach = std::min(1.f, 3.f * major);
   float weight_scale = scale;
-  if (cos_center > reach) {
-    float weight = 0.f;
-    for (const Candidate& c : candidates_) weight += c.fraction * solid[c.pixel] * c.cosine;
+  if (cos_center > reach && weighted_ > 0.f) {
     const float rho2 = major * minor;
     const float target = omega * cos_center * (1.f - 0.25f * rho2);  // (1 + cos rho) / 2
-    if (weight > 0.f) weight_scale = target / weight;
+    weight_scale = target / weighted_;
   }
   for (const Candidate& c : candidates_) {
     buffer_.add_coverage(c.pixel, depth, c.fraction * scale,
                          c.fraction * weight_scale * solid[c.pixel] * c.cosine, radiance);
+  }
+}
+
+void Rasterizer::splat_far(FarBuffer& far, const Imath::V3f& dir, const Shape& shape, float depth,
+                           const Imath::C3f& radiance) {
+  const float omega = shape.omega;
+  if (!(omega > 0.f) || !(depth > 0.f)) return;
+  float major, minor;
+  if (!footprint(dir, shape, false, major, minor)) return;
+  const float* solid = layout_.solid_angles();
+  const float scale = omega / covered_;
+  // Every piece carries the splat's exact first moment per unit solid
+  // angle, (1 + cos rho)/2 dir, so that a receiver of normal n weights it
+  // with the cap's exact cosine integral (see far_field.h).
+  const float rho2 = major * minor;
+  const Imath::V3f moment = dir * (1.f - 0.25f * rho2);
+  for (const Candidate& c : candidates_) {
+    const float alpha = c.fraction * scale;
+    far.add(c.pixel, depth, alpha, alpha * solid[c.pixel], moment, radiance);
   }
 }
 
@@ -146,49 +238,49 @@ void Rasterizer::overflow(int home, int face, float u0, float u1, float v0, floa
 }
 
 void Rasterizer::deposit_tent(int face, float uc, float hu, float vc, float hv) {
-  const float u0 = std::max(-1.f, uc - 2.f * hu), u1 = std::min(1.f, uc + 2.f * hu);
-  const float v0 = std::max(-1.f, vc - 2.f * hv), v1 = std::min(1.f, vc + 2.f * hv);
-  if (u0 >= u1 || v0 >= v1) return;
   const uint32_t n = layout_.resolution();
   const float pw = layout_.pixel_width();
-  const float inv_pw = 1.f / pw;
-  // Plane area of the whole tent over one pixel's.
-  const float scale = 4.f * hu * hv * inv_pw * inv_pw;
-  const float* solid = layout_.solid_angles();
-  float nu, nv, nw;
-  CubeLayout::face_coords(face, buffer_.normal(), nu, nv, nw);
-  const uint32_t i0 = std::min(n - 1, uint32_t((u0 + 1.f) * inv_pw));
-  const uint32_t i1 = std::min(n - 1, uint32_t((u1 + 1.f) * inv_pw));
-  const uint32_t j0 = std::min(n - 1, uint32_t((v0 + 1.f) * inv_pw));
-  const uint32_t j1 = std::min(n - 1, uint32_t((v1 + 1.f) * inv_pw));
   // The tent is separable: its mass over a pixel is the product of the
   // masses of the pixel's column and row.
-  const float inv_u = 0.5f / hu, inv_v = 0.5f / hv;
+  uint32_t i0, i1, j0, j1;
   float mass_u[CubeLayout::kMaxResolution], mid_u[CubeLayout::kMaxResolution];
-  for (uint32_t i = i0; i <= i1; ++i) {
-    const float lo = -1.f + pw * float(i);
-    const float a = std::max(u0, lo), b = std::min(u1, lo + pw);
-    mass_u[i] = b > a ? tent_cdf(b - uc, inv_u) - tent_cdf(a - uc, inv_u) : 0.f;
-    mid_u[i] = 0.5f * (a + b);
+  float mass_v[CubeLayout::kMaxResolution], mid_v[CubeLayout::kMaxResolution];
+  if (!tent_masses(uc, uc - 2.f * hu, uc + 2.f * hu, 0.5f / hu, pw, n, i0, i1, mass_u, mid_u) ||
+      !tent_masses(vc, vc - 2.f * hv, vc + 2.f * hv, 0.5f / hv, pw, n, j0, j1, mass_v, mid_v)) {
+    return;
   }
+  // Plane area of the whole tent over one pixel's.
+  const float inv_pw = 1.f / pw;
+  const float scale = 4.f * hu * hv * inv_pw * inv_pw;
+  const float* solid = layout_.solid_angles();
+  // The receiver's normal in face coordinates: the cosine at plane point
+  // (u, v) is (nu u + nv v + nw) / sqrt(1 + u^2 + v^2).
+  float nu = 0.f, nv = 0.f, nw = 1.f;
+  if (clip_) CubeLayout::face_coords(face, buffer_.normal(), nu, nv, nw);
   for (uint32_t j = j0; j <= j1; ++j) {
-    const float lo_v = -1.f + pw * float(j);
-    const float a_v = std::max(v0, lo_v), b_v = std::min(v1, lo_v + pw);
-    if (b_v <= a_v) continue;
-    const float mass_v = (tent_cdf(b_v - vc, inv_v) - tent_cdf(a_v - vc, inv_v)) * scale;
-    const float mid_v = 0.5f * (a_v + b_v);
-    const float row_cos = nv * mid_v + nw, row_len = 1.f + mid_v * mid_v;
+    const float mv = mass_v[j - j0] * scale;
+    if (!(mv > 0.f)) continue;
+    const float m_v = mid_v[j - j0];
+    const float row_cos = nv * m_v + nw, row_len = 1.f + m_v * m_v;
     const uint32_t row = layout_.index(face, 0, j);
     for (uint32_t i = i0; i <= i1; ++i) {
-      const float fraction = mass_u[i] * mass_v;
+      const float fraction = mass_u[i - i0] * mv;
       if (!(fraction > 0.f)) continue;
       const uint32_t k = row + i;
-      covered_ += fraction * solid[k];
+      const float f_solid = fraction * solid[k];
+      covered_ += f_solid;
+      if (!clip_) {
+        candidates_.push_back({k, fraction, 1.f});
+        continue;
+      }
       // Parts below the horizon count in `covered_` (that share of the
       // splat is lost to the receiver) but get no fragment.
-      const float m = mid_u[i];
+      const float m = mid_u[i - i0];
       const float cosine = (nu * m + row_cos) / std::sqrt(row_len + m * m);
-      if (cosine > 0.f) candidates_.push_back({k, fraction, cosine});
+      if (cosine > 0.f) {
+        candidates_.push_back({k, fraction, cosine});
+        weighted_ += f_solid * cosine;
+      }
     }
   }
 }
@@ -204,10 +296,8 @@ void Rasterizer::deposit(int face, float u0, float u1, float v0, float v1, float
   const float inv_pw = 1.f / pw;
   const float scale = density * inv_pw * inv_pw;
   const float* solid = layout_.solid_angles();
-  // The receiver's normal in face coordinates: the cosine at plane point
-  // (u, v) is (nu u + nv v + nw) / sqrt(1 + u^2 + v^2).
-  float nu, nv, nw;
-  CubeLayout::face_coords(face, buffer_.normal(), nu, nv, nw);
+  float nu = 0.f, nv = 0.f, nw = 1.f;
+  if (clip_) CubeLayout::face_coords(face, buffer_.normal(), nu, nv, nw);
   const uint32_t i0 = std::min(n - 1, uint32_t((u0 + 1.f) * inv_pw));
   const uint32_t i1 = std::min(n - 1, uint32_t((u1 + 1.f) * inv_pw));
   const uint32_t j0 = std::min(n - 1, uint32_t((v0 + 1.f) * inv_pw));
@@ -224,13 +314,19 @@ void Rasterizer::deposit(int face, float u0, float u1, float v0, float v1, float
       if (b_u <= a_u) continue;
       const uint32_t k = row + i;
       const float fraction = (b_u - a_u) * (b_v - a_v) * scale;
-      covered_ += fraction * solid[k];
-      // Parts below the horizon count in `covered_` (that share of the
-      // splat is lost to the receiver) but get no fragment.
+      const float f_solid = fraction * solid[k];
+      covered_ += f_solid;
+      if (!clip_) {
+        candidates_.push_back({k, fraction, 1.f});
+        continue;
+      }
       const float mid_u = 0.5f * (a_u + b_u);
       const float cosine =
           (nu * mid_u + nv * mid_v + nw) / std::sqrt(1.f + mid_u * mid_u + mid_v * mid_v);
-      if (cosine > 0.f) candidates_.push_back({k, fraction, cosine});
+      if (cosine > 0.f) {
+        candidates_.push_back({k, fraction, cosine});
+        weighted_ += f_solid * cosine;
+      }
     }
   }
 }

@@ -15,6 +15,15 @@
 //    the center direction of every pixel its bounding cone may cover; each
 //    hit is a fragment of coverage 1 at the hit distance.
 //
+// The footprint of a splat (steps 1 and 2 above) is shared by two outputs:
+// splat() writes fragments weighted with the receiver's cosine into the
+// receiver's microbuffer; splat_far() writes receiver-independent fragments
+// (solid angle and direction moment) into a cluster's FarBuffer (FPBGI).
+//
+// Cost (N = 8, measured with callgrind on bench_gather): about 300
+// instructions per splat plus the fragment insertions; a sub-pixel splat
+// touches the 2 x 2 pixels it straddles.
+//
 // Thread-safety: none; one per Gatherer.
 #pragma once
 
@@ -28,6 +37,8 @@
 #include <vector>
 
 namespace pbgi::gather {
+
+class FarBuffer;
 
 class Rasterizer {
  public:
@@ -47,6 +58,10 @@ class Rasterizer {
   // Splat centered on unit direction `dir`, at distance `depth`, showing
   // `radiance`.
   void splat(const Imath::V3f& dir, const Shape& shape, float depth, const Imath::C3f& radiance);
+  // The same splat into a cluster's far buffer, with no horizon: the
+  // receivers sharing it weight it with their own normals.
+  void splat_far(FarBuffer& far, const Imath::V3f& dir, const Shape& shape, float depth,
+                 const Imath::C3f& radiance);
 
   // Disk of `radius` centered at `offset` (relative to the receiver) with
   // unit `normal`, seen from its front side. Returns the pixels it covers.
@@ -60,6 +75,11 @@ class Rasterizer {
     float cosine;    // receiver cosine at the center of the covered part
   };
 
+  // Fills candidates_ with the splat's pixels; clip_horizon drops those
+  // below the receiver's horizon and computes their cosines. Returns the
+  // ellipse's semi-axes (radians). False when nothing is covered.
+  bool footprint(const Imath::V3f& dir, const Shape& shape, bool clip_horizon, float& major,
+                 float& minor);
   // Box-filters, on `face`, the tent of the rectangle of half sizes hu, hv
   // centered at (uc, vc) (clipped to the face) into candidates.
   void deposit_tent(int face, float uc, float hu, float vc, float hv);
@@ -74,7 +94,9 @@ class Rasterizer {
   Microbuffer& buffer_;
   const CubeLayout& layout_;
   std::vector<Candidate> candidates_;
-  float covered_ = 0.f;  // solid angle of the candidates, before rescaling
+  float covered_ = 0.f;   // solid angle of the candidates, before rescaling
+  float weighted_ = 0.f;  // their cosine-weighted solid angle (clip_ only)
+  bool clip_ = true;      // footprint for a receiver (horizon, cosines)
 };
 
 }  // namespace pbgi::gather

@@ -41,7 +41,7 @@ def _prototype_gprims(root, time, stream):
             continue
         imageable = UsdGeom.Imageable(prim)
         if imageable.GetVisibilityAttr().Get(time) == UsdGeom.Tokens.invisible or \
-                imageable.GetPurposeAttr().Get(time) in (UsdGeom.Tokens.proxy, UsdGeom.Tokens.guide):
+                imageable.GetPurposeAttr().Get() not in ("default", "render"):
             prims.PruneChildren()
             continue
         path = str(prim.GetPath())

@@ -234,8 +234,7 @@ class SceneReader:
         imageable = UsdGeom.Imageable(prim)
         if imageable.GetVisibilityAttr().Get(self.time) == UsdGeom.Tokens.invisible:
             return "prune"
-        if imageable.GetPurposeAttr().Get(self.time) in (UsdGeom.Tokens.proxy,
-                                                          UsdGeom.Tokens.guide):
+        if not render_purpose(imageable, self.stream):
             return "prune"
 
         path = str(prim.GetPath())
@@ -279,6 +278,26 @@ class SceneReader:
             self.stream.diagnostic(WARNING, path, "skinning is not applied: meshes below are "
                                    "read in their rest pose", kind=type_name)
         return None
+
+
+_RENDERED_PURPOSES = ("default", "render")
+_KNOWN_PURPOSES = ("default", "render", "proxy", "guide")
+
+
+def render_purpose(imageable, stream):
+    """True if the prim's computed purpose is default or render (what a
+    final-frame renderer draws). The local value decides in the common case;
+    any other value asks ComputePurpose, since an ancestor's authored
+    purpose wins over the prim's own. Unknown tokens are not rendered (as
+    Hydra and UsdGeom.BBoxCache do), with a WARNING."""
+    local = imageable.GetPurposeAttr().Get()
+    if local in _RENDERED_PURPOSES:
+        return True
+    computed = imageable.ComputePurpose()
+    if computed not in _KNOWN_PURPOSES:
+        stream.diagnostic(WARNING, str(imageable.GetPath()), f"unknown purpose '{computed}': not "
+                          "a render purpose, skipped", kind="purpose")
+    return computed in _RENDERED_PURPOSES
 
 
 def _write_header(stage, path, time, stream):

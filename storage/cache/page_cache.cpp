@@ -2,6 +2,7 @@
 
 #include "storage/format/errors.h"
 
+#include <algorithm>
 #include <future>
 #include <list>
 #include <mutex>
@@ -28,15 +29,25 @@ struct KeyHash {
 struct Entry {
   tree::PagePtr page;
   uint64_t bytes = 0;
-  std::list<Key>::iterator lru;
+  bool hot = false;                 // in `hot` (LRU), else in `fresh` (FIFO)
+  std::list<Key>::iterator pos;
 };
+
+// Ghosts remembered: enough to recognise a page coming back after every
+// page of a long scan went through, at a few dozen bytes each.
+constexpr size_t kMinGhosts = 1024;
+constexpr size_t kGhostsPerHeldPage = 8;
 
 }  // namespace
 
 struct PageCache::Impl {
   const uint64_t budget;
   mutable std::mutex mu;
-  std::list<Key> lru;  // front: most recently used
+  std::list<Key> fresh;  // first-time pages, front = newest (FIFO)
+  std::list<Key> hot;    // pages loaded again, front = most recently used (LRU)
+  std::list<Key> ghosts; // keys evicted from `fresh`, front = newest
+  std::unordered_map<Key, std::list<Key>::iterator, KeyHash> ghost_index;
+  uint64_t fresh_bytes = 0;
   std::unordered_map<Key, Entry, KeyHash> held;
   std::unordered_map<Key, std::shared_future<tree::PagePtr>, KeyHash> loading;
   CacheCounters counters;
@@ -44,21 +55,45 @@ struct PageCache::Impl {
 
   explicit Impl(uint64_t b) : budget(b) {}
 
-  // Requires mu. Holds `page` if it fits the budget, evicting LRU pages.
-  void hold(const Key& key, const tree::PagePtr& page) {
+  // Requires mu.
+  void remember_ghost(const Key& key) {
+    ghosts.push_front(key);
+    ghost_index[key] = ghosts.begin();
+    const size_t cap = std::max(kMinGhosts, kGhostsPerHeldPage * held.size());
+    while (ghosts.size() > cap) {
+      ghost_index.erase(ghosts.back());
+      ghosts.pop_back();
+    }
+  }
+
+  // Requires mu. Drops one page: from the new pages while they hold more
+  // than a quarter of the budget (or nothing is hot), else the least
+  // recently used hot page.
+  void evict_one() {
+    const bool from_fresh = !fresh.empty() && (fresh_bytes > budget / 4 || hot.empty());
+    std::list<Key>& list = from_fresh ? fresh : hot;
+    const Key victim = list.back();
+    list.pop_back();
+    auto it = held.find(victim);
+    counters.bytes_held -= it->second.bytes;
+    if (from_fresh) {
+      fresh_bytes -= it->second.bytes;
+      remember_ghost(victim);
+    }
+    held.erase(it);
+    ++counters.evictions;
+  }
+
+  // Requires mu. Holds `page` if it fits the budget.
+  void hold(const Key& key, const tree::PagePtr& page, bool was_ghost) {
     const uint64_t bytes = page->memory_bytes();
     if (bytes > budget || held.count(key)) return;
-    while (counters.bytes_held + bytes > budget) {
-      const Key victim = lru.back();
-      auto it = held.find(victim);
-      counters.bytes_held -= it->second.bytes;
-      held.erase(it);
-      lru.pop_back();
-      ++counters.evictions;
-    }
-    lru.push_front(key);
-    held.emplace(key, Entry{page, bytes, lru.begin()});
+    while (counters.bytes_held + bytes > budget) evict_one();
+    std::list<Key>& list = was_ghost ? hot : fresh;
+    list.push_front(key);
+    held.emplace(key, Entry{page, bytes, was_ghost, list.begin()});
     counters.bytes_held += bytes;
+    if (!was_ghost) fresh_bytes += bytes;
   }
 };
 
@@ -69,11 +104,12 @@ tree::PagePtr PageCache::get(uint64_t owner, uint32_t page_id,
                              const std::function<tree::PagePtr()>& load) {
   const Key key{owner, page_id};
   std::promise<tree::PagePtr> promise;
+  bool was_ghost = false;
   {
     std::unique_lock lock(impl_->mu);
     if (auto it = impl_->held.find(key); it != impl_->held.end()) {
       ++impl_->counters.hits;
-      impl_->lru.splice(impl_->lru.begin(), impl_->lru, it->second.lru);
+      if (it->second.hot) impl_->hot.splice(impl_->hot.begin(), impl_->hot, it->second.pos);
       return it->second.page;
     }
     if (auto it = impl_->loading.find(key); it != impl_->loading.end()) {
@@ -83,6 +119,11 @@ tree::PagePtr PageCache::get(uint64_t owner, uint32_t page_id,
       return pending.get();
     }
     ++impl_->counters.misses;
+    if (auto g = impl_->ghost_index.find(key); g != impl_->ghost_index.end()) {
+      was_ghost = true;
+      impl_->ghosts.erase(g->second);
+      impl_->ghost_index.erase(g);
+    }
     impl_->loading.emplace(key, promise.get_future().share());
   }
 
@@ -102,7 +143,7 @@ tree::PagePtr PageCache::get(uint64_t owner, uint32_t page_id,
   {
     std::lock_guard lock(impl_->mu);
     impl_->loading.erase(key);
-    impl_->hold(key, page);
+    impl_->hold(key, page, was_ghost);
   }
   promise.set_value(page);
   return page;
@@ -127,8 +168,21 @@ void PageCache::forget(uint64_t owner) {
   for (auto it = impl_->held.begin(); it != impl_->held.end();) {
     if (it->first.owner == owner) {
       impl_->counters.bytes_held -= it->second.bytes;
-      impl_->lru.erase(it->second.lru);
+      if (it->second.hot) {
+        impl_->hot.erase(it->second.pos);
+      } else {
+        impl_->fresh_bytes -= it->second.bytes;
+        impl_->fresh.erase(it->second.pos);
+      }
       it = impl_->held.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  for (auto it = impl_->ghosts.begin(); it != impl_->ghosts.end();) {
+    if (it->owner == owner) {
+      impl_->ghost_index.erase(*it);
+      it = impl_->ghosts.erase(it);
     } else {
       ++it;
     }

@@ -2,12 +2,20 @@
 // the daemon. Thread-safe. Pages in use by a gather stay alive through their
 // shared_ptr even if evicted, so the budget bounds the cache's own holdings.
 //
-// Policy: one LRU list under one mutex; the critical section is a hash
-// lookup and a list splice, never I/O or decoding. The bytes of a page are
-// Page::memory_bytes(); the cache never holds more than budget() bytes (a
-// page larger than the budget is returned but not held; budget 0 holds
-// nothing). Concurrent misses of one page call `load` once: the other
-// callers wait for that load and share its result (or its exception).
+// Policy: 2Q (Johnson & Shasha 1994), scan-resistant. A page loaded for the
+// first time enters a FIFO of new pages; evicted from there, its key is
+// remembered in a ghost list (no data). A page loaded again while its ghost
+// is remembered is hot: it enters an LRU list of hot pages. Eviction takes
+// from the new pages while they hold more than a quarter of the budget,
+// else from the hot pages. So the pages every gather needs (the top of the
+// tree) survive the stream of pages each gather needs once, where a plain
+// LRU under a working set larger than the budget keeps nothing useful.
+// One mutex; the critical section is hash lookups and list splices, never
+// I/O or decoding. The bytes of a page are Page::memory_bytes(); the cache
+// never holds more than budget() bytes (a page larger than the budget is
+// returned but not held; budget 0 holds nothing). Concurrent misses of one
+// page call `load` once: the other callers wait for that load and share its
+// result (or its exception).
 //
 // Counters: hits (served without calling load, including waiting on another
 // caller's load), misses (calls of load), evictions (pages dropped to stay

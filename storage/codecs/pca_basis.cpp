@@ -53,8 +53,9 @@ void symmetric_eigen(std::vector<double>& a, size_t n, std::vector<double>& valu
   for (size_t i = 0; i < n; ++i) values[i] = A(i, i);
 }
 
-PcaBasis::PcaBasis(size_t dims) : dims_(dims), mean_(dims, 0.f), axes_(dims * dims, 0.f), variances_(dims, 0.0) {
-  for (size_t i = 0; i < dims; ++i) axes_[i * dims + i] = 1.f;
+PcaBasis::PcaBasis(size_t dims)
+    : dims_(dims), mean_(dims, 0.f), axes_(dims * dims, 0.f), columns_(dims * dims, 0.f), variances_(dims, 0.0) {
+  for (size_t i = 0; i < dims; ++i) axes_[i * dims + i] = columns_[i * dims + i] = 1.f;
 }
 
 PcaBasis PcaBasis::fit(std::span<const float> vectors, size_t dims) {
@@ -96,23 +97,17 @@ PcaBasis PcaBasis::fit(std::span<const float> vectors, size_t dims) {
     for (size_t i = 0; i < dims; ++i) b.axes_[k * dims + i] = float(sign * axis[i]);
     b.variances_[k] = std::max(0.0, values[order[k]]);
   }
+  for (size_t k = 0; k < dims; ++k)
+    for (size_t i = 0; i < dims; ++i) b.columns_[i * dims + k] = b.axes_[k * dims + i];
   return b;
 }
 
 void PcaBasis::rotate(const float* x, float* out) const {
-  float centred[64];
-  std::vector<float> heap;
-  float* c = centred;
-  if (dims_ > 64) {
-    heap.resize(dims_);
-    c = heap.data();
-  }
-  for (size_t i = 0; i < dims_; ++i) c[i] = x[i] - mean_[i];
-  for (size_t k = 0; k < dims_; ++k) {
-    const float* a = &axes_[k * dims_];
-    float s = 0.f;
-    for (size_t i = 0; i < dims_; ++i) s += a[i] * c[i];
-    out[k] = s;
+  for (size_t k = 0; k < dims_; ++k) out[k] = 0.f;
+  for (size_t i = 0; i < dims_; ++i) {
+    const float c = x[i] - mean_[i];
+    const float* col = &columns_[i * dims_];
+    for (size_t k = 0; k < dims_; ++k) out[k] += col[k] * c;
   }
 }
 

@@ -40,6 +40,10 @@ class PcaBasis {
   size_t dims_;
   std::vector<float> mean_;
   std::vector<float> axes_;  // row k = axis k
+  // axes_ transposed (column i = component i of every axis): rotate() sums
+  // columns into the output lanes, a loop compilers vectorize without
+  // reassociating float sums.
+  std::vector<float> columns_;
   std::vector<double> variances_;
 };
 

@@ -161,7 +161,8 @@ ShLutTraining train_sh_lut(std::span<const tree::Node> nodes, const ShLutOptions
 std::vector<Surfel> sample_surfels(std::span<const Surfel> surfels, const ShLutOptions& options, uint64_t seed) {
   const uint64_t n = surfels.size();
   const uint64_t want = std::min<uint64_t>(
-      n, std::max<uint64_t>(options.min_sample_surfels, uint64_t(std::ceil(options.sample_fraction * double(n)))));
+      n, std::max({options.min_sample_surfels, uint64_t(options.min_surfels_per_entry) * options.entries,
+                   uint64_t(std::ceil(options.sample_fraction * double(n)))}));
   std::vector<Surfel> out;
   out.reserve(want);
   if (want == n) {

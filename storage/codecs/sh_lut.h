@@ -43,10 +43,11 @@ inline constexpr uint32_t kShLutMagic = fourcc("PBGL");
 inline constexpr uint32_t kShLutFormatV1 = 1;
 
 struct ShLutOptions {
-  static constexpr uint32_t kMinEntries = 1u << 7;
+  static constexpr uint32_t kMinEntries = 64;
   static constexpr uint32_t kMaxEntries = 1u << 16;
 
-  // LUT size l (128 .. 65536). Indices take ceil(log2 l) bits. A sample with
+  // LUT size l (64 .. 65536; 2^7 .. 2^16 are the design range, the paper
+  // uses 100 / 1000 / 10000). Indices take ceil(log2 l) bits. A sample with
   // fewer distinct vectors yields a smaller table.
   uint32_t entries = 4096;
   // Bits of the log-coded scale (6 .. 16); 12 bits over 40 octaves give a
@@ -68,6 +69,10 @@ struct ShLutOptions {
   // At least this many surfels are sampled (or all of them), so small
   // scenes still learn a LUT from enough nodes.
   uint64_t min_sample_surfels = 20000;
+  // And at least this many per LUT entry, so large tables get enough
+  // distinct nodes to place their centres (k-means needs several points
+  // per cluster; a sample tree has about 2 / leaf_size nodes per surfel).
+  uint32_t min_surfels_per_entry = 16;
   KMeansOptions kmeans{};  // clusters is overridden by `entries`
 
   void validate() const;  // throws InvalidArgument naming the field
@@ -115,7 +120,8 @@ struct ShLutTraining {
 ShLutTraining train_sh_lut(std::span<const tree::Node> sample_nodes, const ShLutOptions& options);
 
 // The random subset of `surfels` to build the sample tree over:
-// max(min_sample_surfels, sample_fraction * size) surfels (all if fewer),
+// max(min_sample_surfels, min_surfels_per_entry * entries,
+//     sample_fraction * size) surfels (all if fewer),
 // chosen uniformly without replacement, deterministic for a seed.
 std::vector<Surfel> sample_surfels(std::span<const Surfel> surfels, const ShLutOptions& options,
                                    uint64_t seed = 1);

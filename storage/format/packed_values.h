@@ -21,6 +21,7 @@
 #include <Imath/ImathVec.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 
@@ -58,8 +59,9 @@ inline uint32_t encode_rgb9e5(const Imath::C3f& c) {
 }
 
 inline Imath::C3f decode_rgb9e5(uint32_t v) {
+  // 2^(exp - 24), exp in [0, 31]: always a normal float, built from its bits.
   const int exp = int(v >> 27);
-  const float scale = std::ldexp(1.f, exp - kRgb9e5ExponentBias - kRgb9e5MantissaBits);
+  const float scale = std::bit_cast<float>(uint32_t(exp - kRgb9e5ExponentBias - kRgb9e5MantissaBits + 127) << 23);
   return {float(v & 511u) * scale, float((v >> 9) & 511u) * scale, float((v >> 18) & 511u) * scale};
 }
 

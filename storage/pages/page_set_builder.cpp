@@ -15,6 +15,7 @@
 #include "storage/tree/tree_builder.h"
 
 #include <chrono>
+#include <cstdlib>
 #include <limits>
 #include <optional>
 
@@ -24,10 +25,12 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// Pages start at multiples of this in pages.pbgp (zero padding between):
-// a page then spans the fewest filesystem blocks, and a later reader may
-// use O_DIRECT. Readers take offsets from the page table, not from this.
-constexpr uint64_t kPageAlignment = 4096;
+// Pages start at multiples of this in pages.pbgp (zero padding between).
+// Readers take offsets from the page table, not from this.
+const uint64_t kPageAlignment = [] {
+  const char* e = std::getenv("PBGI_PAGE_ALIGN");  // EXPERIMENT
+  return e ? uint64_t(std::atoi(e)) : uint64_t(4096);
+}();
 // Pages are written through a buffer of about this size.
 constexpr size_t kWriteBufferBytes = size_t(4) << 20;
 constexpr size_t kMaxBuildKeyBytes = 4096;

@@ -11,16 +11,17 @@ void PayloadAccumulator::add(double weight, const float* values) {
 }
 
 void PayloadAccumulator::add_surfel(const Surfel& s) {
+  // Same products as add(a, {L.x * lobe, L.y * lobe, L.z * lobe, lobe}),
+  // written out so that the compiler keeps them in registers.
   const double a = s.area();
   const sh::Sh9 lobe = sh::clamped_cosine(s.normal);
-  float v[kWidth];
+  const float r = s.radiance.x, g = s.radiance.y, b = s.radiance.z;
   for (int i = 0; i < K; ++i) {
-    v[i] = s.radiance.x * lobe[i];
-    v[K + i] = s.radiance.y * lobe[i];
-    v[2 * K + i] = s.radiance.z * lobe[i];
-    v[3 * K + i] = lobe[i];
+    sum_[i] += a * double(r * lobe[i]);
+    sum_[K + i] += a * double(g * lobe[i]);
+    sum_[2 * K + i] += a * double(b * lobe[i]);
+    sum_[3 * K + i] += a * double(lobe[i]);
   }
-  add(a, v);
   area_ += a;
 }
 

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cstdlib>
 #include <limits>
 #include <string>
 #include <vector>
@@ -30,6 +31,7 @@ struct Pending {
   uint32_t page = kNone;        // written: the page whose root this node is
   uint64_t bytes = 0;           // on disk: its pending treelet, or its link if written
   uint32_t height = 0;          // depth of its deepest leaf below it
+  uint32_t levels = 0;          // levels of its pending treelet (0 once written)
   bool candidate = false;       // leaf not closed yet: `raw` holds its surfels
   std::vector<Surfel> raw;      // candidate surfels (capacity kept across reuse)
   storage::LeafFrame frame;     // closed leaf
@@ -52,6 +54,10 @@ struct StreamingTreeBuilder::Impl {
   const BuildOptions options;
   const uint64_t page_bytes;     // 0 = unbounded
   const uint64_t link_bytes;     // a link record and its payload
+  const uint32_t max_levels = [] {
+    const char* e = std::getenv("PBGI_PAGE_LEVELS");  // EXPERIMENT
+    return e ? uint32_t(std::atoi(e)) : 1000u;
+  }();
   TreeletSink& sink;
 
   std::vector<Pending> arena;
@@ -98,6 +104,7 @@ struct StreamingTreeBuilder::Impl {
     p.page = kNone;
     p.bytes = 0;
     p.height = 0;
+    p.levels = 0;
     p.candidate = false;
     p.raw.clear();
     p.records.clear();
@@ -128,6 +135,7 @@ struct StreamingTreeBuilder::Impl {
     summarize_leaf(decoded, p.frame, p.node);
     p.bytes = kShapeBytes + kLeafRecordBytes + n * kSurfelRecordBytes;
     p.height = 0;
+    p.levels = 1;
     p.candidate = false;
     note_pending(int64_t(p.records.size()) - int64_t(n * sizeof(Surfel)));
     p.raw.clear();
@@ -157,18 +165,32 @@ struct StreamingTreeBuilder::Impl {
     summarize_internal(pa.node, &pb.node, p.node);
     p.height = 1 + std::max(pa.height, pb.height);
     p.bytes = kShapeBytes + pa.bytes + pb.bytes;
+    p.levels = 1 + std::max(pa.levels, pb.levels);
     note_pending(kShapeBytes);
     ++stats.node_count;
-    // Write the larger pending child until the node's treelet fits a page.
-    while (page_bytes != 0 && arena[n].bytes + kPageOverheadBytes > page_bytes) {
+    // Write pending children until the node's treelet fits a page: the
+    // taller one while it has too many levels, else the larger one.
+    auto too_big = [&] {
+      const Pending& q = arena[n];
+      return page_bytes != 0 && (q.bytes + kPageOverheadBytes > page_bytes || q.levels > max_levels);
+    };
+    while (too_big()) {
       const uint32_t c0 = arena[n].child[0], c1 = arena[n].child[1];
-      const bool w0 = arena[c0].written(), w1 = arena[c1].written();
-      const uint32_t victim = w0 ? c1 : w1 ? c0 : (arena[c0].bytes >= arena[c1].bytes ? c0 : c1);
+      const Pending &q0 = arena[c0], &q1 = arena[c1];
+      uint32_t victim;
+      if (q0.written() || q1.written()) {
+        victim = q0.written() ? c1 : c0;
+      } else if (arena[n].levels > max_levels && q0.levels != q1.levels) {
+        victim = q0.levels > q1.levels ? c0 : c1;
+      } else {
+        victim = q0.bytes >= q1.bytes ? c0 : c1;
+      }
       if (arena[victim].written()) {
         throw Error("internal: a node with two linked children does not fit a page");  // min_page_bytes
       }
       write_page(victim);
       arena[n].bytes = kShapeBytes + arena[c0].bytes + arena[c1].bytes;
+      arena[n].levels = 1 + std::max(arena[c0].levels, arena[c1].levels);
     }
     return n;
   }
@@ -234,6 +256,7 @@ struct StreamingTreeBuilder::Impl {
     note_pending(-freed);
     r.page = id;
     r.bytes = link_bytes;
+    r.levels = 0;
     r.child[0] = r.child[1] = kNone;
     r.records.clear();
     return id;

@@ -15,7 +15,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
+#include <thread>
 
 namespace fs = std::filesystem;
 
@@ -120,6 +122,18 @@ TEST_F(Integration, SceneInfo) {
   const v1::SceneInfo again = client->open_scene(kCornell.string(), small_build());
   EXPECT_EQ(again.scene_id(), info->scene_id());
   EXPECT_EQ(client->list_scenes().size(), 1u);
+
+  // Two clients asking at once for a scene not open yet share one open.
+  v1::BuildOptions other = small_build();
+  other.set_target_surfels(5000);
+  v1::SceneInfo first, second;
+  std::thread a([&] { first = PbgiClient(daemon->address()).open_scene(kCornell.string(), other); });
+  std::thread b([&] { second = PbgiClient(daemon->address()).open_scene(kCornell.string(), other); });
+  a.join();
+  b.join();
+  EXPECT_EQ(first.scene_id(), second.scene_id());
+  EXPECT_NE(first.scene_id(), info->scene_id()) << "other build options, other tree";
+  EXPECT_EQ(client->list_scenes().size(), 2u);
 }
 
 TEST_F(Integration, RenderShowsColourBleedingAndIndirectOnlyCeiling) {
@@ -168,6 +182,10 @@ TEST_F(Integration, RenderShowsColourBleedingAndIndirectOnlyCeiling) {
   const double direct = (ceiling_direct.r + ceiling_direct.g + ceiling_direct.b) / ceiling_direct.n;
   const double indirect =
       (ceiling_indirect.r + ceiling_indirect.g + ceiling_indirect.b) / ceiling_indirect.n;
+  std::printf("render: floor indirect R/G %.2f by the red wall (%d px), %.2f by the green wall "
+              "(%d px); ceiling direct %.2g, indirect %.3g (%d px)\n",
+              red_ratio, floor_red.n, green_ratio, floor_green.n, direct, indirect,
+              ceiling_direct.n);
   EXPECT_GT(indirect, 1e-3) << "the ceiling is lit by the room";
   EXPECT_LT(direct, 1e-3) << "but not by the downward-facing light";
   EXPECT_GT(frame.stats.nodes_visited(), 0u);
@@ -198,6 +216,10 @@ TEST_F(Integration, GatherShowsColourBleedingAndIndirectOnlyCeiling) {
   Imath::C3f red(0, 0, 0), green(0, 0, 0);
   for (int i = 0; i < 3; ++i) red += out.irradiance[i];
   for (int i = 3; i < 6; ++i) green += out.irradiance[i];
+  std::printf("gather: floor R/G %.2f by the red wall, %.2f by the green wall; ceiling "
+              "irradiance %.3g %.3g %.3g %.3g\n",
+              red.x / red.y, green.x / green.y, out.irradiance[6].y, out.irradiance[7].y,
+              out.irradiance[8].y, out.irradiance[9].y);
   EXPECT_GT(red.x / red.y, 1.5f) << "by the red wall: R/G of the irradiance";
   EXPECT_GT(red.x / red.y, green.x / green.y);
   EXPECT_GT(green.y, green.x) << "by the green wall: greener";
@@ -263,6 +285,17 @@ TEST_F(Integration, BadRequestsGetTheRightStatusAndTheDaemonKeepsServing) {
   tile.set_camera("/NoSuchCamera");
   EXPECT_EQ(code_of([&] { client->render_tile(tile); }, &message), grpc::StatusCode::NOT_FOUND);
   EXPECT_NE(message.find("/NoSuchCamera"), std::string::npos) << message;
+
+  // A deadline too short for the tile: the render is cancelled.
+  client::ClientOptions hurried;
+  hurried.call_deadline = std::chrono::milliseconds(20);
+  v1::RenderTileRequest big = tile;
+  big.set_camera("/Camera");
+  big.mutable_tile()->set_x0(0);
+  big.mutable_tile()->set_y0(0);
+  EXPECT_EQ(code_of([&] { PbgiClient(daemon->address(), hurried).render_tile(big); }, &message),
+            grpc::StatusCode::DEADLINE_EXCEEDED);
+  expect_serving();
 
   // And a valid tile still renders.
   tile.set_camera("/Camera");

@@ -22,7 +22,8 @@ std::string read_file(const fs::path& p) {
 }
 
 // A sweep small enough for a unit test: 24x24, one 2k-surfel build, two
-// PBGI settings, the path tracer at 1..16 spp, a 256-spp reference.
+// PBGI settings and the default one antialiased, the path tracer at 1..16
+// spp, a 256-spp reference.
 BenchOptions tiny_options(const fs::path& out) {
   BenchOptions o;
   o.width = 24;
@@ -33,6 +34,7 @@ BenchOptions tiny_options(const fs::path& out) {
   o.pbgi.default_target_surfels = 2000;
   o.pbgi.default_microbuffer_resolution = 8;
   o.pbgi.default_max_solid_angle = 0.1f;
+  o.pbgi.extra_pixel_samples = {4};
   o.path.max_spp = 16;
   o.reference_spp = 256;
   o.out_dir = out;
@@ -69,8 +71,8 @@ Scene* BenchRunner::scene_ = nullptr;
 BenchResult* BenchRunner::result_ = nullptr;
 
 const std::vector<std::string> kExpectedRows{
-    "pbgi/s2k/mb4/sa0.1", "pbgi/s2k/mb8/sa0.1", "path/spp1",  "path/spp2",
-    "path/spp4",          "path/spp8",          "path/spp16"};
+    "pbgi/s2k/mb4/sa0.1", "pbgi/s2k/mb8/sa0.1", "pbgi/s2k/mb8/sa0.1/px4", "path/spp1",
+    "path/spp2",          "path/spp4",          "path/spp8",              "path/spp16"};
 
 TEST_F(BenchRunner, MeasuresEveryConfigurationOfTheSweep) {
   const BenchResult& r = *result_;
@@ -82,6 +84,7 @@ TEST_F(BenchRunner, MeasuresEveryConfigurationOfTheSweep) {
   for (const BenchRow& row : r.rows) {
     SCOPED_TRACE(row.name);
     EXPECT_GT(row.render_seconds, 0.0);
+    EXPECT_GT(row.render_cpu_seconds, 0.0);
     EXPECT_GT(row.indirect.error.mse, 0.0);
     EXPECT_GT(row.beauty.error.mse, 0.0);
     EXPECT_EQ(row.indirect.error.values, 24u * 24u * 3u);
@@ -95,6 +98,11 @@ TEST_F(BenchRunner, MeasuresEveryConfigurationOfTheSweep) {
   }
   EXPECT_TRUE(row("pbgi/s2k/mb8/sa0.1")->is_default);
   EXPECT_FALSE(row("pbgi/s2k/mb4/sa0.1")->is_default);
+  EXPECT_FALSE(row("pbgi/s2k/mb8/sa0.1/px4")->is_default);
+  // Four camera rays per pixel: the beauty's aliasing against the
+  // pixel-averaged reference shrinks.
+  EXPECT_LT(row("pbgi/s2k/mb8/sa0.1/px4")->beauty.error.mse,
+            row("pbgi/s2k/mb8/sa0.1")->beauty.error.mse);
   EXPECT_EQ(r.reference.spp, 256u);
   EXPECT_FALSE(r.reference.cached);
   EXPECT_TRUE(fs::exists(r.reference.file));
@@ -126,6 +134,10 @@ TEST_F(BenchRunner, ComputesTheEqualErrorFigureAndParetoFront) {
     EXPECT_GT(e->path_spp, 0.0);
     EXPECT_NEAR(e->speedup, e->path_seconds / e->pbgi_render_seconds, 1e-9 * e->speedup);
     EXPECT_LT(e->speedup_including_build, e->speedup);
+    EXPECT_GT(e->path_cpu_seconds, 0.0);
+    EXPECT_NEAR(e->speedup_cpu, e->path_cpu_seconds / e->pbgi_render_cpu_seconds,
+                1e-9 * e->speedup_cpu);
+    EXPECT_GT(e->noise_floor, 0.0);
   }
   EXPECT_DOUBLE_EQ(r.equal_indirect.pbgi_mse, row("pbgi/s2k/mb8/sa0.1")->indirect.error.mse);
   // The fastest configuration and the most accurate one are always optimal.
@@ -143,6 +155,7 @@ TEST_F(BenchRunner, WritesJsonAndCsv) {
   const std::string csv = read_file(*out_ / "bench.csv");
   EXPECT_NE(json.find("\"schema\": \"pbgi.bench/1\""), std::string::npos);
   EXPECT_NE(json.find("\"equal_error\""), std::string::npos);
+  EXPECT_NE(json.find("\"speedup_cpu\""), std::string::npos);
   for (const auto& name : kExpectedRows) {
     EXPECT_NE(json.find("\"name\": \"" + name + "\""), std::string::npos) << name;
     EXPECT_NE(csv.find("," + name + ","), std::string::npos) << name;
@@ -173,6 +186,7 @@ TEST_F(BenchRunner, ReusesTheCachedReference) {
   BenchOptions o = tiny_options(*out_ / "again");
   o.cache_dir = result_->reference.file.parent_path();
   o.pbgi.microbuffer_resolutions = {8};
+  o.pbgi.extra_pixel_samples.clear();
   o.path.max_spp = 2;
   o.plot = false;
   const BenchResult again = run_bench(*scene_, o);
@@ -202,13 +216,16 @@ TEST(BenchOptions, RejectsInconsistentSweeps) {
   BenchOptions e = o;
   e.out_dir.clear();
   EXPECT_THROW(e.validate(), InvalidArgument);
+  BenchOptions f = o;
+  f.pbgi.extra_pixel_samples = {1};  // the main sweep's count again
+  EXPECT_THROW(f.validate(), InvalidArgument);
   EXPECT_NO_THROW(quick_bench_options().pbgi.validate());
 }
 
 TEST(BenchPlan, ListsEveryMethodWithUniqueNames) {
   const MethodPlan plan = bench_plan(BenchOptions{});
   EXPECT_EQ(plan.builds.size(), 2u);          // 50k, 200k surfels
-  EXPECT_EQ(plan.configs.size(), 24u + 9u);   // 2x3x4 PBGI + 1..256 spp
+  EXPECT_EQ(plan.configs.size(), 24u + 2u + 9u);  // 2x3x4 PBGI, 2 antialiased, 1..256 spp
   int defaults = 0;
   for (const MethodConfig& c : plan.configs) defaults += c.is_default;
   EXPECT_EQ(defaults, 1);

@@ -61,6 +61,22 @@ TEST(EqualError, TakesTheFirstCrossingOfANoisySweep) {
   EXPECT_LT(e.spp, 8.0);
 }
 
+TEST(EqualError, RemovesTheReferenceNoiseFloor) {
+  // Measured against a reference of finite spp, every MSE carries its
+  // variance: MSE = 1/spp + 0.01. With the floor removed the power law is
+  // exact again, and PBGI's measured 0.01 + 1/12 matches 12 spp.
+  std::vector<SweepPoint> p = ideal_sweep();
+  for (SweepPoint& s : p) s.mse += 0.01;
+  const EqualErrorPoint e = equal_error_point(p, 0.01 + 1.0 / 100.0, 0.01);
+  ASSERT_TRUE(e.valid);
+  EXPECT_TRUE(e.extrapolated);  // beyond 64 spp
+  EXPECT_NEAR(e.spp, 100.0, 1e-6);
+  EXPECT_NEAR(equal_error_point(p, 0.01 + 1.0 / 12.0, 0.01).spp, 12.0, 1e-9);
+  // A target within the noise has no answer.
+  EXPECT_FALSE(equal_error_point(p, 0.009, 0.01).valid);
+  EXPECT_FALSE(equal_error_point(p, 0.5, -1.0).valid);
+}
+
 TEST(EqualError, IgnoresUnusablePoints) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(equal_error_point({}, 0.1).valid);

@@ -79,13 +79,14 @@ TEST(ReferenceCache, RoundTripsAndRejectsMismatches) {
   EXPECT_FALSE(load_cached_reference(file, "0123456789abcdef", 3, 2, &warning));
   EXPECT_TRUE(warning.empty());  // missing is not a problem
 
-  store_cached_reference(file, "0123456789abcdef", r, 12.5);
+  store_cached_reference(file, "0123456789abcdef", r, 12.5, 20.25);
   auto back = load_cached_reference(file, "0123456789abcdef", 3, 2, &warning);
   ASSERT_TRUE(back);
   EXPECT_EQ(back->image.beauty, r.beauty);
   EXPECT_EQ(back->image.indirect, r.indirect);
   EXPECT_EQ(back->image.spp, 17u);
   EXPECT_DOUBLE_EQ(back->seconds, 12.5);
+  EXPECT_DOUBLE_EQ(back->cpu_seconds, 20.25);
 
   // Another key or size under that name: not used, and said so.
   EXPECT_FALSE(load_cached_reference(file, "fedcba9876543210", 3, 2, &warning));

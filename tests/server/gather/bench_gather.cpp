@@ -430,9 +430,24 @@ int run(int argc, char** argv) {
     const GatherCounters& k = g.counters();
     const double n = double(k.receivers);
     std::vector<GatherResult> got, all;
+    std::vector<std::string> where;
     for (size_t t = 0; t < tiles.size(); ++t) {
-      for (size_t i : sampled(tiles[t], a.ref_stride)) got.push_back(results[t][i]);
+      for (size_t i : sampled(tiles[t], a.ref_stride)) {
+        got.push_back(results[t][i]);
+        const Receiver& r = tiles[t].receivers[i];
+        char buf[128];
+        std::snprintf(buf, sizeof buf, "(%.3f %.3f %.3f) n (%.0f %.0f %.0f)", r.position.x,
+                      r.position.y, r.position.z, r.normal.x, r.normal.y, r.normal.z);
+        where.push_back(buf);
+      }
       all.insert(all.end(), results[t].begin(), results[t].end());
+    }
+    if (std::getenv("PBGI_BENCH_DUMP")) {
+      size_t shown = 0;
+      for (size_t i = 0; i < got.size() && shown < 30; ++i)
+        if (!ref.empty() && std::abs(got[i].ao - ref[i].ao) > 0.1f && ++shown)
+          std::printf("  %zu: p %s E %.4f AO %.4f  ref E %.4f AO %.4f\n", i, where[i].c_str(), got[i].irradiance.x, got[i].ao,
+                    ref.empty() ? 0.f : ref[i].irradiance.x, ref.empty() ? 0.f : ref[i].ao);
     }
     char err[128] = "";
     if (a.error) {

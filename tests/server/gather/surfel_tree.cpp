@@ -111,7 +111,9 @@ SurfelTree::SurfelTree(std::vector<Surfel> surfels, SurfelTreeOptions options) {
 
   const uint32_t per_page = std::max(1u, options.nodes_per_page);
   const uint32_t page_count = uint32_t((nodes.size() + per_page - 1) / per_page);
+  refs_ = std::make_unique<std::atomic<uint32_t>[]>(page_count);
   for (uint32_t p = 0; p < page_count; ++p) {
+    refs_[p] = 0;
     auto page = std::make_shared<tree::Page>();
     page->id = p;
     pages_.push_back(page);
@@ -138,15 +140,22 @@ SurfelTree::SurfelTree(std::vector<Surfel> surfels, SurfelTreeOptions options) {
 tree::PagePtr SurfelTree::page(uint32_t id) const {
   if (id >= pages_.size()) throw InvalidArgument("SurfelTree: no page " + std::to_string(id));
   ++fetches_;
-  const size_t in_use = pages_in_use() + 1;
-  if (in_use > max_in_use_.load()) max_in_use_ = in_use;
-  return pages_[id];
+  if (refs_[id].fetch_add(1) == 0) {
+    const size_t in_use = in_use_.fetch_add(1) + 1;
+    size_t seen = max_in_use_.load();
+    while (in_use > seen && !max_in_use_.compare_exchange_weak(seen, in_use)) {
+    }
+  }
+  std::atomic<uint32_t>* refs = &refs_[id];
+  std::atomic<size_t>* in_use = &in_use_;
+  std::shared_ptr<tree::Page> page = pages_[id];
+  tree::Page* raw = page.get();
+  return tree::PagePtr(raw, [refs, in_use, page = std::move(page)](tree::Page*) mutable {
+    if (refs->fetch_sub(1) == 1) in_use->fetch_sub(1);
+    page.reset();
+  });
 }
 
-size_t SurfelTree::pages_in_use() const {
-  size_t n = 0;
-  for (const auto& p : pages_) n += p.use_count() > 1 ? 1 : 0;
-  return n;
-}
+size_t SurfelTree::pages_in_use() const { return in_use_.load(); }
 
 }  // namespace pbgi::test

@@ -14,6 +14,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace pbgi::test {
@@ -41,6 +42,11 @@ class SurfelTree final : public tree::TreeSource {
 
  private:
   std::vector<std::shared_ptr<tree::Page>> pages_;
+  // Outstanding references handed out per page, and pages with any: each
+  // page() returns a handle whose deleter counts down (cheap enough to keep
+  // out of the way of benchmarks, unlike scanning every page).
+  std::unique_ptr<std::atomic<uint32_t>[]> refs_;
+  mutable std::atomic<size_t> in_use_{0};
   size_t node_count_ = 0;
   mutable std::atomic<uint64_t> fetches_{0};
   mutable std::atomic<size_t> max_in_use_{0};

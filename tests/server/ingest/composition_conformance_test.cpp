@@ -29,7 +29,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const fs::path kUsdWg = fs::path(PBGI_TEST_SOURCE_DIR) / ".." / "shared" / "scenes" / "usd-wg";
+const fs::path kUsdWg = (fs::path(PBGI_TEST_SOURCE_DIR) / ".." / "shared" / "scenes" / "usd-wg").lexically_normal();
 
 bool is_usd(const fs::path& p) {
   const std::string e = p.extension().string();

@@ -2,6 +2,7 @@
 // openvdb::tools::createLevelSetSphere, written to a .vdb and read through a
 // UsdVol.Volume (and directly), becomes triangles on the sphere within half
 // a voxel; a fog grid stays as volume data; broken fields are warnings.
+#include "server/ingest/chunk_store.h"
 #include "server/ingest/usd_ingest.h"
 #include "server/volumes/level_set_mesh.h"
 #include "server/volumes/scene_volumes.h"
@@ -185,7 +186,11 @@ TEST(VolumeIngest, VdbFileGivenDirectly) {
   const Scene s = read_usd_scene(sphere_vdb(), IngestOptions{});
   expect_on_sphere(s, "/surface", V3f(kCenter.x(), kCenter.y(), kCenter.z()), 0.5f * kVoxel);
   ASSERT_EQ(s.volumes.size(), 2u);
-  EXPECT_EQ(s.volumes[1].kind, VolumeKind::Fog);
+  for (const Volume& v : s.volumes) {
+    EXPECT_EQ(v.prim_path, "/" + v.field);
+    EXPECT_EQ(v.kind, v.field == "density" ? VolumeKind::Fog : VolumeKind::LevelSet) << v.field;
+    EXPECT_NE(v.grid, nullptr);
+  }
   const fs::path garbage = temp_dir() / "garbage.vdb";
   std::ofstream(garbage) << "not a vdb";
   EXPECT_THROW(read_usd_scene(garbage, IngestOptions{}), SceneError);
@@ -199,6 +204,44 @@ TEST(VolumeIngest, CoarserTargetSpacingRebuildsTheLevelSet) {
   const size_t n = expect_on_sphere(coarse, "/surface", V3f(kCenter.x(), kCenter.y(), kCenter.z()), 0.5f * 0.1f);
   EXPECT_LT(n * 3, fine.triangles.triangle_count());
   EXPECT_NE(coarse.content_hash, fine.content_hash);
+}
+
+TEST(VolumeIngest, ChunkStoreFollowsTheVdbFile) {
+  // Its own copy of the grids: the test rewrites them.
+  const fs::path dir = temp_dir() / "stored";
+  fs::create_directories(dir);
+  fs::copy_file(sphere_vdb(), dir / "sphere.vdb", fs::copy_options::overwrite_existing);
+  const fs::path scene = dir / "volume.usda";
+  std::ofstream(scene) << kVolumeScene;
+  ChunkStoreOptions store_options;
+  store_options.directory = dir / "store";
+  const ChunkStore store(store_options);
+
+  bool from_store = true;
+  const Scene first = read_usd_scene_cached(scene, IngestOptions{}, store, {}, &from_store);
+  EXPECT_FALSE(from_store);
+  const Scene second = read_usd_scene_cached(scene, IngestOptions{}, store, {}, &from_store);
+  EXPECT_TRUE(from_store);
+  EXPECT_EQ(second.triangles.triangle_count(), first.triangles.triangle_count());
+  EXPECT_EQ(second.content_hash, first.content_hash);
+  // Fog grids are opened again; level sets are not meshed twice.
+  ASSERT_EQ(second.volumes.size(), first.volumes.size());
+  for (const Volume& v : second.volumes)
+    if (v.field == "density") EXPECT_NE(v.grid, nullptr);
+  const V3f center(kCenter.x(), kCenter.y() + 10.f, kCenter.z());
+  // Draco (16 bits over a ~2-unit chunk) adds < 2e-5 to the half voxel.
+  expect_on_sphere(second, "/Vol", center, 0.5f * kVoxel + 1e-4f);
+
+  // A new sphere in the same file: the USD layers are unchanged, the entry is stale.
+  openvdb::FloatGrid::Ptr bigger = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(2.f * kRadius, kCenter, kVoxel);
+  bigger->setName("surface");
+  openvdb::FloatGrid::Ptr density = bigger->deepCopy();
+  openvdb::tools::sdfToFogVolume(*density);
+  density->setName("density");
+  openvdb::io::File((dir / "sphere.vdb").string()).write({bigger, density});
+  const Scene third = read_usd_scene_cached(scene, IngestOptions{}, store, {}, &from_store);
+  EXPECT_FALSE(from_store);
+  EXPECT_GT(third.triangles.triangle_count(), 3 * first.triangles.triangle_count());
 }
 
 TEST(LevelSetMesh, TransformScalesAndMirrorsKeepTheSurfaceOutward) {

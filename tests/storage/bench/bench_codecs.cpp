@@ -47,10 +47,11 @@ struct Args {
   uint32_t image = 256;
   uint32_t leaf_size = 4;
   double fraction = 0.02;
-  std::vector<uint32_t> luts = {128, 1024, 16384};
+  std::vector<uint32_t> luts = {100, 1000, 10000};
   uint32_t scale_bits = 12;
   fs::path cache = "/tmp/pbgi_bench_codecs";
   std::string camera = "/Camera";
+  bool render = true;
 };
 
 // 1. Surfels of the scene, from the cache when present.
@@ -102,7 +103,7 @@ double psnr(const std::vector<float>& ref, const std::vector<float>& img) {
 
 struct Row {
   std::string name;
-  double payload_bytes = 0, tree_bytes = 0;
+  double payload_bytes = 0;
   double lut_seconds = 0, quantize_seconds = 0;
   uint64_t raw_nodes = 0;
   double psnr_indirect = INFINITY, psnr_beauty = INFINITY;
@@ -129,18 +130,25 @@ int run(const Args& a) {
   const std::vector<tree::Node> ref_nodes = ref.nodes;
   t0 = Clock::now();
   const Image ref_img = [&] {
+    if (!a.render) return Image{};
     tree::BuiltTree copy = ref;
     const tree::MemoryTree mt(std::move(copy));
     return render(rays, mt, *cam, a.image);
   }();
   std::cerr << fmt::format("reference render: {:.1f} s\n", since(t0));
 
-  constexpr double kTopology = 64, kSurfel = 64;  // page format V1 records
-  const double surfel_bytes = double(surfels.size()) * kSurfel;
+  // Whole-tree bytes if every node's payload is stored (the paper's model):
+  // per node a shape byte, per leaf an 18-byte frame (V2 page records), per
+  // surfel a leaf record in format A (half floats, float32 position: 12 +
+  // radius 2 + normal 6 + radiance, albedo, emission 3 x 6 = 38 B) or B
+  // (V2's frame-relative 16-bit position and radius, octahedral normal,
+  // RGB9E5 colours: 24 B).
+  constexpr double kLeafA = 38, kLeafB = 24, kShape = 1, kLeafFrame = 18;
+  const double structure = double(nodes) * kShape + double(ref.leaf_count) * kLeafFrame;
+  const double surfels_a = double(surfels.size()) * kLeafA, surfels_b = double(surfels.size()) * kLeafB;
   std::vector<Row> rows;
   Row sh{"float32-sh"};
   sh.payload_bytes = double(nodes) * storage::FloatShCodec::kBytesPerNode;
-  sh.tree_bytes = double(nodes) * kTopology + sh.payload_bytes + surfel_bytes;
   rows.push_back(sh);
 
   // 3. Quantized variants.
@@ -168,11 +176,13 @@ int run(const Args& a) {
     t0 = Clock::now();
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nodes, 4096), [&](const auto& range) {
       uint64_t local = 0;
+      uint32_t hint = storage::NearestCentreTable::kNoHint;  // pre-order: often the parent's entry
       for (size_t i = range.begin(); i < range.end(); ++i) {
-        const storage::QuantizedPayload code = codec->quantize(q.nodes[i]);
+        const storage::QuantizedPayload code = codec->quantize(q.nodes[i], hint);
         if (code.raw) {
           ++local;
         } else {
+          hint = code.index;
           codec->dequantize(code, q.nodes[i]);
         }
       }
@@ -182,11 +192,12 @@ int run(const Args& a) {
     r.raw_nodes = raw;
     const double lut_bytes = double(training.table.serialize().size());
     r.payload_bytes = double(storage::packed_bytes(nodes, codec->code_bits())) + double(r.raw_nodes) * 144 + lut_bytes;
-    r.tree_bytes = double(nodes) * kTopology + r.payload_bytes + surfel_bytes;
-    const tree::MemoryTree mt(std::move(q));
-    const Image img = render(rays, mt, *cam, a.image);
-    r.psnr_indirect = psnr(ref_img.indirect, img.indirect);
-    r.psnr_beauty = psnr(ref_img.beauty, img.beauty);
+    if (a.render) {
+      const tree::MemoryTree mt(std::move(q));
+      const Image img = render(rays, mt, *cam, a.image);
+      r.psnr_indirect = psnr(ref_img.indirect, img.indirect);
+      r.psnr_beauty = psnr(ref_img.beauty, img.beauty);
+    }
     std::cerr << fmt::format("  quantized {} nodes in {:.2f} s ({} raw), PSNR {:.1f} dB\n", nodes, r.quantize_seconds,
                              r.raw_nodes, r.psnr_indirect);
     rows.push_back(r);
@@ -197,15 +208,21 @@ int run(const Args& a) {
                            "LUT sample {:.1f} %, scale bits {}\n\n",
                            a.scene.filename().string(), surfels.size(), a.leaf_size, nodes, build_seconds, a.image,
                            100 * a.fraction, a.scale_bits);
-  std::cout << "| variant | payload MB | payload ratio | B/node | tree MB | tree ratio | raw nodes | LUT s | "
-               "quantize s | PSNR indirect dB | PSNR beauty dB |\n";
-  std::cout << "|---|---|---|---|---|---|---|---|---|---|---|\n";
+  std::cout << "| variant | payload MB | payload ratio | bits/node | tree A MB | ratio A | tree B MB | ratio B | "
+               "raw nodes | LUT s | quantize s | PSNR indirect dB | PSNR beauty dB |\n";
+  std::cout << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  const double ref_a = structure + rows[0].payload_bytes + surfels_a;
   for (const Row& r : rows) {
-    std::cout << fmt::format("| {} | {:.2f} | {:.1f}x | {:.2f} | {:.1f} | {:.2f}x | {} | {:.2f} | {:.2f} | {:.1f} | {:.1f} |\n",
-                             r.name, r.payload_bytes / 1e6, rows[0].payload_bytes / r.payload_bytes,
-                             r.payload_bytes / double(nodes), r.tree_bytes / 1e6, rows[0].tree_bytes / r.tree_bytes,
-                             r.raw_nodes, r.lut_seconds, r.quantize_seconds, r.psnr_indirect, r.psnr_beauty);
+    const double tree_a = structure + r.payload_bytes + surfels_a, tree_b = structure + r.payload_bytes + surfels_b;
+    std::cout << fmt::format(
+        "| {} | {:.2f} | {:.1f}x | {:.2f} | {:.1f} | {:.2f}x | {:.1f} | {:.2f}x | {} | {:.2f} | {:.2f} | {:.1f} | {:.1f} |\n",
+        r.name, r.payload_bytes / 1e6, rows[0].payload_bytes / r.payload_bytes, 8 * r.payload_bytes / double(nodes),
+        tree_a / 1e6, ref_a / tree_a, tree_b / 1e6, ref_a / tree_b, r.raw_nodes, r.lut_seconds, r.quantize_seconds,
+        r.psnr_indirect, r.psnr_beauty);
   }
+  std::cout << fmt::format("\ntree ratios are against float32-sh with leaf format A ({:.1f} MB); structure "
+                           "(shapes + leaf frames) {:.1f} MB, {} leaves\n",
+                           ref_a / 1e6, structure / 1e6, ref.leaf_count);
   return 0;
 }
 
@@ -224,6 +241,7 @@ int main(int argc, char** argv) {
   app.add_option("--scale-bits", a.scale_bits, "bits of the log scale");
   app.add_option("--cache", a.cache, "directory caching shaded surfels");
   app.add_option("--camera", a.camera, "camera prim");
+  app.add_flag("!--no-render", a.render, "skip the images (sizes and times only)");
   CLI11_PARSE(app, argc, argv);
   try {
     return pbgi::run(a);

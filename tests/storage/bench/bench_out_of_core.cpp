@@ -16,6 +16,7 @@
 #include "tests/storage/bench/synthetic_city.h"
 
 #include <sys/resource.h>
+#include <time.h>
 
 #include <atomic>
 #include <chrono>
@@ -35,6 +36,13 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// CPU seconds of this thread: the machine is shared, wall time overstates.
+double thread_cpu_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
 
 double peak_rss_gib() {
   rusage u{};
@@ -118,6 +126,7 @@ struct GatherRun {
   double receivers_per_s = 0;
   storage::CacheCounters cache;
   double pages_per_receiver = 0;
+  double nodes_per_receiver = 0;
 };
 
 // Two passes over the receivers with `threads` gatherers; the second pass
@@ -129,7 +138,7 @@ GatherRun gather(const fs::path& set, uint64_t budget, const std::vector<Receive
   for (int pass = 0; pass < 2; ++pass) {
     const storage::CacheCounters before = cache->counters();
     std::atomic<size_t> next{0};
-    std::atomic<uint64_t> pages{0};
+    std::atomic<uint64_t> pages{0}, nodes{0};
     const auto t0 = Clock::now();
     std::vector<std::thread> pool;
     for (uint32_t t = 0; t < threads; ++t) {
@@ -140,6 +149,7 @@ GatherRun gather(const fs::path& set, uint64_t budget, const std::vector<Receive
           for (size_t i = at; i < std::min(rs.size(), at + kChunk); ++i) g.gather(rs[i]);
         }
         pages += g.counters().pages_fetched;
+        nodes += g.counters().nodes_visited;
       });
     }
     for (auto& t : pool) t.join();
@@ -149,6 +159,7 @@ GatherRun gather(const fs::path& set, uint64_t budget, const std::vector<Receive
     out.cache = {after.hits - before.hits, after.misses - before.misses, after.evictions - before.evictions,
                  after.bytes_read - before.bytes_read, after.bytes_held};
     out.pages_per_receiver = double(pages.load()) / double(rs.size());
+    out.nodes_per_receiver = double(nodes.load()) / double(rs.size());
   }
   return out;
 }
@@ -210,17 +221,28 @@ int run(const Args& a) {
   std::printf("bytes/surfel   %.2f\n", bytes_per_surfel);
   std::printf("peak RSS       %.2f GiB after the build\n", build_rss);
 
-  // 2. Gathers: 1/8 of the page set's size, then everything.
+  // 2. Decoding alone: every page read, verified and decoded once.
+  {
+    const double c0 = thread_cpu_seconds();
+    uint64_t decoded = 0;
+    for (uint32_t id = 0; id < m.stats.page_count; ++id) decoded += probe.page(id)->memory_bytes();
+    const double s = thread_cpu_seconds() - c0;
+    std::printf("decode         %.0f pages/s, %.0f MiB/s of pages per CPU second; %.2f GiB decoded (%.1fx the page bytes)\n",
+                m.stats.page_count / s, double(m.stats.file_bytes) / (1 << 20) / s, double(decoded) / (1 << 30),
+                double(decoded) / double(m.stats.file_bytes));
+  }
+
+  // 3. Gathers: 1/8 of the page set's size, then everything.
   const std::vector<Receiver> rs = make_receivers(city, a.receivers);
   const uint64_t eighth = m.stats.file_bytes / 8;
   const GatherRun small = gather(set, eighth, rs, a.threads);
   const GatherRun full = gather(set, ~uint64_t(0), rs, a.threads);
   auto print_run = [](const char* name, uint64_t budget, const GatherRun& r) {
     const double lookups = double(r.cache.hits + r.cache.misses);
-    std::printf("gather %-7s budget %8.1f MiB: %8.1f receivers/s, %.1f pages/receiver, hit rate %.3f, "
+    std::printf("gather %-7s budget %8.1f MiB: %8.1f receivers/s, %.0f nodes and %.1f pages/receiver, hit rate %.3f, "
                 "%.1f MiB read, %.1f MiB held\n",
                 name, budget == ~uint64_t(0) ? -1.0 : double(budget) / (1 << 20), r.receivers_per_s,
-                r.pages_per_receiver, lookups > 0 ? double(r.cache.hits) / lookups : 0.0,
+                r.nodes_per_receiver, r.pages_per_receiver, lookups > 0 ? double(r.cache.hits) / lookups : 0.0,
                 double(r.cache.bytes_read) / (1 << 20), double(r.cache.bytes_held) / (1 << 20));
   };
   print_run("1/8", eighth, small);
@@ -241,6 +263,7 @@ int run(const Args& a) {
 }  // namespace pbgi
 
 int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines survive a kill
   try {
     return pbgi::run(pbgi::parse(argc, argv));
   } catch (const std::exception& e) {

@@ -1,5 +1,6 @@
-// The page cache: byte budget, LRU order, counters, single load under
-// concurrency, and identical traversals whatever the budget.
+// The page cache: byte budget, 2Q order (scan resistance), counters,
+// single load under concurrency, and identical traversals whatever the
+// budget.
 #include "storage/cache/page_cache.h"
 #include "storage/format/errors.h"
 #include "storage/pages/page_set.h"
@@ -27,7 +28,7 @@ tree::PagePtr make_page(uint32_t id, size_t nodes) {
 
 const uint64_t kPageBytes = make_page(0, 10)->memory_bytes();
 
-TEST(PageCache, HoldsWithinBudgetAndEvictsLeastRecentlyUsed) {
+TEST(PageCache, HoldsWithinBudgetAndEvictsOldestNewPageFirst) {
   PageCache cache(3 * kPageBytes + kPageBytes / 2);  // room for 3 pages
   int loads = 0;
   auto get = [&](uint32_t id) {
@@ -38,14 +39,14 @@ TEST(PageCache, HoldsWithinBudgetAndEvictsLeastRecentlyUsed) {
   };
   for (uint32_t id = 0; id < 3; ++id) get(id);
   EXPECT_EQ(cache.counters().bytes_held, 3 * kPageBytes);
-  get(0);            // hit: 0 becomes most recent, 1 is now the oldest
+  get(0);            // hit; new pages leave in arrival order (FIFO)
   EXPECT_EQ(loads, 3);
-  get(3);            // evicts 1
+  get(3);            // evicts 0, the oldest new page
   EXPECT_EQ(cache.counters().evictions, 1u);
-  get(0);
+  get(1);
   get(2);
-  EXPECT_EQ(loads, 4);  // 0 and 2 were still held
-  get(1);               // was evicted: loads again, evicts 3
+  EXPECT_EQ(loads, 4);  // 1 and 2 were still held
+  get(0);               // evicted, but remembered: comes back hot, evicts 1
   EXPECT_EQ(loads, 5);
   const CacheCounters c = cache.counters();
   EXPECT_EQ(c.misses, 5u);
@@ -53,6 +54,32 @@ TEST(PageCache, HoldsWithinBudgetAndEvictsLeastRecentlyUsed) {
   EXPECT_EQ(c.evictions, 2u);
   EXPECT_LE(c.bytes_held, cache.budget());
   EXPECT_EQ(c.bytes_held, 3 * kPageBytes);
+}
+
+TEST(PageCache, HotPagesSurviveScans) {
+  // A page every gather needs (the top of the tree) between long runs of
+  // pages needed once: after it came back once, scans no longer evict it.
+  // A plain LRU would lose it to every scan.
+  PageCache cache(4 * kPageBytes);
+  int hot_loads = 0;
+  uint32_t next_cold = 100;
+  auto touch_hot = [&] { cache.get(1, 0, [&] { ++hot_loads; return make_page(0, 10); }); };
+  auto scan = [&] {
+    for (int i = 0; i < 20; ++i) {
+      const uint32_t id = next_cold++;
+      cache.get(1, id, [&] { return make_page(id, 10); });
+      ASSERT_LE(cache.counters().bytes_held, cache.budget());
+    }
+  };
+  touch_hot();
+  scan();
+  touch_hot();  // evicted by the first scan, remembered: now hot
+  EXPECT_EQ(hot_loads, 2);
+  for (int round = 0; round < 5; ++round) {
+    scan();
+    touch_hot();
+  }
+  EXPECT_EQ(hot_loads, 2);
 }
 
 TEST(PageCache, OwnersAreSeparateAndForgettable) {

@@ -168,18 +168,23 @@ TEST(QuantizedSh, IndexOutsideTheTableIsCorruption) {
 }
 
 TEST(QuantizedSh, EveryIndexWidthRoundTrips) {
-  // Tables of 2^7 .. 2^16 entries: codes of 7 .. 16 index bits.
+  // Tables of 2^7 .. 2^16 entries (normalized vectors of synthetic nodes):
+  // codes of 7 .. 16 index bits.
   std::mt19937 rng(9);
-  std::normal_distribution<float> g;
-  const auto nodes = test::payload_nodes(300, 4);
+  const auto nodes = test::payload_nodes(200, 4);
+  std::vector<float> pool;
+  for (uint32_t i = 0; i < (1u << 16); ++i) {
+    const NormalizedPayload p = normalize_payload(test::payload_node(rng), 1.f);
+    pool.insert(pool.end(), p.v, p.v + D);
+  }
   for (uint32_t bits = 7; bits <= 16; ++bits) {
     const size_t l = size_t(1) << bits;
-    std::vector<float> entries(l * D);
-    for (auto& e : entries) e = 0.3f * g(rng);
+    std::vector<float> entries(pool.begin(), pool.begin() + l * D);
     const QuantizedShCodec codec(std::make_shared<const QuantizedShTable>(entries, 10, 1.f, -10.f, 10.f));
     ASSERT_EQ(codec.table().index_bits(), bits);
     std::vector<uint8_t> bytes;
     codec.encode(nodes, bytes);
+    EXPECT_EQ(bytes.size(), packed_bytes(nodes.size(), bits + 10));
     std::vector<tree::Node> back(nodes.size());
     codec.decode(bytes, back, "p");
     for (size_t i = 0; i < nodes.size(); ++i) {
@@ -325,6 +330,7 @@ TEST(SampleSurfels, FractionAndDeterminism) {
   ShLutOptions o;
   o.sample_fraction = 0.03;
   o.min_sample_surfels = 100;
+  o.entries = 128;  // 16 surfels per entry: 2048 < 3 %
   const auto a = sample_surfels(s, o, 4), b = sample_surfels(s, o, 4);
   ASSERT_EQ(a.size(), 3000u);
   for (size_t i = 0; i < a.size(); ++i) EXPECT_EQ(a[i].radius, b[i].radius);

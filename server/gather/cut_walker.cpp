@@ -1,0 +1,309 @@
+#include "server/gather/cut_walker.h"
+
+#include "server/gather/node_appearance.h"
+#include "storage/format/errors.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace pbgi::gather {
+
+namespace {
+
+constexpr float kPi = 3.14159265358979f;
+
+// Surfels of a too-large leaf are tested against pixel centers with their
+// radius scaled by this: area-preserving surfels (radius sqrt(A/pi), as the
+// sampler makes them) leave gaps between evenly spread disks, through which
+// a point-sampled ray-cast would see what lies behind a closed surface
+// (measured: 7-10% of the light behind a near plane leaks through). At 1.25
+// a square grid of such disks closes; the silhouette grows by r/4.
+constexpr float kRaycastRadiusScale = 1.25f;
+
+// Splats are never larger than this many (mean) pixels: splats of one
+// surface tile it only roughly, and once each spans several pixels the gaps
+// between them let occluded light through (measured: a near occluder leaks
+// 5% at N = 32 with max_solid_angle 0.03, 0.1% with this bound). At the
+// default N = 8 the bound (0.033 sr) is above the default cut (0.03 sr).
+constexpr float kMaxSplatPixels = 1.f;
+
+// A surfel of a too-large leaf is ray-cast only when it covers more than
+// this many (mean) pixels; smaller ones are splatted. Point-sampling pixel
+// centers aliases on disks only a pixel or two wide (measured: 5% error
+// behind an occluder edge at N = 32 with 1 pixel, 0.2% with 4).
+constexpr float kRaycastMinPixels = 4.f;
+
+// Safety net against a cyclic (corrupt) tree: no valid traversal comes near.
+constexpr size_t kMaxStack = size_t(1) << 24;
+
+inline float luminance(const Imath::C3f& c) {
+  return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z;
+}
+
+// Starts loading a node's traversal data (48 bytes, at most two lines).
+inline void prefetch(const HotNode* h) {
+  __builtin_prefetch(h);
+  __builtin_prefetch(reinterpret_cast<const char*>(h) + sizeof(HotNode) - 1);
+}
+
+}  // namespace
+
+float cut_solid_angle(const GatherOptions& o) {
+  const float pixel = CubeLayout::get(o.microbuffer_resolution).mean_pixel_solid_angle();
+  return std::min(o.max_solid_angle, kMaxSplatPixels * pixel);
+}
+
+// Splats sit at their node's center depth, up to the node radius off the
+// surface, and a cut node has r/d <= sqrt(cut / pi); two pieces of one
+// surface can thus differ by about twice that.
+float depth_band_for(const GatherOptions& o) {
+  return std::clamp(2.f * std::sqrt(cut_solid_angle(o) / kPi), 0.05f, 0.3f);
+}
+
+CutWalker::CutWalker(const tree::TreeSource& tree, const GatherOptions& options,
+                     GatherCounters& counters)
+    : tree_(tree),
+      options_(options),
+      counters_(counters),
+      layout_(CubeLayout::get(options.microbuffer_resolution)),
+      buffer_(layout_, depth_band_for(options)),
+      raster_(buffer_),
+      pins_(tree, views_),
+      cut_(cut_solid_angle(options)),
+      surfel_splat_max_(std::max(cut_, kRaycastMinPixels * layout_.mean_pixel_solid_angle())) {
+  stack_.reserve(256);
+}
+
+void CutWalker::begin_receiver(const Imath::V3f& p, const Imath::V3f& n) {
+  p_ = p;
+  n_ = n;
+  buffer_.begin(n);
+}
+
+void CutWalker::push_root() {
+  const tree::NodeRef root = tree_.root();
+  const tree::Page* page = nullptr;
+  const PageView* view = nullptr;
+  const uint32_t pin = pins_.acquire(root.page, page, view);
+  if (root.index >= view->nodes.size()) {
+    pins_.release(pin);
+    throw CorruptionError("tree root: page " + std::to_string(root.page) + " has no node " +
+                          std::to_string(root.index));
+  }
+  if (hdr_threshold_ < 0.f) {
+    // The scene's mean radiance: the root's area-weighted mean (DC ratio).
+    const tree::Node& n = page->nodes[root.index];
+    const float c0 = n.coverage_sh[0];
+    const float mean = c0 > 0.f ? luminance(Imath::C3f(n.radiance_sh.r[0], n.radiance_sh.g[0],
+                                                       n.radiance_sh.b[0])) / c0
+                                : 0.f;
+    hdr_threshold_ = options_.hdr_refine > 0.f && mean > 0.f && std::isfinite(mean)
+                         ? options_.hdr_refine * kPi * mean
+                         : std::numeric_limits<float>::infinity();
+  }
+  stack_.push_back({view, root.index, pin});
+}
+
+// True when no surfel below the node can be seen from the receiver: the
+// node lies below the tangent plane, or its normal cone faces away from
+// every point of its bounding sphere, or all its normals are (nearly) the
+// receiver's own (such surfaces are seen edge-on or from behind).
+bool CutWalker::culled(const HotNode& h, const Imath::V3f& v, float d2) const {
+  const float r = h.radius;
+  if (n_.x * v.x + n_.y * v.y + n_.z * v.z < -r) return true;
+  if (!(h.cone_cos > -1.f)) return false;  // normals every way
+  const float av = h.ax * v.x + h.ay * v.y + h.az * v.z;
+  // Back-facing: the angle between the axis and any direction from the node
+  // to the receiver exceeds 90 deg + beta (cone) + gamma (sphere's spread,
+  // sin gamma = r/d): a.v > d sin(beta + gamma), when beta + gamma < 90.
+  const float r2 = r * r;
+  if (d2 > r2) {
+    const float s = std::sqrt(d2 - r2);  // d cos(gamma)
+    if (h.cone_cos * s > h.cone_sin * r && av > h.cone_sin * s + h.cone_cos * r) return true;
+  }
+  // Coplanar with the receiver and facing the same way.
+  return h.ax * n_.x + h.ay * n_.y + h.az * n_.z > h.coplanar_cos;
+}
+
+// The same tests made conservative over a cluster: receivers within
+// c.radius of c.p, normals within c.normal_chord of c.n.
+bool CutWalker::culled_for_cluster(const HotNode& h, const Imath::V3f& v, float d2,
+                                   const ClusterFrame& c) const {
+  const float r = h.radius;
+  const float d = std::sqrt(d2);
+  // n_x . (center - p_x) <= n.v + chord d + radius for every member x.
+  if (c.n.dot(v) + c.normal_chord * d + c.radius < -r) return true;
+  if (!(h.cone_cos > -1.f)) return false;
+  // Back-facing from every member: the receivers' sphere widens the node's.
+  const float rr = r + c.radius;
+  const float av = h.ax * v.x + h.ay * v.y + h.az * v.z;
+  if (d2 > rr * rr) {
+    const float s = std::sqrt(d2 - rr * rr);
+    if (h.cone_cos * s > h.cone_sin * rr && av > h.cone_sin * s + h.cone_cos * rr) return true;
+  }
+  // Coplanar with every member: angle(a, n) + beta + normal_angle < limit.
+  const float an = h.ax * c.n.x + h.ay * c.n.y + h.az * c.n.z;
+  if (!(an > h.coplanar_cos)) return false;
+  if (c.normal_angle == 0.f) return true;
+  const float slack = std::acos(std::min(1.f, h.coplanar_cos)) - c.normal_angle;
+  return slack > 0.f && std::acos(std::min(1.f, an)) < slack;
+}
+
+void CutWalker::push_children(const StackEntry& parent, const HotNode& h) {
+  const PageView& view = *parent.view;
+  // Pushed last to first so that the first child is visited first: the
+  // traversal then runs in the depth-first pre-order pages are laid out in.
+  for (uint32_t c = h.size(); c-- > 0;) {
+    const tree::NodeRef ref = view.links[h.first + c];
+    const PageView* child_view = &view;
+    uint32_t pin = parent.pin;
+    if (ref.page == view.id) {
+      pins_.retain(pin);
+    } else {
+      const tree::Page* child_page = nullptr;
+      pin = pins_.acquire(ref.page, child_page, child_view);
+      if (ref.index >= child_view->nodes.size()) {
+        pins_.release(pin);
+        throw CorruptionError("tree page " + std::to_string(view.id) + " node " +
+                              std::to_string(parent.index) + ": child link to page " +
+                              std::to_string(ref.page) + " node " + std::to_string(ref.index) +
+                              " is out of range (" + std::to_string(child_view->nodes.size()) +
+                              " nodes)");
+      }
+    }
+    // The node is popped soon; start fetching it now.
+    prefetch(&child_view->nodes[ref.index]);
+    stack_.push_back({child_view, ref.index, pin});
+  }
+  if (stack_.size() > kMaxStack) {
+    throw CorruptionError("tree page " + std::to_string(view.id) + ": traversal stack exceeds " +
+                          std::to_string(kMaxStack) + " entries (cyclic child links?)");
+  }
+}
+
+bool CutWalker::splat_node(const tree::Node& node, const Imath::V3f& v, float d2,
+                           FarBuffer* far) {
+  const float d = std::sqrt(d2);
+  const Imath::V3f dir = v / d;
+  Appearance look;
+  if (!node_appearance(node, -dir, look)) return true;  // shows nothing from here
+  Rasterizer::Shape shape;
+  // A node cannot hide more than its bounding disk.
+  shape.omega = std::min(node.area * look.coverage, kPi * node.radius * node.radius) / d2;
+  shape.squash = look.squash;
+  shape.ratio = look.ratio;
+  shape.max_radius = node.radius / d;
+  // HDR-aware cut: a node that alone would bring much of a typical
+  // receiver's light is refined.
+  if (shape.omega * luminance(look.radiance) > hdr_threshold_) return false;
+  if (far) {
+    raster_.splat_far(*far, dir, shape, d, look.radiance);
+  } else {
+    raster_.splat(dir, shape, d, look.radiance);
+  }
+  ++counters_.nodes_rasterized;
+  return true;
+}
+
+void CutWalker::leaf_surfels(const tree::Page& page, const HotNode& h) {
+  const uint32_t end = h.first + h.size();  // checked against the page by the view
+  for (uint32_t i = h.first; i < end; ++i) {
+    const Surfel& s = page.surfels[i];
+    if (!(s.radius > 0.f)) continue;
+    const Imath::V3f q = s.position - p_;
+    const float facing = s.normal.dot(q);  // < 0: the receiver sees the front
+    if (!(facing < 0.f)) continue;         // also rejects NaN
+    if (n_.dot(q) < -s.radius) continue;   // below the tangent plane
+    const float d2 = q.length2();
+    const float r2 = s.radius * s.radius;
+    if (d2 > r2 && kPi * r2 <= surfel_splat_max_ * d2) {
+      const float d = std::sqrt(d2);
+      Rasterizer::Shape shape;
+      shape.ratio = -facing / d;  // cosine of the viewing angle
+      shape.omega = kPi * r2 * shape.ratio / d2;
+      shape.squash = s.normal;
+      shape.max_radius = s.radius / d;
+      raster_.splat(q / d, shape, d, s.radiance);
+      ++counters_.surfels_splatted;
+    } else {
+      raster_.raycast(q, s.normal, s.radius * kRaycastRadiusScale, s.radiance);
+      ++counters_.surfels_raycast;
+    }
+  }
+}
+
+void CutWalker::walk_receiver() {
+  const float omega_max = cut_;
+  uint64_t visited = 0;
+  while (!stack_.empty()) {
+    const StackEntry e = stack_.back();
+    stack_.pop_back();
+    if (!stack_.empty()) prefetch(&stack_.back().view->nodes[stack_.back().index]);
+    const HotNode& h = e.view->nodes[e.index];
+    ++visited;
+    const Imath::V3f v(h.cx - p_.x, h.cy - p_.y, h.cz - p_.z);
+    const float d2 = v.length2();
+    // Nothing to see (also NaN), below the tangent plane or facing away.
+    if (!h.invisible() && std::isfinite(d2) && !culled(h, v, d2)) {
+      const float r2 = h.radius * h.radius;
+      bool done = false;
+      if (d2 > r2 && kPi * r2 <= omega_max * d2) {
+        done = splat_node(pins_.page(e.pin).nodes[e.index], v, d2, nullptr);
+      }
+      if (!done) {
+        if (!h.leaf()) {
+          push_children(e, h);
+        } else {
+          leaf_surfels(pins_.page(e.pin), h);
+        }
+      }
+    }
+    pins_.release(e.pin);
+  }
+  counters_.nodes_visited += visited;
+}
+
+void CutWalker::walk_cluster(const ClusterFrame& c, FarBuffer& far,
+                             std::vector<StackEntry>& near) {
+  const float omega_max = cut_;
+  const float eps = options_.epsilon;
+  uint64_t visited = 0;
+  push_root();
+  while (!stack_.empty()) {
+    const StackEntry e = stack_.back();
+    stack_.pop_back();
+    if (!stack_.empty()) prefetch(&stack_.back().view->nodes[stack_.back().index]);
+    const HotNode& h = e.view->nodes[e.index];
+    ++visited;
+    const Imath::V3f v(h.cx - c.p.x, h.cy - c.p.y, h.cz - c.p.z);
+    const float d2 = v.length2();
+    if (h.invisible() || !std::isfinite(d2) || culled_for_cluster(h, v, d2, c)) {
+      pins_.release(e.pin);
+      continue;
+    }
+    // Near: receivers of the cluster see it from too different places
+    // (gamma = radius / d > epsilon); each refines it on its own. The
+    // entry's pin reference moves to the near list.
+    if (c.radius > eps * std::sqrt(d2)) {
+      near.push_back(e);
+      continue;
+    }
+    const float r2 = h.radius * h.radius;
+    if (d2 > r2 && kPi * r2 <= omega_max * d2 &&
+        splat_node(pins_.page(e.pin).nodes[e.index], v, d2, &far)) {
+      pins_.release(e.pin);
+      continue;
+    }
+    if (h.leaf()) {
+      near.push_back(e);  // surfels one by one: per receiver
+      continue;
+    }
+    push_children(e, h);
+    pins_.release(e.pin);
+  }
+  counters_.nodes_visited += visited;
+}
+
+}  // namespace pbgi::gather

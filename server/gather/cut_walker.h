@@ -1,0 +1,110 @@
+// The traversal engine behind both gathers (docs/gather.md, section 2):
+// an explicit stack of nodes, each holding a reference on its page's pin,
+// walked in the depth-first pre-order pages are laid out in.
+//
+//  - walk_receiver(): the PBGI cut of one receiver (cull, cut, splat into
+//    the receiver's microbuffer, descend, handle the surfels of leaves that
+//    are still too large), from whatever the stack was seeded with: the
+//    root (PBGI) or a cluster's near nodes (FPBGI refinement).
+//  - walk_cluster(): the coarse cut of a receiver cluster (FPBGI): culls
+//    only what no receiver of the cluster can see, splats far nodes
+//    (cluster radius / distance <= epsilon) into the cluster's FarBuffer and
+//    stops at near nodes, which it hands back for per-receiver refinement.
+//
+// Thread-safety: none; one per Gatherer.
+#pragma once
+
+#include "server/gather/cube_layout.h"
+#include "server/gather/far_field.h"
+#include "server/gather/gather.h"
+#include "server/gather/microbuffer.h"
+#include "server/gather/page_pins.h"
+#include "server/gather/page_views.h"
+#include "server/gather/rasterizer.h"
+
+#include <Imath/ImathVec.h>
+
+#include <cstdint>
+#include <vector>
+
+namespace pbgi::gather {
+
+// A pending node; it holds a reference on its page's pin.
+struct StackEntry {
+  const PageView* view;
+  uint32_t index;
+  uint32_t pin;
+};
+
+// What the cluster walk needs to know of a cluster: the active receiver's
+// position, a unit normal and bounds on how far the members' positions and
+// normals stray from them.
+struct ClusterFrame {
+  Imath::V3f p;          // active receiver
+  Imath::V3f n;          // unit; every member normal is within normal_chord of it
+  float radius = 0.f;    // max distance of a member from p
+  float normal_chord = 0.f;  // max |n_member - n|
+  float normal_angle = 0.f;  // the same as an angle (radians)
+};
+
+class CutWalker {
+ public:
+  CutWalker(const tree::TreeSource& tree, const GatherOptions& options, GatherCounters& counters);
+
+  const GatherOptions& options() const { return options_; }
+  PagePins& pins() { return pins_; }
+  PageViews& views() { return views_; }
+
+  // Starts a receiver: empty microbuffer for its hemisphere.
+  void begin_receiver(const Imath::V3f& p, const Imath::V3f& n);
+  // Pushes the root (acquiring its page) / an entry whose pin the caller
+  // holds a reference on (it is retained for the stack).
+  void push_root();
+  void push(const StackEntry& e) {
+    pins_.retain(e.pin);
+    stack_.push_back(e);
+  }
+  // Walks the receiver's cut until the stack is empty.
+  void walk_receiver();
+  // Resolves the receiver's microbuffer, with a cluster's far content.
+  Resolved resolve(const FarBuffer* far) { return buffer_.resolve(options_.ao_max_distance, far); }
+
+  // Walks a cluster's coarse cut from the root: far nodes go into `far`
+  // (begun by the caller), near nodes are appended to `near` (each holding
+  // a pin reference the caller releases).
+  void walk_cluster(const ClusterFrame& c, FarBuffer& far, std::vector<StackEntry>& near);
+
+ private:
+  bool culled(const HotNode& h, const Imath::V3f& v, float d2) const;
+  bool culled_for_cluster(const HotNode& h, const Imath::V3f& v, float d2,
+                          const ClusterFrame& c) const;
+  void push_children(const StackEntry& parent, const HotNode& h);
+  // Splats a node into the receiver's microbuffer (or, with `far`, the
+  // cluster's far buffer). Returns false, drawing nothing, when the
+  // HDR-aware cut wants it refined.
+  bool splat_node(const tree::Node& node, const Imath::V3f& v, float d2, FarBuffer* far);
+  void leaf_surfels(const tree::Page& page, const HotNode& h);
+  float hdr_threshold();
+
+  const tree::TreeSource& tree_;
+  const GatherOptions options_;
+  GatherCounters& counters_;
+  const CubeLayout& layout_;
+  Microbuffer buffer_;
+  Rasterizer raster_;
+  PageViews views_;
+  PagePins pins_;
+  const float cut_;
+  const float surfel_splat_max_;
+  std::vector<StackEntry> stack_;
+  float hdr_threshold_ = -1.f;  // luminance x sr; < 0 until computed
+  // The current receiver (walk_receiver).
+  Imath::V3f p_{0, 0, 0}, n_{0, 0, 1};
+};
+
+// The cut threshold actually used: the option, bounded by the pixel size.
+float cut_solid_angle(const GatherOptions& o);
+// Relative depth gap that separates two surfaces in a pixel.
+float depth_band_for(const GatherOptions& o);
+
+}  // namespace pbgi::gather

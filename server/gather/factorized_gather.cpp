@@ -1,0 +1,61 @@
+#include "server/gather/factorized_gather.h"
+
+#include <algorithm>
+
+namespace pbgi::gather {
+
+uint32_t cluster_count(uint32_t k_per_1024, size_t n) {
+  const uint64_t k = (uint64_t(k_per_1024) * n + 1023) / 1024;
+  return uint32_t(std::clamp<uint64_t>(k, 1, std::max<size_t>(n, 1)));
+}
+
+FactorizedGather::FactorizedGather(CutWalker& walker)
+    : walker_(walker),
+      far_(CubeLayout::get(walker.options().microbuffer_resolution),
+           depth_band_for(walker.options())) {
+  near_.reserve(1024);
+}
+
+void FactorizedGather::gather(std::span<const Receiver> rs, std::span<GatherResult> results,
+                              GatherCounters& counters) {
+  const GatherOptions& o = walker_.options();
+  clusters_.build(rs, cluster_count(o.clusters, rs.size()));
+
+  PagePins& pins = walker_.pins();
+  // Pages stay pinned for a whole cluster; unpinned after each (and on
+  // errors).
+  struct Release {
+    PagePins& pins;
+    ~Release() {
+      pins.clear();
+      pins.set_hold(false);
+    }
+  } release{pins};
+  pins.set_hold(true);
+
+  const std::vector<uint32_t>& members = clusters_.members();
+  for (const ReceiverCluster& c : clusters_.clusters()) {
+    // 1-2. The cluster's coarse cut and far content.
+    far_.begin();
+    near_.clear();
+    walker_.walk_cluster(c.frame, far_, near_);
+    far_.resolve(o.ao_max_distance);
+    // 3. Each member refines the near nodes.
+    for (uint32_t m = c.first; m < c.first + c.count; ++m) {
+      const uint32_t i = members[m];
+      walker_.begin_receiver(rs[i].position, rs[i].normal);
+      // Pushed last to first: popped in the cut's pre-order.
+      for (size_t j = near_.size(); j-- > 0;) walker_.push(near_[j]);
+      walker_.walk_receiver();
+      const Resolved r = walker_.resolve(&far_);
+      results[i].irradiance = r.irradiance;
+      results[i].ao = r.ao;
+      ++counters.receivers;
+    }
+    for (const StackEntry& e : near_) pins.release(e.pin);
+    counters.pages_fetched += pins.take_fetches();
+    pins.clear();
+  }
+}
+
+}  // namespace pbgi::gather

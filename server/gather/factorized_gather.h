@@ -1,0 +1,44 @@
+// Factorized PBGI (Wang, Meng, Boubekeur, EGSR 2013) over a CutWalker: a
+// batch of receivers (an image tile) is clustered (receiver_clusters.h);
+// per cluster
+//  1. the coarse cut of the active receiver is walked once, culling only
+//     what no member can see; far nodes (gamma = cluster radius / distance
+//     <= epsilon) are splatted into the cluster's shared FarBuffer, near
+//     nodes stop the walk;
+//  2. the FarBuffer is resolved once;
+//  3. each member walks the PBGI cut from the near nodes only, into its
+//     own (sparse) microbuffer, which is composited by depth with the far
+//     content and convolved with the member's cosine lobe.
+// The cluster's pages stay pinned while its members are gathered.
+//
+// Thread-safety: none; one per Gatherer.
+#pragma once
+
+#include "server/gather/cut_walker.h"
+#include "server/gather/far_field.h"
+#include "server/gather/receiver_clusters.h"
+
+#include <span>
+#include <vector>
+
+namespace pbgi::gather {
+
+class FactorizedGather {
+ public:
+  explicit FactorizedGather(CutWalker& walker);
+
+  // `receivers` are validated (finite, unit normals); results in order.
+  void gather(std::span<const Receiver> receivers, std::span<GatherResult> results,
+              GatherCounters& counters);
+
+ private:
+  CutWalker& walker_;
+  ReceiverClusters clusters_;
+  FarBuffer far_;
+  std::vector<StackEntry> near_;
+};
+
+// Clusters for a batch of n receivers: k per 1024 receivers, at least 1.
+uint32_t cluster_count(uint32_t k_per_1024, size_t n);
+
+}  // namespace pbgi::gather

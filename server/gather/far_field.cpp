@@ -1,0 +1,110 @@
+#include "server/gather/far_field.h"
+
+#include <algorithm>
+
+namespace pbgi::gather {
+
+namespace {
+constexpr float kOpaque = 1e-6f;  // transmittance below which nothing behind matters
+}  // namespace
+
+FarBuffer::FarBuffer(const CubeLayout& layout, float depth_band)
+    : layout_(layout),
+      grow_(1.f + depth_band),
+      stamp_(layout.pixel_count(), 0),
+      head_(layout.pixel_count(), -1),
+      resolved_(layout.pixel_count()) {
+  touched_.reserve(layout.pixel_count());
+  fragments_.reserve(4 * layout.pixel_count());
+}
+
+void FarBuffer::begin() {
+  if (++generation_ == 0) {
+    std::fill(stamp_.begin(), stamp_.end(), 0u);
+    generation_ = 1;
+  }
+  touched_.clear();
+  fragments_.clear();
+}
+
+void FarBuffer::push(uint32_t k, const Fragment& f) {
+  if (stamp_[k] != generation_) {
+    stamp_[k] = generation_;
+    head_[k] = -1;
+    touched_.push_back(k);
+  }
+  // Merge into a fragment of the same surface (depth within the band).
+  for (int32_t i = head_[k]; i >= 0; i = fragments_[i].next) {
+    Fragment& g = fragments_[i];
+    if (f.near * grow_ < g.near || f.near > g.far * grow_) continue;
+    g.near = std::min(g.near, f.near);
+    g.far = std::max(g.far, f.far);
+    g.alpha += f.alpha;
+    g.omega += f.omega;
+    g.r += f.r;
+    g.g += f.g;
+    g.b += f.b;
+    g.mx += f.mx;
+    g.my += f.my;
+    g.mz += f.mz;
+    return;
+  }
+  fragments_.push_back(f);
+  fragments_.back().next = head_[k];
+  head_[k] = int32_t(fragments_.size() - 1);
+}
+
+void FarBuffer::resolve(float ao_max_distance) {
+  for (const uint32_t k : touched_) {
+    sorted_.clear();
+    for (int32_t f = head_[k]; f >= 0; f = fragments_[f].next) sorted_.push_back(fragments_[f]);
+    for (size_t i = 1; i < sorted_.size(); ++i) {
+      const Fragment x = sorted_[i];
+      size_t j = i;
+      for (; j > 0 && sorted_[j - 1].near > x.near; --j) sorted_[j] = sorted_[j - 1];
+      sorted_[j] = x;
+    }
+    FarPixel p{};
+    p.z = sorted_.empty() ? 0.f : sorted_[0].near;
+    float transmit = 1.f;
+    bool ao_open = true;
+    size_t i = 0;
+    while (i < sorted_.size() && transmit > kOpaque) {
+      const float start = sorted_[i].near;
+      float far = start, a = 0.f, w = 0.f, r = 0.f, g = 0.f, b = 0.f, mx = 0.f, my = 0.f,
+            mz = 0.f;
+      do {
+        const Fragment& f = sorted_[i];
+        a += f.alpha;
+        w += f.omega;
+        r += f.r;
+        g += f.g;
+        b += f.b;
+        mx += f.mx;
+        my += f.my;
+        mz += f.mz;
+        far = std::max(far, f.far);
+        ++i;
+      } while (i < sorted_.size() && sorted_[i].near <= far * grow_);
+      p.r += transmit * r;
+      p.g += transmit * g;
+      p.b += transmit * b;
+      p.occ += transmit * w;
+      p.mx += transmit * mx;
+      p.my += transmit * my;
+      p.mz += transmit * mz;
+      if (ao_open && ao_max_distance > 0.f && !(start < ao_max_distance)) ao_open = false;
+      if (ao_open) {
+        p.ao_occ += transmit * w;
+        p.ao_mx += transmit * mx;
+        p.ao_my += transmit * my;
+        p.ao_mz += transmit * mz;
+      }
+      transmit *= std::max(0.f, 1.f - a);
+    }
+    p.transmit = transmit;
+    resolved_[k] = p;
+  }
+}
+
+}  // namespace pbgi::gather

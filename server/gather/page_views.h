@@ -1,0 +1,101 @@
+// The gather's own compact view of a tree page: what the traversal's hot
+// loop reads per node (bounding sphere, normal cone, precomputed cone
+// sine and coplanarity bound, links) in 48 bytes, apart from the 208-byte
+// decoded tree::Node whose payload only splats need. Building a view costs
+// about one pass over the page's nodes; views are cached per Gatherer and
+// reused by every receiver, so the cull and cut tests of the ~3000 nodes a
+// receiver visits touch 48 bytes each (one cache line for the top of the
+// tree that every receiver shares) and compute no square roots for cones.
+//
+// A view is derived from the page's content only. A TreeSource returns the
+// same content for a page id for its whole life (pages are immutable), so
+// views are keyed by page id and stay valid when the page cache evicts and
+// reloads a page; the view never points into the Page. Node and surfel
+// links are checked when the view is built (CorruptionError naming the page
+// and node).
+//
+// Thread-safety: none; one per Gatherer.
+#pragma once
+
+#include "storage/tree/node.h"
+
+#include <cstdint>
+#include <memory>
+#include <unordered_map>
+#include <vector>
+
+namespace pbgi::gather {
+
+// Nodes whose normals all lie within this angle (radians) of the receiver's
+// normal are invisible except in the sliver of directions with
+// cos(theta) < angle, worth at most angle^2 of the irradiance (4e-4 here).
+// Culling them saves refining the receiver's own surface down to leaves.
+inline constexpr float kCoplanarAngle = 0.02f;
+
+struct alignas(16) HotNode {
+  static constexpr uint32_t kLeaf = 1u << 31;       // in `count`: a leaf
+  static constexpr uint32_t kInvisible = 1u << 30;  // in `count`: no area or NaN bounds
+  static constexpr uint32_t kCountMask = kInvisible - 1;
+
+  float cx, cy, cz, radius;  // bounding sphere
+  float ax, ay, az;          // normal cone axis (unit)
+  float cone_cos;            // cos of the half angle beta; <= -1: normals every way
+  float cone_sin;            // sin(beta)
+  // cos(kCoplanarAngle - beta) when beta < kCoplanarAngle, else 2: the node
+  // is coplanar with a receiver of normal n when dot(axis, n) exceeds it.
+  float coplanar_cos;
+  uint32_t first;  // internal: first entry in PageView::links; leaf: first surfel
+  uint32_t count;  // flags | child count (internal) or surfel count (leaf)
+
+  bool leaf() const { return count & kLeaf; }
+  bool invisible() const { return count & kInvisible; }
+  uint32_t size() const { return count & kCountMask; }
+};
+static_assert(sizeof(HotNode) == 48);
+
+struct PageView {
+  uint32_t id = 0;
+  std::vector<HotNode> nodes;
+  std::vector<tree::NodeRef> links;  // children of internal nodes
+  size_t surfel_count = 0;
+
+  // Builds the view; throws CorruptionError for a child count above
+  // tree::Node::kMaxChildren, a link to a missing node of the same page or
+  // a leaf's surfel range outside the page.
+  explicit PageView(const tree::Page& page);
+  size_t memory_bytes() const {
+    return sizeof(PageView) + nodes.capacity() * sizeof(HotNode) +
+           links.capacity() * sizeof(tree::NodeRef);
+  }
+  // Whether `page` could be the page this view was built from.
+  bool matches(const tree::Page& page) const {
+    return page.id == id && page.nodes.size() == nodes.size() &&
+           page.surfels.size() == surfel_count;
+  }
+};
+
+// Views by page id, built on first use. trim() drops them all once they
+// exceed the byte budget; it must only be called while no view is in use
+// (between receivers or batches).
+class PageViews {
+ public:
+  explicit PageViews(size_t budget_bytes = size_t(64) << 20) : budget_(budget_bytes) {}
+
+  const PageView& get(const tree::Page& page);
+  void trim() {
+    if (bytes_ > budget_) clear();
+  }
+  void clear();
+  size_t bytes() const { return bytes_; }
+  size_t built() const { return built_; }
+
+ private:
+  static constexpr uint32_t kDenseIds = 1u << 22;
+  std::vector<std::unique_ptr<PageView>> dense_;  // ids below kDenseIds
+  std::unordered_map<uint32_t, std::unique_ptr<PageView>> sparse_;
+  size_t budget_;
+  size_t bytes_ = 0;
+  size_t built_ = 0;
+};
+
+}  // namespace pbgi::gather
