@@ -188,6 +188,7 @@ MethodPlan pbgi_plan(const PbgiSweep& sweep) {
     for (uint32_t mb : sweep.microbuffer_resolutions)
       for (float sa : sweep.max_solid_angles)
         plan.configs.push_back(pbgi_config(sweep, build, surfels, mb, sa, sweep.pixel_samples));
+    if (surfels != sweep.default_target_surfels) continue;
     for (uint32_t px : sweep.extra_pixel_samples)
       plan.configs.push_back(pbgi_config(sweep, build, surfels, sweep.default_microbuffer_resolution,
                                          sweep.default_max_solid_angle, px));

@@ -27,8 +27,8 @@ struct PbgiSweep {
   // RenderOptions of every PBGI render (camera rays per pixel, shadow rays
   // per pixel sample and light) and SurfelOptions::light_samples of builds.
   uint32_t pixel_samples = 1;
-  // Extra renders of each build at the default gather setting with more
-  // camera rays per pixel (each one gathers). With one ray through the
+  // Extra renders of the default configuration with more camera rays per
+  // pixel (each one gathers). With one ray through the
   // pixel centre, the beauty's error against the pixel-averaged reference
   // is mostly aliasing of edges and of lights seen by the camera; these
   // show what antialiasing costs.

@@ -10,6 +10,10 @@ vertex/varying/constant ones per point; faceVarying and uniform ones make
 every face corner its own vertex, so that the per-vertex stream stays exact.
 The texture coordinates and varying displayColor the mesh's materials read
 (mesh_primvars.py) follow the same rule.
+
+Broken polygons are repaired first (mesh_repair.py): faces with out-of-range
+indices or NaN/Inf points are skipped, zero-area triangles dropped,
+non-manifold edges reported; each repair is one WARNING naming the prim.
 """
 import numpy as np
 from pxr import UsdGeom
@@ -19,8 +23,7 @@ from implicit_shapes import tessellate
 from mesh_primvars import expand, material_primvars, needs_unweld
 from mesh_repair import check_counts, check_faces, drop_degenerate, report_non_manifold
 from subdiv_cages import SCHEMES, cage_chunk
-from triangle_chunks import (GeometryError, fan_triangulate, mirrors, transform_normals,
-                             transform_points)
+from triangle_chunks import fan_triangulate, mirrors, transform_normals, transform_points
 
 
 def _authored_normals(mesh, time, point_count, corner_count, face_count, stream):

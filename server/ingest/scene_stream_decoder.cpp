@@ -445,7 +445,11 @@ class SceneAssembler {
     c.far_clip = d.far_clip();
     c.horizontal_aperture_offset = d.horizontal_aperture_offset();
     c.vertical_aperture_offset = d.vertical_aperture_offset();
-    if (!(c.near_clip > 0.f) || !(c.far_clip > c.near_clip) || !std::isfinite(c.near_clip)) {
+    if (c.near_clip == 0.f && c.far_clip == 0.f) {
+      // Not sent (proto3 defaults): the model's defaults, silently.
+      c.near_clip = Camera{}.near_clip;
+      c.far_clip = Camera{}.far_clip;
+    } else if (!(c.near_clip > 0.f) || !(c.far_clip > c.near_clip) || !std::isfinite(c.near_clip)) {
       scene_.warnings.push_back(fmt::format("{}: clipping range ({}, {}) is not 0 < near < far: using (0.01, 1e6)",
                                             c.prim_path, c.near_clip, c.far_clip));
       c.near_clip = 0.01f;

@@ -9,7 +9,7 @@ volume, so this includes the volume's). The daemon opens the grids
 Fields of other kinds (Field3DAsset, ...) and unresolvable files are
 reported once per prim and skipped.
 """
-from pxr import UsdGeom, UsdVol
+from pxr import UsdVol
 
 from chunk_stream import WARNING
 from light_defs import matrix_floats

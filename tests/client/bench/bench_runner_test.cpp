@@ -225,7 +225,7 @@ TEST(BenchOptions, RejectsInconsistentSweeps) {
 TEST(BenchPlan, ListsEveryMethodWithUniqueNames) {
   const MethodPlan plan = bench_plan(BenchOptions{});
   EXPECT_EQ(plan.builds.size(), 2u);          // 50k, 200k surfels
-  EXPECT_EQ(plan.configs.size(), 24u + 2u + 9u);  // 2x3x4 PBGI, 2 antialiased, 1..256 spp
+  EXPECT_EQ(plan.configs.size(), 24u + 1u + 9u);  // 2x3x4 PBGI, 1 antialiased, 1..256 spp
   int defaults = 0;
   for (const MethodConfig& c : plan.configs) defaults += c.is_default;
   EXPECT_EQ(defaults, 1);

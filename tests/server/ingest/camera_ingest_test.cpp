@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 
@@ -40,6 +41,10 @@ def Camera "Shifted"
 def Camera "Defaults"
 {
 }
+def Camera "BadClip"
+{
+    float2 clippingRange = (5, 1)
+}
 )");
   const Scene s = read_usd_scene(path, IngestOptions{});
   const Camera* c = s.find_camera("/Shifted");
@@ -56,6 +61,14 @@ def Camera "Defaults"
   EXPECT_EQ(d->horizontal_aperture_offset, 0.f);
   EXPECT_FLOAT_EQ(d->near_clip, 1.f);
   EXPECT_FLOAT_EQ(d->far_clip, 1e6f);
+
+  // An inverted range is a warning naming the camera, and the defaults.
+  const Camera* bad = s.find_camera("/BadClip");
+  ASSERT_NE(bad, nullptr);
+  EXPECT_FLOAT_EQ(bad->near_clip, 0.01f);
+  EXPECT_EQ(std::count_if(s.warnings.begin(), s.warnings.end(),
+                          [](const std::string& w) { return w.rfind("/BadClip: clipping range", 0) == 0; }),
+            1);
 
   // The image centre looks through the film point (3, -2) mm.
   const Ray centre = camera_ray(*c, 300, 200, 150.f, 100.f);

@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <cmath>
 #include <fstream>
 #include <iostream>
@@ -254,6 +255,35 @@ TEST(ChunkStore, ReopeningAnUnchangedSceneSkipsIngest) {
   fs::resize_file(store.entry_path(key), fs::file_size(store.entry_path(key)) / 2);
   EXPECT_FALSE(store.load(key).has_value());
   EXPECT_FALSE(store.contains(key));
+}
+
+// Measurement hook: PBGI_MEASURE_SCENE=<scene> [PBGI_MEASURE_EDGE=<target
+// edge length>] times ingest vs reopen from the store (skipped otherwise).
+TEST(ChunkStore, MeasureIngestVersusReopen) {
+  const char* scene = std::getenv("PBGI_MEASURE_SCENE");
+  if (!scene) GTEST_SKIP() << "set PBGI_MEASURE_SCENE to measure";
+  ChunkStoreOptions store_options;
+  store_options.directory = temp_dir() / "measure";
+  const ChunkStore store(store_options);
+  IngestOptions options;
+  if (const char* edge = std::getenv("PBGI_MEASURE_EDGE")) options.target_edge_length = std::stof(edge);
+  using Clock = std::chrono::steady_clock;
+  bool from_store = false;
+  const auto t0 = Clock::now();
+  const Scene first = read_usd_scene_cached(scene, options, store, {}, &from_store);
+  const auto t1 = Clock::now();
+  const Scene second = read_usd_scene_cached(scene, options, store, {}, &from_store);
+  const auto t2 = Clock::now();
+  EXPECT_TRUE(from_store);
+  const std::string key = store.key(usd_content_hash(scene, options), options);
+  const auto t3 = Clock::now();
+  const size_t raw = first.triangles.positions.size() * (sizeof(V3f) * (first.triangles.normals.empty() ? 1 : 2)) +
+                     first.triangles.indices.size() * 4;
+  std::cout << scene << ": " << first.triangles.triangle_count() << " triangles; ingest+save "
+            << std::chrono::duration<double>(t1 - t0).count() << " s, reopen "
+            << std::chrono::duration<double>(t2 - t1).count() << " s (of which hashing "
+            << std::chrono::duration<double>(t3 - t2).count() << " s); entry "
+            << fs::file_size(store.entry_path(key)) << " bytes vs " << raw << " bytes raw positions+normals+indices\n";
 }
 
 TEST(ChunkStore, OptionsAreValidated) {

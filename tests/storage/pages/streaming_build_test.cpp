@@ -1,0 +1,180 @@
+// The streaming build: external sort under a memory bound, equality with
+// the in-memory build, independence from batch sizes and sort memory.
+#include "storage/cache/page_cache.h"
+#include "storage/format/errors.h"
+#include "storage/pages/page_set.h"
+#include "storage/pages/surfel_sorter.h"
+#include "storage/tree/memory_tree.h"
+#include "storage/tree/morton.h"
+#include "storage/tree/streaming_tree_builder.h"
+#include "storage/tree/tree_builder.h"
+#include "tests/storage/pages/temp_dir.h"
+#include "tests/storage/pages/tree_walk.h"
+#include "tests/storage/tree/random_surfels.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <fstream>
+#include <random>
+
+namespace pbgi::storage {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::vector<uint8_t> read_file(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), {}};
+}
+
+// Adds `surfels` to `b` in batches of random sizes (1 to 3000).
+void add_in_random_batches(PageSetBuilder& b, const std::vector<Surfel>& surfels, uint32_t seed) {
+  std::mt19937 rng(seed);
+  for (size_t at = 0; at < surfels.size();) {
+    const size_t n = std::min<size_t>(surfels.size() - at, 1 + rng() % 3000);
+    b.add({surfels.data() + at, n});
+    at += n;
+  }
+}
+
+TEST(StreamingBuild, EqualsTheInMemoryBuildWithinItsMemoryBound) {
+  test::TempDir tmp;
+  const std::vector<Surfel> surfels = test::random_surfels(60000, 31);
+  tree::BuildOptions o;
+  o.page_size = 16384;
+  o.sort_memory_bytes = 64 * 1024;  // ~800 surfels per run: ~75 runs, two merges
+
+  PageSetBuilder b(o, "stream", tmp.path() / "small", tree::surfel_bounds(surfels));
+  add_in_random_batches(b, surfels, 1);
+  const Manifest m = b.finish();
+  const BuildReport& r = b.report();
+  EXPECT_EQ(r.surfels, surfels.size());
+  EXPECT_GT(r.runs, 64u);        // more runs than one merge takes
+  EXPECT_GE(r.merges, 2u);       // so an intermediate merge happened
+  EXPECT_GT(r.sort_peak_bytes, 0u);
+  EXPECT_LE(r.sort_peak_bytes, o.sort_memory_bytes);  // the bound held
+  EXPECT_LT(r.tree_peak_pending_bytes, 64u * o.page_size);
+  EXPECT_EQ(m.stats.surfel_count, surfels.size());
+
+  // Same traversal, node for node and surfel for surfel, as the tree built
+  // in memory from the same surfels.
+  PageSetReader reader(tmp.path() / "small", std::make_shared<PageCache>(uint64_t(1) << 30));
+  test::expect_same_walk(test::walk(reader), test::walk(tree::MemoryTree(tree::build_tree(surfels, o))));
+
+  // The sort memory and the batches change nothing: same bytes on disk.
+  tree::BuildOptions big = o;
+  big.sort_memory_bytes = uint64_t(64) << 20;  // one run, sorted in memory
+  BuildReport r2;
+  build_page_set(surfels, big, "stream", tmp.path() / "big", {}, &r2);
+  EXPECT_EQ(r2.runs, 0u);
+  EXPECT_EQ(read_file(tmp.path() / "small" / kPagesFileName), read_file(tmp.path() / "big" / kPagesFileName));
+  EXPECT_EQ(read_file(tmp.path() / "small" / kManifestFileName), read_file(tmp.path() / "big" / kManifestFileName));
+  // Run files went away with the build.
+  for (const auto& e : fs::directory_iterator(tmp.path())) EXPECT_TRUE(fs::is_directory(e)) << e.path();
+  for (const auto& e : fs::recursive_directory_iterator(tmp.path()))
+    EXPECT_EQ(e.path().string().find("run-"), std::string::npos) << e.path();
+}
+
+TEST(StreamingBuild, InvalidSurfelNamedByArrivalIndex) {
+  test::TempDir tmp;
+  std::vector<Surfel> surfels = test::random_surfels(5000, 2);
+  surfels[4321].radius = std::numeric_limits<float>::infinity();
+  PageSetBuilder b({}, "k", tmp.path() / "s", tree::surfel_bounds(surfels));
+  try {
+    add_in_random_batches(b, surfels, 3);
+    FAIL() << "invalid surfel accepted";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("surfel 4321"), std::string::npos) << e.what();
+  }
+}
+
+TEST(StreamingBuild, SurfelsOutsideTheBoundsAreStillStored) {
+  // The bounds only order the surfels; one far outside is clamped in the
+  // order and stored as it is.
+  test::TempDir tmp;
+  std::vector<Surfel> surfels = test::random_surfels(2000, 4);
+  surfels[10].position = {1e4f, -1e4f, 3e3f};
+  Imath::Box3f small({-1, -1, -1}, {1, 1, 1});
+  PageSetBuilder b({}, "k", tmp.path() / "s", small);
+  b.add(surfels);
+  b.finish();
+  PageSetReader reader(tmp.path() / "s", std::make_shared<PageCache>(uint64_t(1) << 30));
+  const test::Walk w = test::walk(reader);
+  ASSERT_EQ(w.surfels.size(), surfels.size());
+  EXPECT_TRUE(std::any_of(w.surfels.begin(), w.surfels.end(),
+                          [](const Surfel& s) { return std::abs(s.position.x - 1e4f) < 1.f; }));
+}
+
+TEST(SurfelSorter, SortsByCodeThenArrivalWithinItsMemory) {
+  test::TempDir tmp;
+  std::vector<Surfel> surfels = test::random_surfels(9000, 6);
+  // Duplicated positions: ties must keep arrival order.
+  for (size_t i = 0; i < surfels.size(); i += 7) surfels[i].position = surfels[0].position;
+  const tree::MortonFrame frame(tree::surfel_bounds(surfels));
+  constexpr uint64_t kMemory = 64 * 1024;
+  SurfelSorter sorter(frame, kMemory, tmp.path(), /*max_fan_in=*/2);
+  for (size_t at = 0; at < surfels.size(); at += 1000) sorter.add({surfels.data() + at, 1000});
+
+  std::vector<std::pair<uint64_t, size_t>> want;
+  for (size_t i = 0; i < surfels.size(); ++i) want.push_back({frame.code(surfels[i].position), i});
+  std::sort(want.begin(), want.end());
+
+  std::vector<float> progress;
+  size_t k = 0;
+  sorter.drain(
+      [&](const Surfel& s, uint64_t code) {
+        ASSERT_LT(k, want.size());
+        ASSERT_EQ(code, want[k].first) << k;
+        ASSERT_TRUE(test::same_surfel(s, surfels[want[k].second])) << k;
+        ++k;
+      },
+      [&](float f) { progress.push_back(f); });
+  EXPECT_EQ(k, surfels.size());
+  const SortStats& st = sorter.stats();
+  EXPECT_EQ(st.runs, 11u);      // 9000 surfels, 819 per run
+  EXPECT_EQ(st.merges, 10u);    // pairwise: 11 runs -> 1
+  EXPECT_LE(st.peak_bytes, kMemory);
+  EXPECT_TRUE(fs::is_empty(tmp.path()));  // every run file deleted
+  ASSERT_FALSE(progress.empty());
+  EXPECT_TRUE(std::is_sorted(progress.begin(), progress.end()));
+  EXPECT_LE(progress.back(), 1.f);
+  EXPECT_GT(progress.back(), 0.99f);
+}
+
+TEST(SurfelSorter, DamagedRunIsCorruption) {
+  test::TempDir tmp;
+  const std::vector<Surfel> surfels = test::random_surfels(3000, 9);
+  SurfelSorter sorter(tree::MortonFrame(tree::surfel_bounds(surfels)), 64 * 1024, tmp.path());
+  sorter.add(surfels);
+  // Flip a byte in the middle of the first run.
+  const fs::path run = tmp.path() / "run-000000.tmp";
+  ASSERT_TRUE(fs::exists(run));
+  {
+    std::fstream f(run, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekg(1000);
+    char c = 0;
+    f.read(&c, 1);
+    c ^= 0x40;
+    f.seekp(1000);
+    f.write(&c, 1);
+  }
+  EXPECT_THROW(sorter.drain([](const Surfel&, uint64_t) {}), CorruptionError);
+}
+
+TEST(StreamingTreeBuilder, RefusesUnsortedCodesAndEmptyStreams) {
+  struct NullSink final : tree::TreeletSink {
+    uint32_t write(const tree::Treelet&) override { return n++; }
+    uint32_t n = 0;
+  } sink;
+  tree::StreamingTreeBuilder b({}, 65536, 144, sink);
+  const Surfel s = test::random_surfels(1)[0];
+  b.add(s, 10);
+  b.add(s, 10);
+  EXPECT_THROW(b.add(s, 9), InvalidArgument);
+  tree::StreamingTreeBuilder empty({}, 65536, 144, sink);
+  EXPECT_THROW(empty.finish(), InvalidArgument);
+}
+
+}  // namespace
+}  // namespace pbgi::storage
