@@ -5,8 +5,8 @@
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
-WIDTH="${1:-384}"
-HEIGHT="${2:-384}"
+WIDTH="${1:-256}"
+HEIGHT="${2:-256}"
 T0=$(date +%s.%N)
 
 "$ROOT/scripts/setup.sh"
