@@ -10,6 +10,8 @@
 
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
+
+#include "tests/server/ingest/scratch_files.h"
 #include <unistd.h>
 
 #include <algorithm>
@@ -22,17 +24,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path temp_dir() {
-  static const struct Dir {
-    fs::path path = fs::temp_directory_path() / ("pbgi_looks_ingest_test_" + std::to_string(getpid()));
-    Dir() { fs::create_directories(path); }
-    ~Dir() {
-      std::error_code ec;
-      fs::remove_all(path, ec);
-    }
-  } dir;
-  return dir.path;
-}
+using test::temp_dir;
 
 void write_image(const fs::path& path, uint32_t w, uint32_t h, uint32_t channels, const std::vector<float>& texels,
                  OIIO::TypeDesc format) {

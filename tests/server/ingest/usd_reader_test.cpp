@@ -5,6 +5,8 @@
 #include "storage/format/errors.h"
 
 #include <gtest/gtest.h>
+
+#include "tests/server/ingest/scratch_files.h"
 #include <unistd.h>
 
 #include <algorithm>
@@ -17,24 +19,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// A per-process scratch directory, removed at exit.
-fs::path temp_dir() {
-  static const struct Dir {
-    fs::path path = fs::temp_directory_path() / ("pbgi_usd_reader_test_" + std::to_string(getpid()));
-    Dir() { fs::create_directories(path); }
-    ~Dir() {
-      std::error_code ec;
-      fs::remove_all(path, ec);
-    }
-  } dir;
-  return dir.path;
-}
-
-fs::path write_file(const std::string& name, const std::string& text) {
-  const fs::path path = temp_dir() / name;
-  std::ofstream(path) << text;
-  return path;
-}
+using test::temp_dir;
+using test::write_file;
 
 // One scene exercising most of the reader: read once for the suite.
 const char* kMixedScene = R"(#usda 1.0
