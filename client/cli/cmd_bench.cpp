@@ -24,6 +24,7 @@ struct BenchArgs {
   std::vector<uint64_t> surfels;
   std::vector<uint32_t> microbuffers;
   std::vector<float> solid_angles;
+  std::optional<std::vector<uint32_t>> extra_pixel_samples;
   bool quick = false;
   bool images = false;
   bool no_plot = false;
@@ -52,6 +53,11 @@ int run(const BenchArgs& args) {
   pick_default(o.pbgi.target_surfels, &o.pbgi.default_target_surfels);
   pick_default(o.pbgi.microbuffer_resolutions, &o.pbgi.default_microbuffer_resolution);
   pick_default(o.pbgi.max_solid_angles, &o.pbgi.default_max_solid_angle);
+  if (args.extra_pixel_samples) {
+    o.pbgi.extra_pixel_samples.clear();
+    for (uint32_t px : *args.extra_pixel_samples)
+      if (px != 0) o.pbgi.extra_pixel_samples.push_back(px);
+  }
   o.save_images = args.images;
   o.plot = !args.no_plot;
   if (!args.quiet) o.log = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
@@ -92,6 +98,10 @@ const CommandRegistrar kRegistrar("bench", [](CLI::App& app, int* exit_code) {
       ->delimiter(',');
   cmd->add_option("--solid-angle", args->solid_angles,
                   "Cut thresholds max_solid_angle (default 0.3,0.1,0.03,0.01)")
+      ->delimiter(',');
+  cmd->add_option("--extra-pixel-samples", args->extra_pixel_samples,
+                  "Extra renders of the default PBGI configuration with this many camera rays "
+                  "per pixel (default 4; 0 = none)")
       ->delimiter(',');
   cmd->add_flag("--quick", args->quick, "Small sweep for CI (64x64, 20k surfels, 4 PBGI settings)");
   cmd->add_flag("--images", args->images, "Also write <out-dir>/images/<config>.exr");

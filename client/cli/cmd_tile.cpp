@@ -25,6 +25,9 @@ struct TileArgs {
   bool json = false;
   uint32_t mb_res = 0, light_samples = 0, pixel_samples = 0;
   float max_solid_angle = 0.f, ao_max_distance = 0.f;
+  std::string method;         // "" = the daemon's default
+  uint32_t clusters = 0;
+  float epsilon = 0.f, hdr_refine = 0.f;
   uint64_t target_surfels = 0;
   float surfel_spacing = 0.f;
   uint32_t build_light_samples = 0;
@@ -81,6 +84,11 @@ int run_tile(const TileArgs& args) {
   o.set_ao_max_distance(args.ao_max_distance);
   o.set_light_samples(args.light_samples);
   o.set_pixel_samples(args.pixel_samples);
+  if (args.method == "pbgi") o.set_method(v1::GatherOptions::PBGI);
+  if (args.method == "fpbgi") o.set_method(v1::GatherOptions::FPBGI);
+  o.set_clusters(args.clusters);
+  o.set_epsilon(args.epsilon);
+  o.set_hdr_refine(args.hdr_refine);
   const auto start = std::chrono::steady_clock::now();
   const client::TileImage tile = client.render_tile(request);
   const double round_trip =
@@ -145,6 +153,11 @@ const CommandRegistrar kRegistrar{"tile", [](CLI::App& app, int* exit_code) {
   cmd->add_option("--ao-max-distance", args->ao_max_distance, "AO distance, 0 = unbounded");
   cmd->add_option("--light-samples", args->light_samples, "shadow rays per pixel and light [16]");
   cmd->add_option("--pixel-samples", args->pixel_samples, "camera rays per pixel [1]");
+  cmd->add_option("--method", args->method, "gather: pbgi or fpbgi [pbgi]")
+      ->check(CLI::IsMember({"pbgi", "fpbgi"}));
+  cmd->add_option("--clusters", args->clusters, "FPBGI clusters per 1024 receivers [100]");
+  cmd->add_option("--epsilon", args->epsilon, "FPBGI far/near split [0.01]");
+  cmd->add_option("--hdr-refine", args->hdr_refine, "HDR-aware cut refinement, 0 = off");
   cmd->add_option("--target-surfels", args->target_surfels, "surfels to sample [200000]");
   cmd->add_option("--surfel-spacing", args->surfel_spacing, "surfel spacing, world units");
   cmd->add_option("--build-light-samples", args->build_light_samples,

@@ -122,6 +122,8 @@ void Daemon::start() {
     bound.port = static_cast<uint16_t>(bound_port);
     address_ = bound.grpc_uri();
   }
+  // Health says NOT_SERVING until the preloads are done.
+  server_->GetHealthCheckService()->SetServingStatus(false);
   server_->GetHealthCheckService()->SetServingStatus(kServiceName, false);
 
   // 6. Scenes to have ready before reporting in.

@@ -120,6 +120,17 @@ class TableReader {
 // shortest text (0.03f -> 0.03, not 0.029999999329447746).
 double float_for_toml(float f) { return std::strtod(fmt::format("{}", f).c_str(), nullptr); }
 
+std::string method_name(GatherMethod method) {
+  return method == GatherMethod::kFpbgi ? "fpbgi" : "pbgi";
+}
+
+GatherMethod parse_method(const std::string& name, const std::string& source) {
+  if (name == "pbgi") return GatherMethod::kPbgi;
+  if (name == "fpbgi") return GatherMethod::kFpbgi;
+  throw InvalidArgument(fmt::format("config '{}': key 'gather.method' = '{}' is not pbgi or fpbgi",
+                                    source, name));
+}
+
 toml::array string_array(const std::vector<std::string>& values) {
   toml::array array;
   for (const std::string& v : values) array.push_back(v);
@@ -223,6 +234,12 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
     gather.read("ao_max_distance", r.gather.ao_max_distance);
     gather.read("light_samples", r.light_samples);
     gather.read("pixel_samples", r.pixel_samples);
+    std::string method = method_name(r.gather.method);
+    gather.read("method", method);
+    r.gather.method = parse_method(method, source);
+    gather.read("clusters", r.gather.clusters);
+    gather.read("epsilon", r.gather.epsilon);
+    gather.read("hdr_refine", r.gather.hdr_refine);
     gather.reject_unknown();
   }
   if (const toml::table* table = top.table("build")) {
@@ -296,6 +313,10 @@ std::string to_toml(const DaemonOptions& o) {
   float32_value("ao_max_distance", r.gather.ao_max_distance);
   integer_value("light_samples", r.light_samples);
   integer_value("pixel_samples", r.pixel_samples);
+  string_value("method", method_name(r.gather.method));
+  integer_value("clusters", r.gather.clusters);
+  float32_value("epsilon", r.gather.epsilon);
+  float32_value("hdr_refine", r.gather.hdr_refine);
 
   const OpenOptions& b = o.service.defaults.open;
   out << "\n[build]\n";
@@ -359,6 +380,8 @@ bool operator==(const DaemonOptions& a, const DaemonOptions& b) {
          ra.gather.max_solid_angle == rb.gather.max_solid_angle &&
          ra.gather.ao_max_distance == rb.gather.ao_max_distance &&
          ra.light_samples == rb.light_samples && ra.pixel_samples == rb.pixel_samples &&
+         ra.gather.method == rb.gather.method && ra.gather.clusters == rb.gather.clusters &&
+         ra.gather.epsilon == rb.gather.epsilon && ra.gather.hdr_refine == rb.gather.hdr_refine &&
          oa.surfels.spacing == ob.surfels.spacing &&
          oa.surfels.target_surfels == ob.surfels.target_surfels &&
          oa.surfels.light_samples == ob.surfels.light_samples &&

@@ -6,7 +6,8 @@
 //   listen, scene_roots, cache_dir, memory_budget, threads, log_level,
 //   python, preload, allow_insecure_remote, shutdown_grace_seconds
 //   [gather]  microbuffer_resolution, max_solid_angle, ao_max_distance,
-//             light_samples, pixel_samples            (request defaults)
+//             light_samples, pixel_samples, method ("pbgi" | "fpbgi"),
+//             clusters, epsilon, hdr_refine           (request defaults)
 //   [build]   surfel_spacing, target_surfels, light_samples, page_size,
 //             leaf_size, seed                         (OpenScene defaults)
 //   [limits]  max_receivers, max_image_side, max_tile_pixels, max_message_size

@@ -10,10 +10,21 @@ namespace pbgi {
 std::string page_set_build_key(const std::string& scene_content_hash, const OpenOptions& o) {
   // Every field that changes the stored bytes goes into the key; bump the
   // "v" tag when the meaning of an option changes.
-  const std::string text = fmt::format(
+  // (surfels.batch_surfels and tree.sort_memory_bytes change only memory
+  // and speed, never the bytes: they stay out.)
+  const auto& s = o.surfels;
+  std::string text = fmt::format(
       "v1|scene={}|spacing={}|target={}|light_samples={}|seed={}|leaf={}|page={}|format={}",
-      scene_content_hash, o.surfels.spacing, o.surfels.target_surfels, o.surfels.light_samples,
-      o.surfels.seed, o.tree.leaf_size, o.tree.page_size, storage::kPageSetFormatVersion);
+      scene_content_hash, s.spacing, s.target_surfels, s.light_samples, s.seed, o.tree.leaf_size,
+      o.tree.page_size, storage::kPageSetFormatVersion);
+  // Additions keep the text of the defaults unchanged, so that adding an
+  // option does not rebuild every cached page set.
+  if (s.sampler != SurfelSampler::kUniform) text += fmt::format("|sampler={}", int(s.sampler));
+  if (s.adaptive()) {
+    text += fmt::format("|camera={}|image={}x{}|footprint={}|min_spacing={}|offscreen={}|margin={}", s.camera,
+                        s.image_width, s.image_height, s.pixel_footprint, s.min_spacing, s.offscreen_factor,
+                        s.frustum_margin);
+  }
   const XXH128_hash_t h = XXH3_128bits(text.data(), text.size());
   return fmt::format("{:016x}{:016x}", h.high64, h.low64);
 }

@@ -86,15 +86,15 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
   session->info.reused_cache = session->tree != nullptr;
 
   if (!session->tree) {
-    // 4. Surfels: sample, then shade with direct light.
-    auto surfels = sample_surfels(*session->scene, options.surfels,
-                                  [&](const char* s, float f) { report(s, f); });
-    shade_direct(*session->rays, options.surfels, surfels,
-                 [&](const char* s, float f) { report(s, f); });
-    // 5. Tree pages, published atomically into the cache directory.
+    // 4. Surfels, sampled and shaded batch by batch, streamed into the
+    //    page-set build (external sort by Morton code, bounded memory).
     fs::create_directories(ctx.cache_dir);
-    storage::build_page_set(std::move(surfels), options.tree, key, dir,
-                            [&](float f) { report("tree", f); });
+    storage::PageSetBuilder builder(options.tree, key, dir, session->scene->bounds());
+    generate_surfels(*session->scene, *session->rays, options.surfels,
+                     [&](std::span<const Surfel> batch) { builder.add(batch); },
+                     [&](const char* s, float f) { report(s, f); });
+    // 5. Tree pages, published atomically into the cache directory.
+    builder.finish([&](float f) { report("tree", f); });
     session->tree = std::make_unique<storage::PageSetReader>(dir, ctx.cache);
   }
 

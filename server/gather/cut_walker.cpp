@@ -63,13 +63,14 @@ float depth_band_for(const GatherOptions& o) {
 }
 
 CutWalker::CutWalker(const tree::TreeSource& tree, const GatherOptions& options,
-                     GatherCounters& counters)
+                     GatherCounters& counters, GatherCache::Impl* shared)
     : tree_(tree),
       options_(options),
       counters_(counters),
       layout_(CubeLayout::get(options.microbuffer_resolution)),
       buffer_(layout_, depth_band_for(options)),
       raster_(buffer_),
+      views_(shared),
       pins_(tree, views_),
       cut_(cut_solid_angle(options)),
       surfel_splat_max_(std::max(cut_, kRaycastMinPixels * layout_.mean_pixel_solid_angle())) {
@@ -114,14 +115,17 @@ bool CutWalker::culled(const HotNode& h, const Imath::V3f& v, float d2) const {
   const float r = h.radius;
   if (n_.x * v.x + n_.y * v.y + n_.z * v.z < -r) return true;
   if (!(h.cone_cos > -1.f)) return false;  // normals every way
-  const float av = h.ax * v.x + h.ay * v.y + h.az * v.z;
   // Back-facing: the angle between the axis and any direction from the node
   // to the receiver exceeds 90 deg + beta (cone) + gamma (sphere's spread,
-  // sin gamma = r/d): a.v > d sin(beta + gamma), when beta + gamma < 90.
-  const float r2 = r * r;
-  if (d2 > r2) {
-    const float s = std::sqrt(d2 - r2);  // d cos(gamma)
-    if (h.cone_cos * s > h.cone_sin * r && av > h.cone_sin * s + h.cone_cos * r) return true;
+  // sin gamma = r/d): a.v > d sin(beta + gamma) = sin_b s + cos_b r with
+  // s = d cos(gamma) = sqrt(d^2 - r^2), when beta + gamma < 90 deg
+  // (cos_b s > sin_b r). Both compared squared: no square root.
+  const float av = h.ax * v.x + h.ay * v.y + h.az * v.z;
+  const float lhs = av - h.cone_cos * r;  // must exceed sin_b s
+  const float s2 = d2 - r * r;
+  if (lhs > 0.f && h.cone_cos > 0.f && s2 > 0.f) {
+    const float sb2 = h.cone_sin * h.cone_sin;
+    if (h.cone_cos * h.cone_cos * s2 > sb2 * r * r && lhs * lhs > sb2 * s2) return true;
   }
   // Coplanar with the receiver and facing the same way.
   return h.ax * n_.x + h.ay * n_.y + h.az * n_.z > h.coplanar_cos;
@@ -183,25 +187,44 @@ void CutWalker::push_children(const StackEntry& parent, const HotNode& h) {
   }
 }
 
-bool CutWalker::splat_node(const tree::Node& node, const Imath::V3f& v, float d2,
+bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V3f& v, float d2,
                            FarBuffer* far) {
   const float d = std::sqrt(d2);
-  const Imath::V3f dir = v / d;
-  Appearance look;
-  if (!node_appearance(node, -dir, look)) return true;  // shows nothing from here
+  const float inv_d = 1.f / d;
+  const Imath::V3f dir = v * inv_d;
   Rasterizer::Shape shape;
+  Imath::C3f radiance;
   // A node cannot hide more than its bounding disk.
-  shape.omega = std::min(node.area * look.coverage, kPi * node.radius * node.radius) / d2;
-  shape.squash = look.squash;
-  shape.ratio = look.ratio;
-  shape.max_radius = node.radius / d;
+  const float disk = kPi * h.radius * h.radius;
+  if (h.narrow()) {
+    // Flat node: coverage from its cone, mean radiance (node_appearance.h),
+    // both precomputed in the page view.
+    const NodeLook& look = e.view->looks[e.index];
+    if (!(look.area > 0.f)) return true;
+    const float cos_phi = -(h.ax * dir.x + h.ay * dir.y + h.az * dir.z);
+    const float coverage = std::min(1.f, fan_coverage(cos_phi, look.fan));
+    if (!(coverage > 0.f)) return true;  // shows nothing from here
+    shape.omega = std::min(look.area * coverage, disk) / d2;
+    shape.squash = Imath::V3f(h.ax, h.ay, h.az);
+    shape.ratio = coverage;
+    radiance = Imath::C3f(look.r, look.g, look.b);
+  } else {
+    const tree::Node& node = pins_.page(e.pin).nodes[e.index];
+    Appearance look;
+    if (!node_appearance(node, -dir, look)) return true;
+    shape.omega = std::min(node.area * look.coverage, disk) / d2;
+    shape.squash = look.squash;
+    shape.ratio = look.ratio;
+    radiance = look.radiance;
+  }
+  shape.max_radius = h.radius * inv_d;
   // HDR-aware cut: a node that alone would bring much of a typical
   // receiver's light is refined.
-  if (shape.omega * luminance(look.radiance) > hdr_threshold_) return false;
+  if (shape.omega * luminance(radiance) > hdr_threshold_) return false;
   if (far) {
-    raster_.splat_far(*far, dir, shape, d, look.radiance);
+    raster_.splat_far(*far, dir, shape, d, radiance);
   } else {
-    raster_.splat(dir, shape, d, look.radiance);
+    raster_.splat(dir, shape, d, radiance);
   }
   ++counters_.nodes_rasterized;
   return true;
@@ -250,7 +273,7 @@ void CutWalker::walk_receiver() {
       const float r2 = h.radius * h.radius;
       bool done = false;
       if (d2 > r2 && kPi * r2 <= omega_max * d2) {
-        done = splat_node(pins_.page(e.pin).nodes[e.index], v, d2, nullptr);
+        done = splat_node(e, h, v, d2, nullptr);
       }
       if (!done) {
         if (!h.leaf()) {
@@ -292,7 +315,7 @@ void CutWalker::walk_cluster(const ClusterFrame& c, FarBuffer& far,
     }
     const float r2 = h.radius * h.radius;
     if (d2 > r2 && kPi * r2 <= omega_max * d2 &&
-        splat_node(pins_.page(e.pin).nodes[e.index], v, d2, &far)) {
+        splat_node(e, h, v, d2, &far)) {
       pins_.release(e.pin);
       continue;
     }

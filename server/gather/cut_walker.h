@@ -49,7 +49,9 @@ struct ClusterFrame {
 
 class CutWalker {
  public:
-  CutWalker(const tree::TreeSource& tree, const GatherOptions& options, GatherCounters& counters);
+  // `shared`: a GatherCache's store of page views, or null for private ones.
+  CutWalker(const tree::TreeSource& tree, const GatherOptions& options, GatherCounters& counters,
+            GatherCache::Impl* shared = nullptr);
 
   const GatherOptions& options() const { return options_; }
   PagePins& pins() { return pins_; }
@@ -82,7 +84,8 @@ class CutWalker {
   // Splats a node into the receiver's microbuffer (or, with `far`, the
   // cluster's far buffer). Returns false, drawing nothing, when the
   // HDR-aware cut wants it refined.
-  bool splat_node(const tree::Node& node, const Imath::V3f& v, float d2, FarBuffer* far);
+  bool splat_node(const StackEntry& e, const HotNode& h, const Imath::V3f& v, float d2,
+                  FarBuffer* far);
   void leaf_surfels(const tree::Page& page, const HotNode& h);
   float hdr_threshold();
 

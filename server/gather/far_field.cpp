@@ -65,9 +65,9 @@ void FarBuffer::resolve(float ao_max_distance) {
       sorted_[j] = x;
     }
     FarPixel p{};
-    p.z = sorted_.empty() ? 0.f : sorted_[0].near;
-    float transmit = 1.f;
+    float transmit = 1.f;  // from the start of the current layer
     bool ao_open = true;
+    bool front = true;
     size_t i = 0;
     while (i < sorted_.size() && transmit > kOpaque) {
       const float start = sorted_[i].near;
@@ -86,23 +86,34 @@ void FarBuffer::resolve(float ao_max_distance) {
         far = std::max(far, f.far);
         ++i;
       } while (i < sorted_.size() && sorted_[i].near <= far * grow_);
-      p.r += transmit * r;
-      p.g += transmit * g;
-      p.b += transmit * b;
-      p.occ += transmit * w;
-      p.mx += transmit * mx;
-      p.my += transmit * my;
-      p.mz += transmit * mz;
+      FarLayer& layer = front ? p.front : p.rest;
+      layer.r += transmit * r;
+      layer.g += transmit * g;
+      layer.b += transmit * b;
+      layer.occ += transmit * w;
+      layer.mx += transmit * mx;
+      layer.my += transmit * my;
+      layer.mz += transmit * mz;
       if (ao_open && ao_max_distance > 0.f && !(start < ao_max_distance)) ao_open = false;
       if (ao_open) {
-        p.ao_occ += transmit * w;
-        p.ao_mx += transmit * mx;
-        p.ao_my += transmit * my;
-        p.ao_mz += transmit * mz;
+        layer.ao_occ += transmit * w;
+        layer.ao_mx += transmit * mx;
+        layer.ao_my += transmit * my;
+        layer.ao_mz += transmit * mz;
       }
-      transmit *= std::max(0.f, 1.f - a);
+      if (front) {
+        // The rest is composited from its own start.
+        p.front_near = start;
+        p.front_far = far;
+        p.front_alpha = a;
+        p.rest_z = i < sorted_.size() ? sorted_[i].near : far;
+        front = false;
+      } else {
+        transmit *= std::max(0.f, 1.f - a);
+      }
     }
-    p.transmit = transmit;
+    p.rest_alpha = front ? 0.f : 1.f - transmit;
+    if (p.rest.occ <= 0.f) p.rest_alpha = 0.f;
     resolved_[k] = p;
   }
 }

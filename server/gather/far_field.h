@@ -11,16 +11,23 @@
 //
 // resolve() applies the compositing rule of microbuffer.h (sort, cluster by
 // depth band, front to back with unclamped splat coverage) and reduces each
-// pixel to a FarPixel: transmittance-weighted sums S = sum T omega L,
-// O = sum T omega, M = sum T omega m (and the same restricted to clusters
-// nearer than ao_max_distance for AO), the depth where far content starts
-// and the transmittance through all of it. A receiver with normal n then
-// takes from pixel k
+// pixel to a FarPixel of two layers:
+//  - front: the nearest surface cluster, with its depth interval and
+//    coverage, so that a receiver's near fragments of the same surface
+//    (a wall crossing the near/far distance) merge with it and add their
+//    coverage, as fragments of one surface do;
+//  - rest: everything behind it, composited front to back from its own
+//    start (not attenuated by the front layer: the receiver attenuates it by
+//    whatever lies in front, the front layer included).
+// Each layer holds transmittance-weighted sums S = sum T omega L,
+// O = sum T omega, M = sum T omega m (and O, M over the clusters nearer
+// than ao_max_distance, for AO). A receiver with normal n takes from a layer
+// in pixel k
 //   irradiance  S (n . M) / O   when the pixel lies wholly above its horizon,
 //               S w_k / Omega_k otherwise (w_k its cosine weight, as a hit),
 //   occlusion   n . M  (resp. O w_k / Omega_k),
 // i.e. the radiance-weighted and the solid-angle-weighted mean directions
-// of the pixel's far content are taken to be the same.
+// of a layer's content in one pixel are taken to be the same.
 //
 // Thread-safety: none; one per Gatherer. No allocation per cluster once
 // the fragment pool has grown.
@@ -37,14 +44,21 @@
 
 namespace pbgi::gather {
 
-struct FarPixel {
-  float r, g, b;            // S: sum T omega L
-  float occ;                // O: sum T omega
-  float mx, my, mz;         // M: sum T omega m
-  float ao_occ;             // O and M of the clusters nearer than ao_max_distance
+// One layer of a pixel's far content (see above).
+struct FarLayer {
+  float r, g, b;      // S: sum T omega L
+  float occ;          // O: sum T omega
+  float mx, my, mz;   // M: sum T omega m
+  float ao_occ;       // O and M of the clusters nearer than ao_max_distance
   float ao_mx, ao_my, ao_mz;
-  float z;                  // depth where the far content starts
-  float transmit;           // through all of it
+};
+
+struct FarPixel {
+  FarLayer front, rest;
+  float front_near, front_far;  // depth interval of the front cluster
+  float front_alpha;            // its coverage (unclamped sum)
+  float rest_z;                 // where the rest starts (if rest_alpha > 0)
+  float rest_alpha;             // 1 - transmittance through the rest
 };
 
 class FarBuffer {

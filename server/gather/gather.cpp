@@ -35,17 +35,20 @@ Receiver checked(const Receiver& r) {
 }  // namespace
 
 struct Gatherer::Impl {
-  Impl(const tree::TreeSource& tree, const GatherOptions& options, GatherCounters& counters)
-      : walker(tree, options, counters) {}
+  Impl(const tree::TreeSource& tree, const GatherOptions& options, GatherCounters& counters,
+       std::shared_ptr<GatherCache> c)
+      : cache(std::move(c)), walker(tree, options, counters, cache ? &cache->impl() : nullptr) {}
 
+  std::shared_ptr<GatherCache> cache;  // kept alive while views point into it
   gather::CutWalker walker;
   std::unique_ptr<gather::FactorizedGather> factorized;  // made on first use
   std::vector<Receiver> batch;                           // checked receivers
 };
 
-Gatherer::Gatherer(const tree::TreeSource& tree, const GatherOptions& options) {
+Gatherer::Gatherer(const tree::TreeSource& tree, const GatherOptions& options,
+                   std::shared_ptr<GatherCache> cache) {
   options.validate();
-  impl_ = std::make_unique<Impl>(tree, options, counters_);
+  impl_ = std::make_unique<Impl>(tree, options, counters_, std::move(cache));
 }
 
 Gatherer::~Gatherer() = default;

@@ -39,6 +39,28 @@ struct GatherCounters {
   }
 };
 
+// Traversal data shared by the Gatherers of one tree: the compact per-page
+// node views the cut's hot loop reads (docs/gather.md, section 2), built
+// once per page and then read by every thread. Without one, each Gatherer
+// builds and keeps its own views (bounded by a byte budget), which costs a
+// few milliseconds per Gatherer on a 200k-surfel tree: share one between the
+// Gatherers of a render or batch. Thread-safe; views are never dropped
+// while the cache lives. Share it only among Gatherers of one TreeSource.
+class GatherCache {
+ public:
+  GatherCache();
+  ~GatherCache();
+  GatherCache(const GatherCache&) = delete;
+  GatherCache& operator=(const GatherCache&) = delete;
+  size_t memory_bytes() const;
+
+  struct Impl;  // server/gather/page_views.h
+  Impl& impl() const { return *impl_; }
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
 // A gatherer owns its microbuffer and traversal scratch: create one per
 // thread and reuse it for many receivers (no allocation per receiver).
 // Not thread-safe; the TreeSource it reads is. The algorithm and its
@@ -52,7 +74,8 @@ struct GatherCounters {
 // throws when loading a page.
 class Gatherer {
  public:
-  Gatherer(const tree::TreeSource& tree, const GatherOptions& options);
+  Gatherer(const tree::TreeSource& tree, const GatherOptions& options,
+           std::shared_ptr<GatherCache> cache = nullptr);
   ~Gatherer();
   Gatherer(const Gatherer&) = delete;
   Gatherer& operator=(const Gatherer&) = delete;

@@ -25,6 +25,31 @@ Microbuffer::Microbuffer(const CubeLayout& layout, float depth_band)
   fragments_.reserve(4 * layout.pixel_count());
 }
 
+void Microbuffer::push(uint32_t k, const Fragment& f) {
+  if (!std::isfinite(f.near)) return;
+  if (stamp_[k] != generation_) {
+    stamp_[k] = generation_;
+    head_[k] = -1;
+    touched_.push_back(k);
+  }
+  for (int32_t i = head_[k]; i >= 0; i = fragments_[i].next) {
+    Fragment& g = fragments_[i];
+    if ((g.alpha > 0.f) != (f.alpha > 0.f)) continue;
+    if (f.near * grow_ < g.near || f.near > g.far * grow_) continue;
+    g.near = std::min(g.near, f.near);
+    g.far = std::max(g.far, f.far);
+    g.alpha += f.alpha;
+    g.weight += f.weight;
+    g.r += f.r;
+    g.g += f.g;
+    g.b += f.b;
+    return;
+  }
+  fragments_.push_back(f);
+  fragments_.back().next = head_[k];
+  head_[k] = int32_t(fragments_.size() - 1);
+}
+
 void Microbuffer::begin(const Imath::V3f& n) {
   if (++generation_ == 0) {  // wrapped: old stamps could alias
     std::fill(stamp_.begin(), stamp_.end(), 0u);
@@ -56,12 +81,13 @@ void Microbuffer::begin(const Imath::V3f& n) {
 
 namespace {
 
-// What the far content of pixel k sends to a receiver (far_field.h).
+// What one far layer of pixel k sends to a receiver (far_field.h): its
+// cosine-weighted light and occlusion.
 struct FarShare {
   float r, g, b, occ;
 };
 
-inline FarShare far_share(const FarPixel& f, const Imath::V3f& n, float cos_k, float margin_k,
+inline FarShare far_share(const FarLayer& f, const Imath::V3f& n, float cos_k, float margin_k,
                           float weight_k, float omega_k) {
   if (cos_k > margin_k) {
     // Wholly above the horizon: exact cosines of the splats' moments.
@@ -81,19 +107,42 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far) {
   const float* margin = layout_.horizon_margins();
   const float* omega = layout_.solid_angles();
   if (far) {
-    // Far pixels with no near fragment: nothing in front of them.
+    // Far pixels with no near fragment: the front layer, then the rest
+    // through it.
     for (const uint32_t k : far->pixels()) {
       if (stamp_[k] == generation_ || !(weight_[k] > 0.f)) continue;
-      const FarShare s = far_share(far->pixel(k), normal_, cos_[k], margin[k], weight_[k], omega[k]);
-      er += s.r;
-      eg += s.g;
-      eb += s.b;
-      occlusion += s.occ;
+      const FarPixel& fp = far->pixel(k);
+      const FarShare f = far_share(fp.front, normal_, cos_[k], margin[k], weight_[k], omega[k]);
+      er += f.r;
+      eg += f.g;
+      eb += f.b;
+      occlusion += f.occ;
+      const float t = std::max(0.f, 1.f - fp.front_alpha);
+      if (fp.rest_alpha > 0.f && t > kOpaque) {
+        const FarShare r = far_share(fp.rest, normal_, cos_[k], margin[k], weight_[k], omega[k]);
+        er += t * r.r;
+        eg += t * r.g;
+        eb += t * r.b;
+        if (!(ao_max_distance > 0.f) || fp.rest_z < ao_max_distance) occlusion += t * r.occ;
+      }
     }
   }
   for (const uint32_t k : touched_) {
     sorted_.clear();
     for (int32_t f = head_[k]; f >= 0; f = fragments_[f].next) sorted_.push_back(fragments_[f]);
+    // The far layers of this pixel join its fragments as two more surfaces
+    // (the front one merges with near pieces of the same surface).
+    if (far && far->has(k) && weight_[k] > 0.f) {
+      const FarPixel& fp = far->pixel(k);
+      const FarShare f = far_share(fp.front, normal_, cos_[k], margin[k], weight_[k], omega[k]);
+      if (fp.front_alpha > 0.f) {
+        sorted_.push_back({fp.front_near, fp.front_far, fp.front_alpha, f.occ, f.r, f.g, f.b});
+      }
+      if (fp.rest_alpha > 0.f) {
+        const FarShare r = far_share(fp.rest, normal_, cos_[k], margin[k], weight_[k], omega[k]);
+        sorted_.push_back({fp.rest_z, fp.rest_z, fp.rest_alpha, r.occ, r.r, r.g, r.b});
+      }
+    }
     // Lists are short (a few surfaces): insertion sort beats std::sort.
     for (size_t i = 1; i < sorted_.size(); ++i) {
       const Fragment x = sorted_[i];
@@ -101,26 +150,12 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far) {
       for (; j > 0 && sorted_[j - 1].near > x.near; --j) sorted_[j] = sorted_[j - 1];
       sorted_[j] = x;
     }
-    // The far content of this pixel, composited where it starts.
-    const bool has_far = far && far->has(k) && weight_[k] > 0.f;
-    const FarPixel* fp = has_far ? &far->pixel(k) : nullptr;
-    bool far_pending = has_far;
 
     float transmit = 1.f, r = 0.f, g = 0.f, b = 0.f, ao_cover = 0.f;
     bool ao_open = true;  // clusters still nearer than ao_max_distance
-    const auto add_far = [&] {
-      const FarShare s = far_share(*fp, normal_, cos_[k], margin[k], weight_[k], omega[k]);
-      r += transmit * s.r;
-      g += transmit * s.g;
-      b += transmit * s.b;
-      if (ao_open) ao_cover += transmit * s.occ;
-      transmit *= fp->transmit;
-      far_pending = false;
-    };
     size_t i = 0;
     while (i < sorted_.size() && transmit > kOpaque) {
       const float start = sorted_[i].near;
-      if (far_pending && fp->z <= start) add_far();
       float far_z = start, a = 0.f, w = 0.f, cr = 0.f, cg = 0.f, cb = 0.f;
       float hits = 0.f, hw = 0.f, hr = 0.f, hg = 0.f, hb = 0.f;
       do {
@@ -156,7 +191,6 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far) {
       if (ao_open) ao_cover += transmit * w;
       transmit *= std::max(0.f, 1.f - a);
     }
-    if (far_pending && transmit > kOpaque) add_far();
     er += r;
     eg += g;
     eb += b;

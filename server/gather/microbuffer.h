@@ -89,6 +89,21 @@ class Microbuffer {
   void add_coverage(uint32_t k, float depth, float alpha, float weight,
                     const Imath::C3f& radiance) {
     if (!(alpha > 0.f) || !(weight > 0.f)) return;
+    // Fast path: the pixel's latest fragment is a splat of the same surface
+    // (the common case: neighbouring splats of one surface).
+    if (stamp_[k] == generation_) {
+      Fragment& g = fragments_[head_[k]];
+      if (g.alpha > 0.f && depth * grow_ >= g.near && depth <= g.far * grow_) {
+        g.near = std::min(g.near, depth);
+        g.far = std::max(g.far, depth);
+        g.alpha += alpha;
+        g.weight += weight;
+        g.r += radiance.x * weight;
+        g.g += radiance.y * weight;
+        g.b += radiance.z * weight;
+        return;
+      }
+    }
     push(k, {depth, depth, alpha, weight, radiance.x * weight, radiance.y * weight,
              radiance.z * weight});
   }
@@ -117,30 +132,7 @@ class Microbuffer {
     int32_t next = -1;
   };
 
-  void push(uint32_t k, const Fragment& f) {
-    if (!std::isfinite(f.near)) return;
-    if (stamp_[k] != generation_) {
-      stamp_[k] = generation_;
-      head_[k] = -1;
-      touched_.push_back(k);
-    }
-    for (int32_t i = head_[k]; i >= 0; i = fragments_[i].next) {
-      Fragment& g = fragments_[i];
-      if ((g.alpha > 0.f) != (f.alpha > 0.f)) continue;
-      if (f.near * grow_ < g.near || f.near > g.far * grow_) continue;
-      g.near = std::min(g.near, f.near);
-      g.far = std::max(g.far, f.far);
-      g.alpha += f.alpha;
-      g.weight += f.weight;
-      g.r += f.r;
-      g.g += f.g;
-      g.b += f.b;
-      return;
-    }
-    fragments_.push_back(f);
-    fragments_.back().next = head_[k];
-    head_[k] = int32_t(fragments_.size() - 1);
-  }
+  void push(uint32_t k, const Fragment& f);
 
   const CubeLayout& layout_;
   float band_;

@@ -40,23 +40,46 @@ struct Appearance {
   float ratio = 1.f;
 };
 
-// Mean of max(0, cos(phi + t)) over t in [-beta, beta], given cos phi and
-// cos beta: the coverage of a fan of normals seen at angle phi to its axis.
-// For beta up to 0.5 rad (relative error of beta below 2e-4).
-inline float fan_coverage(float cos_phi, float cos_beta) {
-  const float sin_phi = std::sqrt(std::max(0.f, 1.f - cos_phi * cos_phi));
-  const float sin_beta = std::sqrt(std::max(0.f, 1.f - cos_beta * cos_beta));
-  if (sin_beta < 1e-4f) return std::max(0.f, cos_phi);
+// The constants of a narrow normal cone that fan_coverage() needs,
+// precomputed once per node (page_views.h).
+struct FanCone {
+  float cos_beta = 1.f, sin_beta = 0.f;
+  float sin_over_beta = 1.f;  // sin(beta) / beta
+  float inv_two_beta = 0.f;   // 1 / (2 beta)
+};
+
+inline FanCone fan_cone(float cos_beta) {
+  FanCone f;
+  f.cos_beta = cos_beta;
+  f.sin_beta = std::sqrt(std::max(0.f, 1.f - cos_beta * cos_beta));
   // beta = asin(sin_beta) by its series (2e-5 relative error at the
-  // narrow-cone limit, 0.35 rad); cheaper than atan2 on this hot path.
-  const float s2 = sin_beta * sin_beta;
-  const float beta = sin_beta * (1.f + s2 * (1.f / 6.f + s2 * (3.f / 40.f + s2 * (5.f / 112.f))));
-  const float cos_hi = cos_phi * cos_beta - sin_phi * sin_beta;  // cos(phi + beta)
-  if (cos_hi >= 0.f) return cos_phi * sin_beta / beta;           // whole fan in front
-  const float cos_lo = cos_phi * cos_beta + sin_phi * sin_beta;  // cos(phi - beta)
-  if (cos_lo <= 0.f) return 0.f;                                 // whole fan behind
-  const float sin_lo = sin_phi * cos_beta - cos_phi * sin_beta;  // sin(phi - beta)
-  return (1.f - sin_lo) / (2.f * beta);
+  // narrow-cone limit, 0.35 rad).
+  const float s2 = f.sin_beta * f.sin_beta;
+  const float beta =
+      f.sin_beta * (1.f + s2 * (1.f / 6.f + s2 * (3.f / 40.f + s2 * (5.f / 112.f))));
+  if (f.sin_beta >= 1e-4f) {
+    f.sin_over_beta = f.sin_beta / beta;
+    f.inv_two_beta = 0.5f / beta;
+  }
+  return f;
+}
+
+// Mean of max(0, cos(phi + t)) over t in [-beta, beta], given cos phi and
+// the cone: the coverage of a fan of normals seen at angle phi to its axis.
+// For beta up to 0.5 rad.
+inline float fan_coverage(float cos_phi, const FanCone& f) {
+  if (f.sin_beta < 1e-4f) return std::max(0.f, cos_phi);
+  const float sin_phi = std::sqrt(std::max(0.f, 1.f - cos_phi * cos_phi));
+  const float cos_hi = cos_phi * f.cos_beta - sin_phi * f.sin_beta;  // cos(phi + beta)
+  if (cos_hi >= 0.f) return cos_phi * f.sin_over_beta;                // whole fan in front
+  const float cos_lo = cos_phi * f.cos_beta + sin_phi * f.sin_beta;   // cos(phi - beta)
+  if (cos_lo <= 0.f) return 0.f;                                      // whole fan behind
+  const float sin_lo = sin_phi * f.cos_beta - cos_phi * f.sin_beta;   // sin(phi - beta)
+  return (1.f - sin_lo) * f.inv_two_beta;
+}
+
+inline float fan_coverage(float cos_phi, float cos_beta) {
+  return fan_coverage(cos_phi, fan_cone(cos_beta));
 }
 
 // `w`: unit direction from the node towards the receiver. Returns false

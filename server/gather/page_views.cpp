@@ -22,6 +22,7 @@ std::string where(const tree::Page& page, size_t node) {
 
 PageView::PageView(const tree::Page& page) : id(page.id), surfel_count(page.surfels.size()) {
   nodes.resize(page.nodes.size());
+  looks.resize(page.nodes.size());
   for (size_t i = 0; i < page.nodes.size(); ++i) {
     const tree::Node& n = page.nodes[i];
     HotNode& h = nodes[i];
@@ -36,10 +37,34 @@ PageView::PageView(const tree::Page& page) : id(page.id), surfel_count(page.surf
     h.cone_cos = cone ? std::min(n.cone_cos, 1.f) : -2.f;
     h.cone_sin = cone ? std::sqrt(std::max(0.f, 1.f - h.cone_cos * h.cone_cos)) : 1.f;
     // angle(axis, n) + beta < kCoplanarAngle  <=>  dot(axis, n) > cos(kCoplanarAngle - beta)
-    const float beta = cone ? std::acos(h.cone_cos) : 4.f;
-    h.coplanar_cos = beta < kCoplanarAngle ? std::cos(kCoplanarAngle - beta) : 2.f;
+    //   = cos(kCoplanarAngle) cos(beta) + sin(kCoplanarAngle) sin(beta).
+    const float cos_c = std::cos(kCoplanarAngle), sin_c = std::sin(kCoplanarAngle);
+    h.coplanar_cos = cone && h.cone_cos > cos_c ? cos_c * h.cone_cos + sin_c * h.cone_sin : 2.f;
 
     uint32_t flags = 0;
+    NodeLook& look = looks[i];
+    look = NodeLook{0.f, 0.f, 0.f, n.area, FanCone{}};
+    if (n.cone_cos >= kNarrowConeCos) {
+      // The flat model of node_appearance(): DC ratio and the cone's fan.
+      flags |= HotNode::kNarrow;
+      const float c0 = n.coverage_sh[0];
+      if (c0 > 0.f) {
+        const float inv = 1.f / c0;
+        const Imath::C3f L(std::max(0.f, n.radiance_sh.r[0] * inv),
+                           std::max(0.f, n.radiance_sh.g[0] * inv),
+                           std::max(0.f, n.radiance_sh.b[0] * inv));
+        if (std::isfinite(L.x) && std::isfinite(L.y) && std::isfinite(L.z)) {
+          look.r = L.x;
+          look.g = L.y;
+          look.b = L.z;
+          look.fan = fan_cone(n.cone_cos);
+        } else {
+          look.area = 0.f;  // shows nothing
+        }
+      } else {
+        look.area = 0.f;
+      }
+    }
     // Nothing to see: no area, or NaN/negative/infinite bounds.
     if (!(n.area > 0.f) || !(n.radius >= 0.f) || !std::isfinite(n.radius) || !finite(n.center)) {
       flags |= HotNode::kInvisible;
@@ -79,26 +104,58 @@ PageView::PageView(const tree::Page& page) : id(page.id), surfel_count(page.surf
   }
 }
 
-const PageView& PageViews::get(const tree::Page& page) {
-  std::unique_ptr<PageView>* slot;
-  if (page.id < kDenseIds) {
-    if (page.id >= dense_.size()) dense_.resize(std::max<size_t>(page.id + 1, 2 * dense_.size()));
-    slot = &dense_[page.id];
-  } else {
-    slot = &sparse_[page.id];
+const PageView*& PageViews::slot(uint32_t id) {
+  if (id < kDenseIds) {
+    if (id >= dense_.size()) dense_.resize(std::max<size_t>(id + 1, 2 * dense_.size()), nullptr);
+    return dense_[id];
   }
-  if (*slot && (*slot)->matches(page)) return **slot;
-  if (*slot) bytes_ -= (*slot)->memory_bytes();
-  *slot = std::make_unique<PageView>(page);
-  bytes_ += (*slot)->memory_bytes();
+  return sparse_[id];
+}
+
+const PageView& PageViews::get(const tree::Page& page) {
+  const PageView*& s = slot(page.id);
+  if (s && s->matches(page)) return *s;
+  if (shared_) {
+    s = &shared_->get(page);
+    return *s;
+  }
+  // A stale view of this id stays owned until the next clear(): the
+  // caller's stack may still point to it.
+  owned_.push_back(std::make_unique<PageView>(page));
+  bytes_ += owned_.back()->memory_bytes();
   ++built_;
-  return **slot;
+  s = owned_.back().get();
+  return *s;
 }
 
 void PageViews::clear() {
   dense_.clear();
   sparse_.clear();
+  owned_.clear();
   bytes_ = 0;
 }
 
 }  // namespace pbgi::gather
+
+namespace pbgi {
+
+const gather::PageView& GatherCache::Impl::get(const tree::Page& page) {
+  std::lock_guard<std::mutex> lock(mutex);
+  std::unique_ptr<gather::PageView>& v = views[page.id];
+  if (v && v->matches(page)) return *v;
+  auto built = std::make_unique<gather::PageView>(page);  // may throw: nothing changed
+  if (v) retired.push_back(std::move(v));
+  v = std::move(built);
+  bytes += v->memory_bytes();
+  return *v;
+}
+
+GatherCache::GatherCache() : impl_(std::make_unique<Impl>()) {}
+GatherCache::~GatherCache() = default;
+
+size_t GatherCache::memory_bytes() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->bytes;
+}
+
+}  // namespace pbgi

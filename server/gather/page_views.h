@@ -17,10 +17,13 @@
 // Thread-safety: none; one per Gatherer.
 #pragma once
 
+#include "server/gather/gather.h"
+#include "server/gather/node_appearance.h"
 #include "storage/tree/node.h"
 
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <unordered_map>
 #include <vector>
 
@@ -35,7 +38,10 @@ inline constexpr float kCoplanarAngle = 0.02f;
 struct alignas(16) HotNode {
   static constexpr uint32_t kLeaf = 1u << 31;       // in `count`: a leaf
   static constexpr uint32_t kInvisible = 1u << 30;  // in `count`: no area or NaN bounds
-  static constexpr uint32_t kCountMask = kInvisible - 1;
+  // In `count`: a narrow normal cone (node_appearance.h); its appearance
+  // comes from PageView::looks without touching the tree::Node.
+  static constexpr uint32_t kNarrow = 1u << 29;
+  static constexpr uint32_t kCountMask = kNarrow - 1;
 
   float cx, cy, cz, radius;  // bounding sphere
   float ax, ay, az;          // normal cone axis (unit)
@@ -48,14 +54,25 @@ struct alignas(16) HotNode {
   uint32_t count;  // flags | child count (internal) or surfel count (leaf)
 
   bool leaf() const { return count & kLeaf; }
+  bool narrow() const { return count & kNarrow; }
   bool invisible() const { return count & kInvisible; }
   uint32_t size() const { return count & kCountMask; }
 };
 static_assert(sizeof(HotNode) == 48);
 
+// What a narrow-cone node shows (node_appearance.h), read only when it is
+// splatted: its area-weighted mean radiance, area and cone constants.
+struct NodeLook {
+  float r, g, b;  // >= 0; all 0 when the payload shows nothing
+  float area;
+  FanCone fan;
+};
+static_assert(sizeof(NodeLook) == 32);
+
 struct PageView {
   uint32_t id = 0;
   std::vector<HotNode> nodes;
+  std::vector<NodeLook> looks;       // per node; meaningful for narrow ones
   std::vector<tree::NodeRef> links;  // children of internal nodes
   size_t surfel_count = 0;
 
@@ -65,7 +82,7 @@ struct PageView {
   explicit PageView(const tree::Page& page);
   size_t memory_bytes() const {
     return sizeof(PageView) + nodes.capacity() * sizeof(HotNode) +
-           links.capacity() * sizeof(tree::NodeRef);
+           looks.capacity() * sizeof(NodeLook) + links.capacity() * sizeof(tree::NodeRef);
   }
   // Whether `page` could be the page this view was built from.
   bool matches(const tree::Page& page) const {
@@ -74,12 +91,14 @@ struct PageView {
   }
 };
 
-// Views by page id, built on first use. trim() drops them all once they
-// exceed the byte budget; it must only be called while no view is in use
-// (between receivers or batches).
+// Views by page id, built on first use, owned here or, with a shared
+// GatherCache, by the cache (then this only keeps pointers to them).
+// trim() drops the views it owns once they exceed the byte budget; it must
+// only be called while no view is in use (between receivers or batches).
 class PageViews {
  public:
-  explicit PageViews(size_t budget_bytes = size_t(64) << 20) : budget_(budget_bytes) {}
+  explicit PageViews(GatherCache::Impl* shared = nullptr, size_t budget_bytes = size_t(64) << 20)
+      : shared_(shared), budget_(budget_bytes) {}
 
   const PageView& get(const tree::Page& page);
   void trim() {
@@ -91,11 +110,32 @@ class PageViews {
 
  private:
   static constexpr uint32_t kDenseIds = 1u << 22;
-  std::vector<std::unique_ptr<PageView>> dense_;  // ids below kDenseIds
-  std::unordered_map<uint32_t, std::unique_ptr<PageView>> sparse_;
+  const PageView*& slot(uint32_t id);
+
+  GatherCache::Impl* shared_;
+  std::vector<const PageView*> dense_;  // ids below kDenseIds
+  std::unordered_map<uint32_t, const PageView*> sparse_;
+  std::vector<std::unique_ptr<PageView>> owned_;
   size_t budget_;
-  size_t bytes_ = 0;
+  size_t bytes_ = 0;  // of owned_
   size_t built_ = 0;
 };
 
 }  // namespace pbgi::gather
+
+namespace pbgi {
+
+// The shared store behind a GatherCache: views by page id under a mutex.
+// Views are immutable once built and never freed while the cache lives, so
+// Gatherers keep plain pointers to them.
+struct GatherCache::Impl {
+  const gather::PageView& get(const tree::Page& page);
+  mutable std::mutex mutex;
+  std::unordered_map<uint32_t, std::unique_ptr<gather::PageView>> views;
+  // Replaced views (a page id whose content changed): kept alive, since
+  // other threads may still point to them.
+  std::vector<std::unique_ptr<gather::PageView>> retired;
+  size_t bytes = 0;
+};
+
+}  // namespace pbgi

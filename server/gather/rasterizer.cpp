@@ -5,20 +5,38 @@
 #include <algorithm>
 #include <cmath>
 
+#ifndef PBGI_SPLAT_SMOOTH
+#define PBGI_SPLAT_SMOOTH 1.f
+#endif
+
 namespace pbgi::gather {
 
 namespace {
 
 constexpr float kInvPi = 0.31830989f;
 
-// CDF at x of a box of half width h convolved with itself: a tent of half
-// width 2h centered at 0, given inv = 1 / (2h). Branch-free: with
-// t = x / 2h + 1 clamped to [0, 2], s = min(t, 1) and e = max(t - 1, 0),
-// the CDF is s^2/2 + e - e^2/2.
+// The splat's filter over its equal-area rectangle of half widths h: the
+// rectangle (a box of half width h) convolved with a box of half width
+// c h, a trapezoid of support +-(1 + c) h. c = 1 gives a tent, c = 0 the
+// box itself.
+constexpr float kSmooth = PBGI_SPLAT_SMOOTH;
+inline float support(float h) { return (1.f + kSmooth) * h; }
+// CDF at x of the filter centered at 0, given inv = 1 / h: a ramp
+// (x + A + B)^2 / 8AB up to -(A - B), linear 1/2 + x/2A across the flat
+// top, symmetric above (A = h, B = c h).
+inline float inner_cdf(float x, float inv) {
+  const float t = x * inv;  // in units of h, inside the support
+  if constexpr (kSmooth <= 0.f) return 0.5f + 0.5f * t;
+  constexpr float k = kSmooth > 0.f ? 1.f / (8.f * kSmooth) : 0.f;
+  if (t < kSmooth - 1.f) return k * (t + 1.f + kSmooth) * (t + 1.f + kSmooth);
+  if (t > 1.f - kSmooth) return 1.f - k * (1.f + kSmooth - t) * (1.f + kSmooth - t);
+  return 0.5f + 0.5f * t;
+}
 inline float tent_cdf(float x, float inv) {
-  const float t = std::clamp(x * inv + 1.f, 0.f, 2.f);
-  const float s = std::min(t, 1.f), e = std::max(t - 1.f, 0.f);
-  return 0.5f * s * s + e - 0.5f * e * e;
+  const float t = x * inv;
+  if (t <= -1.f - kSmooth) return 0.f;
+  if (t >= 1.f + kSmooth) return 1.f;
+  return inner_cdf(x, inv);
 }
 
 // Components of a vector in the frame of cube face axis k (0..2): w along
@@ -60,38 +78,33 @@ inline bool tent_masses(float c, float s0, float s1, float inv, float pw, uint32
 
 }  // namespace
 
-Rasterizer::Rasterizer(Microbuffer& buffer) : buffer_(buffer), layout_(buffer.layout()) {
+Rasterizer::Rasterizer(Microbuffer& buffer)
+    : buffer_(buffer), layout_(buffer.layout()), inv_pw_(1.f / layout_.pixel_width()) {
   candidates_.reserve(layout_.pixel_count());
 }
 
-bool Rasterizer::footprint(const Imath::V3f& dir, const Shape& shape, bool clip_horizon,
-                           float& major, float& minor) {
+void Rasterizer::ellipse(const Imath::V3f& dir, const Shape& shape, Ellipse& e) const {
   const float omega = shape.omega;
-  candidates_.clear();
-  covered_ = 0.f;
-  weighted_ = 0.f;
-  clip_ = clip_horizon;
-
   // Semi-axes (radians): pi * major * minor = omega, minor = ratio * major,
   // and the major axis no longer than the node itself.
   const float ratio = std::clamp(shape.ratio, 1e-3f, 1.f);
   const float a2 = omega * kInvPi;  // major * minor
   const float round_r = std::sqrt(a2);
-  major = ratio >= 1.f ? round_r : std::min(round_r / std::sqrt(ratio), std::max(shape.max_radius, round_r));
-  minor = a2 / major;
+  e.major = ratio >= 1.f ? round_r
+                         : std::min(round_r / std::sqrt(ratio), std::max(shape.max_radius, round_r));
+  e.minor = a2 / e.major;
 
   // 1. Home face: the one the center projects onto (largest component).
   const float ax = std::abs(dir.x), ay = std::abs(dir.y), az = std::abs(dir.z);
   const int k = ax >= ay && ax >= az ? 0 : (ay >= az ? 1 : 2);
   float cu, cv, cw;
   axis_coords(k, dir, cu, cv, cw);
-  const int home = 2 * k + (cw < 0.f ? 1 : 0);
-  const float inv_w = 1.f / std::abs(cw);
-  if (cw < 0.f) {
-    // Face coordinates of the odd face: w is negated, u and v are not.
-    cw = -cw;
-  }
+  e.k = k;
+  e.home = 2 * k + (cw < 0.f ? 1 : 0);
+  const float inv_w = 1.f / std::abs(cw);  // face coordinates: w is |cw|, u and v as they are
   const float u = cu * inv_w, v = cv * inv_w;
+  e.u = u;
+  e.v = v;
 
   // 2. The ellipse mapped to the face plane (linearized at its center). The
   // gnomonic projection scales solid angle by q^(3/2), q = 1 + u^2 + v^2, so
@@ -101,18 +114,18 @@ bool Rasterizer::footprint(const Imath::V3f& dir, const Shape& shape, bool clip_
   // sqrt(major^2 |grad u|^2 - (major^2 - minor^2) (grad u . e2)^2) with e2
   // the minor axis (along the squash direction).
   const float q = 1.f + u * u + v * v;
-  const float M2 = major * major;
+  const float M2 = e.major * e.major;
   float bu2 = M2 * (1.f + u * u) * q, bv2 = M2 * (1.f + v * v) * q;
-  if (major > minor) {
-    Imath::V3f e2 = shape.squash - dir * dir.dot(shape.squash);
+  if (e.major > e.minor) {
+    const Imath::V3f e2 = shape.squash - dir * dir.dot(shape.squash);
     const float len2 = e2.length2();
     float gu2, gv2;
     if (len2 > 1e-12f) {
       float su, sv, sw;
       axis_coords(k, e2, su, sv, sw);
-      if (home & 1) sw = -sw;
-      const float inv_len = 1.f / std::sqrt(len2);
-      const float gu = (su - u * sw) * inv_w * inv_len, gv = (sv - v * sw) * inv_w * inv_len;
+      if (e.home & 1) sw = -sw;
+      const float s = inv_w / std::sqrt(len2);
+      const float gu = (su - u * sw) * s, gv = (sv - v * sw) * s;
       gu2 = gu * gu;
       gv2 = gv * gv;
     } else {
@@ -120,17 +133,24 @@ bool Rasterizer::footprint(const Imath::V3f& dir, const Shape& shape, bool clip_
       gu2 = 0.5f * (1.f + u * u) * q;
       gv2 = 0.5f * (1.f + v * v) * q;
     }
-    const float d2 = M2 - minor * minor;
+    const float d2 = M2 - e.minor * e.minor;
     bu2 = std::max(bu2 - d2 * gu2, 1e-3f * bu2);
     bv2 = std::max(bv2 - d2 * gv2, 1e-3f * bv2);
   }
   // The axis-aligned rectangle of the ellipse's area and its box's aspect,
   // half sizes hu, hv; the splat is that rectangle convolved with itself.
   const float area = omega * q * std::sqrt(q);
-  const float hu = 0.5f * std::sqrt(area * std::sqrt(bu2 / bv2));
-  const float hv = 0.25f * area / hu;
-  if (!(hu > 0.f) || !(hv > 0.f) || !std::isfinite(hu * hv)) return false;
-  deposit_tent(home, u, hu, v, hv);
+  e.hu = 0.5f * std::sqrt(area * std::sqrt(bu2 / bv2));
+  e.hv = 0.25f * area / e.hu;
+}
+
+bool Rasterizer::footprint(const Ellipse& e, bool clip_horizon) {
+  candidates_.clear();
+  covered_ = 0.f;
+  weighted_ = 0.f;
+  clip_ = clip_horizon;
+  const float u = e.u, v = e.v, hu = e.hu, hv = e.hv;
+  deposit_tent(e.home, u, hu, v, hv);
 
   // 3. Overflow across the home face's edges goes to the neighbouring face
   // sharing that edge. The overflow rectangle R (on the home face's plane,
@@ -139,12 +159,13 @@ bool Rasterizer::footprint(const Imath::V3f& dir, const Shape& shape, bool clip_
   // gets R's share of the tent spread evenly. Points of R beyond both edges
   // of a corner fall outside the neighbour's face and are clipped there, so
   // each lands on the one face it belongs to.
-  const float su0 = u - 2.f * hu, su1 = u + 2.f * hu;
-  const float sv0 = v - 2.f * hv, sv1 = v + 2.f * hv;
+  const float su0 = u - support(hu), su1 = u + support(hu);
+  const float sv0 = v - support(hv), sv1 = v + support(hv);
   if (su0 < -1.f || su1 > 1.f || sv0 < -1.f || sv1 > 1.f) {
-    const float tent_area = 4.f * hu * hv;  // the tent's total, in plane units
-    const int ku = (k + 1) % 3, kv = (k + 2) % 3;
-    const float iu = 0.5f / hu, iv = 0.5f / hv;
+    const float tent_area = 4.f * hu * hv;  // the filter's total, in plane units
+    const int ku = (e.k + 1) % 3, kv = (e.k + 2) % 3;
+    const float iu = 1.f / hu, iv = 1.f / hv;
+    const int home = e.home;
     if (su1 > 1.f)
       overflow(home, 2 * ku, 1.f, su1, sv0, sv1, tent_area * (1.f - tent_cdf(1.f - u, iu)));
     if (su0 < -1.f)
@@ -157,28 +178,87 @@ bool Rasterizer::footprint(const Imath::V3f& dir, const Shape& shape, bool clip_
   return covered_ > 0.f && !candidates_.empty();
 }
 
+bool Rasterizer::inside_masses(const Ellipse& e, Inside& in) const {
+  // The tent's support [u - 2hu, u + 2hu] x [v - 2hv, v + 2hv] lies inside
+  // the home face: no clipping, no overflow; the CDF is 0 and 1 at the
+  // support's ends, so only inner column edges need evaluating.
+  const float su0 = e.u - support(e.hu), su1 = e.u + support(e.hu);
+  const float sv0 = e.v - support(e.hv), sv1 = e.v + support(e.hv);
+  if (!(su0 > -1.f && su1 < 1.f && sv0 > -1.f && sv1 < 1.f)) return false;
+  const uint32_t n = layout_.resolution();
+  in.i0 = uint32_t((su0 + 1.f) * inv_pw_);
+  in.i1 = std::min(n - 1, uint32_t((su1 + 1.f) * inv_pw_));
+  in.j0 = uint32_t((sv0 + 1.f) * inv_pw_);
+  in.j1 = std::min(n - 1, uint32_t((sv1 + 1.f) * inv_pw_));
+  if (in.i1 - in.i0 >= Inside::kMaxSide || in.j1 - in.j0 >= Inside::kMaxSide) return false;
+  const float pw = layout_.pixel_width();
+  const auto masses = [pw](float c, float inv, uint32_t a, uint32_t b, float* m) {
+    float prev = 0.f;
+    for (uint32_t i = a; i < b; ++i) {
+      // Inner edges lie inside the support.
+      const float cdf = inner_cdf(-1.f + pw * float(i + 1) - c, inv);
+      m[i - a] = cdf - prev;
+      prev = cdf;
+    }
+    m[b - a] = 1.f - prev;
+  };
+  masses(e.u, 1.f / e.hu, in.i0, in.i1, in.mu);
+  masses(e.v, 1.f / e.hv, in.j0, in.j1, in.mv);
+  const float* solid = layout_.solid_angles();
+  in.base = layout_.index(e.home, 0, 0);
+  float covered = 0.f;
+  for (uint32_t j = in.j0; j <= in.j1; ++j) {
+    const uint32_t row = in.base + j * n;
+    float row_sum = 0.f;
+    for (uint32_t i = in.i0; i <= in.i1; ++i) row_sum += in.mu[i - in.i0] * solid[row + i];
+    covered += in.mv[j - in.j0] * row_sum;
+  }
+  in.covered = covered;
+  return true;
+}
+
 void Rasterizer::splat(const Imath::V3f& dir, const Shape& shape, float depth,
                        const Imath::C3f& radiance) {
   const float omega = shape.omega;
   if (!(omega > 0.f) || !(depth > 0.f)) return;
-  float major, minor;
-  if (!footprint(dir, shape, true, major, minor)) return;
-
-  // Rescale so that the pieces add up to exactly the splat's solid angle.
-  const float* solid = layout_.solid_angles();
-  const float scale = omega / covered_;
+  Ellipse e;
+  ellipse(dir, shape, e);
+  if (!(e.hu > 0.f) || !(e.hv > 0.f) || !std::isfinite(e.hu * e.hv)) return;
   // The tent blurs the splat, which lowers its cosine-weighted solid angle
   // near the normal (by 8% for a 0.28 sr splat). When the whole footprint
   // is above the horizon, the weights are rescaled to the exact value for
   // a cap of the splat's solid angle: Omega cos(theta) (1 + cos(rho)) / 2.
   const float cos_center = buffer_.normal().dot(dir);
-  const float reach = std::min(1.f, 3.f * major);
-  float weight_scale = scale;
-  if (cos_center > reach && weighted_ > 0.f) {
-    const float rho2 = major * minor;
-    const float target = omega * cos_center * (1.f - 0.25f * rho2);  // (1 + cos rho) / 2
-    weight_scale = target / weighted_;
+  const float reach = std::min(1.f, 3.f * e.major);
+  const bool above = cos_center > reach;
+  const float rho2 = e.major * e.minor;
+  const float target = omega * cos_center * (1.f - 0.25f * rho2);  // (1 + cos rho) / 2
+  // Common case: wholly above the horizon and inside one face. The cosine
+  // varies by a few percent over a splat; weights are spread in proportion
+  // of solid angle, and their total is exact.
+  Inside in;
+  if (above && inside_masses(e, in)) {
+    if (!(in.covered > 0.f)) return;
+    // Coverage adds up to the splat's solid angle, weights to the target.
+    const uint32_t n = layout_.resolution();
+    const float* solid = layout_.solid_angles();
+    const float scale = omega / in.covered, wscale = target / in.covered;
+    for (uint32_t j = in.j0; j <= in.j1; ++j) {
+      const uint32_t row = in.base + j * n;
+      const float a_v = in.mv[j - in.j0] * scale, w_v = in.mv[j - in.j0] * wscale;
+      for (uint32_t i = in.i0; i <= in.i1; ++i) {
+        const uint32_t k = row + i;
+        const float m = in.mu[i - in.i0];
+        buffer_.add_coverage(k, depth, m * a_v, m * w_v * solid[k], radiance);
+      }
+    }
+    return;
   }
+  if (!footprint(e, true)) return;
+  // Rescale so that the pieces add up to exactly the splat's solid angle.
+  const float* solid = layout_.solid_angles();
+  const float scale = omega / covered_;
+  const float weight_scale = above && weighted_ > 0.f ? target / weighted_ : scale;
   for (const Candidate& c : candidates_) {
     buffer_.add_coverage(c.pixel, depth, c.fraction * scale,
                          c.fraction * weight_scale * solid[c.pixel] * c.cosine, radiance);
@@ -189,15 +269,33 @@ void Rasterizer::splat_far(FarBuffer& far, const Imath::V3f& dir, const Shape& s
                            const Imath::C3f& radiance) {
   const float omega = shape.omega;
   if (!(omega > 0.f) || !(depth > 0.f)) return;
-  float major, minor;
-  if (!footprint(dir, shape, false, major, minor)) return;
+  Ellipse e;
+  ellipse(dir, shape, e);
+  if (!(e.hu > 0.f) || !(e.hv > 0.f) || !std::isfinite(e.hu * e.hv)) return;
   const float* solid = layout_.solid_angles();
-  const float scale = omega / covered_;
   // Every piece carries the splat's exact first moment per unit solid
   // angle, (1 + cos rho)/2 dir, so that a receiver of normal n weights it
   // with the cap's exact cosine integral (see far_field.h).
-  const float rho2 = major * minor;
+  const float rho2 = e.major * e.minor;
   const Imath::V3f moment = dir * (1.f - 0.25f * rho2);
+  Inside in;
+  if (inside_masses(e, in)) {
+    if (!(in.covered > 0.f)) return;
+    const uint32_t n = layout_.resolution();
+    const float scale = omega / in.covered;
+    for (uint32_t j = in.j0; j <= in.j1; ++j) {
+      const uint32_t row = in.base + j * n;
+      const float a_v = in.mv[j - in.j0] * scale;
+      for (uint32_t i = in.i0; i <= in.i1; ++i) {
+        const uint32_t k = row + i;
+        const float alpha = in.mu[i - in.i0] * a_v;
+        far.add(k, depth, alpha, alpha * solid[k], moment, radiance);
+      }
+    }
+    return;
+  }
+  if (!footprint(e, false)) return;
+  const float scale = omega / covered_;
   for (const Candidate& c : candidates_) {
     const float alpha = c.fraction * scale;
     far.add(c.pixel, depth, alpha, alpha * solid[c.pixel], moment, radiance);
@@ -245,8 +343,10 @@ void Rasterizer::deposit_tent(int face, float uc, float hu, float vc, float hv) 
   uint32_t i0, i1, j0, j1;
   float mass_u[CubeLayout::kMaxResolution], mid_u[CubeLayout::kMaxResolution];
   float mass_v[CubeLayout::kMaxResolution], mid_v[CubeLayout::kMaxResolution];
-  if (!tent_masses(uc, uc - 2.f * hu, uc + 2.f * hu, 0.5f / hu, pw, n, i0, i1, mass_u, mid_u) ||
-      !tent_masses(vc, vc - 2.f * hv, vc + 2.f * hv, 0.5f / hv, pw, n, j0, j1, mass_v, mid_v)) {
+  if (!tent_masses(uc, uc - support(hu), uc + support(hu), 1.f / hu, pw, n, i0, i1, mass_u,
+                   mid_u) ||
+      !tent_masses(vc, vc - support(hv), vc + support(hv), 1.f / hv, pw, n, j0, j1, mass_v,
+                   mid_v)) {
     return;
   }
   // Plane area of the whole tent over one pixel's.

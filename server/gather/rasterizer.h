@@ -75,11 +75,28 @@ class Rasterizer {
     float cosine;    // receiver cosine at the center of the covered part
   };
 
+  // A splat's ellipse on its home face: semi-axes (radians), the face, the
+  // center (u, v) on it and the half sizes of the equal-area rectangle.
+  struct Ellipse {
+    float major, minor;
+    int k, home;
+    float u, v, hu, hv;
+  };
+  void ellipse(const Imath::V3f& dir, const Shape& shape, Ellipse& e) const;
   // Fills candidates_ with the splat's pixels; clip_horizon drops those
-  // below the receiver's horizon and computes their cosines. Returns the
-  // ellipse's semi-axes (radians). False when nothing is covered.
-  bool footprint(const Imath::V3f& dir, const Shape& shape, bool clip_horizon, float& major,
-                 float& minor);
+  // below the receiver's horizon and computes their cosines. False when
+  // nothing is covered.
+  bool footprint(const Ellipse& e, bool clip_horizon);
+  // The fast path for a tent whose support lies inside the home face: the
+  // pixel rectangle, the column and row masses and the solid angle they
+  // cover. False when the support crosses an edge or is too large.
+  struct Inside {
+    static constexpr uint32_t kMaxSide = 8;
+    uint32_t i0, i1, j0, j1, base;
+    float mu[kMaxSide], mv[kMaxSide];
+    float covered;
+  };
+  bool inside_masses(const Ellipse& e, Inside& in) const;
   // Box-filters, on `face`, the tent of the rectangle of half sizes hu, hv
   // centered at (uc, vc) (clipped to the face) into candidates.
   void deposit_tent(int face, float uc, float hu, float vc, float hv);
@@ -93,6 +110,7 @@ class Rasterizer {
 
   Microbuffer& buffer_;
   const CubeLayout& layout_;
+  const float inv_pw_;  // 1 / pixel width
   std::vector<Candidate> candidates_;
   float covered_ = 0.f;   // solid angle of the candidates, before rescaling
   float weighted_ = 0.f;  // their cosine-weighted solid angle (clip_ only)

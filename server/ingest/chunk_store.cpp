@@ -265,7 +265,9 @@ void write_scene(const Scene& scene, const ChunkStoreOptions& options, std::ofst
     writer.write(chunk);
   }
   chunk.Clear();
-  chunk.mutable_end()->set_triangle_count(triangles);
+  // SceneEnd counts packed-array triangles only; every mesh here is Draco.
+  (void)triangles;
+  chunk.mutable_end()->set_triangle_count(0);
   chunk.mutable_end()->set_chunk_count(writer.count());
   writer.write(chunk);
 }

@@ -15,6 +15,7 @@
 #include <cstring>
 #include <limits>
 #include <unordered_map>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -273,7 +274,9 @@ class SceneAssembler {
     soup.material.insert(soup.material.end(), triangles, m.material_id());
     chunks_.push_back({static_cast<uint32_t>(base), static_cast<uint32_t>(vertex_count), first_index, index_count,
                        has_normals});
-    streamed_triangles_ += triangles;
+    // SceneEnd counts what the writer could count: packed arrays, not the
+    // triangles inside Draco blobs.
+    if (chunk.draco().empty()) streamed_triangles_ += triangles;
   }
 
   pbgi::v1::MeshChunk expand_draco_chunk(const pbgi::v1::MeshChunk& chunk, const FramePosition& at) const {
@@ -285,11 +288,28 @@ class SceneAssembler {
     } catch (const SceneError& e) {
       fail(at, e.what());
     }
+    if (chunk.draco_to_world_size() != 0) {
+      if (chunk.draco_to_world_size() != 16)
+        fail(at, fmt::format("mesh {}: draco_to_world has {} values, expected 16", chunk.prim_path(),
+                             chunk.draco_to_world_size()));
+      const M44f m = matrix_from(chunk.draco_to_world());
+      const M44f normal_matrix = m.inverse().transposed();  // n' = n (M^-1)^T for row vectors
+      for (V3f& p : d.positions) m.multVecMatrix(V3f(p), p);
+      for (V3f& n : d.normals) normal_matrix.multDirMatrix(V3f(n), n);
+      const float det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+                        m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                        m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+      if (det < 0.f)  // a mirror: keep triangles counter-clockwise around their normal
+        for (size_t t = 0; t + 2 < d.indices.size(); t += 3) std::swap(d.indices[t + 1], d.indices[t + 2]);
+    }
     // Octahedral quantization leaves normals slightly off unit length.
     for (V3f& n : d.normals) {
       const float length = n.length();
       n = length > 0.f && std::isfinite(length) ? n / length : V3f(0.f, 0.f, 1.f);
     }
+    // A file's mesh is not checked by the reader: keep only finite points.
+    for (const V3f& p : d.positions)
+      if (!std::isfinite(p.x + p.y + p.z)) fail(at, fmt::format("mesh {}: non-finite Draco positions", chunk.prim_path()));
     pbgi::v1::MeshChunk m;
     m.set_prim_path(chunk.prim_path());
     m.set_material_id(chunk.material_id());

@@ -32,13 +32,14 @@ _STARTED = clock.monotonic()
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 try:
-    from pxr import Sdf, Tf, Usd, UsdGeom, UsdShade, UsdSkel, UsdVol
+    from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdShade, UsdSkel, UsdVol
 
     from camera_defs import camera_def
     from chunk_stream import ERROR, WARNING, ChunkStream
+    from draco_refs import draco_arc_files, draco_chunks
     from gprim_triangles import read_implicit, read_mesh
     from implicit_shapes import is_implicit
-    from light_defs import is_light, light_def
+    from light_defs import is_light, light_def, matrix_floats
     from pbgi.v1 import scene_pb2
     from point_instancers import read_point_instancer
     from preview_materials import MaterialTable
@@ -191,7 +192,8 @@ def open_stage(path, variants=()):
 class SceneReader:
     """One traversal of a stage, writing chunks to a ChunkStream."""
 
-    def __init__(self, stage, time, stream, max_triangles_per_chunk):
+    def __init__(self, stage, time, stream, max_triangles_per_chunk, draco_prims=None):
+        self.draco_prims = draco_prims or {}  # prim path -> .drc files it references
         self.stage = stage
         self.time = time
         self.stream = stream
@@ -213,6 +215,19 @@ class SceneReader:
             except Exception as e:  # one bad prim must not lose the scene
                 self._prim_failed(prim, e)
         self.stream.progress("done", 1.0, force=True)
+
+    def _read_draco(self, prim, path, matrix):
+        """The .drc files the prim references, as Draco MeshChunks."""
+        if matrix is None:
+            matrix = Gf.Matrix4d(1.0)
+        double_sided = prim.IsA(UsdGeom.Gprim) and \
+            bool(UsdGeom.Gprim(prim).GetDoubleSidedAttr().Get(self.time))
+        chunks, problems = draco_chunks(path, self.draco_prims[path], matrix,
+                                        self.materials.for_prim(prim), double_sided, matrix_floats)
+        for chunk in chunks:
+            self.stream.write(chunk)
+        for problem in problems:
+            self.stream.diagnostic(WARNING, path, problem, kind="draco-file")
 
     def _prim_failed(self, prim, error):
         if not isinstance(error, GeometryError):
@@ -242,6 +257,8 @@ class SceneReader:
         matrix = None
         if prim.IsA(UsdGeom.Xformable):
             matrix = self.xforms.GetLocalToWorldTransform(prim)
+        if path in self.draco_prims:
+            self._read_draco(prim, path, matrix)
         if is_light(prim) and not prim.IsA(UsdGeom.Gprim):
             chunk = light_def(prim, matrix, self.time, self.stream)
             if chunk is not None:
@@ -312,10 +329,19 @@ def _write_header(stage, path, time, stream):
 
 
 def _report_composition_errors(stage, stream):
+    """Reports USD's composition errors; returns {prim path: [.drc files]}
+    for the arcs to Draco files, which the traversal reads instead
+    (draco_refs.py)."""
+    draco = {}
     for error in stage.GetCompositionErrors():
         site = getattr(error, "rootSite", None)
         prim_path = str(site.path) if site is not None and hasattr(site, "path") else ""
+        files = draco_arc_files(str(error)) if prim_path.startswith("/") else []
+        if files:
+            draco.setdefault(prim_path, []).extend(files)
+            continue
         stream.diagnostic(WARNING, prim_path, f"composition: {_one_line(error)}")
+    return draco
 
 
 def main(argv):
@@ -345,9 +371,9 @@ def main(argv):
             stream.end()
             out.close()
             return 0
-        _report_composition_errors(stage, stream)
+        draco_prims = _report_composition_errors(stage, stream)
         report_variants(stage, args.variants, stream)
-        SceneReader(stage, time, stream, args.max_triangles_per_chunk).run()
+        SceneReader(stage, time, stream, args.max_triangles_per_chunk, draco_prims).run()
         stream.end()
         out.close()
         done = clock.monotonic()

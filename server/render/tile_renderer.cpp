@@ -12,7 +12,11 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
+#include <memory>
 #include <mutex>
+#include <span>
+#include <vector>
 
 namespace pbgi {
 namespace {
@@ -40,25 +44,34 @@ bool nearest_light(const std::vector<Light>& lights, const Ray& ray, float tmax,
   return found;
 }
 
-// One camera sample: primary hit, direct light with shadow rays, indirect
-// light from the gather.
-PixelValue shade_sample(const RayScene& rays, Gatherer& gatherer, const Ray& ray,
-                        const RenderOptions& options, uint64_t light_seed) {
-  PixelValue v;
+// One camera sample up to the gather: primary hit and direct light with
+// shadow rays; `receiver` is set when the sample needs indirect light, to
+// be finished by finish_sample() with the gather's result.
+struct SurfaceSample {
+  PixelValue value;
+  bool gathers = false;
+  Receiver receiver;
+  C3f brdf{0, 0, 0};
+};
+
+SurfaceSample trace_sample(const RayScene& rays, const Ray& ray, const RenderOptions& options,
+                           uint64_t light_seed) {
+  SurfaceSample out;
+  PixelValue& v = out.value;
   const Scene& scene = rays.scene();
-  const Hit hit = rays.intersect(ray.origin, ray.direction, ray.tmin, ray.tmax);  // clipping range
+  const Hit hit = rays.intersect(ray.origin, ray.direction);
 
   // 1. An emitter in front of the first surface: its radiance, nothing to gather.
   C3f emitted;
   if (nearest_light(scene.lights, ray, hit.t, &emitted)) {
     v.beauty = v.direct = emitted;
     v.ao = 1.f;
-    return v;
+    return out;
   }
   // 2. Miss: black, fully accessible.
   if (!hit.valid()) {
     v.ao = 1.f;
-    return v;
+    return out;
   }
   // 3. Surface: the receiver faces the camera (surfaces seen from behind
   // are lit on the side the camera sees); the shading normal is flipped with
@@ -75,16 +88,44 @@ PixelValue shade_sample(const RayScene& rays, Gatherer& gatherer, const Ray& ray
   }
   if (ns.dot(ng) <= 0.f) ns = ng;
   const SurfaceColors mat = surface_colors(scene, hit.triangle, hit.u, hit.v);  // textures applied
-  const C3f brdf = mat.albedo * kInvPi;
+  out.brdf = mat.albedo * kInvPi;
 
   const C3f e_direct = direct_irradiance(rays, p, ns, options.light_samples, light_seed);
-  const GatherResult g = gatherer.gather({p + rays.ray_epsilon() * ng, ns});
   v.albedo = mat.albedo;
-  v.direct = brdf * e_direct + mat.emission;
-  v.indirect = brdf * g.irradiance;
+  v.direct = out.brdf * e_direct + mat.emission;
+  out.gathers = true;
+  out.receiver = {p + rays.ray_epsilon() * ng, ns};
+  return out;
+}
+
+// Adds the indirect light of the gather to a traced sample.
+PixelValue finish_sample(const SurfaceSample& s, const GatherResult& g) {
+  PixelValue v = s.value;
+  if (!s.gathers) return v;
+  v.indirect = s.brdf * g.irradiance;
   v.ao = g.ao;
   v.beauty = v.direct + v.indirect;
   return v;
+}
+
+// One camera sample: primary hit, direct light with shadow rays, indirect
+// light from the gather.
+PixelValue shade_sample(const RayScene& rays, Gatherer& gatherer, const Ray& ray,
+                        const RenderOptions& options, uint64_t light_seed) {
+  const SurfaceSample s = trace_sample(rays, ray, options, light_seed);
+  if (!s.gathers) return s.value;
+  return finish_sample(s, gatherer.gather(s.receiver));
+}
+
+// The camera ray of sample k of pixel (x, y): one sample goes through the
+// pixel's center (a crisp, repeatable image); more are stratified over the
+// pixel for antialiasing.
+Ray sample_ray(const Camera& camera, uint32_t image_width, uint32_t image_height, uint32_t x,
+               uint32_t y, uint32_t k, const RenderOptions& options, Rng& rng) {
+  const Imath::V2f j = options.pixel_samples == 1 ? Imath::V2f(0.5f, 0.5f)
+                                                  : stratified_sample(k, options.pixel_samples, rng);
+  return camera_ray(camera, image_width, image_height, static_cast<float>(x) + j.x,
+                    static_cast<float>(y) + j.y);
 }
 
 void store_rgb(std::vector<float>& layer, size_t pixel, const C3f& c) {
@@ -129,14 +170,93 @@ TileAovs render_tile(const RayScene& rays, const tree::TreeSource& tree, const C
   out.albedo.assign(3 * pixels, 0.f);
   out.ao.assign(pixels, 0.f);
 
-  // 2. Rows in parallel; one Gatherer per task, reused for its pixels. The
-  // random streams depend on the absolute pixel, so a tile renders the same
-  // pixels identically however the image is split into tiles.
   std::mutex counters_mutex;
   GatherCounters total;
   const float inv_spp = 1.f / static_cast<float>(options.pixel_samples);
+  // The gatherers of this tile share their traversal data (page views).
+  const auto cache = std::make_shared<GatherCache>();
+  const auto store = [&](uint32_t x, uint32_t y, const PixelValue& sum) {
+    const size_t i = static_cast<size_t>(y - rect.y0) * rect.width() + (x - rect.x0);
+    store_rgb(out.beauty, i, sum.beauty * inv_spp);
+    store_rgb(out.direct, i, sum.direct * inv_spp);
+    store_rgb(out.indirect, i, sum.indirect * inv_spp);
+    store_rgb(out.albedo, i, sum.albedo * inv_spp);
+    out.ao[i] = sum.ao * inv_spp;
+  };
+  const auto accumulate = [](PixelValue& sum, const PixelValue& v) {
+    sum.beauty += v.beauty;
+    sum.direct += v.direct;
+    sum.indirect += v.indirect;
+    sum.albedo += v.albedo;
+    sum.ao += v.ao;
+  };
+
+  if (options.gather.method == GatherMethod::kFpbgi) {
+    // Factorized: the tile's receivers are gathered together, so that
+    // nearby ones share their far light.
+    // 2a. Primary hits and direct light, rows in parallel.
+    const uint32_t spp = options.pixel_samples;
+    std::vector<SurfaceSample> samples(pixels * spp);
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(rect.y0, rect.y1, 1), [&](const auto& rows) {
+      for (uint32_t y = rows.begin(); y != rows.end(); ++y) {
+        if (is_cancelled()) throw cancel_error();
+        for (uint32_t x = rect.x0; x < rect.x1; ++x) {
+          const uint64_t pixel_id = static_cast<uint64_t>(y) * image_width + x;
+          Rng rng(hash_ids(options.seed, kPixelDomain, pixel_id));
+          const size_t i = static_cast<size_t>(y - rect.y0) * rect.width() + (x - rect.x0);
+          for (uint32_t k = 0; k < spp; ++k) {
+            const Ray ray = sample_ray(camera, image_width, image_height, x, y, k, options, rng);
+            samples[i * spp + k] =
+                trace_sample(rays, ray, options, hash_ids(options.seed, kLightDomain, pixel_id, k));
+          }
+        }
+      }
+    });
+    // 2b. Receivers in scan order, gathered in batches of about 1024 (a
+    // 32 x 32 tile, the clustering's unit) in parallel.
+    std::vector<Receiver> receivers;
+    std::vector<uint32_t> owner;
+    for (size_t i = 0; i < samples.size(); ++i) {
+      if (!samples[i].gathers) continue;
+      receivers.push_back(samples[i].receiver);
+      owner.push_back(static_cast<uint32_t>(i));
+    }
+    std::vector<GatherResult> results(receivers.size());
+    constexpr size_t kBatch = 1024;
+    const size_t batches = (receivers.size() + kBatch - 1) / kBatch;
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, batches, 1), [&](const auto& range) {
+      Gatherer gatherer(tree, options.gather, cache);
+      for (size_t b = range.begin(); b != range.end(); ++b) {
+        if (is_cancelled()) throw cancel_error();
+        const size_t begin = b * kBatch, end = std::min(receivers.size(), begin + kBatch);
+        gatherer.gather_tile(std::span<const Receiver>(receivers.data() + begin, end - begin),
+                             std::span<GatherResult>(results.data() + begin, end - begin));
+      }
+      std::lock_guard<std::mutex> lock(counters_mutex);
+      total.add(gatherer.counters());
+    });
+    // 2c. Pixels.
+    std::vector<GatherResult> by_sample(samples.size());
+    for (size_t r = 0; r < receivers.size(); ++r) by_sample[owner[r]] = results[r];
+    for (uint32_t y = rect.y0; y < rect.y1; ++y) {
+      for (uint32_t x = rect.x0; x < rect.x1; ++x) {
+        const size_t i = static_cast<size_t>(y - rect.y0) * rect.width() + (x - rect.x0);
+        PixelValue sum;
+        for (uint32_t k = 0; k < spp; ++k) {
+          accumulate(sum, finish_sample(samples[i * spp + k], by_sample[i * spp + k]));
+        }
+        store(x, y, sum);
+      }
+    }
+    if (counters) counters->add(total);
+    return out;
+  }
+
+  // 2. Rows in parallel; one Gatherer per task, reused for its pixels. The
+  // random streams depend on the absolute pixel, so a tile renders the same
+  // pixels identically however the image is split into tiles.
   tbb::parallel_for(tbb::blocked_range<uint32_t>(rect.y0, rect.y1, 1), [&](const auto& rows) {
-    Gatherer gatherer(tree, options.gather);
+    Gatherer gatherer(tree, options.gather, cache);
     for (uint32_t y = rows.begin(); y != rows.end(); ++y) {
       if (is_cancelled()) throw cancel_error();
       for (uint32_t x = rect.x0; x < rect.x1; ++x) {
@@ -144,27 +264,11 @@ TileAovs render_tile(const RayScene& rays, const tree::TreeSource& tree, const C
         Rng rng(hash_ids(options.seed, kPixelDomain, pixel_id));
         PixelValue sum;
         for (uint32_t k = 0; k < options.pixel_samples; ++k) {
-          // One sample goes through the pixel's center (a crisp, repeatable
-          // image); more are stratified over the pixel for antialiasing.
-          const Imath::V2f j = options.pixel_samples == 1
-                                   ? Imath::V2f(0.5f, 0.5f)
-                                   : stratified_sample(k, options.pixel_samples, rng);
-          const Ray ray = camera_ray(camera, image_width, image_height,
-                                     static_cast<float>(x) + j.x, static_cast<float>(y) + j.y);
-          const PixelValue v = shade_sample(rays, gatherer, ray, options,
-                                            hash_ids(options.seed, kLightDomain, pixel_id, k));
-          sum.beauty += v.beauty;
-          sum.direct += v.direct;
-          sum.indirect += v.indirect;
-          sum.albedo += v.albedo;
-          sum.ao += v.ao;
+          const Ray ray = sample_ray(camera, image_width, image_height, x, y, k, options, rng);
+          accumulate(sum, shade_sample(rays, gatherer, ray, options,
+                                       hash_ids(options.seed, kLightDomain, pixel_id, k)));
         }
-        const size_t i = static_cast<size_t>(y - rect.y0) * rect.width() + (x - rect.x0);
-        store_rgb(out.beauty, i, sum.beauty * inv_spp);
-        store_rgb(out.direct, i, sum.direct * inv_spp);
-        store_rgb(out.indirect, i, sum.indirect * inv_spp);
-        store_rgb(out.albedo, i, sum.albedo * inv_spp);
-        out.ao[i] = sum.ao * inv_spp;
+        store(x, y, sum);
       }
     }
     std::lock_guard<std::mutex> lock(counters_mutex);

@@ -32,6 +32,11 @@ struct TileAovs {
   std::vector<float> beauty, direct, indirect, albedo, ao;
 };
 
+// The gather method comes from options.gather.method, per tile: PBGI
+// gathers each pixel sample as its row is traced; factorized PBGI traces
+// the whole tile first, then gathers its receivers in batches of 1024 (in
+// scan order) so that nearby receivers share their far light. The tile's
+// gatherers share one GatherCache.
 // Throws InvalidArgument if the tile is empty or outside the image,
 // Cancelled if `cancelled` returns true while rendering.
 TileAovs render_tile(const RayScene& rays, const tree::TreeSource& tree, const Camera& camera,

@@ -17,18 +17,22 @@ T or_default(U value, T fallback) {
 
 GatherOptions decode_gather_options(const v1::GatherOptions& proto,
                                     const GatherOptions& defaults) {
-  // Only the PBGI gather exists in this build; FPBGI is reserved on the wire.
-  if (proto.method() != v1::GatherOptions::METHOD_DEFAULT &&
-      proto.method() != v1::GatherOptions::PBGI) {
-    throw InvalidArgument(fmt::format("GatherOptions.method {} is not supported by this daemon "
-                                      "(only PBGI)",
-                                      v1::GatherOptions::Method_Name(proto.method())));
-  }
   GatherOptions out = defaults;
+  switch (proto.method()) {
+    case v1::GatherOptions::METHOD_DEFAULT: break;
+    case v1::GatherOptions::PBGI: out.method = GatherMethod::kPbgi; break;
+    case v1::GatherOptions::FPBGI: out.method = GatherMethod::kFpbgi; break;
+    default:
+      throw InvalidArgument(fmt::format("GatherOptions.method {} is not supported by this daemon",
+                                        static_cast<int>(proto.method())));
+  }
   out.microbuffer_resolution =
       or_default(proto.microbuffer_resolution(), defaults.microbuffer_resolution);
   out.max_solid_angle = or_default(proto.max_solid_angle(), defaults.max_solid_angle);
   out.ao_max_distance = or_default(proto.ao_max_distance(), defaults.ao_max_distance);
+  out.clusters = or_default(proto.clusters(), defaults.clusters);
+  out.epsilon = or_default(proto.epsilon(), defaults.epsilon);
+  out.hdr_refine = or_default(proto.hdr_refine(), defaults.hdr_refine);
   out.validate();
   return out;
 }
@@ -57,10 +61,14 @@ OpenOptions decode_open_options(const v1::BuildOptions& proto, const OpenOptions
 
 v1::GatherOptions encode_render_options(const RenderOptions& options) {
   v1::GatherOptions proto;
-  proto.set_method(v1::GatherOptions::PBGI);
+  proto.set_method(options.gather.method == GatherMethod::kFpbgi ? v1::GatherOptions::FPBGI
+                                                                  : v1::GatherOptions::PBGI);
   proto.set_microbuffer_resolution(options.gather.microbuffer_resolution);
   proto.set_max_solid_angle(options.gather.max_solid_angle);
   proto.set_ao_max_distance(options.gather.ao_max_distance);
+  proto.set_clusters(options.gather.clusters);
+  proto.set_epsilon(options.gather.epsilon);
+  proto.set_hdr_refine(options.gather.hdr_refine);
   proto.set_light_samples(options.light_samples);
   proto.set_pixel_samples(options.pixel_samples);
   return proto;

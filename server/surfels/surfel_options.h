@@ -3,20 +3,52 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 
 namespace pbgi {
 
+enum class SurfelSampler : uint8_t {
+  // Per triangle, floor(A / s^2 + u) points of a shifted R2 sequence; area
+  // conserved exactly per mesh (surfel_sampling.cpp).
+  kUniform,
+  // Poisson-disk (blue noise): no two surfels closer than about 0.8 x the
+  // local spacing, also across triangle and mesh edges; the spacing may
+  // follow a camera (poisson_sampling.cpp).
+  kPoisson,
+};
+
 struct SurfelOptions {
+  SurfelSampler sampler = SurfelSampler::kUniform;
   // Distance between neighbouring surfels in world units; 0 = derive it
-  // from target_surfels and the scene's total area.
+  // from target_surfels and the scene's total area. Ignored when a camera
+  // sets the spacing.
   float spacing = 0.f;
   // Approximate number of surfels when spacing is 0.
   uint64_t target_surfels = 200000;
+
+  // Camera-adaptive spacing (Poisson sampler only): a camera prim path of
+  // the scene, "" = absolute spacing. The spacing at a point p is then
+  //   max(min_spacing, |p - eye| * pixel_angle * pixel_footprint)
+  // inside the camera's frustum widened by frustum_margin, and that times
+  // offscreen_factor outside it, so the scene gets the density the image
+  // needs, like a renderer's dicing rate.
+  std::string camera;
+  uint32_t image_width = 1920;   // the image the spacing is for (pixel_angle)
+  uint32_t image_height = 1080;
+  float pixel_footprint = 1.f;   // surfel spacing in pixels
+  float min_spacing = 0.f;       // floor; 0 = 1e-5 x the scene's diagonal
+  float offscreen_factor = 4.f;  // spacing multiplier outside the frustum (>= 1)
+  float frustum_margin = 0.1f;   // frustum widened by this fraction per side
+
   // Stratified shadow-ray samples per surfel and area light.
   uint32_t light_samples = 16;
   // Seed of all sampling, so that a build is reproducible.
   uint64_t seed = 1;
+  // Surfels sampled and shaded per batch when streaming (memory only:
+  // never changes the surfels).
+  uint32_t batch_surfels = 65536;
 
+  bool adaptive() const { return !camera.empty(); }
   void validate() const;  // throws pbgi::InvalidArgument
 };
 

@@ -21,6 +21,11 @@
 //
 // Triangles with zero, negative or non-finite area are skipped and counted.
 //
+// Streaming: the per-triangle plan (counts, shares, offsets) is computed
+// first; surfels are then produced chunk by chunk of the global surfel
+// index, each surfel from its triangle's plan alone, so a chunk boundary
+// may fall inside a triangle and no chunk depends on another.
+//
 // Albedo and emission come from the triangle's material; a textured or
 // vertex-coloured one is evaluated at each surfel's point
 // (server/scene/surface_colors.h), with textures averaged over a square of
@@ -29,8 +34,9 @@
 #include "server/scene/sample_patterns.h"
 #include "server/scene/scene_validation.h"
 #include "server/scene/surface_colors.h"
+#include "server/scene/surface_colors.h"
 #include "server/surfels/progress_meter.h"
-#include "server/surfels/surfels.h"
+#include "server/surfels/surfel_samplers.h"
 #include "storage/format/errors.h"
 
 #include <fmt/format.h>
@@ -49,6 +55,9 @@ namespace {
 constexpr uint64_t kCountDomain = 0x636f756e74ull;   // "count"
 constexpr uint64_t kPlaceDomain = 0x706c616365ull;   // "place"
 
+// Surfels produced per chunk handed to the sink.
+constexpr uint64_t kChunk = 65536;
+
 struct TrianglePlan {
   float area = 0.f;       // one face; 0 = skipped
   uint32_t count = 0;     // samples (twins not counted)
@@ -64,10 +73,39 @@ bool is_double_sided(const Scene& scene, uint32_t tri) {
 
 }  // namespace
 
-std::vector<Surfel> sample_surfels(const Scene& scene, const SurfelOptions& options,
-                                   const ProgressFn& progress) {
-  options.validate();
-  validate_scene(scene);
+SceneArea scene_area(const Scene& scene) {
+  const TriangleSoup& t = scene.triangles;
+  SceneArea out;
+  for (size_t i = 0; i < t.triangle_count(); ++i) {
+    const V3f& p0 = t.positions[t.indices[3 * i + 0]];
+    const V3f& p1 = t.positions[t.indices[3 * i + 1]];
+    const V3f& p2 = t.positions[t.indices[3 * i + 2]];
+    const float a = 0.5f * (p1 - p0).cross(p2 - p0).length();
+    if (!(std::isfinite(a) && a > 0.f)) {
+      ++out.skipped;
+      continue;
+    }
+    out.total += a * (is_double_sided(scene, static_cast<uint32_t>(i)) ? 2.0 : 1.0);
+  }
+  return out;
+}
+
+float absolute_spacing(const Scene& scene, const SurfelOptions& options, double total_area) {
+  const double s2 = options.spacing > 0.f ? static_cast<double>(options.spacing) * options.spacing
+                                          : total_area / static_cast<double>(options.target_surfels);
+  const double expected = total_area / s2;
+  // The tree indexes surfels with 31 bits (tree_builder.h); refuse early,
+  // before sampling, rather than after shading.
+  if (expected > static_cast<double>(1ull << 31)) {
+    throw InvalidArgument(fmt::format(
+        "{}: surfels.spacing = {} would produce {:.3g} surfels for {:.6g} square units (limit 2^31)",
+        scene.source_path, options.spacing, expected, total_area));
+  }
+  return static_cast<float>(std::sqrt(s2));
+}
+
+void sample_uniform(const Scene& scene, const SurfelOptions& options, const SurfelChunkSink& sink,
+                    const ProgressFn& progress) {
   const TriangleSoup& t = scene.triangles;
   const size_t tris = t.triangle_count();
   std::vector<TrianglePlan> plan(tris);
@@ -88,20 +126,11 @@ std::vector<Surfel> sample_surfels(const Scene& scene, const SurfelOptions& opti
     if (plan[i].area == 0.f) ++skipped;
     total_area += plan[i].area * (is_double_sided(scene, static_cast<uint32_t>(i)) ? 2.0 : 1.0);
   }
-  if (!(total_area > 0.0)) return {};
+  if (!(total_area > 0.0)) return;
 
   // 2. Spacing: given, or the one that yields about target_surfels.
-  const double s2 = options.spacing > 0.f
-                        ? static_cast<double>(options.spacing) * options.spacing
-                        : total_area / static_cast<double>(options.target_surfels);
-  const double expected = total_area / s2;
-  // The tree indexes surfels with 31 bits (tree_builder.h); refuse early,
-  // before allocating, rather than after shading.
-  if (expected > static_cast<double>(1ull << 31)) {
-    throw InvalidArgument(fmt::format(
-        "{}: surfels.spacing = {} would produce {:.3g} surfels for {:.6g} square units (limit 2^31)",
-        scene.source_path, options.spacing, expected, total_area));
-  }
+  const double spacing = absolute_spacing(scene, options, total_area);
+  const double s2 = spacing * spacing;
 
   // 3. Sample counts per triangle, each from its own generator.
   tbb::parallel_for(tbb::blocked_range<size_t>(0, tris, 4096), [&](const auto& r) {
@@ -151,50 +180,48 @@ std::vector<Surfel> sample_surfels(const Scene& scene, const SurfelOptions& opti
                  skipped, tris);
   }
 
-  // 5. Positions and attributes, in parallel over triangles.
-  std::vector<Surfel> surfels(total);
-  ProgressMeter meter(progress, "sample_surfels", tris);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, tris, 1024), [&](const auto& r) {
-    for (size_t i = r.begin(); i != r.end(); ++i) {
-      const TrianglePlan& p = plan[i];
-      if (p.count == 0) continue;
-      const V3f& p0 = t.positions[t.indices[3 * i + 0]];
-      const V3f& p1 = t.positions[t.indices[3 * i + 1]];
-      const V3f& p2 = t.positions[t.indices[3 * i + 2]];
-      const V3f n = (p1 - p0).cross(p2 - p0).normalized();
-      const Material& mat = scene.materials[t.material[i]];
-      const bool varying = has_varying_colors(mat);
-      const float radius = std::sqrt(p.share * kInvPi);
-      const float footprint = std::sqrt(p.share);  // side of a square of the surfel's area
-      const bool twin = is_double_sided(scene, static_cast<uint32_t>(i));
-      Rng rng(hash_ids(options.seed, kPlaceDomain, i));
-      const Imath::V2f shift(rng.uniform(), rng.uniform());
-      Surfel* out = surfels.data() + p.first;
-      for (uint32_t k = 0; k < p.count; ++k) {
+  // 5. Positions and attributes, chunk by chunk of the global surfel
+  //    index, in parallel within a chunk.
+  ProgressMeter meter(progress, "sample_surfels", total);
+  std::vector<Surfel> chunk;
+  for (uint64_t g0 = 0; g0 < total; g0 += kChunk) {
+    const uint64_t g1 = std::min(total, g0 + kChunk);
+    chunk.resize(g1 - g0);
+    tbb::parallel_for(tbb::blocked_range<uint64_t>(g0, g1, 1024), [&](const auto& r) {
+      // The triangle holding surfel r.begin(): the last with first <= it.
+      size_t i = size_t(std::upper_bound(plan.begin(), plan.end(), r.begin(),
+                                         [](uint64_t g, const TrianglePlan& p) { return g < p.first; }) -
+                        plan.begin()) - 1;
+      for (uint64_t g = r.begin(); g != r.end(); ++g) {
+        const auto span_of = [&](size_t k) {
+          return uint64_t(plan[k].count) * (is_double_sided(scene, uint32_t(k)) ? 2 : 1);
+        };
+        while (g >= plan[i].first + span_of(i)) ++i;
+        const TrianglePlan& p = plan[i];
+        const bool twin = is_double_sided(scene, static_cast<uint32_t>(i));
+        const uint64_t local = g - p.first;
+        const uint32_t k = static_cast<uint32_t>(twin ? local / 2 : local);
+        const V3f& p0 = t.positions[t.indices[3 * i + 0]];
+        const V3f& p1 = t.positions[t.indices[3 * i + 1]];
+        const V3f& p2 = t.positions[t.indices[3 * i + 2]];
+        const V3f n = (p1 - p0).cross(p2 - p0).normalized();
+        Rng rng(hash_ids(options.seed, kPlaceDomain, i));
+        const Imath::V2f shift(rng.uniform(), rng.uniform());
         const Imath::V2f b = square_to_triangle(r2_sample(k, shift));
-        Surfel s;
+        Surfel& s = chunk[g - g0];
         s.position = (1.f - b.x - b.y) * p0 + b.x * p1 + b.y * p2;
-        s.normal = n;
-        s.radius = radius;
-        s.albedo = mat.albedo;
-        s.emission = mat.emission;
-        if (varying) {
-          const SurfaceColors c = surface_colors(scene, static_cast<uint32_t>(i), b.x, b.y, footprint);
-          s.albedo = c.albedo;
-          s.emission = c.emission;
-        }
-        s.radiance = s.emission;
-        *out++ = s;
-        if (twin) {
-          s.normal = -n;
-          *out++ = s;
-        }
+        s.normal = twin && (local & 1) ? -n : n;
+        s.radius = std::sqrt(p.share * kInvPi);
+        const SurfaceColors colors = surface_colors(scene, static_cast<uint32_t>(i), b.x, b.y, 2.f * s.radius);
+        s.albedo = colors.albedo;
+        s.emission = colors.emission;
+        s.radiance = colors.emission;
       }
-    }
-    meter.advance(r.size());
-  });
+      meter.advance(r.size());
+    });
+    sink(chunk);
+  }
   meter.finish();
-  return surfels;
 }
 
 }  // namespace pbgi

@@ -51,6 +51,10 @@ DaemonOptions non_default_options() {
   o.service.defaults.render.gather.ao_max_distance = 0.7f;
   o.service.defaults.render.light_samples = 5;
   o.service.defaults.render.pixel_samples = 4;
+  o.service.defaults.render.gather.method = GatherMethod::kFpbgi;
+  o.service.defaults.render.gather.clusters = 64;
+  o.service.defaults.render.gather.epsilon = 0.02f;
+  o.service.defaults.render.gather.hdr_refine = 0.5f;
   o.service.defaults.open.surfels.spacing = 0.013f;
   o.service.defaults.open.surfels.target_surfels = 12345;
   o.service.defaults.open.surfels.light_samples = 9;
@@ -100,6 +104,7 @@ TEST(DaemonOptions, WrongTypesAndRangesAreRefusedByName) {
   EXPECT_NE(error_of("[gather]\nmicrobuffer_resolution = 5000000000\n").find("microbuffer_resolution"),
             std::string::npos);
   EXPECT_NE(error_of("threads = \n").find("line 1"), std::string::npos) << "parse errors have a line";
+  EXPECT_NE(error_of("[gather]\nmethod = \"fast\"\n").find("gather.method"), std::string::npos);
 }
 
 TEST(DaemonOptions, ValidateChecksValuesByName) {

@@ -63,5 +63,33 @@ TEST(GatherOptions, AoDistance) {
   EXPECT_EQ(error_of(o), "");
 }
 
+TEST(GatherOptions, FactorizedParameters) {
+  GatherOptions o;
+  EXPECT_EQ(o.method, GatherMethod::kPbgi);
+  o.method = GatherMethod::kFpbgi;
+  EXPECT_EQ(error_of(o), "");
+  for (const uint32_t bad : {0u, 1025u}) {
+    o.clusters = bad;
+    EXPECT_NE(error_of(o).find("clusters"), std::string::npos) << bad;
+  }
+  o.clusters = 1;
+  EXPECT_EQ(error_of(o), "");
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (const float bad : {0.f, -0.01f, 0.6f, nan}) {
+    o.epsilon = bad;
+    EXPECT_NE(error_of(o).find("epsilon"), std::string::npos) << bad;
+  }
+  o.epsilon = 0.5f;
+  EXPECT_EQ(error_of(o), "");
+  for (const float bad : {-1.f, nan, std::numeric_limits<float>::infinity()}) {
+    o.hdr_refine = bad;
+    EXPECT_NE(error_of(o).find("hdr_refine"), std::string::npos) << bad;
+  }
+  o.hdr_refine = 0.f;
+  EXPECT_EQ(error_of(o), "");
+  o.method = static_cast<GatherMethod>(7);
+  EXPECT_NE(error_of(o).find("method"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace pbgi

@@ -56,16 +56,19 @@ class Builder {
   // Bounds, cone and payload straight from the surfels (not from children):
   // simple and exactly what node.h specifies.
   void describe(tree::Node& n, uint32_t begin, uint32_t end) const {
-    Imath::V3f c(0);
+    // Centroid in double: a scene far from the origin (1e5) gets the
+    // nearest float to its true centroid, as near the origin.
+    Imath::V3d csum(0);
     Imath::V3f normal_sum(0);
     double area = 0;
     for (uint32_t i = begin; i < end; ++i) {
-      c += s_[i].position;
+      csum += Imath::V3d(s_[i].position);
       normal_sum += s_[i].normal;
       area += s_[i].area();
     }
     const uint32_t count = end - begin;
-    if (count > 0) c /= float(count);
+    Imath::V3f c(0);
+    if (count > 0) c = Imath::V3f(csum / double(count));
     float radius = 0.f;
     for (uint32_t i = begin; i < end; ++i) {
       radius = std::max(radius, (s_[i].position - c).length() + s_[i].radius);

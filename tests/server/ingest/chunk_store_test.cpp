@@ -4,11 +4,14 @@
 #include "server/ingest/draco_mesh.h"
 #include "server/ingest/usd_ingest.h"
 
+#include "pbgi/v1/scene.pb.h"
 #include "storage/format/errors.h"
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <cmath>
@@ -118,6 +121,51 @@ TEST(Draco, DrcFileGivenDirectlyIsDecodedIntoTriangles) {
   std::ofstream(garbage) << "DRACO but not really";
   EXPECT_THROW(read_usd_scene(garbage, IngestOptions{}), SceneError);
   EXPECT_THROW(read_usd_scene(temp_dir() / "missing.drc", IngestOptions{}), SceneError);
+}
+
+// A .drc that a prim references (as the USD Draco plugin allows): decoded
+// in the daemon, placed by the prim's transform, mirrored winding fixed.
+TEST(Draco, DrcReferencedFromUsdIsPlacedByThePrim) {
+  const DracoMesh in = wavy_grid(10);
+  DracoOptions options;
+  options.preserve_order = false;
+  const fs::path dir = temp_dir() / "drcref";
+  fs::create_directories(dir);
+  std::ofstream(dir / "wavy.drc", std::ios::binary) << encode_draco_mesh(in, options);
+  std::ofstream(dir / "scene.usda") << R"(#usda 1.0
+def Mesh "Wavy" (
+    prepend references = @wavy.drc@
+)
+{
+    double3 xformOp:translate = (0, 5, 0)
+    double3 xformOp:scale = (-1, 1, 1)
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale"]
+}
+def Xform "Missing" (
+    prepend payload = @missing.drc@
+)
+{
+}
+)";
+  const Scene s = read_usd_scene(dir / "scene.usda", IngestOptions{});
+  ASSERT_EQ(s.triangles.triangle_count(), in.indices.size() / 3);
+  EXPECT_EQ(s.triangles.mesh_paths, std::vector<std::string>{"/Wavy"});
+  Box3f box;
+  for (const V3f& p : s.triangles.positions) box.extendBy(p);
+  EXPECT_NEAR(box.min.x, -7.f, 1e-3f);  // x in [-3, 7] mirrored
+  EXPECT_NEAR(box.max.x, 3.f, 1e-3f);
+  EXPECT_NEAR(box.min.y, 5.f, 1e-3f);
+  ASSERT_EQ(s.triangles.normals.size(), s.triangles.positions.size());
+  for (size_t t = 0; t < s.triangles.triangle_count(); ++t) {
+    const auto& p = s.triangles.positions;
+    const auto& i = s.triangles.indices;
+    const V3f g = (p[i[3 * t + 1]] - p[i[3 * t]]).cross(p[i[3 * t + 2]] - p[i[3 * t]]);
+    EXPECT_GT(g.dot(s.triangles.normals[i[3 * t]]), 0.f) << t;
+  }
+  // The unreadable one is a warning naming the prim and the file.
+  EXPECT_TRUE(std::any_of(s.warnings.begin(), s.warnings.end(), [](const std::string& w) {
+    return w.rfind("/Missing: ", 0) == 0 && w.find("missing.drc") != std::string::npos;
+  })) << ::testing::PrintToString(s.warnings);
 }
 
 const char* kStoredScene = R"(#usda 1.0
@@ -284,6 +332,39 @@ TEST(ChunkStore, MeasureIngestVersusReopen) {
             << std::chrono::duration<double>(t2 - t1).count() << " s (of which hashing "
             << std::chrono::duration<double>(t3 - t2).count() << " s); entry "
             << fs::file_size(store.entry_path(key)) << " bytes vs " << raw << " bytes raw positions+normals+indices\n";
+}
+
+TEST(Draco, CorruptDracoMeshChunkIsASceneErrorNamingTheMesh) {
+  const fs::path path = temp_dir() / "corrupt.stream";
+  {
+    std::ofstream out(path, std::ios::binary);
+    auto frame = [&](const pbgi::v1::SceneChunk& c) {
+      const std::string data = c.SerializeAsString();
+      const uint32_t n = static_cast<uint32_t>(data.size());
+      out.write(reinterpret_cast<const char*>(&n), 4);  // little-endian host (asserted by the decoder)
+      out << data;
+    };
+    pbgi::v1::SceneChunk c;
+    c.mutable_header()->set_content_hash("h");
+    c.mutable_header()->set_meters_per_unit(1.0);
+    frame(c);
+    c.Clear();
+    c.mutable_material()->set_id(0);
+    frame(c);
+    c.Clear();
+    c.mutable_mesh()->set_prim_path("/Broken");
+    c.mutable_mesh()->set_draco("DRACO\x02\x02garbage");
+    frame(c);
+  }
+  const int fd = ::open(path.c_str(), O_RDONLY);
+  ASSERT_GE(fd, 0);
+  try {
+    decode_scene_stream(fd, path.string());
+    FAIL() << "decoded a corrupt Draco chunk";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("/Broken"), std::string::npos) << e.what();
+  }
+  ::close(fd);
 }
 
 TEST(ChunkStore, OptionsAreValidated) {

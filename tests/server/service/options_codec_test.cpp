@@ -62,9 +62,26 @@ TEST(OptionsCodec, EncodeDecodeRoundTrip) {
   EXPECT_EQ(open_options_key(open_back), open_options_key(open));
 }
 
-TEST(OptionsCodec, RefusesUnsupportedMethodNamingTheField) {
+TEST(OptionsCodec, MapsMethods) {
   v1::GatherOptions proto;
+  GatherOptions defaults;
+  defaults.method = GatherMethod::kFpbgi;
+  EXPECT_EQ(decode_gather_options(proto, defaults).method, GatherMethod::kFpbgi) << "unset: default";
+  proto.set_method(v1::GatherOptions::PBGI);
+  EXPECT_EQ(decode_gather_options(proto, defaults).method, GatherMethod::kPbgi);
   proto.set_method(v1::GatherOptions::FPBGI);
+  proto.set_clusters(50);
+  proto.set_epsilon(0.02f);
+  const GatherOptions g = decode_gather_options(proto, GatherOptions());
+  EXPECT_EQ(g.method, GatherMethod::kFpbgi);
+  EXPECT_EQ(g.clusters, 50u);
+  EXPECT_FLOAT_EQ(g.epsilon, 0.02f);
+}
+
+TEST(OptionsCodec, RefusesUnknownMethodNamingTheField) {
+  // A newer client's enum value, as it arrives on the wire (field 1 = 7).
+  v1::GatherOptions proto;
+  ASSERT_TRUE(proto.ParseFromString(std::string("\x08\x07", 2)));
   try {
     decode_gather_options(proto, GatherOptions());
     FAIL() << "expected InvalidArgument";

@@ -226,8 +226,10 @@ TEST_F(PbgiServiceTest, RenderTileRequestErrors) {
   EXPECT_TRUE(mentions(s, "unknown-id")) << s.error_message();
 
   r = tile_request(id);
-  r.mutable_options()->set_method(v1::GatherOptions::FPBGI);
-  EXPECT_EQ(render(r).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  r.mutable_options()->set_microbuffer_resolution(1000);
+  s = render(r);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_TRUE(mentions(s, "microbuffer")) << s.error_message();
 }
 
 }  // namespace

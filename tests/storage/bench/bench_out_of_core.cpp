@@ -213,7 +213,7 @@ int run(const Args& a) {
     std::printf("sort           %u runs, %u merges, %.2f GiB of runs, peak sort buffers %.1f MiB (budget %.1f MiB)\n",
                 report.runs, report.merges, double(report.run_bytes) / (1 << 30),
                 double(report.sort_peak_bytes) / (1 << 20), double(a.sort_memory) / (1 << 20));
-    std::printf("tree           peak pending nodes %.1f MiB\n", double(report.tree_peak_pending_bytes) / (1 << 20));
+    std::printf("tree           peak pending nodes %.1f KiB\n", double(report.tree_peak_pending_bytes) / 1024);
   }
   std::printf("page set       %s: %.2f GiB, %u pages (fill %.0f%%), %llu nodes, %llu leaves, depth %u\n",
               set.c_str(), double(m.stats.file_bytes) / (1 << 30), m.stats.page_count, 100 * ins.fill_mean,

@@ -1,0 +1,149 @@
+#include "server/gather/surfel_bounce.h"
+
+#include "server/gather/gather.h"
+#include "storage/format/errors.h"
+#include "storage/tree/node_payload.h"
+#include "storage/tree/tree_builder.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <atomic>
+#include <cmath>
+#include <memory>
+#include <string>
+
+namespace pbgi {
+
+namespace {
+
+constexpr float kInvPi = 0.31830988618f;
+
+bool usable_normal(const Imath::V3f& n) {
+  return std::isfinite(n.x) && std::isfinite(n.y) && std::isfinite(n.z) && n.length2() > 1e-20f;
+}
+
+// A built tree held as one page that add_bounces() updates between bounces
+// (while no gather runs).
+class OnePageTree final : public tree::TreeSource {
+ public:
+  explicit OnePageTree(std::shared_ptr<tree::Page> page) : page_(std::move(page)) {}
+  tree::NodeRef root() const override { return {0, 0}; }
+  tree::PagePtr page(uint32_t id) const override {
+    if (id != 0) throw InvalidArgument("bounce tree: no page " + std::to_string(id));
+    return page_;
+  }
+
+ private:
+  std::shared_ptr<tree::Page> page_;
+};
+
+// Recomputes every node's payload from its surfels' radiances, children
+// (later in pre-order) before parents.
+void rebuild_payloads(tree::Page& page) {
+  for (size_t i = page.nodes.size(); i-- > 0;) {
+    tree::Node& n = page.nodes[i];
+    tree::PayloadAccumulator acc;
+    if (n.is_leaf()) {
+      for (uint32_t s = n.first_surfel; s < n.first_surfel + n.surfel_count; ++s) {
+        acc.add_surfel(page.surfels[s]);
+      }
+    } else {
+      for (uint32_t c = 0; c < n.child_count; ++c) acc.add_node(page.nodes[n.children[c].index]);
+    }
+    acc.store(n);
+  }
+}
+
+}  // namespace
+
+void gather_bounce(const tree::TreeSource& tree, std::span<Surfel> surfels,
+                   std::span<const Imath::C3f> direct, const GatherOptions& options,
+                   const std::function<bool()>& cancelled) {
+  if (surfels.size() != direct.size()) {
+    throw InvalidArgument("gather_bounce: " + std::to_string(surfels.size()) + " surfels but " +
+                          std::to_string(direct.size()) + " direct radiances");
+  }
+  options.validate();
+  const size_t n = surfels.size();
+  std::vector<Imath::C3f> irradiance(n, Imath::C3f(0.f));
+
+  // 1. Irradiance at every surfel that reflects light, batch by batch; the
+  // tree is only read meanwhile.
+  auto cache = std::make_shared<GatherCache>();
+  struct Worker {
+    std::unique_ptr<Gatherer> gatherer;
+    std::vector<Receiver> receivers;
+    std::vector<uint32_t> index;
+    std::vector<GatherResult> results;
+  };
+  tbb::enumerable_thread_specific<Worker> workers;
+  std::atomic<bool> stop{false};
+  const size_t batches = (n + kBounceBatch - 1) / kBounceBatch;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, batches, 1), [&](const auto& range) {
+    Worker& w = workers.local();
+    if (!w.gatherer) w.gatherer = std::make_unique<Gatherer>(tree, options, cache);
+    for (size_t b = range.begin(); b != range.end(); ++b) {
+      if (stop.load(std::memory_order_relaxed)) return;
+      if (cancelled && cancelled()) {
+        stop = true;
+        return;
+      }
+      w.receivers.clear();
+      w.index.clear();
+      const size_t end = std::min(n, (b + 1) * kBounceBatch);
+      for (size_t i = b * kBounceBatch; i < end; ++i) {
+        const Surfel& s = surfels[i];
+        const Imath::C3f& a = s.albedo;
+        if (!(a.x > 0.f || a.y > 0.f || a.z > 0.f) || !usable_normal(s.normal)) continue;
+        w.receivers.push_back({s.position, s.normal});
+        w.index.push_back(uint32_t(i));
+      }
+      w.results.resize(w.receivers.size());
+      w.gatherer->gather_tile(w.receivers, w.results);
+      for (size_t j = 0; j < w.index.size(); ++j) irradiance[w.index[j]] = w.results[j].irradiance;
+    }
+  });
+  if (stop) throw Cancelled("surfel bounce cancelled");
+
+  // 2. The new outgoing radiances.
+  for (size_t i = 0; i < n; ++i) {
+    Surfel& s = surfels[i];
+    s.radiance = direct[i] + s.albedo * kInvPi * irradiance[i];
+  }
+}
+
+std::vector<Surfel> add_bounces(std::vector<Surfel> surfels, uint32_t bounces,
+                                const tree::BuildOptions& build, const GatherOptions& options,
+                                const std::function<void(uint32_t, float)>& progress,
+                                const std::function<bool()>& cancelled) {
+  if (bounces < 1 || bounces > kMaxBounces) {
+    throw InvalidArgument("bounces = " + std::to_string(bounces) + ": must be in [1, " +
+                          std::to_string(kMaxBounces) + "]");
+  }
+  options.validate();
+  if (bounces == 1 || surfels.empty()) return surfels;
+
+  // The tree is built once; bounces change radiances, hence payloads, not
+  // its topology or bounds.
+  tree::BuiltTree built = tree::build_tree(std::move(surfels), build);
+  auto page = std::make_shared<tree::Page>();
+  page->id = 0;
+  page->nodes = std::move(built.nodes);
+  page->surfels = std::move(built.surfels);
+  std::vector<Imath::C3f> direct(page->surfels.size());
+  for (size_t i = 0; i < direct.size(); ++i) direct[i] = page->surfels[i].radiance;
+
+  const OnePageTree tree(page);
+  for (uint32_t b = 1; b < bounces; ++b) {
+    if (progress) progress(b, 0.f);
+    // Gathers read the page; the radiances change only once all are done.
+    gather_bounce(tree, page->surfels, direct, options, cancelled);
+    rebuild_payloads(*page);
+    if (progress) progress(b, 1.f);
+  }
+  return std::move(page->surfels);
+}
+
+}  // namespace pbgi
