@@ -1,6 +1,7 @@
 #include "server/engine/scene_session.h"
 
 #include "server/engine/build_key.h"
+#include "server/gather/page_views.h"
 #include "server/ingest/usd_ingest.h"
 #include "server/surfels/surfels.h"
 #include "storage/format/errors.h"
@@ -21,7 +22,7 @@ std::unique_ptr<storage::PageSetReader> try_open_existing(const fs::path& dir,
                                                           const EngineContext& ctx) {
   if (!fs::exists(dir / "manifest.pbgm")) return nullptr;
   try {
-    return std::make_unique<storage::PageSetReader>(dir, ctx.cache);
+    return std::make_unique<storage::PageSetReader>(dir, ctx.cache, gather::attach_view);
   } catch (const Error& e) {
     const auto aside = fs::path(dir.string() + ".corrupt-" +
                                 std::to_string(std::chrono::system_clock::now().time_since_epoch().count()));
@@ -95,7 +96,7 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
                      [&](const char* s, float f) { report(s, f); });
     // 5. Tree pages, published atomically into the cache directory.
     builder.finish([&](float f) { report("tree", f); });
-    session->tree = std::make_unique<storage::PageSetReader>(dir, ctx.cache);
+    session->tree = std::make_unique<storage::PageSetReader>(dir, ctx.cache, gather::attach_view);
   }
 
   session->info.scene_id = key;

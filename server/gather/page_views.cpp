@@ -112,7 +112,23 @@ const PageView*& PageViews::slot(uint32_t id) {
   return sparse_[id];
 }
 
+namespace {
+struct AttachedView final : tree::PageAttachment {
+  explicit AttachedView(const tree::Page& page) : view(page) {}
+  size_t memory_bytes() const override { return sizeof(AttachedView) - sizeof(PageView) + view.memory_bytes(); }
+  PageView view;
+};
+}  // namespace
+
+void attach_view(tree::Page& page) { page.attachment = std::make_shared<AttachedView>(page); }
+
 const PageView& PageViews::get(const tree::Page& page) {
+  // An attached view lives exactly as long as its page, which the caller
+  // pins: it is never remembered in a slot, which would dangle once the
+  // cache evicts the page.
+  if (const auto* attached = dynamic_cast<const AttachedView*>(page.attachment.get())) {
+    return attached->view;
+  }
   const PageView*& s = slot(page.id);
   if (s && s->matches(page)) return *s;
   if (shared_) {

@@ -91,7 +91,14 @@ struct PageView {
   }
 };
 
-// Views by page id, built on first use, owned here or, with a shared
+// Builds `page`'s view and attaches it to the page, so that every Gatherer
+// reuses it for as long as the page cache keeps the page, and the cache's
+// budget pays for it. Install it as the PageSetReader's page decorator
+// (storage/pages/page_set.h). Throws as PageView's constructor.
+void attach_view(tree::Page& page);
+
+// Views by page id: the one attached to the page (attach_view) or else built
+// on first use, owned here or, with a shared
 // GatherCache, by the cache (then this only keeps pointers to them).
 // trim() drops the views it owns once they exceed the byte budget; it must
 // only be called while no view is in use (between receivers or batches).

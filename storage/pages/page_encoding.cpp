@@ -46,7 +46,7 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
   seal_page(out);
 }
 
-tree::PagePtr decode_page(std::span<const uint8_t> bytes, const PageLocation& where,
+std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const PageLocation& where,
                           uint32_t expected_version, const PayloadCodec& codec,
                           uint32_t page_count) {
   const PageHeader h = open_page(bytes, where, expected_version);

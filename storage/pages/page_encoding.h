@@ -26,7 +26,7 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
 // `where`, deriving every node's summary. Links must point to pages with a
 // smaller id (written before). Throws CorruptionError naming the page,
 // VersionError for an unknown page format.
-tree::PagePtr decode_page(std::span<const uint8_t> bytes, const PageLocation& where,
+std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const PageLocation& where,
                           uint32_t expected_version, const PayloadCodec& codec,
                           uint32_t page_count);
 

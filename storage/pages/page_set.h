@@ -126,8 +126,15 @@ Manifest build_page_set(std::vector<Surfel> surfels, const tree::BuildOptions& o
                         const std::function<void(float)>& progress = {},
                         BuildReport* report = nullptr);
 
+// Called on each page a PageSetReader loads, after decoding and before the
+// page is cached or shared, to attach what the caller derives from it
+// (tree::PageAttachment). Must be thread-safe (concurrent loads); what it
+// throws fails the page() call and nothing is cached.
+using PageDecorator = std::function<void(tree::Page&)>;
+
 // Reads a published page set; pages are loaded on demand through `cache`
-// (nullptr: no caching, every page() call reads and decodes).
+// (nullptr: no caching, every page() call reads and decodes), each passed
+// through `decorate` if given.
 // Thread-safety: all methods may be called concurrently (pread on one fd).
 // page() verifies the page's checksum and structure on every load.
 class PageSetReader : public tree::TreeSource {
@@ -135,7 +142,8 @@ class PageSetReader : public tree::TreeSource {
   // Reads and verifies the manifest; checks the pages file size.
   // Throws CorruptionError / VersionError / IoError naming the file,
   // NotFound if there is no manifest in `dir`.
-  PageSetReader(const std::filesystem::path& dir, std::shared_ptr<PageCache> cache);
+  PageSetReader(const std::filesystem::path& dir, std::shared_ptr<PageCache> cache,
+                PageDecorator decorate = {});
   ~PageSetReader() override;
 
   tree::NodeRef root() const override;

@@ -9,12 +9,13 @@
 namespace pbgi::storage {
 
 struct PageSetReader::Impl {
-  Impl(const std::filesystem::path& d, std::shared_ptr<PageCache> c)
+  Impl(const std::filesystem::path& d, std::shared_ptr<PageCache> c, PageDecorator dec)
       : dir(d),
         manifest(read_manifest(d / kManifestFileName)),
         codec(make_payload_codec(manifest.codec)),
         pages(File::open_read(d / kPagesFileName)),
-        cache(std::move(c)) {
+        cache(std::move(c)),
+        decorate(std::move(dec)) {
     const uint64_t size = pages.size();
     if (size != manifest.stats.file_bytes) {
       throw CorruptionError(pages.path() + ": size " + std::to_string(size) +
@@ -28,6 +29,7 @@ struct PageSetReader::Impl {
   std::shared_ptr<const PayloadCodec> codec;
   File pages;
   std::shared_ptr<PageCache> cache;
+  PageDecorator decorate;
   uint64_t owner = 0;
 
   tree::PagePtr load(uint32_t id) const {
@@ -35,13 +37,16 @@ struct PageSetReader::Impl {
     std::vector<uint8_t> bytes(e.bytes);
     pages.pread_exact(bytes, e.offset);
     if (cache) cache->note_bytes_read(bytes.size());
-    return decode_page(bytes, {pages.path(), id, e.offset}, manifest.page_format, *codec,
-                       manifest.stats.page_count);
+    std::shared_ptr<tree::Page> page = decode_page(bytes, {pages.path(), id, e.offset},
+                                                   manifest.page_format, *codec, manifest.stats.page_count);
+    if (decorate) decorate(*page);
+    return page;
   }
 };
 
-PageSetReader::PageSetReader(const std::filesystem::path& dir, std::shared_ptr<PageCache> cache)
-    : impl_(std::make_unique<Impl>(dir, std::move(cache))) {}
+PageSetReader::PageSetReader(const std::filesystem::path& dir, std::shared_ptr<PageCache> cache,
+                             PageDecorator decorate)
+    : impl_(std::make_unique<Impl>(dir, std::move(cache), std::move(decorate))) {}
 
 PageSetReader::~PageSetReader() {
   if (impl_ && impl_->cache) impl_->cache->forget(impl_->owner);

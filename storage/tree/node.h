@@ -43,14 +43,27 @@ struct Node {
   bool is_leaf() const { return child_count == 0; }
 };
 
+// What a reader of pages derives from one page once and keeps with it (the
+// gather's compact node views). It lives and dies with its page, so the
+// page cache charges its bytes together with the page's and one budget
+// bounds all the memory pages cost; nothing derived outlives an eviction.
+struct PageAttachment {
+  virtual ~PageAttachment() = default;
+  virtual size_t memory_bytes() const = 0;
+};
+
 // One decoded page: a subtree (treelet) of nodes and the surfels of its leaves.
 struct Page {
   uint32_t id = 0;
   std::vector<Node> nodes;
   std::vector<Surfel> surfels;
+  // Set by the page's loader before the page is shared (PageDecorator in
+  // storage/pages/page_set.h), never after: readers need no lock.
+  std::shared_ptr<const PageAttachment> attachment;
 
   size_t memory_bytes() const {
-    return sizeof(Page) + nodes.capacity() * sizeof(Node) + surfels.capacity() * sizeof(Surfel);
+    return sizeof(Page) + nodes.capacity() * sizeof(Node) + surfels.capacity() * sizeof(Surfel) +
+           (attachment ? attachment->memory_bytes() : 0);
   }
 };
 

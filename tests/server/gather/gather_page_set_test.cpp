@@ -1,6 +1,7 @@
 // The gather over a real on-disk page set (storage/pages), built by the
 // production tree builder and read through the page cache.
 #include "server/gather/gather.h"
+#include "server/gather/page_views.h"
 #include "storage/cache/page_cache.h"
 #include "storage/pages/page_set.h"
 #include "surfel_shapes.h"
@@ -51,12 +52,13 @@ std::vector<Surfel> scene(float occluder_x) {
 }
 
 std::unique_ptr<storage::PageSetReader> build(const std::vector<Surfel>& surfels,
-                                              const fs::path& dir, uint64_t cache_bytes) {
+                                              const fs::path& dir, uint64_t cache_bytes,
+                                              storage::PageDecorator decorate = {}) {
   tree::BuildOptions o;
   o.page_size = 16384;  // several pages even for this small scene
   storage::build_page_set(surfels, o, "gather-test", dir);
   return std::make_unique<storage::PageSetReader>(
-      dir, std::make_shared<storage::PageCache>(cache_bytes));
+      dir, std::make_shared<storage::PageCache>(cache_bytes), std::move(decorate));
 }
 
 TEST(GatherPageSet, MatchesClosedFormAndTheInMemoryTree) {
@@ -92,6 +94,29 @@ TEST(GatherPageSet, OccluderHidesEmitterEvenWithAnEvictingCache) {
     EXPECT_LT(r.irradiance.x, 0.01f * kPi / 5.f);
     EXPECT_NEAR(r.ao, 1.f - 0.36f / 0.61f, 0.02f);
   }
+}
+
+// Views attached to cached pages (as the daemon installs them) give the
+// same results as views each Gatherer builds, with a roomy cache and with
+// one that evicts every page after use.
+TEST(GatherPageSet, AttachedViewsGiveIdenticalResults) {
+  TempDir tmp;
+  const std::vector<Surfel> surfels = scene(0.4f);
+  auto plain = build(surfels, tmp.path() / "a", 64 << 20);
+  auto attached = build(surfels, tmp.path() / "b", 64 << 20, gather::attach_view);
+  auto evicting = build(surfels, tmp.path() / "c", 1, gather::attach_view);
+  Gatherer a(*plain, GatherOptions{}), b(*attached, GatherOptions{}), c(*evicting, GatherOptions{});
+  for (int i = 0; i < 8; ++i) {
+    const Receiver r{V3f(0.1f * float(i) - 0.4f, 0.05f * float(i), 0), V3f(0.1f * float(i), 0, 1).normalized()};
+    const GatherResult ra = a.gather(r), rb = b.gather(r), rc = c.gather(r);
+    EXPECT_EQ(ra.irradiance, rb.irradiance);
+    EXPECT_EQ(ra.irradiance, rc.irradiance);
+    EXPECT_EQ(ra.ao, rb.ao);
+    EXPECT_EQ(ra.ao, rc.ao);
+  }
+  const tree::PagePtr root_page = attached->page(attached->root().page);
+  ASSERT_NE(root_page->attachment, nullptr);
+  EXPECT_GT(root_page->attachment->memory_bytes(), 0u);
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 // gathers for each cache budget, and cache counters. A JSON line at the end
 // repeats the figures. --reuse skips the build when the page set exists.
 #include "server/gather/gather.h"
+#include "server/gather/page_views.h"
 #include "storage/cache/page_cache.h"
 #include "storage/pages/page_set.h"
 #include "storage/pages/page_set_inspection.h"
@@ -133,7 +134,7 @@ struct GatherRun {
 // is timed (steady state of the cache). Counters are of the timed pass.
 GatherRun gather(const fs::path& set, uint64_t budget, const std::vector<Receiver>& rs, uint32_t threads) {
   auto cache = std::make_shared<storage::PageCache>(budget);
-  storage::PageSetReader reader(set, cache);
+  storage::PageSetReader reader(set, cache, gather::attach_view);
   GatherRun out;
   for (int pass = 0; pass < 2; ++pass) {
     const storage::CacheCounters before = cache->counters();

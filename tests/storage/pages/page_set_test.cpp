@@ -15,6 +15,8 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+
 #include <fstream>
 #include <map>
 #include <thread>
@@ -297,6 +299,54 @@ TEST_F(PageSetTest, ConcurrentReadersSeeTheSameTree) {
   const CacheCounters c = cache->counters();
   EXPECT_LE(c.bytes_held, cache->budget());
   EXPECT_GT(c.evictions, 0u);
+}
+
+// A consumer's attachment (here a fixed-size blob) is built once per load,
+// charged by the cache with its page, and dropped with it.
+struct Blob final : tree::PageAttachment {
+  explicit Blob(size_t n) : bytes(n) {}
+  size_t memory_bytes() const override { return sizeof(Blob) + bytes.capacity(); }
+  std::vector<uint8_t> bytes;
+};
+
+TEST_F(PageSetTest, DecoratorAttachmentsAreBuiltOncePerLoadAndCharged) {
+  std::atomic<int> calls{0};
+  constexpr size_t kBlob = 100000;
+  auto cache = std::make_shared<PageCache>(uint64_t(1) << 30);
+  PageSetReader reader(dir_, cache, [&](tree::Page& p) {
+    ++calls;
+    p.attachment = std::make_shared<Blob>(kBlob);
+  });
+  const tree::PagePtr a = reader.page(0);
+  const tree::PagePtr b = reader.page(0);
+  EXPECT_EQ(calls.load(), 1);
+  EXPECT_EQ(a.get(), b.get());
+  ASSERT_NE(a->attachment, nullptr);
+  EXPECT_GE(a->memory_bytes(), kBlob);
+  EXPECT_EQ(cache->counters().bytes_held, a->memory_bytes());
+  // Read everything: the cache holds every page with its blob.
+  for (uint32_t i = 0; i < manifest_.stats.page_count; ++i) reader.page(i);
+  EXPECT_EQ(calls.load(), int(manifest_.stats.page_count));
+  EXPECT_GE(cache->counters().bytes_held, uint64_t(kBlob) * manifest_.stats.page_count);
+
+  // A budget of two blobs: the attachments count, so pages are evicted.
+  auto small = std::make_shared<PageCache>(2 * kBlob + 50000);
+  PageSetReader tight(dir_, small, [&](tree::Page& p) { p.attachment = std::make_shared<Blob>(kBlob); });
+  for (uint32_t i = 0; i < manifest_.stats.page_count; ++i) tight.page(i);
+  EXPECT_LE(small->counters().bytes_held, small->budget());
+  EXPECT_GT(small->counters().evictions, 0u);
+}
+
+TEST_F(PageSetTest, AThrowingDecoratorFailsTheLoadAndCachesNothing) {
+  auto cache = std::make_shared<PageCache>(uint64_t(1) << 30);
+  bool fail = true;
+  PageSetReader reader(dir_, cache, [&](tree::Page&) {
+    if (fail) throw CorruptionError("decorator refused page");
+  });
+  EXPECT_THROW(reader.page(0), CorruptionError);
+  EXPECT_EQ(cache->counters().bytes_held, 0u);
+  fail = false;
+  EXPECT_NE(reader.page(0), nullptr);
 }
 
 TEST(PageSet, DefaultPagesOnLargerInput) {
