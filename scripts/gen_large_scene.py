@@ -1,21 +1,31 @@
 #!/usr/bin/env python3
 """Writes a large USD scene for scale tests of the surfel and tree builds.
 
-A city: a tessellated ground plane and a grid of blocks x blocks buildings
-placed by a UsdGeomPointInstancer over three prototypes (a tower with
-tessellated faces, a domed hall, a cone "tree"), with per-instance scales
-and rotations, a sun (DistantLight), a sky (DomeLight) and a street-level
-camera (/World/Camera) for camera-adaptive sampling. Every prototype face
-is diffuse (UsdPreviewSurface).
+Two kinds, both made of districts of DISTRICT x DISTRICT cells, each district
+a separate layer brought in as a *payload* (so USD loads them lazily and the
+reader streams them one by one), each holding a UsdGeomPointInstancer:
 
-The surfel count is chosen at build time (SurfelOptions::spacing or
-target_surfels), not here: the scene's area is printed so that a spacing
-can be picked, e.g. spacing = sqrt(area / surfels).
+  city    a grid of buildings over three prototypes (a tower with tessellated
+          faces, a domed hall, a cone "tree"), per-instance scales/rotations;
+  forest  trees (a trunk and a two-cone crown) and rocks, scattered densely.
 
-    .venv/bin/python scripts/gen_large_scene.py --blocks 60 --out /tmp/city.usdc
+Plus a tessellated ground, a sun (DistantLight), a sky (DomeLight) and a
+street-level camera (/World/Camera). Every face is diffuse (UsdPreviewSurface).
+
+Size: --surfels N picks the number of cells so that the scene's surface area
+holds N surfels at --spacing metres (area / spacing^2 >= N); --blocks sets it
+directly. The defaults reach 100M surfels at the default spacing (5 cm):
+
+    .venv/bin/python scripts/gen_large_scene.py --out /tmp/city/city.usda
+    .venv/bin/python scripts/gen_large_scene.py --kind forest --surfels 2e8 --out /tmp/forest/forest.usda
+    pbgi render /tmp/city/city.usda --camera /World/Camera --surfel-spacing 0.05 ...
+
+(the district layers are written next to --out). The printed line gives the
+area, the cells and the expected surfel count at the spacing.
 """
 import argparse
 import math
+import os
 import random
 import sys
 
@@ -108,61 +118,161 @@ def cone(stage, path, mat, segments=16):
     return mesh(stage, path, p, c, i, mat)
 
 
+def pine(stage, path, mat, segments=12):
+    """A trunk (open cylinder r 0.08, 0..0.3) under two stacked cones, unit high."""
+    p, c, i = [], [], []
+    for s in range(segments):  # trunk
+        t = 2 * math.pi * s / segments
+        p.append((0.08 * math.cos(t), 0.0, 0.08 * math.sin(t)))
+        p.append((0.08 * math.cos(t), 0.3, 0.08 * math.sin(t)))
+    for s in range(segments):
+        a, b = 2 * s, 2 * ((s + 1) % segments)
+        c.append(4)
+        i.extend([a, b, b + 1, a + 1])
+    for base_y, top_y, r in ((0.25, 0.75, 0.45), (0.55, 1.0, 0.3)):  # crown
+        apex = len(p)
+        p.append((0.0, top_y, 0.0))
+        for s in range(segments):
+            t = 2 * math.pi * s / segments
+            p.append((r * math.cos(t), base_y, r * math.sin(t)))
+        for s in range(segments):
+            c.append(3)
+            i.extend([apex, apex + 1 + (s + 1) % segments, apex + 1 + s])
+    return mesh(stage, path, p, c, i, mat)
+
+
+# Expected surface (m^2) of one instance, for sizing: close to the meshes'
+# areas (the same formulas as below), good to a few percent.
+def city_instance(rng):
+    kind = rng.choices([0, 1, 2], weights=[6, 2, 2])[0]
+    w, d = rng.uniform(4, 9), rng.uniform(4, 9)
+    h = {0: rng.uniform(4, 60), 1: rng.uniform(4, 10), 2: rng.uniform(3, 8)}[kind]
+    if kind == 0:
+        area = w * d + 2 * h * (w + d)
+        scale = (w, h, d)
+    elif kind == 1:
+        area = 2 * math.pi * (0.5 * w) * (0.5 * d) + math.pi * w * 0.6 * h
+        scale = (w, h, d)
+    else:
+        area = math.pi * 0.2 * w * math.hypot(0.2 * w, h)
+        scale = (w * 0.5, h, w * 0.5)
+    return kind, scale, area
+
+
+def forest_instance(rng):
+    kind = rng.choices([0, 1], weights=[9, 1])[0]
+    if kind == 0:  # pine, 4..25 m
+        h = rng.uniform(4, 25)
+        w = h * rng.uniform(0.35, 0.6)
+        r1, r2 = 0.45 * w, 0.3 * w
+        area = (math.pi * r1 * math.hypot(r1, 0.5 * h) + math.pi * r2 * math.hypot(r2, 0.45 * h)
+                + 2 * math.pi * 0.08 * w * 0.3 * h)
+        return 3, (w, h, w), area
+    w, d, h = rng.uniform(0.5, 3), rng.uniform(0.5, 3), rng.uniform(0.3, 1.5)  # rock: a low tower
+    return 0, (w, h, d), w * d + 2 * h * (w + d)
+
+
+def write_district(path, kind, cells, seed, mats_colors):
+    """One district layer: /District with its materials, prototypes and a
+    PointInstancer over `cells` ((x, z) cell centres). Returns its area."""
+    rng = random.Random(seed)
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    root = UsdGeom.Xform.Define(stage, "/District")
+    stage.SetDefaultPrim(root.GetPrim())
+    mats = [material(stage, f"/District/Looks/M{k}", col) for k, col in enumerate(mats_colors)]
+    inst = UsdGeom.PointInstancer.Define(stage, "/District/Instances")
+    UsdGeom.Scope.Define(stage, "/District/Instances/Prototypes")
+    tower(stage, "/District/Instances/Prototypes/Tower", mats[0])
+    dome(stage, "/District/Instances/Prototypes/Dome", mats[1])
+    cone(stage, "/District/Instances/Prototypes/Tree", mats[3])
+    pine(stage, "/District/Instances/Prototypes/Pine", mats[3])
+    inst.CreatePrototypesRel().SetTargets([Sdf.Path(f"/District/Instances/Prototypes/{n}")
+                                           for n in ("Tower", "Dome", "Tree", "Pine")])
+    positions, scales, orients, ids = [], [], [], []
+    area = 0.0
+    per_cell = 1 if kind == "city" else 6
+    for (x, z) in cells:
+        for _ in range(per_cell):
+            if kind == "city":
+                k, scale, a = city_instance(rng)
+                px, pz = x, z
+            else:
+                k, scale, a = forest_instance(rng)
+                px, pz = x + rng.uniform(-0.5, 0.5) * CELL, z + rng.uniform(-0.5, 0.5) * CELL
+            positions.append(Gf.Vec3f(px, 0, pz))
+            scales.append(Gf.Vec3f(*scale))
+            angle = rng.uniform(0, math.pi / 2)
+            orients.append(Gf.Quath(math.cos(angle / 2), 0, math.sin(angle / 2), 0))
+            ids.append(k)
+            area += a
+    inst.CreatePositionsAttr(Vt.Vec3fArray(positions))
+    inst.CreateScalesAttr(Vt.Vec3fArray(scales))
+    inst.CreateOrientationsAttr(Vt.QuathArray(orients))
+    inst.CreateProtoIndicesAttr(Vt.IntArray(ids))
+    stage.GetRootLayer().Save()
+    return area, len(positions)
+
+
+def cells_for(kind, surfels, spacing, seed):
+    """Cells per side so that the expected area holds `surfels` at `spacing`."""
+    rng = random.Random(seed + 99)
+    sample = city_instance if kind == "city" else forest_instance
+    per_cell = 1 if kind == "city" else 6
+    mean = sum(sample(rng)[2] for _ in range(4000)) / 4000.0
+    area_per_cell = CELL * CELL + per_cell * mean
+    return max(1, math.ceil(math.sqrt(surfels * spacing * spacing / area_per_cell)))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--blocks", type=int, default=40, help="buildings per side (default 40)")
+    ap.add_argument("--kind", choices=["city", "forest"], default="city")
+    ap.add_argument("--surfels", type=float, default=100e6,
+                    help="surfels the scene should hold at --spacing (default 1e8)")
+    ap.add_argument("--spacing", type=float, default=0.05,
+                    help="surfel spacing in metres the size is computed for (default 0.05)")
+    ap.add_argument("--blocks", type=int, default=0, help="cells per side (overrides --surfels)")
+    ap.add_argument("--district", type=int, default=8, help="cells per side of one payload (default 8)")
     ap.add_argument("--ground-tiles", type=int, default=64, help="ground quads per side (default 64)")
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--out", required=True, help="output .usda/.usdc")
+    ap.add_argument("--out", required=True, help="output .usda/.usdc (district layers go next to it)")
     a = ap.parse_args()
-    rng = random.Random(a.seed)
+    blocks = a.blocks or cells_for(a.kind, a.surfels, a.spacing, a.seed)
+    out_dir = os.path.dirname(os.path.abspath(a.out))
+    os.makedirs(out_dir, exist_ok=True)
+    stem = os.path.splitext(os.path.basename(a.out))[0]
 
     stage = Usd.Stage.CreateNew(a.out)
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
     UsdGeom.SetStageMetersPerUnit(stage, 1.0)
     world = UsdGeom.Xform.Define(stage, "/World")
     stage.SetDefaultPrim(world.GetPrim())
+    colors = [(0.55, 0.52, 0.48), (0.7, 0.35, 0.25), (0.3, 0.45, 0.6), (0.2, 0.5, 0.2), (0.4, 0.4, 0.42)]
+    ground_mat = material(stage, "/World/Looks/Ground", colors[4])
 
-    mats = [material(stage, f"/World/Looks/M{k}", col) for k, col in enumerate(
-        [(0.55, 0.52, 0.48), (0.7, 0.35, 0.25), (0.3, 0.45, 0.6), (0.2, 0.5, 0.2), (0.4, 0.4, 0.42)])]
-
-    size = a.blocks * CELL
+    size = blocks * CELL
     p, c, i = [], [], []
     grid_quad((0, 0, size), (size, 0, 0), (0, 0, -size), a.ground_tiles, p, c, i)  # +y
-    mesh(stage, "/World/Ground", p, c, i, mats[4])
-
-    inst = UsdGeom.PointInstancer.Define(stage, "/World/City")
-    protos = UsdGeom.Scope.Define(stage, "/World/City/Prototypes")
-    tower(stage, "/World/City/Prototypes/Tower", mats[0])
-    dome(stage, "/World/City/Prototypes/Dome", mats[1])
-    cone(stage, "/World/City/Prototypes/Tree", mats[3])
-    inst.CreatePrototypesRel().SetTargets([Sdf.Path("/World/City/Prototypes/Tower"),
-                                           Sdf.Path("/World/City/Prototypes/Dome"),
-                                           Sdf.Path("/World/City/Prototypes/Tree")])
-
-    positions, scales, orients, ids = [], [], [], []
+    mesh(stage, "/World/Ground", p, c, i, ground_mat)
     area = size * size
-    for bx in range(a.blocks):
-        for bz in range(a.blocks):
-            x, z = (bx + 0.5) * CELL, (bz + 0.5) * CELL
-            kind = rng.choices([0, 1, 2], weights=[6, 2, 2])[0]
-            w, d = rng.uniform(4, 9), rng.uniform(4, 9)
-            h = {0: rng.uniform(4, 60), 1: rng.uniform(4, 10), 2: rng.uniform(3, 8)}[kind]
-            positions.append(Gf.Vec3f(x, 0, z))
-            scales.append(Gf.Vec3f(w, h, d) if kind != 2 else Gf.Vec3f(w * 0.5, h, w * 0.5))
-            angle = rng.uniform(0, math.pi / 2)
-            orients.append(Gf.Quath(math.cos(angle / 2), 0, math.sin(angle / 2), 0))
-            ids.append(kind)
-            if kind == 0:
-                area += w * d + 2 * h * (w + d)
-            elif kind == 1:
-                area += 2 * math.pi * (0.5 * w) * (0.5 * d) + math.pi * w * 0.6 * h
-            else:
-                area += math.pi * 0.2 * w * math.hypot(0.2 * w, h)
-    inst.CreatePositionsAttr(Vt.Vec3fArray(positions))
-    inst.CreateScalesAttr(Vt.Vec3fArray(scales))
-    inst.CreateOrientationsAttr(Vt.QuathArray(orients))
-    inst.CreateProtoIndicesAttr(Vt.IntArray(ids))
+
+    # Districts: one layer each, payloaded under /World/Districts.
+    UsdGeom.Scope.Define(stage, "/World/Districts")
+    instances = 0
+    n_districts = math.ceil(blocks / a.district)
+    for dx in range(n_districts):
+        for dz in range(n_districts):
+            cells = [((bx + 0.5) * CELL, (bz + 0.5) * CELL)
+                     for bx in range(dx * a.district, min(blocks, (dx + 1) * a.district))
+                     for bz in range(dz * a.district, min(blocks, (dz + 1) * a.district))]
+            layer = f"{stem}_d{dx:03d}_{dz:03d}.usdc"
+            d_area, d_inst = write_district(os.path.join(out_dir, layer), a.kind, cells,
+                                            a.seed * 100003 + dx * 1009 + dz, colors)
+            area += d_area
+            instances += d_inst
+            prim = stage.DefinePrim(f"/World/Districts/D{dx:03d}_{dz:03d}", "Xform")
+            prim.GetPayloads().AddPayload(f"./{layer}")
 
     sun = UsdLux.DistantLight.Define(stage, "/World/Sun")
     sun.CreateIntensityAttr(3.0)
@@ -178,12 +288,13 @@ def main():
     cam.CreateVerticalApertureAttr(20.25)
     xf = UsdGeom.Xformable(cam)
     xf.AddTranslateOp().Set(Gf.Vec3d(CELL * 0.5, 1.7, size - CELL * 0.5))
-    xf.AddRotateYOp().Set(-30.0)  # looking into the city along -z, a little to +x
+    xf.AddRotateYOp().Set(-30.0)  # looking into the scene along -z, a little to +x
 
     stage.GetRootLayer().Save()
-    tris = 2 * a.ground_tiles ** 2
-    print(f"{a.out}: {a.blocks}x{a.blocks} buildings over {size:.0f} m, about {area:.4g} m^2 of surface "
-          f"(spacing for N surfels: sqrt({area:.4g} / N)); ground {tris} triangles")
+    print(f"{a.out}: {a.kind}, {blocks}x{blocks} cells over {size:.0f} m in {n_districts ** 2} payload "
+          f"districts, {instances} instances, about {area:.4g} m^2 of surface: "
+          f"{area / a.spacing ** 2:.3g} surfels at spacing {a.spacing} m "
+          f"(build with --surfel-spacing {a.spacing})")
     return 0
 
 

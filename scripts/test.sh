@@ -7,4 +7,9 @@ T0=$(date +%s)
 "$ROOT/scripts/setup.sh"
 cd "$ROOT/build"
 ctest --output-on-failure -j "${PBGI_TEST_JOBS:-2}" "$@"
+# Opt-in sanitizer step (a separate clang build): each libFuzzer target under
+# ASan+UBSan for a few seconds from its seed corpus.
+if [ "${PBGI_CI_SANITIZERS:-0}" = 1 ]; then
+  "$ROOT/scripts/fuzz.sh" "${PBGI_FUZZ_SECONDS:-10}"
+fi
 echo "[test] total $(( $(date +%s) - T0 )) s"

@@ -14,7 +14,8 @@ namespace {
 
 // Bump when the path tracer's estimator or the stored layout changes, so
 // that old references are not reused.
-constexpr int kCacheVersion = 1;
+// 2: emissive triangles sampled directly (MIS) and pbrt-style ray offsets.
+constexpr int kCacheVersion = 2;
 
 constexpr char kKeyAttribute[] = "pbgi/bench_reference_key";
 constexpr char kSecondsAttribute[] = "pbgi/render_seconds";
@@ -28,9 +29,10 @@ std::string reference_cache_key(const std::string& scene_hash, const Camera& cam
   // Only what changes the image: tile_size and pass_spp do not (the path
   // tracer is deterministic for any split).
   const std::string text = fmt::format(
-      "v{} scene={} camera={} size={}x{} spp={} depth={} rr={} seed={} ao={} lights={}",
+      "v{} scene={} camera={} size={}x{} spp={} depth={} rr={} seed={} ao={} lights={} emissive={}",
       kCacheVersion, scene_hash, camera_hash(camera), o.width, o.height, o.spp, o.max_depth,
-      o.rr_start_depth, o.seed, o.ao_max_distance, o.lights_visible_to_camera ? 1 : 0);
+      o.rr_start_depth, o.seed, o.ao_max_distance, o.lights_visible_to_camera ? 1 : 0,
+      o.sample_emissive_triangles ? 1 : 0);
   return fmt::format("{:016x}", XXH3_64bits(text.data(), text.size()));
 }
 

@@ -1,7 +1,14 @@
 // `pbgi render SCENE`: renders a camera's image through a running pbgid,
 // tile by tile with several requests in flight, and writes the AOVs as a
 // multi-layer EXR plus a display PNG of the beauty (through OCIO).
+//
+// Failed tiles are retried with back-off on UNAVAILABLE / RESOURCE_EXHAUSTED
+// (the client library). Every finished tile is also appended to a sidecar
+// file <out>.partial; `--resume` reads it back and renders only the tiles
+// missing from it (after a crash, a daemon restart or Ctrl-C). The sidecar
+// is removed once the images are written.
 #include "client/cli/command.h"
+#include "client/cli/connection_flags.h"
 #include "client/image/exr_image.h"
 #include "client/image/png_display.h"
 #include "client/lib/frame_renderer.h"
@@ -13,7 +20,10 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <mutex>
 #include <unistd.h>
 
 namespace pbgi::cli {
@@ -22,7 +32,12 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 struct RenderArgs {
-  std::string server;
+  ConnectionArgs connection;
+  bool resume = false;
+  uint32_t max_new_tiles = 0;   // 0 = all
+  int retries = 8;
+  std::string payload;
+  uint32_t bounces = 0;
   std::string scene;
   std::string camera;
   uint32_t width = 512, height = 512, tile = 32;
@@ -45,10 +60,100 @@ struct RenderArgs {
   uint32_t build_light_samples = 0;
 };
 
-std::string default_server() {
-  const char* env = std::getenv("PBGI_SERVER");
-  return env && *env ? env : "unix:./cache/pbgid.sock";
-}
+// Thrown from the tile callback to end a render early (--max-new-tiles).
+struct StopRequested : std::exception {};
+
+// The sidecar of finished tiles: a header naming the render, then one
+// record per tile (rect + its AOVs as float32). A record cut short by a
+// crash is ignored on resume.
+class TileSidecar {
+ public:
+  static constexpr char kMagic[8] = {'P', 'B', 'G', 'I', 'R', 'S', 'M', '1'};
+
+  // The identity a resumed render must match.
+  static std::string header(const std::string& scene_id, const std::string& camera,
+                            uint32_t width, uint32_t height, uint32_t tile,
+                            const v1::GatherOptions& options) {
+    return fmt::format("{}\n{}\n{}x{}/{}\n{}", scene_id, camera, width, height, tile,
+                       options.SerializeAsString());
+  }
+
+  // Reads the tiles of a sidecar with this header; none if there is no
+  // file. Throws InvalidArgument if it belongs to another render.
+  static std::vector<client::TileImage> read(const std::string& path, const std::string& head) {
+    std::vector<client::TileImage> tiles;
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return tiles;
+    char magic[8];
+    uint32_t size = 0;
+    if (!in.read(magic, 8) || std::memcmp(magic, kMagic, 8) != 0 ||
+        !in.read(reinterpret_cast<char*>(&size), 4)) {
+      throw InvalidArgument(fmt::format("'{}' is not a pbgi render sidecar", path));
+    }
+    std::string stored(size, '\0');
+    in.read(stored.data(), size);
+    if (stored != head) {
+      throw InvalidArgument(fmt::format(
+          "'{}' belongs to another render (scene, camera, size, tile size or options differ); "
+          "delete it or render without --resume",
+          path));
+    }
+    for (;;) {
+      uint32_t rect[4];
+      if (!in.read(reinterpret_cast<char*>(rect), sizeof rect)) break;
+      client::TileImage t;
+      t.tile.set_x0(rect[0]);
+      t.tile.set_y0(rect[1]);
+      t.tile.set_x1(rect[2]);
+      t.tile.set_y1(rect[3]);
+      if (rect[2] <= rect[0] || rect[3] <= rect[1]) break;
+      const size_t pixels = size_t(t.width()) * t.height();
+      bool complete = true;
+      for (auto* aov : {&t.beauty, &t.direct, &t.indirect, &t.albedo, &t.ao}) {
+        aov->resize(aov == &t.ao ? pixels : 3 * pixels);
+        complete = complete && in.read(reinterpret_cast<char*>(aov->data()), aov->size() * 4);
+      }
+      if (!complete) break;
+      tiles.push_back(std::move(t));
+    }
+    return tiles;
+  }
+
+  // Appends to `path` (starting it with the header if new or `fresh`).
+  TileSidecar(const std::string& path, const std::string& head, bool fresh) : path_(path) {
+    const bool exists = !fresh && std::filesystem::exists(path);
+    out_.open(path, std::ios::binary | (exists ? std::ios::app : std::ios::trunc));
+    if (!out_) throw IoError(fmt::format("cannot write render sidecar '{}'", path));
+    if (!exists) {
+      const uint32_t size = static_cast<uint32_t>(head.size());
+      out_.write(kMagic, 8);
+      out_.write(reinterpret_cast<const char*>(&size), 4);
+      out_.write(head.data(), size);
+      out_.flush();
+    }
+  }
+
+  void append(const client::TileImage& t) {
+    std::lock_guard lock(mutex_);
+    const uint32_t rect[4] = {t.tile.x0(), t.tile.y0(), t.tile.x1(), t.tile.y1()};
+    out_.write(reinterpret_cast<const char*>(rect), sizeof rect);
+    for (const auto* aov : {&t.beauty, &t.direct, &t.indirect, &t.albedo, &t.ao}) {
+      out_.write(reinterpret_cast<const char*>(aov->data()), aov->size() * 4);
+    }
+    out_.flush();  // a tile on disk is a tile a resume does not redo
+  }
+
+  void remove() {
+    out_.close();
+    std::error_code ec;
+    std::filesystem::remove(path_, ec);
+  }
+
+ private:
+  std::string path_;
+  std::ofstream out_;
+  std::mutex mutex_;
+};
 
 double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
@@ -119,16 +224,18 @@ image::ExrImage to_exr(const client::Frame& frame, const RenderArgs& args,
   img.attributes()["pbgi/scene"] = info.scene_path();
   img.attributes()["pbgi/scene_id"] = info.scene_id();
   img.attributes()["pbgi/camera"] = camera;
-  img.attributes()["pbgi/server"] = args.server;
+  img.attributes()["pbgi/server"] = args.connection.server;
   return img;
 }
 
 int run_render(const RenderArgs& args) {
   const auto start = Clock::now();
-  client::ClientOptions client_options;
+  check_v1_served(args.payload, args.bounces);
+  client::ClientOptions client_options = args.connection.client_options();
   client_options.call_deadline =
       std::chrono::milliseconds(static_cast<int64_t>(args.tile_deadline * 1000));
-  client::PbgiClient client(args.server, client_options);
+  client_options.max_attempts = std::max(1, args.retries + 1);
+  client::PbgiClient client(args.connection.server, client_options);
   Progress progress(args.quiet);
 
   // 1. Open the scene (or join it if the daemon has it open already).
@@ -162,10 +269,39 @@ int run_render(const RenderArgs& args) {
   o.set_clusters(args.clusters);
   o.set_epsilon(args.epsilon);
   o.set_hdr_refine(args.hdr_refine);
+
+  // Finished tiles of an interrupted run of the same render, and the
+  // sidecar this run records its tiles in.
+  const std::string sidecar_path = args.out + ".partial";
+  const std::string head = TileSidecar::header(info.scene_id(), camera, args.width, args.height,
+                                               args.tile, o);
+  if (args.resume) {
+    request.done_tiles = TileSidecar::read(sidecar_path, head);
+    if (!args.quiet) {
+      std::fprintf(stderr, "resume: %zu tiles already done in %s\n", request.done_tiles.size(),
+                   sidecar_path.c_str());
+    }
+  }
+  const size_t resumed_tiles = request.done_tiles.size();
+  TileSidecar sidecar(sidecar_path, head, /*fresh=*/!args.resume);
+  uint32_t new_tiles = 0;
+  request.on_tile = [&](const client::TileImage& tile) {
+    sidecar.append(tile);
+    // Calls are serialized: a plain counter will do.
+    if (args.max_new_tiles > 0 && ++new_tiles >= args.max_new_tiles) throw StopRequested();
+  };
   const auto render_start = Clock::now();
-  const client::Frame frame = client::render_frame(
-      client, request,
-      [&](uint32_t done, uint32_t total) { progress.tiles(done, total, seconds_since(render_start)); });
+  client::Frame frame;
+  try {
+    frame = client::render_frame(client, request, [&](uint32_t done, uint32_t total) {
+      progress.tiles(done, total, seconds_since(render_start));
+    });
+  } catch (const StopRequested&) {
+    std::fprintf(stderr, "\nstopped after %u new tiles (--max-new-tiles); finished tiles are in "
+                         "%s: rerun with --resume\n",
+                 args.max_new_tiles, sidecar_path.c_str());
+    return 3;
+  }
   const double render_seconds = seconds_since(render_start);
 
   // 3. Write the images.
@@ -182,6 +318,7 @@ int run_render(const RenderArgs& args) {
     display.exposure = args.exposure;
     image::write_png(png_path, img, "", display);
   }
+  sidecar.remove();
 
   // 4. Report.
   std::printf("scene   %s (id %s, %llu triangles, %llu surfels%s)\n", info.scene_path().c_str(),
@@ -189,8 +326,8 @@ int run_render(const RenderArgs& args) {
               static_cast<unsigned long long>(info.surfel_count()),
               info.reused_cache() ? ", cached tree" : "");
   std::printf("open    %.2f s\n", open_seconds);
-  std::printf("render  %.2f s (%ux%u, %u tiles, %u in flight, %llu nodes visited)\n",
-              render_seconds, frame.width, frame.height, frame.tiles, args.jobs,
+  std::printf("render  %.2f s (%ux%u, %u tiles, %zu resumed, %u in flight, %llu nodes visited)\n",
+              render_seconds, frame.width, frame.height, frame.tiles, resumed_tiles, args.jobs,
               static_cast<unsigned long long>(frame.stats.nodes_visited()));
   std::printf("total   %.2f s\n", seconds_since(start));
   std::printf("wrote   %s\n", args.out.c_str());
@@ -200,12 +337,20 @@ int run_render(const RenderArgs& args) {
 
 const CommandRegistrar kRegistrar{"render", [](CLI::App& app, int* exit_code) {
   auto args = std::make_shared<RenderArgs>();
-  args->server = default_server();
   CLI::App* cmd = app.add_subcommand("render", "render a camera's image through a running pbgid");
   cmd->add_option("scene", args->scene, "USD scene (a local file or a path below the daemon's "
                                         "scene roots)")->required();
-  cmd->add_option("--server", args->server, "pbgid address: unix:PATH or HOST:PORT "
-                                            "($PBGI_SERVER)")->capture_default_str();
+  args->connection.add_to(cmd);
+  cmd->add_flag("--resume", args->resume,
+                "skip the tiles an interrupted run of the same render finished (<out>.partial)");
+  cmd->add_option("--max-new-tiles", args->max_new_tiles,
+                  "stop (exit 3) after rendering this many tiles; continue with --resume");
+  cmd->add_option("--retries", args->retries,
+                  "retries per tile on UNAVAILABLE / RESOURCE_EXHAUSTED, with back-off")
+      ->capture_default_str()->check(CLI::Range(0, 100));
+  cmd->add_option("--payload", args->payload, "node payload codec: sh|quantized|wavelet|auto "
+                                              "(v1 serves sh)");
+  cmd->add_option("--bounces", args->bounces, "diffuse bounces (v1 serves 1)");
   cmd->add_option("--camera", args->camera, "camera prim path (default: the only camera)");
   cmd->add_option("--width", args->width, "image width")->capture_default_str();
   cmd->add_option("--height", args->height, "image height")->capture_default_str();

@@ -2,6 +2,7 @@
 // running pbgid, writes its AOVs as a tile-sized multi-layer EXR and prints
 // the gather statistics of that tile (text, or JSON with --json).
 #include "client/cli/command.h"
+#include "client/cli/connection_flags.h"
 #include "client/image/exr_image.h"
 #include "client/lib/pbgi_client.h"
 #include "storage/format/errors.h"
@@ -16,7 +17,9 @@ namespace pbgi::cli {
 namespace {
 
 struct TileArgs {
-  std::string server;
+  ConnectionArgs connection;
+  std::string payload;
+  uint32_t bounces = 0;
   std::string scene;
   std::string camera;
   uint32_t width = 512, height = 512;
@@ -32,11 +35,6 @@ struct TileArgs {
   float surfel_spacing = 0.f;
   uint32_t build_light_samples = 0;
 };
-
-std::string default_server() {
-  const char* env = std::getenv("PBGI_SERVER");
-  return env && *env ? env : "unix:./cache/pbgid.sock";
-}
 
 // "x0,y0,x1,y1" -> Tile; throws InvalidArgument naming the flag.
 v1::Tile parse_rect(const std::string& text) {
@@ -54,7 +52,8 @@ v1::Tile parse_rect(const std::string& text) {
 }
 
 int run_tile(const TileArgs& args) {
-  client::PbgiClient client(args.server);
+  check_v1_served(args.payload, args.bounces);
+  client::PbgiClient client(args.connection.server, args.connection.client_options());
 
   // 1. Open (quietly: the statistics are this command's output).
   v1::BuildOptions build;
@@ -136,11 +135,13 @@ int run_tile(const TileArgs& args) {
 
 const CommandRegistrar kRegistrar{"tile", [](CLI::App& app, int* exit_code) {
   auto args = std::make_shared<TileArgs>();
-  args->server = default_server();
   CLI::App* cmd = app.add_subcommand("tile", "render one tile through a running pbgid and "
                                              "print its gather statistics");
   cmd->add_option("scene", args->scene, "USD scene")->required();
-  cmd->add_option("--server", args->server, "pbgid address ($PBGI_SERVER)")->capture_default_str();
+  args->connection.add_to(cmd);
+  cmd->add_option("--payload", args->payload, "node payload codec: sh|quantized|wavelet|auto "
+                                              "(v1 serves sh)");
+  cmd->add_option("--bounces", args->bounces, "diffuse bounces (v1 serves 1)");
   cmd->add_option("--camera", args->camera, "camera prim path (default: the only camera)");
   cmd->add_option("--width", args->width, "image width")->capture_default_str();
   cmd->add_option("--height", args->height, "image height")->capture_default_str();

@@ -65,13 +65,41 @@ Frame render_frame(PbgiClient& client, const FrameRequest& request, const TilePr
   frame.albedo.assign(3 * pixels, 0.f);
   frame.ao.assign(pixels, 0.f);
 
-  const std::vector<v1::Tile> tiles = tile_grid(request.width, request.height, request.tile_size);
-  const uint32_t total = static_cast<uint32_t>(tiles.size());
+  const std::vector<v1::Tile> grid = tile_grid(request.width, request.height, request.tile_size);
+  const uint32_t total = static_cast<uint32_t>(grid.size());
+
+  // Tiles rendered before: into the frame, off the list.
+  auto same = [](const v1::Tile& a, const v1::Tile& b) {
+    return a.x0() == b.x0() && a.y0() == b.y0() && a.x1() == b.x1() && a.y1() == b.y1();
+  };
+  std::vector<bool> skip(grid.size(), false);
+  for (const TileImage& t : request.done_tiles) {
+    const auto it = std::find_if(grid.begin(), grid.end(), [&](const v1::Tile& g) { return same(g, t.tile); });
+    const size_t pixels = size_t(t.width()) * t.height();
+    if (it == grid.end() || t.beauty.size() != 3 * pixels || t.direct.size() != 3 * pixels ||
+        t.indirect.size() != 3 * pixels || t.albedo.size() != 3 * pixels || t.ao.size() != pixels) {
+      throw InvalidArgument("render_frame: a done tile is not a tile of the " +
+                            std::to_string(request.width) + "x" + std::to_string(request.height) +
+                            " grid of " + std::to_string(request.tile_size) + " or has wrong sizes");
+    }
+    const v1::Tile& g = *it;
+    blit(t.beauty, g, request.width, 3, frame.beauty);
+    blit(t.direct, g, request.width, 3, frame.direct);
+    blit(t.indirect, g, request.width, 3, frame.indirect);
+    blit(t.albedo, g, request.width, 3, frame.albedo);
+    blit(t.ao, g, request.width, 1, frame.ao);
+    skip[size_t(it - grid.begin())] = true;
+  }
+  std::vector<v1::Tile> tiles;
+  for (size_t i = 0; i < grid.size(); ++i) {
+    if (!skip[i]) tiles.push_back(grid[i]);
+  }
   std::atomic<size_t> next{0};
   std::atomic<bool> failed{false};
   std::mutex mutex;  // guards done, stats, error, progress calls
-  uint32_t done = 0;
+  uint32_t done = total - static_cast<uint32_t>(tiles.size());
   std::exception_ptr error;
+  if (progress && done > 0) progress(done, total);
 
   // Each worker keeps one request in flight; tiles go to whoever is free.
   auto worker = [&] {
@@ -93,6 +121,7 @@ Frame render_frame(PbgiClient& client, const FrameRequest& request, const TilePr
         blit(tile.ao, tiles[i], request.width, 1, frame.ao);
         std::lock_guard lock(mutex);
         add_stats(tile.stats, &frame.stats);
+        if (request.on_tile) request.on_tile(tile);
         ++done;
         if (progress) progress(done, total);
       } catch (...) {
@@ -102,7 +131,7 @@ Frame render_frame(PbgiClient& client, const FrameRequest& request, const TilePr
       }
     }
   };
-  const unsigned threads = std::min<size_t>(request.jobs, tiles.size());
+  const unsigned threads = static_cast<unsigned>(std::min<size_t>(request.jobs, tiles.size()));
   std::vector<std::thread> workers;
   workers.reserve(threads);
   for (unsigned t = 0; t < threads; ++t) workers.emplace_back(worker);

@@ -19,6 +19,12 @@ struct FrameRequest {
   uint32_t tile_size = 32;          // pixels per tile side (edge tiles are smaller)
   unsigned jobs = 4;                // RenderTile requests in flight
   v1::GatherOptions options;        // unset fields: the daemon's defaults
+  // Tiles already rendered (a resumed render reads them back): copied into
+  // the frame and not requested again. Each must be a tile of the grid.
+  std::vector<TileImage> done_tiles;
+  // Called with each newly rendered tile (calls are serialized), e.g. to
+  // record it for a later resume.
+  std::function<void(const TileImage& tile)> on_tile;
 };
 
 // Full-frame AOVs, row-major, y down from the top; rgb layers interleaved.
@@ -38,8 +44,9 @@ std::vector<v1::Tile> tile_grid(uint32_t width, uint32_t height, uint32_t tile_s
 // serialized): tiles done, total.
 using TileProgress = std::function<void(uint32_t done, uint32_t total)>;
 
-// Throws InvalidArgument for an empty image, tile size or jobs = 0, and the
-// first RpcError of any tile (the remaining tiles are abandoned).
+// Throws InvalidArgument for an empty image, tile size or jobs = 0 or a
+// done tile that is not one of the grid, and the first RpcError of any
+// tile (the remaining tiles are abandoned). Progress counts done tiles too.
 Frame render_frame(PbgiClient& client, const FrameRequest& request,
                    const TileProgress& progress = {});
 

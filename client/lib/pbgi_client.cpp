@@ -5,8 +5,11 @@
 #include <grpcpp/grpcpp.h>
 
 #include <algorithm>
+#include <charconv>
 #include <filesystem>
+#include <fstream>
 #include <random>
+#include <sstream>
 #include <thread>
 
 namespace pbgi::client {
@@ -14,9 +17,50 @@ namespace {
 
 using SystemClock = std::chrono::system_clock;
 
+std::string read_file(const std::string& path, const char* what) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError(std::string("cannot read ") + what + " '" + path + "'");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+std::shared_ptr<grpc::ChannelCredentials> channel_credentials(const ClientOptions& options) {
+  if (options.tls_ca_file.empty()) {
+    if (!options.tls_cert_file.empty() || !options.tls_key_file.empty()) {
+      throw InvalidArgument("a client certificate (tls_cert_file/tls_key_file) needs tls_ca_file");
+    }
+    return grpc::InsecureChannelCredentials();
+  }
+  if (options.tls_cert_file.empty() != options.tls_key_file.empty()) {
+    throw InvalidArgument("tls_cert_file and tls_key_file must be given together");
+  }
+  grpc::SslCredentialsOptions ssl;
+  ssl.pem_root_certs = read_file(options.tls_ca_file, "TLS CA file");
+  if (!options.tls_cert_file.empty()) {
+    ssl.pem_cert_chain = read_file(options.tls_cert_file, "TLS client certificate");
+    ssl.pem_private_key = read_file(options.tls_key_file, "TLS client key");
+  }
+  return grpc::SslCredentials(ssl);
+}
+
+// The daemon's back-off hint on an overloaded answer, or -1.
+int64_t retry_after_ms(const grpc::ClientContext& context) {
+  const auto& trailers = context.GetServerTrailingMetadata();
+  const auto it = trailers.find("retry-after-ms");
+  if (it == trailers.end()) return -1;
+  int64_t ms = -1;
+  const char* begin = it->second.data();
+  const auto [ptr, ec] = std::from_chars(begin, begin + it->second.size(), ms);
+  return ec == std::errc() && ms >= 0 ? ms : -1;
+}
+
 std::shared_ptr<grpc::Channel> make_channel(const std::string& target,
                                             const ClientOptions& options) {
   grpc::ChannelArguments args;
+  if (!options.tls_server_name.empty()) {
+    args.SetSslTargetNameOverride(options.tls_server_name);
+  }
   args.SetMaxReceiveMessageSize(-1);  // tiles and gathers may be large
   args.SetMaxSendMessageSize(options.max_send_message_bytes);
   // gRPC's own reconnect backoff starts at 1 s and would make our quicker
@@ -25,7 +69,7 @@ std::shared_ptr<grpc::Channel> make_channel(const std::string& target,
               static_cast<int>(options.initial_backoff.count()));
   args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, static_cast<int>(options.initial_backoff.count()));
   args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, static_cast<int>(options.max_backoff.count()));
-  return grpc::CreateCustomChannel(target, grpc::InsecureChannelCredentials(), args);
+  return grpc::CreateCustomChannel(target, channel_credentials(options), args);
 }
 
 std::chrono::milliseconds jittered(std::chrono::milliseconds backoff) {
@@ -67,12 +111,24 @@ void PbgiClient::call_with_retries(const char* rpc, std::chrono::milliseconds de
   for (int attempt = 1;; ++attempt) {
     grpc::ClientContext context;
     context.set_deadline(end);
+    // Metadata rather than call credentials: those are only sent over TLS,
+    // and a token also guards unix sockets and loopback TCP.
+    if (!options_.token.empty()) context.AddMetadata("authorization", "Bearer " + options_.token);
     bool retryable = true;
     const grpc::Status status = call(context, &retryable);
     if (status.ok()) return;
-    const bool again = status.error_code() == grpc::StatusCode::UNAVAILABLE && retryable &&
-                       attempt < options_.max_attempts;
-    const std::chrono::milliseconds pause = jittered(backoff);
+    std::chrono::milliseconds pause = jittered(backoff);
+    bool transient = status.error_code() == grpc::StatusCode::UNAVAILABLE;
+    if (status.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED && options_.retry_overloaded) {
+      // Only the daemon's admission limit is worth waiting for; other
+      // exhaustion (a message too large) would fail the same way again.
+      const int64_t hint = retry_after_ms(context);
+      if (hint >= 0) {
+        transient = true;
+        pause = std::max(pause, std::chrono::milliseconds(hint) + jittered(backoff) / 4);
+      }
+    }
+    const bool again = transient && retryable && attempt < options_.max_attempts;
     if (!again || SystemClock::now() + pause >= end) throw RpcError(rpc, status);
     std::this_thread::sleep_for(pause);
     backoff = std::min(backoff * 2, options_.max_backoff);
@@ -84,6 +140,14 @@ v1::SceneInfo PbgiClient::open_scene(const std::string& scene_path, const v1::Bu
   v1::OpenSceneRequest request;
   request.set_scene_path(scene_path);
   *request.mutable_build() = build;
+  return open_scene(request, [&](const v1::OpenSceneEvent::Progress& p) {
+    if (progress) progress(p.stage(), p.fraction());
+  });
+}
+
+v1::SceneInfo PbgiClient::open_scene(const v1::OpenSceneRequest& request,
+                                     const OpenProgressEvent& progress) {
+  const std::string& scene_path = request.scene_path();
   v1::SceneInfo info;
   bool ready = false;
   call_with_retries("OpenScene", options_.open_deadline,
@@ -93,7 +157,7 @@ v1::SceneInfo PbgiClient::open_scene(const std::string& scene_path, const v1::Bu
                       while (reader->Read(&event)) {
                         *retryable = false;  // the open started: do not start another
                         if (event.has_progress()) {
-                          if (progress) progress(event.progress().stage(), event.progress().fraction());
+                          if (progress) progress(event.progress());
                         } else if (event.has_ready()) {
                           info = event.ready();
                           ready = true;
@@ -117,6 +181,38 @@ std::vector<v1::SceneInfo> PbgiClient::list_scenes() {
   return {response.scenes().begin(), response.scenes().end()};
 }
 
+v1::GetStatusResponse PbgiClient::status() {
+  v1::GetStatusResponse response;
+  call_with_retries("GetStatus", options_.call_deadline, [&](grpc::ClientContext& context, bool*) {
+    return stub_->GetStatus(&context, v1::GetStatusRequest(), &response);
+  });
+  return response;
+}
+
+void PbgiClient::unload_scene(const std::string& scene_id) {
+  v1::UnloadSceneRequest request;
+  request.set_scene_id(scene_id);
+  v1::UnloadSceneResponse response;
+  call_with_retries("UnloadScene", options_.call_deadline,
+                    [&](grpc::ClientContext& context, bool*) {
+                      return stub_->UnloadScene(&context, request, &response);
+                    });
+}
+
+void PbgiClient::render_tiles(const v1::RenderTilesRequest& request,
+                              const std::function<void(TileImage&& tile)>& on_tile) {
+  call_with_retries("RenderTiles", options_.call_deadline,
+                    [&](grpc::ClientContext& context, bool* retryable) {
+                      auto reader = stub_->RenderTiles(&context, request);
+                      v1::RenderTileResponse response;
+                      while (reader->Read(&response)) {
+                        *retryable = false;  // tiles were delivered: do not repeat them
+                        if (on_tile) on_tile(decode_tile(response));
+                      }
+                      return reader->Finish();
+                    });
+}
+
 v1::RenderTileResponse PbgiClient::render_tile_raw(const v1::RenderTileRequest& request) {
   v1::RenderTileResponse response;
   call_with_retries("RenderTile", options_.call_deadline, [&](grpc::ClientContext& context, bool*) {
@@ -126,7 +222,10 @@ v1::RenderTileResponse PbgiClient::render_tile_raw(const v1::RenderTileRequest& 
 }
 
 TileImage PbgiClient::render_tile(const v1::RenderTileRequest& request) {
-  v1::RenderTileResponse response = render_tile_raw(request);
+  return decode_tile(render_tile_raw(request));
+}
+
+TileImage decode_tile(const v1::RenderTileResponse& response) {
   TileImage tile;
   tile.tile = response.tile();
   tile.stats = response.stats();

@@ -1,6 +1,10 @@
 // C++ client of pbgid: one channel, typed calls with per-call deadlines and
-// retries on UNAVAILABLE (daemon starting or restarting) with exponential
-// backoff. Failures throw RpcError (a pbgi::Error) with the server's message.
+// retries with exponential backoff on UNAVAILABLE (daemon starting or
+// restarting) and on RESOURCE_EXHAUSTED that carries the daemon's
+// "retry-after-ms" hint (overloaded: it waits at least that long).
+// Optionally TLS (server CA, client certificate) and a bearer token sent
+// as "authorization: Bearer <token>" on every call. Failures throw
+// RpcError (a pbgi::Error) with the server's message.
 //
 // Thread-safe: calls may be made concurrently from many threads (the CLI
 // keeps several RenderTile requests in flight this way).
@@ -32,9 +36,24 @@ struct ClientOptions {
   std::chrono::milliseconds max_backoff{2000};
   // Largest request the client sends (responses are not limited).
   int max_send_message_bytes = 64 << 20;
+  // Retry RESOURCE_EXHAUSTED answers that carry "retry-after-ms" (the
+  // daemon's admission limit), within max_attempts and the deadline.
+  bool retry_overloaded = true;
+  // TLS: the PEM file of the CA that signed the daemon's certificate; ""
+  // = plaintext (unix sockets, loopback). With tls_cert_file/tls_key_file
+  // the client presents its own certificate (daemons with tls_client_ca).
+  std::string tls_ca_file;
+  std::string tls_cert_file, tls_key_file;
+  // Name checked against the daemon's certificate instead of the host of
+  // the address (e.g. "localhost" when connecting to 127.0.0.1).
+  std::string tls_server_name;
+  // Bearer token; "" = none.
+  std::string token;
 };
 
 using OpenProgress = std::function<void(const std::string& stage, float fraction)>;
+// The full progress event (with its ETA).
+using OpenProgressEvent = std::function<void(const v1::OpenSceneEvent::Progress& progress)>;
 
 // One rendered tile, AOVs row-major as in RenderTileResponse.
 struct TileImage {
@@ -66,7 +85,25 @@ class PbgiClient {
   v1::SceneInfo open_scene(const std::string& scene_path, const v1::BuildOptions& build = {},
                            const OpenProgress& progress = {});
 
+  // The same with every OpenSceneRequest field (variant selections, time
+  // code) and the full progress events.
+  v1::SceneInfo open_scene(const v1::OpenSceneRequest& request,
+                           const OpenProgressEvent& progress);
+
   std::vector<v1::SceneInfo> list_scenes();
+
+  // Scenes, cache, memory and request counters of the daemon.
+  v1::GetStatusResponse status();
+
+  // Unloads a scene; throws RpcError NOT_FOUND if it is not open.
+  void unload_scene(const std::string& scene_id);
+
+  // Many tiles over one call; `on_tile` gets each (checked like
+  // render_tile) in request order as it arrives, on the calling thread.
+  // Retried only until the first tile arrives. The call deadline applies
+  // to the whole stream.
+  void render_tiles(const v1::RenderTilesRequest& request,
+                    const std::function<void(TileImage&& tile)>& on_tile);
 
   // Checks that the response's AOVs have the tile's size.
   TileImage render_tile(const v1::RenderTileRequest& request);
@@ -94,6 +131,10 @@ class PbgiClient {
 // becomes its absolute path; anything else is sent as given (the daemon
 // looks relative paths up below its scene roots).
 std::string scene_request_path(const std::string& scene_argument);
+
+// A RenderTileResponse as a TileImage; throws CorruptionError if an AOV
+// does not have the tile's size.
+TileImage decode_tile(const v1::RenderTileResponse& response);
 
 // Adds "unix:" to a bare filesystem path ("/tmp/pbgid.sock", "./cache/pbgid.sock").
 std::string normalize_address(const std::string& address);

@@ -1,14 +1,20 @@
 #include "server/daemon/daemon.h"
 
+#include "pbgi_build_config.h"
 #include "server/daemon/listen_address.h"
 #include "server/engine/scene_session.h"
+#include "server/ingest/usd_ingest.h"
 #include "server/service/pbgi_service.h"
+#include "server/service/prometheus_text.h"
 #include "storage/cache/page_cache.h"
 #include "storage/format/errors.h"
 
 #include <fmt/format.h>
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
+#include <grpcpp/resource_quota.h>
+#include <spdlog/pattern_formatter.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 #include <tbb/global_control.h>
@@ -17,6 +23,9 @@
 
 #include <cerrno>
 #include <cstring>
+#include <fstream>
+#include <sstream>
+#include <thread>
 
 namespace fs = std::filesystem;
 
@@ -36,13 +45,73 @@ class ScopedUmask {
   mode_t previous_;
 };
 
+// The log message as the body of a JSON string (quotes, backslashes and
+// control characters escaped), for the "%*" flag of the JSON pattern.
+class JsonEscapedMessage final : public spdlog::custom_flag_formatter {
+ public:
+  void format(const spdlog::details::log_msg& msg, const std::tm&,
+              spdlog::memory_buf_t& dest) override {
+    for (char c : msg.payload) {
+      switch (c) {
+        case '"': dest.append(std::string_view("\\\"")); break;
+        case '\\': dest.append(std::string_view("\\\\")); break;
+        case '\n': dest.append(std::string_view("\\n")); break;
+        case '\r': dest.append(std::string_view("\\r")); break;
+        case '\t': dest.append(std::string_view("\\t")); break;
+        default:
+          if (static_cast<unsigned char>(c) < 0x20) {
+            const std::string escaped = fmt::format("\\u{:04x}", static_cast<unsigned>(c));
+            dest.append(std::string_view(escaped));
+          } else {
+            dest.push_back(c);
+          }
+      }
+    }
+  }
+  std::unique_ptr<custom_flag_formatter> clone() const override {
+    return std::make_unique<JsonEscapedMessage>();
+  }
+};
+
+std::string read_pem(const std::string& path, const char* what) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError(fmt::format("cannot read {} '{}'", what, path));
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (text.str().find("-----BEGIN") == std::string::npos) {
+    throw InvalidArgument(fmt::format("{} '{}' is not a PEM file", what, path));
+  }
+  return text.str();
+}
+
+std::shared_ptr<grpc::ServerCredentials> server_credentials(const DaemonOptions& options) {
+  if (!options.tls()) return grpc::InsecureServerCredentials();
+  grpc::SslServerCredentialsOptions ssl;
+  ssl.pem_key_cert_pairs.push_back({read_pem(options.tls_key, "security.tls_key"),
+                                    read_pem(options.tls_cert, "security.tls_cert")});
+  if (!options.tls_client_ca.empty()) {
+    ssl.pem_root_certs = read_pem(options.tls_client_ca, "security.tls_client_ca");
+    ssl.client_certificate_request = GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
+  } else {
+    ssl.client_certificate_request = GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE;
+  }
+  return grpc::SslServerCredentials(ssl);
+}
+
 }  // namespace
 
-void configure_logging(const std::string& level) {
+void configure_logging(const std::string& level, const std::string& format) {
   // Not registered by name, so that configuring twice (tests) is harmless.
   auto logger = std::make_shared<spdlog::logger>(
       "pbgid", std::make_shared<spdlog::sinks::stderr_color_sink_mt>());
-  logger->set_pattern("[%Y-%m-%d %H:%M:%S.%e] [%^%l%$] %v");
+  if (format == "json") {
+    auto formatter = std::make_unique<spdlog::pattern_formatter>();
+    formatter->add_flag<JsonEscapedMessage>('*').set_pattern(
+        R"({"time":"%Y-%m-%dT%H:%M:%S.%e%z","level":"%l","thread":%t,"msg":"%*"})");
+    logger->set_formatter(std::move(formatter));
+  } else {
+    logger->set_pattern("[%Y-%m-%d %H:%M:%S.%e] [%^%l%$] %v");
+  }
   spdlog::set_default_logger(std::move(logger));
   spdlog::set_level(spdlog::level::from_str(level));
 }
@@ -56,6 +125,7 @@ void Daemon::start() {
   // 1. Options (the command line validated them already; tests may not have).
   options_.validate();
   spdlog::set_level(spdlog::level::from_str(options_.log_level));
+  if (options_.log_format == "json") configure_logging(options_.log_level, "json");
   const ListenAddress listen = parse_listen_address(options_.effective_listen());
 
   // 2. Threads for gathers and renders.
@@ -69,38 +139,86 @@ void Daemon::start() {
   const fs::path cache_dir = fs::absolute(options_.cache_dir);
   fs::create_directories(cache_dir, ec);
   if (ec) throw IoError(fmt::format("cannot create cache_dir '{}': {}", cache_dir.string(), ec.message()));
+  cache_ = std::make_shared<storage::PageCache>(options_.memory_budget_bytes());
   if (!opener_) {
     EngineContext context;
     context.cache_dir = cache_dir;
-    context.cache = std::make_shared<storage::PageCache>(options_.memory_budget_bytes());
+    context.cache = cache_;
     context.python = options_.python;
     opener_ = [context](const fs::path& path, const OpenOptions& options,
-                        const StageProgress& progress) {
-      return open_scene(path, options, context, progress);
+                        const service::StageSelection& selection,
+                        const StageProgress& progress) -> std::shared_ptr<SceneSession> {
+      if (selection.empty()) return open_scene(path, options, context, progress);
+      // Variants or a time code: the engine's open_scene with the reader
+      // told how to compose the stage (the selection is part of the
+      // scene's content hash, hence of its page set and scene_id).
+      const auto start = std::chrono::steady_clock::now();
+      IngestOptions ingest;
+      if (!context.python.empty()) ingest.python = context.python;
+      ingest.target_edge_length = options.surfels.spacing;
+      ingest.variant_selections = selection.variant_selections;
+      if (selection.time_code) {
+        ingest.time_code = *selection.time_code;
+        ingest.use_time_code = true;
+      }
+      auto scene = std::make_unique<Scene>(read_usd_scene(
+          path, ingest, [&](const std::string& s, float f) {
+            if (progress) progress("read:" + s, f);
+          }));
+      for (const auto& w : scene->warnings) spdlog::warn("{}: {}", path.string(), w);
+      auto session = open_scene_model(std::move(scene), options, context, progress);
+      session->info.scene_path = path.string();
+      session->info.open_seconds =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      return session;
     };
   }
 
-  // 4. The service.
+  // 4. The service, with its credentials check and status sources.
   std::vector<fs::path> roots(options_.scene_roots.begin(), options_.scene_roots.end());
   if (roots.empty()) spdlog::warn("no scene roots configured: every OpenScene will be refused");
+  service::ServiceRuntime runtime;
+  std::string token = options_.auth_token;
+  if (!options_.auth_token_file.empty()) token = service::read_token_file(options_.auth_token_file);
+  runtime.auth = service::BearerAuth(token);
+  runtime.cache = cache_;
+  runtime.version = PBGI_VERSION;
+  service::RegistryOptions registry_options;
+  registry_options.scene_memory_budget = options_.scene_memory_budget_bytes();
+  service::ServiceOptions service_options = options_.service;
+  if (service_options.limits.max_in_flight == 0) {
+    // Twice the worker threads: one request per thread computing, one
+    // more each being received or sent.
+    const unsigned threads =
+        options_.threads > 0 ? options_.threads : std::max(1u, std::thread::hardware_concurrency());
+    service_options.limits.max_in_flight = 2 * threads;
+  }
   service_ = std::make_shared<service::PbgiService>(
-      options_.service, service::SceneRoots(roots),
-      std::make_shared<service::SceneRegistry>(opener_));
+      service_options, service::SceneRoots(roots),
+      std::make_shared<service::SceneRegistry>(opener_, registry_options), std::move(runtime));
 
   // 5. Listen.
   if (listen.kind == ListenAddress::Kind::Unix) {
     prepare_socket_path(listen.socket_path);
-  } else if (!listen.is_loopback()) {
+  } else if (!listen.is_loopback() && !options_.tls()) {
     spdlog::warn("listening on {} with plaintext gRPC (allow_insecure_remote)", listen.grpc_uri());
   }
   grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   int bound_port = 0;
-  builder.AddListeningPort(listen.grpc_uri(), grpc::InsecureServerCredentials(), &bound_port);
+  builder.AddListeningPort(listen.grpc_uri(), server_credentials(options_), &bound_port);
   builder.RegisterService(service_.get());
   const int max_message = static_cast<int>(options_.max_message_bytes());
   builder.SetMaxReceiveMessageSize(max_message);
   builder.SetMaxSendMessageSize(max_message);
+  // gRPC's own threads are bounded too: the admitted and queued requests,
+  // plus room for the cheap calls (status, list, health, open streams).
+  // Beyond it gRPC itself answers RESOURCE_EXHAUSTED.
+  grpc::ResourceQuota quota("pbgid");
+  quota.SetMaxThreads(static_cast<int>(service_options.limits.max_in_flight +
+                                       service_options.limits.max_queued + 32));
+  builder.SetResourceQuota(quota);
   {
     ScopedUmask private_socket(0177);
     server_ = builder.BuildAndStart();
@@ -135,10 +253,23 @@ void Daemon::start() {
     spdlog::info("preloaded '{}' as scene {}", scene, session->info.scene_id);
   }
 
-  // 7. Ready.
+  // 7. Metrics endpoint.
+  if (!options_.metrics_listen.empty()) {
+    const ListenAddress metrics = parse_listen_address(options_.metrics_listen);
+    auto service = service_;
+    metrics_ = std::make_unique<MetricsHttpServer>(metrics.host, metrics.port, [service] {
+      return service::prometheus_text(service->status(), service->metrics());
+    });
+    spdlog::info("metrics on http://{}:{}/metrics", metrics.host, metrics_->port());
+  }
+
+  // 8. Ready.
   server_->GetHealthCheckService()->SetServingStatus(kServiceName, true);
   server_->GetHealthCheckService()->SetServingStatus(true);
-  spdlog::info("serving on {} (scene roots: {}; cache {}; budget {})", address_,
+  spdlog::info("serving on {}{}{} (scene roots: {}; cache {}; budget {})", address_,
+               options_.tls() ? (options_.tls_client_ca.empty() ? " with TLS" : " with mutual TLS")
+                              : "",
+               service::BearerAuth(token).enabled() ? ", bearer token required" : "",
                fmt::join(options_.scene_roots, ", "), cache_dir.string(), options_.memory_budget);
 }
 
@@ -146,6 +277,7 @@ void Daemon::shutdown(std::chrono::milliseconds grace) {
   std::lock_guard lock(shutdown_mutex_);
   if (stopped_) return;
   stopped_ = true;
+  metrics_.reset();
   if (server_) {
     server_->GetHealthCheckService()->SetServingStatus(false);
     server_->Shutdown(std::chrono::system_clock::now() + grace);

@@ -4,7 +4,9 @@
 #pragma once
 
 #include "server/daemon/daemon_options.h"
+#include "server/daemon/metrics_http.h"
 #include "server/service/scene_registry.h"
+#include "storage/cache/page_cache.h"
 
 #include <tbb/global_control.h>
 
@@ -37,6 +39,10 @@ class Daemon {
   // The address clients connect to: "unix:/abs/path" or "host:port" with
   // the port actually bound (for port 0).
   const std::string& address() const { return address_; }
+  // The bound port of the metrics endpoint; 0 if none.
+  uint16_t metrics_port() const { return metrics_ ? metrics_->port() : 0; }
+  // The service (null before start()).
+  const service::PbgiService* service() const { return service_.get(); }
 
   // Health NOT_SERVING, then lets in-flight requests run for up to `grace`
   // before cancelling them, then removes the socket file. Idempotent and
@@ -47,8 +53,10 @@ class Daemon {
   DaemonOptions options_;
   service::SceneOpener opener_;
   std::unique_ptr<tbb::global_control> thread_limit_;
+  std::shared_ptr<storage::PageCache> cache_;
   std::shared_ptr<service::PbgiService> service_;
   std::unique_ptr<grpc::Server> server_;
+  std::unique_ptr<MetricsHttpServer> metrics_;
   std::string address_;
   std::filesystem::path socket_path_;   // unix sockets only: removed on shutdown
   std::mutex shutdown_mutex_;
@@ -56,7 +64,8 @@ class Daemon {
 };
 
 // Routes spdlog's default logger to stderr at `level` (stdout is for the
-// "pbgid listening on" line and --print-config).
-void configure_logging(const std::string& level);
+// "pbgid listening on" line and --print-config). `format` "json" writes one
+// JSON object per line: {"time", "level", "thread", "msg"} (msg escaped).
+void configure_logging(const std::string& level, const std::string& format = "text");
 
 }  // namespace pbgi::daemon

@@ -16,8 +16,10 @@ CommandLine parse_command_line(int argc, const char* const* argv, const Environm
   // Flags are parsed into these first, then applied over the config file
   // and the environment only if given, so that flags win.
   std::string config, listen, cache_dir, memory_budget, log_level, python;
+  std::string tls_cert, tls_key, tls_client_ca, token_file, metrics_listen, log_format;
+  std::string scene_memory_budget;
   std::vector<std::string> scene_roots, preload;
-  uint32_t threads = 0;
+  uint32_t threads = 0, max_in_flight = 0, max_queued = 0;
   double grace = 0;
   bool print_config = false, allow_insecure_remote = false;
 
@@ -38,6 +40,23 @@ CommandLine parse_command_line(int argc, const char* const* argv, const Environm
                                  "seconds in-flight requests get on SIGTERM/SIGINT");
   auto* o_insecure = app.add_flag("--allow-insecure-remote", allow_insecure_remote,
                                   "allow plaintext TCP on a non-loopback address");
+  auto* o_tls_cert = app.add_option("--tls-cert", tls_cert, "server certificate chain (PEM)");
+  auto* o_tls_key = app.add_option("--tls-key", tls_key, "server private key (PEM)");
+  auto* o_tls_ca = app.add_option("--tls-client-ca", tls_client_ca,
+                                  "require client certificates signed by this CA (PEM)");
+  auto* o_token = app.add_option("--auth-token-file", token_file,
+                                 "file (mode 0600) with the bearer token clients must send "
+                                 "($PBGI_AUTH_TOKEN gives the token itself)");
+  auto* o_metrics = app.add_option("--metrics-listen", metrics_listen,
+                                   "HOST:PORT for Prometheus GET /metrics (default: off)");
+  auto* o_format = app.add_option("--log-format", log_format, "text or json");
+  auto* o_scene_budget = app.add_option("--scene-memory-budget", scene_memory_budget,
+                                        "unload least recently used scenes above this "
+                                        "(e.g. 8GiB; 0 = never)");
+  auto* o_in_flight = app.add_option("--max-in-flight", max_in_flight,
+                                     "gathers/tiles computed at once (0 = 2 x threads)");
+  auto* o_queued = app.add_option("--max-queued", max_queued,
+                                  "more waiting; beyond, RESOURCE_EXHAUSTED + retry hint");
   app.add_flag("--print-config", print_config, "print the effective config as TOML and exit");
 
   CommandLine result;
@@ -70,6 +89,15 @@ CommandLine parse_command_line(int argc, const char* const* argv, const Environm
     if (o_preload->count()) options.preload = preload;
     if (o_grace->count()) options.shutdown_grace_seconds = grace;
     if (o_insecure->count()) options.allow_insecure_remote = allow_insecure_remote;
+    if (o_in_flight->count()) options.service.limits.max_in_flight = max_in_flight;
+    if (o_queued->count()) options.service.limits.max_queued = max_queued;
+    if (o_tls_cert->count()) options.tls_cert = tls_cert;
+    if (o_tls_key->count()) options.tls_key = tls_key;
+    if (o_tls_ca->count()) options.tls_client_ca = tls_client_ca;
+    if (o_token->count()) options.auth_token_file = token_file;
+    if (o_metrics->count()) options.metrics_listen = metrics_listen;
+    if (o_format->count()) options.log_format = log_format;
+    if (o_scene_budget->count()) options.scene_memory_budget = scene_memory_budget;
 
     options.validate();
     if (print_config) {

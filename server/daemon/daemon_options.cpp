@@ -161,18 +161,39 @@ uint64_t DaemonOptions::memory_budget_bytes() const {
   return parse_byte_size(memory_budget, "memory_budget");
 }
 
+uint64_t DaemonOptions::scene_memory_budget_bytes() const {
+  return parse_byte_size(scene_memory_budget, "scene_memory_budget");
+}
+
 uint64_t DaemonOptions::max_message_bytes() const {
   return parse_byte_size(max_message_size, "limits.max_message_size");
 }
 
 void DaemonOptions::validate() const {
   const ListenAddress address = parse_listen_address(effective_listen());
-  if (!address.is_loopback() && !allow_insecure_remote) {
+  if (tls_cert.empty() != tls_key.empty()) {
+    throw InvalidArgument("security.tls_cert and security.tls_key must be given together");
+  }
+  if (!tls_client_ca.empty() && tls_cert.empty()) {
+    throw InvalidArgument("security.tls_client_ca needs security.tls_cert and tls_key");
+  }
+  if (!address.is_loopback() && !tls() && !allow_insecure_remote) {
     throw InvalidArgument(fmt::format(
-        "listen '{}' is not a loopback address and this daemon speaks plaintext gRPC; "
-        "use a unix socket or 127.0.0.1, or set allow_insecure_remote",
+        "listen '{}' is not a loopback address and TLS is not configured; set "
+        "security.tls_cert and tls_key, use a unix socket or 127.0.0.1, or set "
+        "allow_insecure_remote",
         effective_listen()));
   }
+  if (!metrics_listen.empty()) {
+    const ListenAddress metrics = parse_listen_address(metrics_listen);
+    if (metrics.kind != ListenAddress::Kind::Tcp) {
+      throw InvalidArgument(fmt::format("metrics_listen '{}' must be HOST:PORT", metrics_listen));
+    }
+  }
+  if (log_format != "text" && log_format != "json") {
+    throw InvalidArgument(fmt::format("log_format '{}' is not text or json", log_format));
+  }
+  scene_memory_budget_bytes();
   if (cache_dir.empty()) throw InvalidArgument("cache_dir is empty");
   if (memory_budget_bytes() < (1u << 20)) {
     throw InvalidArgument(fmt::format("memory_budget '{}' is below 1MiB", memory_budget));
@@ -225,6 +246,18 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
   top.read("preload", out.preload);
   top.read("allow_insecure_remote", out.allow_insecure_remote);
   top.read("shutdown_grace_seconds", out.shutdown_grace_seconds);
+  top.read("scene_memory_budget", out.scene_memory_budget);
+  top.read("log_format", out.log_format);
+  top.read("metrics_listen", out.metrics_listen);
+
+  if (const toml::table* table = top.table("security")) {
+    TableReader security(*table, "security", source);
+    security.read("tls_cert", out.tls_cert);
+    security.read("tls_key", out.tls_key);
+    security.read("tls_client_ca", out.tls_client_ca);
+    security.read("auth_token_file", out.auth_token_file);
+    security.reject_unknown();
+  }
 
   if (const toml::table* table = top.table("gather")) {
     TableReader gather(*table, "gather", source);
@@ -260,6 +293,9 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
     limits.read("max_image_side", l.max_image_side);
     limits.read("max_tile_pixels", l.max_tile_pixels);
     limits.read("max_message_size", out.max_message_size);
+    limits.read("max_tiles_per_call", l.max_tiles_per_call);
+    limits.read("max_in_flight", l.max_in_flight);
+    limits.read("max_queued", l.max_queued);
     limits.reject_unknown();
   }
   top.reject_unknown();
@@ -305,6 +341,9 @@ std::string to_toml(const DaemonOptions& o) {
   strings_value("preload", o.preload);
   out << "allow_insecure_remote = " << (o.allow_insecure_remote ? "true" : "false") << '\n';
   float_value("shutdown_grace_seconds", o.shutdown_grace_seconds);
+  string_value("scene_memory_budget", o.scene_memory_budget);
+  string_value("log_format", o.log_format);
+  string_value("metrics_listen", o.metrics_listen);
 
   const RenderOptions& r = o.service.defaults.render;
   out << "\n[gather]\n";
@@ -333,6 +372,17 @@ std::string to_toml(const DaemonOptions& o) {
   integer_value("max_image_side", l.max_image_side);
   integer_value("max_tile_pixels", l.max_tile_pixels);
   string_value("max_message_size", o.max_message_size);
+  integer_value("max_tiles_per_call", l.max_tiles_per_call);
+  integer_value("max_in_flight", l.max_in_flight);
+  integer_value("max_queued", l.max_queued);
+
+  out << "\n[security]\n";
+  string_value("tls_cert", o.tls_cert);
+  string_value("tls_key", o.tls_key);
+  string_value("tls_client_ca", o.tls_client_ca);
+  string_value("auth_token_file", o.auth_token_file);
+  // The token itself is a secret: only whether one came from the environment.
+  if (!o.auth_token.empty()) out << "# auth token: set by PBGI_AUTH_TOKEN\n";
   return out.str();
 }
 
@@ -364,6 +414,9 @@ void apply_environment(DaemonOptions& o, const Environment& env) {
   if (const char* v = get("PBGI_THREADS")) o.threads = parse_unsigned("PBGI_THREADS", v);
   if (const char* v = get("PBGI_LOG_LEVEL")) o.log_level = v;
   if (const char* v = get("PBGI_PYTHON")) o.python = v;
+  if (const char* v = get("PBGI_AUTH_TOKEN")) o.auth_token = v;
+  if (const char* v = get("PBGI_AUTH_TOKEN_FILE")) o.auth_token_file = v;
+  if (const char* v = get("PBGI_METRICS_LISTEN")) o.metrics_listen = v;
 }
 
 bool operator==(const DaemonOptions& a, const DaemonOptions& b) {
@@ -376,6 +429,12 @@ bool operator==(const DaemonOptions& a, const DaemonOptions& b) {
          a.preload == b.preload && a.allow_insecure_remote == b.allow_insecure_remote &&
          a.shutdown_grace_seconds == b.shutdown_grace_seconds &&
          a.max_message_size == b.max_message_size &&
+         a.scene_memory_budget == b.scene_memory_budget && a.log_format == b.log_format &&
+         a.metrics_listen == b.metrics_listen && a.tls_cert == b.tls_cert &&
+         a.tls_key == b.tls_key && a.tls_client_ca == b.tls_client_ca &&
+         a.auth_token_file == b.auth_token_file && a.auth_token == b.auth_token &&
+         la.max_tiles_per_call == lb.max_tiles_per_call &&
+         la.max_in_flight == lb.max_in_flight && la.max_queued == lb.max_queued &&
          ra.gather.microbuffer_resolution == rb.gather.microbuffer_resolution &&
          ra.gather.max_solid_angle == rb.gather.max_solid_angle &&
          ra.gather.ao_max_distance == rb.gather.ao_max_distance &&

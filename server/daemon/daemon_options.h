@@ -3,14 +3,17 @@
 // PBGI_* environment variables, command-line flags (daemon_command_line.h).
 //
 // TOML layout (config/pbgid.toml is a commented example):
-//   listen, scene_roots, cache_dir, memory_budget, threads, log_level,
-//   python, preload, allow_insecure_remote, shutdown_grace_seconds
+//   listen, scene_roots, cache_dir, memory_budget, scene_memory_budget,
+//   threads, log_level, log_format, python, preload, allow_insecure_remote,
+//   shutdown_grace_seconds, metrics_listen
+//   [security] tls_cert, tls_key, tls_client_ca, auth_token_file
 //   [gather]  microbuffer_resolution, max_solid_angle, ao_max_distance,
 //             light_samples, pixel_samples, method ("pbgi" | "fpbgi"),
 //             clusters, epsilon, hdr_refine           (request defaults)
 //   [build]   surfel_spacing, target_surfels, light_samples, page_size,
 //             leaf_size, seed                         (OpenScene defaults)
-//   [limits]  max_receivers, max_image_side, max_tile_pixels, max_message_size
+//   [limits]  max_receivers, max_image_side, max_tile_pixels, max_message_size,
+//             max_tiles_per_call, max_in_flight, max_queued
 // Unknown keys are errors (a typo must not silently use a default).
 #pragma once
 
@@ -42,8 +45,23 @@ struct DaemonOptions {
   std::string python;
   // Scenes opened at start, before the daemon reports it is listening.
   std::vector<std::string> preload;
-  // Allow plaintext TCP on a non-loopback address.
+  // Allow plaintext TCP on a non-loopback address (TLS needs no permission).
   bool allow_insecure_remote = false;
+  // Whole scenes (geometry + ray structure, estimated) are unloaded least
+  // recently used first above this; "0" = never.
+  std::string scene_memory_budget = "0";
+  // "text" or "json" (one JSON object per line, for log collectors).
+  std::string log_format = "text";
+  // "HOST:PORT" of the Prometheus text endpoint (GET /metrics); "" = none.
+  std::string metrics_listen;
+  // [security] PEM files. With tls_cert + tls_key the daemon speaks TLS;
+  // with tls_client_ca as well it requires client certificates signed by it.
+  std::string tls_cert, tls_key, tls_client_ca;
+  // A file (mode 0600) holding the bearer token every call must carry.
+  std::string auth_token_file;
+  // The token itself, from PBGI_AUTH_TOKEN only (never written to a config
+  // or printed); auth_token_file wins if both are set.
+  std::string auth_token;
   // On SIGTERM/SIGINT, in-flight requests get this long before cancellation.
   double shutdown_grace_seconds = 10.0;
   // Largest gRPC message accepted or sent (a 1M-receiver Gather is 24 MB).
@@ -57,6 +75,8 @@ struct DaemonOptions {
   std::string effective_listen() const;
   uint64_t memory_budget_bytes() const;      // throws InvalidArgument
   uint64_t max_message_bytes() const;        // throws InvalidArgument
+  uint64_t scene_memory_budget_bytes() const;  // throws InvalidArgument
+  bool tls() const { return !tls_cert.empty(); }
   // Checks every field; throws pbgi::InvalidArgument naming the key.
   void validate() const;
 };
@@ -78,7 +98,8 @@ using Environment = std::function<const char*(const char* name)>;
 Environment process_environment();
 
 // Applies PBGI_LISTEN, PBGI_SCENE_ROOTS (':'-separated), PBGI_CACHE_DIR,
-// PBGI_MEMORY_BUDGET, PBGI_THREADS, PBGI_LOG_LEVEL, PBGI_PYTHON. Throws
+// PBGI_MEMORY_BUDGET, PBGI_THREADS, PBGI_LOG_LEVEL, PBGI_PYTHON,
+// PBGI_AUTH_TOKEN, PBGI_AUTH_TOKEN_FILE, PBGI_METRICS_LISTEN. Throws
 // InvalidArgument naming the variable for a malformed value.
 void apply_environment(DaemonOptions& options, const Environment& env);
 

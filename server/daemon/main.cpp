@@ -26,7 +26,7 @@ int main(int argc, char** argv) {
   sigaddset(&signals, SIGINT);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
-  configure_logging(options.log_level);
+  configure_logging(options.log_level, options.log_format);
   try {
     Daemon daemon(options);
     daemon.start();

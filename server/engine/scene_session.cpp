@@ -2,6 +2,7 @@
 
 #include "server/engine/build_key.h"
 #include "server/gather/page_views.h"
+#include "server/scene/render_origin.h"
 #include "server/ingest/usd_ingest.h"
 #include "server/surfels/surfels.h"
 #include "storage/format/errors.h"
@@ -76,6 +77,11 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
   options.tree.validate();
   auto session = std::make_shared<SceneSession>();
   session->scene = std::move(scene);
+
+  // 1b. Render in a scene-local frame: positions near a far-away scene keep
+  // their float precision (server/scene/render_origin.h). Gather requests
+  // arrive in world coordinates and are moved into this frame.
+  rebase_to_local_frame(*session->scene);
 
   // 2. Ray-tracing structure: needed for surfel shading and primary hits.
   session->rays = std::make_unique<RayScene>(*session->scene);

@@ -36,7 +36,7 @@ void FarBuffer::push(uint32_t k, const Fragment& f) {
   // Merge into a fragment of the same surface (depth within the band).
   for (int32_t i = head_[k]; i >= 0; i = fragments_[i].next) {
     Fragment& g = fragments_[i];
-    if (f.near * grow_ < g.near || f.near > g.far * grow_) continue;
+    if (f.far * grow_ < g.near || f.near > g.far * grow_) continue;
     g.near = std::min(g.near, f.near);
     g.far = std::max(g.far, f.far);
     g.alpha += f.alpha;

@@ -73,8 +73,13 @@ class FarBuffer {
   // `depth`, with moment m per unit solid angle and `radiance`.
   void add(uint32_t k, float depth, float alpha, float omega, const Imath::V3f& m,
            const Imath::C3f& radiance) {
-    if (!(alpha > 0.f) || !(omega > 0.f) || !std::isfinite(depth)) return;
-    Fragment f{depth, depth, alpha, omega, radiance.x * omega, radiance.y * omega,
+    add(k, depth, depth, alpha, omega, m, radiance);
+  }
+  // The same over the depth interval [near, far] (microbuffer.h).
+  void add(uint32_t k, float near, float far, float alpha, float omega, const Imath::V3f& m,
+           const Imath::C3f& radiance) {
+    if (!(alpha > 0.f) || !(omega > 0.f) || !std::isfinite(near) || !std::isfinite(far)) return;
+    Fragment f{near, far, alpha, omega, radiance.x * omega, radiance.y * omega,
                radiance.z * omega, m.x * omega, m.y * omega, m.z * omega, -1};
     push(k, f);
   }

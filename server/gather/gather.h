@@ -92,6 +92,9 @@ class Gatherer {
   const GatherCounters& counters() const { return counters_; }
 
  private:
+  // gather() without unpinning the receiver's pages afterwards.
+  GatherResult gather_pinned(const Receiver& r);
+
   struct Impl;
   std::unique_ptr<Impl> impl_;
   GatherCounters counters_;

@@ -32,9 +32,9 @@ void GatherOptions::validate() const {
     throw InvalidArgument("GatherOptions.clusters = " + std::to_string(clusters) +
                           ": must be in [1, " + std::to_string(kMaxClusters) + "]");
   }
-  if (!(std::isfinite(epsilon) && epsilon > 0.f && epsilon <= kMaxEpsilon)) {
+  if (!(std::isfinite(epsilon) && epsilon >= 0.f && epsilon <= kMaxEpsilon)) {
     throw InvalidArgument("GatherOptions.epsilon = " + std::to_string(epsilon) +
-                          ": must be in (0, " + std::to_string(kMaxEpsilon) + "]");
+                          ": must be in [0, " + std::to_string(kMaxEpsilon) + "] (0 = auto)");
   }
   if (!(std::isfinite(hdr_refine) && hdr_refine >= 0.f)) {
     throw InvalidArgument("GatherOptions.hdr_refine = " + std::to_string(hdr_refine) +

@@ -35,7 +35,9 @@ void Microbuffer::push(uint32_t k, const Fragment& f) {
   for (int32_t i = head_[k]; i >= 0; i = fragments_[i].next) {
     Fragment& g = fragments_[i];
     if ((g.alpha > 0.f) != (f.alpha > 0.f)) continue;
-    if (f.near * grow_ < g.near || f.near > g.far * grow_) continue;
+    // Depth intervals overlapping within the band (then they always end in
+    // the same cluster of resolve()).
+    if (f.far * grow_ < g.near || f.near > g.far * grow_) continue;
     g.near = std::min(g.near, f.near);
     g.far = std::max(g.far, f.far);
     g.alpha += f.alpha;
@@ -43,6 +45,7 @@ void Microbuffer::push(uint32_t k, const Fragment& f) {
     g.r += f.r;
     g.g += f.g;
     g.b += f.b;
+    g.mask |= f.mask;
     return;
   }
   fragments_.push_back(f);
@@ -136,11 +139,11 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far) {
       const FarPixel& fp = far->pixel(k);
       const FarShare f = far_share(fp.front, normal_, cos_[k], margin[k], weight_[k], omega[k]);
       if (fp.front_alpha > 0.f) {
-        sorted_.push_back({fp.front_near, fp.front_far, fp.front_alpha, f.occ, f.r, f.g, f.b});
+        sorted_.push_back({fp.front_near, fp.front_far, fp.front_alpha, f.occ, f.r, f.g, f.b, 0});
       }
       if (fp.rest_alpha > 0.f) {
         const FarShare r = far_share(fp.rest, normal_, cos_[k], margin[k], weight_[k], omega[k]);
-        sorted_.push_back({fp.rest_z, fp.rest_z, fp.rest_alpha, r.occ, r.r, r.g, r.b});
+        sorted_.push_back({fp.rest_z, fp.rest_z, fp.rest_alpha, r.occ, r.r, r.g, r.b, 0});
       }
     }
     // Lists are short (a few surfaces): insertion sort beats std::sort.
@@ -158,10 +161,12 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far) {
       const float start = sorted_[i].near;
       float far_z = start, a = 0.f, w = 0.f, cr = 0.f, cg = 0.f, cb = 0.f;
       float hits = 0.f, hw = 0.f, hr = 0.f, hg = 0.f, hb = 0.f;
+      uint32_t mask = 0;
       do {
         const Fragment& f = sorted_[i];
         if (f.alpha < 0.f) {
           hits -= f.alpha;
+          mask |= f.mask;
           hw += f.weight;
           hr += f.r;
           hg += f.g;
@@ -177,8 +182,10 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far) {
         ++i;
       } while (i < sorted_.size() && sorted_[i].near <= far_z * grow_);
       if (hits > 0.f) {
-        const float inv = 1.f / hits;
-        a += 1.f;
+        // The hits' radiance averaged, over the part of the pixel they cover.
+        const float cover = float(__builtin_popcount(mask)) * (1.f / kHitSamples);
+        const float inv = cover / hits;
+        a += cover;
         w += hw * inv;
         cr += hr * inv;
         cg += hg * inv;

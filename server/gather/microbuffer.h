@@ -15,9 +15,10 @@
 //     the pixel's fragments of the same kind whose depth interval it is
 //     within the band of; such fragments always end in the same cluster,
 //     so this changes nothing but speed.
-//  3. A cluster's coverage is alpha = min(1, hits) + sum of splat alphas.
-//     Ray-cast hits of overlapping disks do not add up: a hit means the
-//     pixel center sees the surface. Splat coverage is deliberately not
+//  3. A cluster's coverage is alpha = (covered samples / 16) + sum of splat
+//     alphas. Ray-cast hits of overlapping disks do not add up: a hit
+//     means a sample point of the pixel sees the surface, and the hits of
+//     a cluster cover the union of their samples. Splat coverage is deliberately not
 //     clamped at 1: a splat has exactly its node's solid angle, so where
 //     neighbouring splats overlap in one pixel they leave a gap in another,
 //     and clamping would turn every overlap into lost energy (a 2-3%
@@ -83,19 +84,21 @@ class Microbuffer {
   float weight(uint32_t k) const { return weight_[k]; }
   bool in_hemisphere(uint32_t k) const { return weight_[k] > 0.f; }
 
-  // Adds a splat fragment: it covers the fraction `alpha` of pixel k at
-  // `depth`, has the cosine-weighted solid angle `weight` (> 0) and shows
-  // `radiance`.
-  void add_coverage(uint32_t k, float depth, float alpha, float weight,
+  // Adds a splat fragment: it covers the fraction `alpha` of pixel k over
+  // the depth interval [near, far] (the extent of the piece of surface
+  // along the view: a wall seen at a grazing angle recedes across its
+  // splats, and pieces of it whose intervals chain belong to one surface),
+  // has the cosine-weighted solid angle `weight` (> 0) and shows `radiance`.
+  void add_coverage(uint32_t k, float near, float far, float alpha, float weight,
                     const Imath::C3f& radiance) {
     if (!(alpha > 0.f) || !(weight > 0.f)) return;
     // Fast path: the pixel's latest fragment is a splat of the same surface
     // (the common case: neighbouring splats of one surface).
     if (stamp_[k] == generation_) {
       Fragment& g = fragments_[head_[k]];
-      if (g.alpha > 0.f && depth * grow_ >= g.near && depth <= g.far * grow_) {
-        g.near = std::min(g.near, depth);
-        g.far = std::max(g.far, depth);
+      if (g.alpha > 0.f && far * grow_ >= g.near && near <= g.far * grow_) {
+        g.near = std::min(g.near, near);
+        g.far = std::max(g.far, far);
         g.alpha += alpha;
         g.weight += weight;
         g.r += radiance.x * weight;
@@ -104,15 +107,29 @@ class Microbuffer {
         return;
       }
     }
-    push(k, {depth, depth, alpha, weight, radiance.x * weight, radiance.y * weight,
+    push(k, {near, far, alpha, weight, radiance.x * weight, radiance.y * weight,
              radiance.z * weight});
   }
-  // Adds a ray-cast hit: the center direction of pixel k meets a surface at
-  // `depth` showing `radiance`.
-  void add_hit(uint32_t k, float depth, const Imath::C3f& radiance) {
+  void add_coverage(uint32_t k, float depth, float alpha, float weight,
+                    const Imath::C3f& radiance) {
+    add_coverage(k, depth, depth, alpha, weight, radiance);
+  }
+  // Ray-cast hits are taken at kHitSamples (4 x 4) points of a pixel; a
+  // hit fragment carries the mask of the points that meet its surface.
+  static constexpr uint32_t kHitSamples = 16;
+  static constexpr uint32_t kAllSamples = (1u << kHitSamples) - 1;
+
+  // Adds a ray-cast hit: the sample points `mask` of pixel k meet a surface
+  // at `depth` showing `radiance` (the default: the whole pixel).
+  void add_hit(uint32_t k, float depth, const Imath::C3f& radiance,
+               uint32_t mask = kAllSamples) {
+    add_hit(k, depth, depth, radiance, mask);
+  }
+  // The same with the depth interval of the samples' hits.
+  void add_hit(uint32_t k, float near, float far, const Imath::C3f& radiance, uint32_t mask) {
     const float w = weight_[k];
-    if (!(w > 0.f)) return;
-    push(k, {depth, depth, -1.f, w, radiance.x * w, radiance.y * w, radiance.z * w});
+    if (!(w > 0.f) || !(mask & kAllSamples)) return;
+    push(k, {near, far, -1.f, w, radiance.x * w, radiance.y * w, radiance.z * w, mask});
   }
 
   // Resolves visibility (rule above) and convolves with the cosine lobe,
@@ -129,6 +146,7 @@ class Microbuffer {
     float alpha;      // splat coverage (> 0), or minus the number of ray-cast hits
     float weight;     // cosine-weighted solid angle
     float r, g, b;    // radiance times weight
+    uint32_t mask = 0;  // hits: the pixel's sample points they cover (union)
     int32_t next = -1;
   };
 

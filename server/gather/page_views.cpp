@@ -43,7 +43,7 @@ PageView::PageView(const tree::Page& page) : id(page.id), surfel_count(page.surf
 
     uint32_t flags = 0;
     NodeLook& look = looks[i];
-    look = NodeLook{0.f, 0.f, 0.f, n.area, FanCone{}};
+    look = NodeLook{0.f, 0.f, 0.f, n.area, 0.f, 0.f, 0.f, 0.f, FanCone{}};
     if (n.cone_cos >= kNarrowConeCos) {
       // The flat model of node_appearance(): DC ratio and the cone's fan.
       flags |= HotNode::kNarrow;
@@ -58,11 +58,23 @@ PageView::PageView(const tree::Page& page) : id(page.id), surfel_count(page.surf
           look.g = L.y;
           look.b = L.z;
           look.fan = fan_cone(n.cone_cos);
+          const Imath::V3f m = mean_normal(n);
+          look.mx = m.x;
+          look.my = m.y;
+          look.mz = m.z;
         } else {
           look.area = 0.f;  // shows nothing
         }
       } else {
         look.area = 0.f;
+      }
+    } else {
+      Bipolar b;
+      if (fit_bipolar(n, b)) {
+        flags |= HotNode::kBipolar;
+        if (bipolar_index.empty()) bipolar_index.assign(page.nodes.size(), 0);
+        bipolar_index[i] = uint32_t(bipolar.size());
+        bipolar.push_back(b);
       }
     }
     // Nothing to see: no area, or NaN/negative/infinite bounds.

@@ -41,7 +41,11 @@ struct alignas(16) HotNode {
   // In `count`: a narrow normal cone (node_appearance.h); its appearance
   // comes from PageView::looks without touching the tree::Node.
   static constexpr uint32_t kNarrow = 1u << 29;
-  static constexpr uint32_t kCountMask = kNarrow - 1;
+  // In `count`: a wide cone whose normals form two opposite sheets (both
+  // faces of a thin wall, node_appearance.h); its appearance comes from
+  // PageView::bipolar.
+  static constexpr uint32_t kBipolar = 1u << 28;
+  static constexpr uint32_t kCountMask = kBipolar - 1;
 
   float cx, cy, cz, radius;  // bounding sphere
   float ax, ay, az;          // normal cone axis (unit)
@@ -56,6 +60,7 @@ struct alignas(16) HotNode {
   bool leaf() const { return count & kLeaf; }
   bool narrow() const { return count & kNarrow; }
   bool invisible() const { return count & kInvisible; }
+  bool bipolar() const { return count & kBipolar; }
   uint32_t size() const { return count & kCountMask; }
 };
 static_assert(sizeof(HotNode) == 48);
@@ -65,15 +70,21 @@ static_assert(sizeof(HotNode) == 48);
 struct NodeLook {
   float r, g, b;  // >= 0; all 0 when the payload shows nothing
   float area;
+  float mx, my, mz;  // area-weighted mean normal (node_appearance.h)
+  float pad_ = 0.f;
   FanCone fan;
 };
-static_assert(sizeof(NodeLook) == 32);
+static_assert(sizeof(NodeLook) == 48);
 
 struct PageView {
   uint32_t id = 0;
   std::vector<HotNode> nodes;
   std::vector<NodeLook> looks;       // per node; meaningful for narrow ones
   std::vector<tree::NodeRef> links;  // children of internal nodes
+  // Bipolar nodes' faces; bipolar_index[i] (sized only when the page has
+  // any) is node i's entry.
+  std::vector<Bipolar> bipolar;
+  std::vector<uint32_t> bipolar_index;
   size_t surfel_count = 0;
 
   // Builds the view; throws CorruptionError for a child count above
@@ -82,7 +93,8 @@ struct PageView {
   explicit PageView(const tree::Page& page);
   size_t memory_bytes() const {
     return sizeof(PageView) + nodes.capacity() * sizeof(HotNode) +
-           looks.capacity() * sizeof(NodeLook) + links.capacity() * sizeof(tree::NodeRef);
+           looks.capacity() * sizeof(NodeLook) + links.capacity() * sizeof(tree::NodeRef) +
+           bipolar.capacity() * sizeof(Bipolar) + bipolar_index.capacity() * sizeof(uint32_t);
   }
   // Whether `page` could be the page this view was built from.
   bool matches(const tree::Page& page) const {

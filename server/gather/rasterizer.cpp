@@ -221,9 +221,11 @@ void Rasterizer::splat(const Imath::V3f& dir, const Shape& shape, float depth,
                        const Imath::C3f& radiance) {
   const float omega = shape.omega;
   if (!(omega > 0.f) || !(depth > 0.f)) return;
+  const float extent = std::clamp(shape.depth_extent, 0.f, 0.9f * depth);
   Ellipse e;
   ellipse(dir, shape, e);
   if (!(e.hu > 0.f) || !(e.hv > 0.f) || !std::isfinite(e.hu * e.hv)) return;
+  const float z0 = depth - extent, z1 = depth + extent;
   // The tent blurs the splat, which lowers its cosine-weighted solid angle
   // near the normal (by 8% for a 0.28 sr splat). When the whole footprint
   // is above the horizon, the weights are rescaled to the exact value for
@@ -249,7 +251,7 @@ void Rasterizer::splat(const Imath::V3f& dir, const Shape& shape, float depth,
       for (uint32_t i = in.i0; i <= in.i1; ++i) {
         const uint32_t k = row + i;
         const float m = in.mu[i - in.i0];
-        buffer_.add_coverage(k, depth, m * a_v, m * w_v * solid[k], radiance);
+        buffer_.add_coverage(k, z0, z1, m * a_v, m * w_v * solid[k], radiance);
       }
     }
     return;
@@ -260,7 +262,7 @@ void Rasterizer::splat(const Imath::V3f& dir, const Shape& shape, float depth,
   const float scale = omega / covered_;
   const float weight_scale = above && weighted_ > 0.f ? target / weighted_ : scale;
   for (const Candidate& c : candidates_) {
-    buffer_.add_coverage(c.pixel, depth, c.fraction * scale,
+    buffer_.add_coverage(c.pixel, z0, z1, c.fraction * scale,
                          c.fraction * weight_scale * solid[c.pixel] * c.cosine, radiance);
   }
 }
@@ -272,6 +274,8 @@ void Rasterizer::splat_far(FarBuffer& far, const Imath::V3f& dir, const Shape& s
   Ellipse e;
   ellipse(dir, shape, e);
   if (!(e.hu > 0.f) || !(e.hv > 0.f) || !std::isfinite(e.hu * e.hv)) return;
+  const float extent = std::clamp(shape.depth_extent, 0.f, 0.9f * depth);
+  const float z0 = depth - extent, z1 = depth + extent;
   const float* solid = layout_.solid_angles();
   // Every piece carries the splat's exact first moment per unit solid
   // angle, (1 + cos rho)/2 dir, so that a receiver of normal n weights it
@@ -289,7 +293,7 @@ void Rasterizer::splat_far(FarBuffer& far, const Imath::V3f& dir, const Shape& s
       for (uint32_t i = in.i0; i <= in.i1; ++i) {
         const uint32_t k = row + i;
         const float alpha = in.mu[i - in.i0] * a_v;
-        far.add(k, depth, alpha, alpha * solid[k], moment, radiance);
+        far.add(k, z0, z1, alpha, alpha * solid[k], moment, radiance);
       }
     }
     return;
@@ -298,7 +302,7 @@ void Rasterizer::splat_far(FarBuffer& far, const Imath::V3f& dir, const Shape& s
   const float scale = omega / covered_;
   for (const Candidate& c : candidates_) {
     const float alpha = c.fraction * scale;
-    far.add(c.pixel, depth, alpha, alpha * solid[c.pixel], moment, radiance);
+    far.add(c.pixel, z0, z1, alpha, alpha * solid[c.pixel], moment, radiance);
   }
 }
 
@@ -437,36 +441,70 @@ uint32_t Rasterizer::raycast(const Imath::V3f& offset, const Imath::V3f& normal,
   const float r2 = radius * radius;
   const float plane = normal.dot(offset);  // < 0: the receiver is in front
   if (!(plane < 0.f) || !(radius > 0.f)) return 0;
+  const uint32_t n = layout_.resolution();
+  const float pw = layout_.pixel_width();
+  // Candidate pixels: those whose area (not only center) may meet the
+  // disk's bounding cone, widened by a pixel's angular half diagonal (at
+  // most pw / sqrt(2) radians, at the face center).
   Imath::V3f axis(0, 0, 1);
   float sin_a = 1.f, cos_a = -1.f;  // whole sphere when the receiver is inside the disk's sphere
   if (d2 > r2 * 1.0001f) {
     const float d = std::sqrt(d2);
     axis = offset / d;
-    sin_a = radius / d;
-    cos_a = std::sqrt(std::max(0.f, 1.f - sin_a * sin_a));
+    const float a = std::asin(std::min(1.f, radius / d)) + 0.75f * pw;
+    if (a < 3.14159265f) {
+      sin_a = std::sin(a);
+      cos_a = std::cos(a);
+    }
   }
-  const float* dx = layout_.dir_x();
-  const float* dy = layout_.dir_y();
-  const float* dz = layout_.dir_z();
+  // Sample points: a 4 x 4 grid per pixel. A pixel straddling the edge of
+  // a surface covered by disks gets the fraction of it they cover (a single
+  // center sample lost the near part of a pixel whose center sees a far,
+  // splatted part of the same wall: 7% at 1 cm from an emitting wall).
+  constexpr uint32_t kGrid = 4;
+  static_assert(kGrid * kGrid == Microbuffer::kHitSamples);
+  const float step = pw / float(kGrid);
   uint32_t hits = 0;
   for (int face = 0; face < CubeLayout::kFaces; ++face) {
     PixelRect rect;
     if (!layout_.cone_pixels(face, axis, sin_a, cos_a, rect)) continue;
+    // The disk in face coordinates: w along the face axis, u, v across.
+    float ou, ov, ow, nu, nv, nw;
+    CubeLayout::face_coords(face, offset, ou, ov, ow);
+    CubeLayout::face_coords(face, normal, nu, nv, nw);
     for (uint32_t j = rect.j0; j <= rect.j1; ++j) {
       for (uint32_t i = rect.i0; i <= rect.i1; ++i) {
         const uint32_t k = layout_.index(face, i, j);
         if (!buffer_.in_hemisphere(k)) continue;
-        const float den = normal.x * dx[k] + normal.y * dy[k] + normal.z * dz[k];
-        if (!(den < 0.f)) continue;  // parallel to or leaving the disk's plane
-        const float t = plane / den;
-        const float hx = dx[k] * t - offset.x, hy = dy[k] * t - offset.y, hz = dz[k] * t - offset.z;
-        if (hx * hx + hy * hy + hz * hz <= r2) {
-          buffer_.add_hit(k, t, radiance);
+        uint32_t mask = 0;
+        float z0 = 1e30f, z1 = 0.f;
+        const float u0 = -1.f + pw * float(i) + 0.5f * step;
+        const float v0 = -1.f + pw * float(j) + 0.5f * step;
+        for (uint32_t b = 0; b < kGrid; ++b) {
+          const float v = v0 + step * float(b);
+          for (uint32_t a = 0; a < kGrid; ++a) {
+            const float u = u0 + step * float(a);
+            // Ray (u, v, 1) (unnormalized) against the disk's plane.
+            const float den = nu * u + nv * v + nw;
+            if (!(den < 0.f)) continue;  // parallel to or leaving the plane
+            const float t = plane / den;
+            const float hu = u * t - ou, hv = v * t - ov, hw = t - ow;
+            if (hu * hu + hv * hv + hw * hw <= r2) {
+              mask |= 1u << (b * kGrid + a);
+              const float z = t * std::sqrt(1.f + u * u + v * v);
+              z0 = std::min(z0, z);
+              z1 = std::max(z1, z);
+            }
+          }
+        }
+        if (mask) {
+          buffer_.add_hit(k, z0, z1, radiance, mask);
           ++hits;
         }
       }
     }
   }
+  (void)n;
   return hits;
 }
 

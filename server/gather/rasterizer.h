@@ -12,8 +12,9 @@
 //    splat's solid angle: a splat loses no energy at face edges or corners,
 //    and a sub-pixel splat spreads over the 2x2 pixels it straddles.
 //  - ray-cast disks: a surfel near the receiver, intersected exactly with
-//    the center direction of every pixel its bounding cone may cover; each
-//    hit is a fragment of coverage 1 at the hit distance.
+//    4 x 4 sample directions of every pixel its bounding cone may touch;
+//    the samples it covers form the fragment's mask (the part of the pixel
+//    it covers), over the depth interval of their hits.
 //
 // The footprint of a splat (steps 1 and 2 above) is shared by two outputs:
 // splat() writes fragments weighted with the receiver's cosine into the
@@ -53,6 +54,9 @@ class Rasterizer {
     Imath::V3f squash{0, 0, 0};
     float ratio = 1.f;
     float max_radius = 1e30f;
+    // Half the extent of the piece of surface along the view (same units
+    // as depth): fragments span [depth - extent, depth + extent].
+    float depth_extent = 0.f;
   };
 
   // Splat centered on unit direction `dir`, at distance `depth`, showing

@@ -1,5 +1,7 @@
 #include "server/reference/path_tracer.h"
 
+#include "server/reference/emissive_triangles.h"
+
 #include "server/scene/camera_rays.h"
 #include "server/scene/light_sampling.h"
 #include "server/scene/rng.h"
@@ -41,6 +43,7 @@ struct PixelSums {
 // from (two-sided surfaces).
 struct Vertex {
   V3f p;
+  V3f error;  // rounding-error bound of p (RayScene::hit_point)
   V3f ng;  // geometric normal, unit
   V3f ns;  // shading normal, unit, in ng's hemisphere
   const Material* material = nullptr;
@@ -72,27 +75,32 @@ V3f cosine_hemisphere(const V3f& n, float u1, float u2) {
 class PathTracer {
  public:
   PathTracer(const RayScene& rays, const ReferenceOptions& options)
-      : rays_(rays), scene_(rays.scene()), options_(options), eps_(rays.ray_epsilon()) {}
+      : rays_(rays), scene_(rays.scene()), options_(options), emitters_(rays.scene()) {}
 
   // One camera sample; *ray_count is incremented per ray traced.
   PathSample trace(const Ray& camera_ray, Rng& rng, uint64_t* ray_count) const;
 
  private:
   Vertex make_vertex(const Hit& hit, const V3f& ray_dir) const;
-  V3f offset_origin(const Vertex& v) const { return v.p + v.ng * eps_; }
+  // Origin of a ray leaving v along w (w in ng's hemisphere): offset by the
+  // bound on p's own rounding error, so it is tight at any distance from
+  // the world origin.
+  static V3f offset_origin(const Vertex& v, const V3f& w) {
+    return RayScene::offset_ray_origin(SurfacePoint{v.p, v.error}, v.ng, w);
+  }
 
   const RayScene& rays_;
   const Scene& scene_;
   const ReferenceOptions& options_;
-  const float eps_;
+  const EmissiveTriangles emitters_;
 };
 
 Vertex PathTracer::make_vertex(const Hit& hit, const V3f& ray_dir) const {
   const TriangleSoup& t = scene_.triangles;
-  const uint32_t* idx = &t.indices[size_t(hit.triangle) * 3];
   Vertex v;
-  v.p = (1.f - hit.u - hit.v) * t.positions[idx[0]] + hit.u * t.positions[idx[1]] +
-        hit.v * t.positions[idx[2]];
+  const SurfacePoint sp = rays_.hit_point(hit);
+  v.p = sp.p;
+  v.error = sp.error;
   // Face the side the ray arrived from (the viewer at the first hit, the
   // previous vertex after that), flipping the shading normal with the
   // geometric one and falling back to the latter if it points below the
@@ -144,7 +152,7 @@ PathSample PathTracer::trace(const Ray& camera_ray, Rng& rng, uint64_t* ray_coun
     const V3f d = cosine_hemisphere(v.ns, u1, u2);
     const float tmax = options_.ao_max_distance > 0.f ? options_.ao_max_distance : kInf;
     // A direction under the geometric surface is blocked by the surface itself.
-    out.ao = d.dot(v.ng) > 0.f && !rays_.occluded(offset_origin(v), d, 0.f, tmax) ? 1.f : 0.f;
+    out.ao = d.dot(v.ng) > 0.f && !rays_.occluded(offset_origin(v, d), d, 0.f, tmax) ? 1.f : 0.f;
     ++*ray_count;
   }
 
@@ -162,7 +170,6 @@ PathSample PathTracer::trace(const Ray& camera_ray, Rng& rng, uint64_t* ray_coun
   for (uint32_t k = 1;; ++k) {
     const C3f albedo = v.albedo;
     const C3f f = albedo * kInvPi;
-    const V3f origin = offset_origin(v);
 
     // 3a. Next-event estimation at x_k: one sample of every light; light
     // from a UsdLux light reflected at x_k, ..., x1 left k-1 surfaces.
@@ -173,11 +180,42 @@ PathSample PathTracer::trace(const Ray& camera_ray, Rng& rng, uint64_t* ray_coun
         if (!(ls.pdf > 0.f) || is_black(ls.radiance)) continue;
         const float cos_s = v.ns.dot(ls.direction);
         if (!(cos_s > 0.f) || !(v.ng.dot(ls.direction) > 0.f)) continue;
-        const float tmax = std::isinf(ls.distance) ? kInf : ls.distance * (1.f - 1e-4f) - eps_;
+        const V3f origin = offset_origin(v, ls.direction);
+        const float tmax = std::isinf(ls.distance)
+                               ? kInf
+                               : ls.distance * (1.f - 1e-4f) - 2.f * (origin - v.p).length();
         ++*ray_count;
         if (tmax <= 0.f || rays_.occluded(origin, ls.direction, 0.f, tmax)) continue;
         const float w = ls.delta ? 1.f : power_heuristic(ls.pdf, cos_s * kInvPi);
         add(k - 1, beta * f * ls.radiance * (cos_s * w / ls.pdf));
+      }
+    }
+
+    // 3a'. Next-event estimation of emissive triangles: one point on one
+    // of them (emissive_triangles.h), MIS-weighted against BSDF sampling
+    // (3b). Light leaving the triangle x_{k+1} left k surfaces by x1.
+    const bool nee_triangles = options_.sample_emissive_triangles && !emitters_.empty();
+    if (nee_triangles && !is_black(albedo)) {
+      const float u0 = rng.uniform(), u1 = rng.uniform(), u2 = rng.uniform();
+      const EmitterSample es = emitters_.sample(u0, u1, u2);
+      const V3f to = es.point.p - v.p;
+      const float dist2 = to.length2();
+      const V3f w = to / std::sqrt(dist2);
+      const float cos_s = v.ns.dot(w), cos_l = std::fabs(es.normal.dot(w));
+      if (es.pdf_area > 0.f && dist2 > 0.f && cos_s > 0.f && v.ng.dot(w) > 0.f && cos_l > 0.f) {
+        const C3f le = surface_colors(scene_, es.triangle, es.b1, es.b2).emission;
+        if (!is_black(le)) {
+          // Both ends offset off their surfaces; the ray stops just short
+          // of the emitter's point.
+          const V3f from = offset_origin(v, w);
+          const V3f target = RayScene::offset_ray_origin(es.point, es.normal, -w);
+          ++*ray_count;
+          if (!rays_.occluded(from, target - from, 0.f, 1.f - 1e-4f)) {
+            const float pdf_light = es.pdf_area * dist2 / cos_l;
+            const float wgt = power_heuristic(pdf_light, cos_s * kInvPi);
+            add(k, beta * f * le * (cos_s * wgt / pdf_light));
+          }
+        }
       }
     }
 
@@ -188,6 +226,7 @@ PathSample PathTracer::trace(const Ray& camera_ray, Rng& rng, uint64_t* ray_coun
     if (!(pdf_bsdf > 0.f) || !(d.dot(v.ng) > 0.f)) break;
     beta *= albedo;
     if (is_black(beta)) break;
+    const V3f origin = offset_origin(v, d);
     const Hit next = rays_.intersect(origin, d);
     ++*ray_count;
 
@@ -202,8 +241,17 @@ PathSample PathTracer::trace(const Ray& camera_ray, Rng& rng, uint64_t* ray_coun
     if (!next.valid()) break;
     v = make_vertex(next, d);
     // Emission of x_{k+1}: it left a surface, so one more than above.
-    // Emissive triangles are found only this way, so their weight is 1.
-    add(k, beta * v.emission);
+    // MIS-weighted against 3a' when emissive triangles are sampled.
+    if (!is_black(v.emission)) {
+      float wgt = 1.f;
+      if (nee_triangles) {
+        const float pdf_area = emitters_.pdf_area(next.triangle);
+        const float cos_l = std::fabs(next.geometric_normal.dot(d));
+        if (pdf_area > 0.f && cos_l > 0.f)
+          wgt = power_heuristic(pdf_bsdf, pdf_area * next.t * next.t / cos_l);
+      }
+      add(k, beta * v.emission * wgt);
+    }
 
     // 3c. Continue to x_{k+1}?
     if (k + 1 > options_.max_depth) break;

@@ -17,8 +17,16 @@
 //    are combined with the power heuristic (Veach 1997). Delta lights get
 //    no BSDF-sampled term. Lights do not occlude surfaces or each other for
 //    path and shadow rays; a camera ray stops at the nearest visible light.
-//  * Emissive triangles are not sampled directly: their emission counts when
-//    a camera or BSDF-sampled ray hits them (weight 1), which is unbiased.
+//  * Emissive triangles are sampled at every vertex too (one point on one
+//    triangle chosen in proportion to area x emission, emissive_triangles.h)
+//    and combined with BSDF-sampled hits by the power heuristic, so small
+//    emitters do not make fireflies (ReferenceOptions::
+//    sample_emissive_triangles; off, they are found by BSDF sampling only,
+//    with weight 1). Their emission leaves both sides; a camera ray that
+//    hits one sees it with weight 1.
+//  * Secondary rays start off the surface by the bound on the hit point's
+//    own rounding error (RayScene::offset_ray_origin), so a scene far from
+//    the world origin renders as it does near it.
 //  * Russian roulette once a path has ReferenceOptions::rr_start_depth
 //    reflections, with continuation probability min(1, max component of the
 //    throughput); ReferenceOptions::max_depth caps the reflections.

@@ -34,6 +34,10 @@ struct ReferenceOptions {
   // emitters in the direct/beauty AOVs. Lighting of surfaces is the same
   // either way.
   bool lights_visible_to_camera = true;
+  // Next-event estimation of emissive triangles (path_tracer.h), MIS-
+  // combined with BSDF sampling. Off: they are found by BSDF sampling only
+  // (unbiased too, but small emitters then make fireflies).
+  bool sample_emissive_triangles = true;
 
   // Throws pbgi::InvalidArgument naming the field when out of range.
   void validate() const;

@@ -94,7 +94,9 @@ SurfaceSample trace_sample(const RayScene& rays, const Ray& ray, const RenderOpt
   v.albedo = mat.albedo;
   v.direct = out.brdf * e_direct + mat.emission;
   out.gathers = true;
-  out.receiver = {p + rays.ray_epsilon() * ng, ns};
+  // Off the surface by the hit point's own rounding bound (not a scene-wide
+  // epsilon), so receivers far from the origin keep their precision.
+  out.receiver = {RayScene::offset_ray_origin(rays.hit_point(hit), ng, ng), ns};
   return out;
 }
 

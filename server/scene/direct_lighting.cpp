@@ -11,15 +11,16 @@ namespace pbgi {
 
 // Estimator: E = sum over lights of (1/N) sum_k L_k cos_k / pdf_k, with the
 // N samples of each area light stratified on the light's parameter square.
-// Shadow rays start at p offset along n by the scene's ray epsilon (the
-// point itself lies on a surface) and stop just short of the light sample so
-// that geometry modelled at the emitter's position (a light's housing quad)
-// does not shadow its own light.
+// Shadow rays start at p offset along n by p's rounding-error bound (the
+// point itself lies on a surface; RayScene::offset_ray_origin, relative to
+// p's coordinates so it stays tight far from the origin) and stop just short
+// of the light sample so that geometry modelled at the emitter's position (a
+// light's housing quad) does not shadow its own light.
 C3f direct_irradiance(const RayScene& rays, const V3f& p, const V3f& n, uint32_t samples,
                       uint64_t seed) {
   const std::vector<Light>& lights = rays.scene().lights;
-  const float eps = rays.ray_epsilon();
-  const V3f origin = p + eps * n;
+  const V3f origin = rays.offset_ray_origin(p, n, n);
+  const float eps = (origin - p).length();
   const uint32_t count = std::max(samples, 1u);
   C3f e(0, 0, 0);
   for (size_t li = 0; li < lights.size(); ++li) {

@@ -9,11 +9,21 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <mutex>
 #include <string>
 
 namespace pbgi {
 namespace {
+
+// gamma_bound(n) = n u / (1 - n u), u = 2^-24: the bound on the relative error of
+// n chained float operations (Higham; pbrt-v4 section 6.8).
+constexpr float gamma_bound(int n) {
+  constexpr float u = 0x1p-24f;
+  return float(n) * u / (1.f - float(n) * u);
+}
+
+V3f abs(const V3f& v) { return V3f(std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)); }
 
 const char* error_name(RTCError e) {
   switch (e) {
@@ -46,7 +56,8 @@ void on_embree_error(void* user, RTCError code, const char* message) {
 struct RayScene::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
-  float epsilon = 1e-4f;
+  float extent = 0.f;     // largest side of the scene's bounds
+  float epsilon = 1e-7f;  // ray_epsilon()
   ErrorSink errors;
 
   ~Impl() {
@@ -109,19 +120,69 @@ RayScene::RayScene(const Scene& scene) : scene_(scene), impl_(std::make_unique<I
   rtcCommitScene(impl_->scene);
   impl_->check(scene, "build the BVH");
 
-  // 4. Secondary-ray offset from the scene's size (see ray_epsilon()).
+  // 4. The scene's extent for point_error(), and the worst offset for
+  // ray_epsilon().
   const Box3f b = scene.bounds();
   if (!b.isEmpty()) {
-    const float diag = (b.max - b.min).length();
-    const float max_coord = std::max({std::fabs(b.min.x), std::fabs(b.min.y), std::fabs(b.min.z),
-                                      std::fabs(b.max.x), std::fabs(b.max.y), std::fabs(b.max.z)});
-    impl_->epsilon = std::max(1e-5f * diag + 32.f * max_coord * 0x1p-23f, 1e-7f);
+    const V3f size = b.size();
+    impl_->extent = std::max({size.x, size.y, size.z});
+    const V3f far(std::max(std::fabs(b.min.x), std::fabs(b.max.x)),
+                  std::max(std::fabs(b.min.y), std::fabs(b.max.y)),
+                  std::max(std::fabs(b.min.z), std::fabs(b.max.z)));
+    const V3f e = point_error(far);
+    impl_->epsilon = std::max({e.x, e.y, e.z, 1e-7f});
   }
 }
 
 RayScene::~RayScene() = default;
 
 float RayScene::ray_epsilon() const { return impl_->epsilon; }
+
+V3f RayScene::point_error(const V3f& p) const {
+  return gamma_bound(8) * (abs(p) + V3f(impl_->extent));
+}
+
+SurfacePoint RayScene::hit_point(const Hit& hit) const {
+  const TriangleSoup& t = scene_.triangles;
+  const V3f& p0 = t.positions[t.indices[3 * size_t(hit.triangle) + 0]];
+  const V3f& p1 = t.positions[t.indices[3 * size_t(hit.triangle) + 1]];
+  const V3f& p2 = t.positions[t.indices[3 * size_t(hit.triangle) + 2]];
+  return triangle_point(p0, p1, p2, hit.u, hit.v);
+}
+
+SurfacePoint RayScene::triangle_point(const V3f& p0, const V3f& p1, const V3f& p2, float b1,
+                                      float b2) {
+  // p0 + (b1 e1 + b2 e2): the edges are exact or nearly so (close vertices),
+  // and the sum is rounded once at p's magnitude, so the error is about an
+  // ulp of p plus a few ulps of the (small) in-plane step: the exact point
+  // p0 + b1 (p1 - p0) + b2 (p2 - p0) of the triangle's plane is within it
+  // whatever barycentrics Embree reported. The last, isotropic term covers
+  // Embree's own intersection arithmetic, done relative to the ray origin
+  // (rounding of the order of an ulp of the triangle's size in every
+  // direction): without it, a point computed exactly on an axis-aligned
+  // plane would get no offset and its rays would hit that plane at t = 0.
+  const V3f e1 = p1 - p0, e2 = p2 - p0;
+  const V3f a = b1 * e1, c = b2 * e2;
+  const V3f edges = abs(e1) + abs(e2);
+  SurfacePoint out;
+  out.p = p0 + (a + c);
+  out.error = gamma_bound(2) * abs(out.p) + gamma_bound(5) * (abs(a) + abs(c)) +
+              V3f(gamma_bound(4) * std::max({edges.x, edges.y, edges.z}));
+  return out;
+}
+
+V3f RayScene::offset_ray_origin(const SurfacePoint& sp, const V3f& n, const V3f& w) {
+  const float d = std::fabs(n.x) * sp.error.x + std::fabs(n.y) * sp.error.y +
+                  std::fabs(n.z) * sp.error.z;
+  const V3f side = w.dot(n) < 0.f ? -n : n;
+  V3f po = sp.p + d * side;
+  // The addition rounds too: step once more away from the surface.
+  for (int i = 0; i < 3; ++i) {
+    if (side[i] > 0.f) po[i] = std::nextafter(po[i], std::numeric_limits<float>::infinity());
+    else if (side[i] < 0.f) po[i] = std::nextafter(po[i], -std::numeric_limits<float>::infinity());
+  }
+  return po;
+}
 
 Hit RayScene::intersect(const V3f& origin, const V3f& dir, float tmin, float tmax) const {
   RTCIntersectContext context;

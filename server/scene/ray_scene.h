@@ -17,6 +17,16 @@ struct Hit {
   bool valid() const { return triangle != ~0u; }
 };
 
+// A point computed in float on a surface, with a per-component bound on its
+// rounding error: the exact point of the surface it stands for lies in the
+// box p +- error (pbrt-v4's Point3fi). Rays leaving the point start outside
+// that box (RayScene::offset_ray_origin), so they cannot re-hit the surface
+// they leave, whatever the magnitude of the coordinates.
+struct SurfacePoint {
+  V3f p;
+  V3f error{0.f, 0.f, 0.f};
+};
+
 class RayScene {
  public:
   explicit RayScene(const Scene& scene);   // builds the BVH; throws pbgi::Error
@@ -32,10 +42,38 @@ class RayScene {
   V3f shading_normal(const Hit& hit) const;
   const Scene& scene() const { return scene_; }
 
-  // Offset for the origins of secondary rays leaving a surface (along its
-  // normal), scaled to the scene's size so it clears float error at any
-  // scale: 1e-5 of the bounds' diagonal plus a few ulps of the largest
-  // coordinate.
+  // The hit point p0 + u (p1 - p0) + v (p2 - p0) of a valid hit, with the
+  // bound on its rounding error (relative to the hit point's own
+  // coordinates, not to the scene's: tight far from the origin too).
+  SurfacePoint hit_point(const Hit& hit) const;
+  // The point p0 + b1 (p1 - p0) + b2 (p2 - p0) of a triangle with that
+  // bound (hit_point() for a hit; samplers of points on triangles).
+  static SurfacePoint triangle_point(const V3f& p0, const V3f& p1, const V3f& p2, float b1,
+                                     float b2);
+
+  // Error bound for a point p computed on one of the scene's triangles by
+  // interpolating its vertices when the triangle's own bound is not at hand
+  // (surfel positions, receivers): gamma(8) (|p| + the scene's extent) per
+  // component, which bounds |b0 p0| + |b1 p1| + |b2 p2| for any point of
+  // any triangle of the scene.
+  V3f point_error(const V3f& p) const;
+
+  // Origin for a ray leaving the surface point (p, error) with geometric
+  // normal n in direction w (pbrt-v4's OffsetRayOrigin): p moved along n,
+  // to w's side, by the error box's extent along n, then rounded away from
+  // the surface. The offset is a few ulps of p's own coordinates and of its
+  // triangle's size (for a hit point on a unit-size triangle: ~1e-6 near
+  // the origin, ~0.02 units at 1e5), where a global epsilon must cover the
+  // scene's farthest point everywhere (the old one: 0.38 units at 1e5).
+  static V3f offset_ray_origin(const SurfacePoint& p, const V3f& n, const V3f& w);
+  V3f offset_ray_origin(const V3f& p, const V3f& n, const V3f& w) const {
+    return offset_ray_origin(SurfacePoint{p, point_error(p)}, n, w);
+  }
+
+  // The largest offset offset_ray_origin() applies to points of this scene
+  // (its farthest corner's point_error() along the worst axis): a scalar
+  // for callers that offset points by hand. Prefer offset_ray_origin(),
+  // which is relative to the point.
   float ray_epsilon() const;
 
  private:

@@ -152,6 +152,15 @@ struct Volume {
 
 struct Scene {
   std::string source_path;
+  // World position of the frame the scene is stored in: every position,
+  // light, camera and volume transform above is relative to it, so that
+  // float coordinates keep their precision however far from the world
+  // origin the scene was modelled (world = render_origin + local, in
+  // double). Zero = world space. Everything downstream (surfels, tree,
+  // gather, renderers) works in the local frame; only values exchanged with
+  // the outside (USD, client receivers) convert. See
+  // server/scene/render_origin.h.
+  Imath::V3d render_origin{0.0, 0.0, 0.0};
   std::string content_hash;   // from the reader: hash of the layers it used
   double meters_per_unit = 0.01;
   std::string up_axis = "Y";  // stage upAxis, recorded only: geometry is as authored

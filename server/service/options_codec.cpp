@@ -4,6 +4,8 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
+
 namespace pbgi::service {
 namespace {
 
@@ -56,6 +58,33 @@ OpenOptions decode_open_options(const v1::BuildOptions& proto, const OpenOptions
   out.tree.leaf_size = or_default(proto.leaf_size(), defaults.tree.leaf_size);
   out.surfels.validate();
   out.tree.validate();
+  return out;
+}
+
+StageSelection decode_stage_selection(const v1::OpenSceneRequest& request) {
+  StageSelection out;
+  for (const auto& [key, variant] : request.variant_selections()) {
+    const size_t colon = key.rfind(':');
+    if (key.empty() || key.front() != '/' || colon == std::string::npos || colon == 0 ||
+        colon + 1 == key.size()) {
+      throw InvalidArgument(fmt::format(
+          "OpenSceneRequest.variant_selections key '{}' is not '<prim path>:<variant set>' "
+          "(e.g. '/Car:color')",
+          key));
+    }
+    if (variant.empty()) {
+      throw InvalidArgument(fmt::format(
+          "OpenSceneRequest.variant_selections['{}'] names no variant", key));
+    }
+    out.variant_selections.emplace(key, variant);
+  }
+  if (request.has_time_code()) {
+    if (!std::isfinite(request.time_code())) {
+      throw InvalidArgument(fmt::format("OpenSceneRequest.time_code {} is not finite",
+                                        request.time_code()));
+    }
+    out.time_code = request.time_code();
+  }
   return out;
 }
 

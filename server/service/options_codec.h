@@ -8,6 +8,7 @@
 #include "server/engine/scene_session.h"
 #include "server/gather/gather_options.h"
 #include "server/render/tile_renderer.h"
+#include "server/service/scene_registry.h"
 
 #include <string>
 
@@ -28,6 +29,11 @@ GatherOptions decode_gather_options(const v1::GatherOptions& proto,
 RenderOptions decode_render_options(const v1::GatherOptions& proto,
                                     const RenderOptions& defaults);
 OpenOptions decode_open_options(const v1::BuildOptions& proto, const OpenOptions& defaults);
+
+// OpenSceneRequest.variant_selections / time_code. Throws InvalidArgument
+// naming the field: a key not of the form "/prim/path:set", an empty
+// variant name, a time code that is not finite.
+StageSelection decode_stage_selection(const v1::OpenSceneRequest& request);
 
 // The inverse: every field set explicitly (used by clients and to report
 // the effective options).

@@ -5,6 +5,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/partitioner.h>
 #include <tbb/task_group.h>
 
 #include <atomic>
@@ -25,6 +26,9 @@ GatherBatch gather_receivers(const tree::TreeSource& tree, const std::vector<Rec
   std::atomic<bool> stop{false};
   tbb::task_group_context group;
   constexpr size_t kBlock = 64;  // receivers between cancellation checks
+  // simple_partitioner: blocks of at most kBlock receivers. The default
+  // auto_partitioner hands out chunks of thousands, and a cancellation
+  // checked only per chunk would be noticed seconds late.
 
   tbb::parallel_for(
       tbb::blocked_range<size_t>(0, receivers.size(), kBlock),
@@ -41,7 +45,7 @@ GatherBatch gather_receivers(const tree::TreeSource& tree, const std::vector<Rec
           batch.results[i] = gatherer->gather(receivers[i]);
         }
       },
-      group);
+      tbb::simple_partitioner(), group);
 
   if (stop) throw Cancelled("gather cancelled by the client (disconnect or deadline)");
   for (const auto& gatherer : gatherers) {

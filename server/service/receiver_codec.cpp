@@ -68,6 +68,46 @@ std::vector<Receiver> decode_receivers(const std::string& positions, const std::
   return receivers;
 }
 
+void check_glossy_receivers(const std::string& view_directions, const std::string& roughness,
+                            const std::string& specular_color, size_t count) {
+  auto check_size = [&](const std::string& bytes, size_t per_receiver, const char* field) {
+    if (bytes.empty() || bytes.size() == count * per_receiver) return !bytes.empty();
+    throw InvalidArgument(fmt::format(
+        "GatherRequest.{} has {} bytes; expected 0 or {} ({} float32 for each of {} receivers)",
+        field, bytes.size(), count * per_receiver, per_receiver / sizeof(float), count));
+  };
+  if (check_size(view_directions, kVec3Bytes, "view_directions")) {
+    for (size_t i = 0; i < count; ++i) {
+      const Imath::V3f v = read_vec3(view_directions, i);
+      if (!finite(v) || !(v.length() > 1e-12f)) {
+        throw InvalidArgument(fmt::format(
+            "GatherRequest.view_directions[{}] = ({}, {}, {}) is not a direction", i, v.x, v.y,
+            v.z));
+      }
+    }
+  }
+  if (check_size(roughness, sizeof(float), "roughness")) {
+    for (size_t i = 0; i < count; ++i) {
+      float r;
+      std::memcpy(&r, roughness.data() + i * sizeof(float), sizeof(float));
+      if (!(r >= 0.f && r <= 1.f)) {
+        throw InvalidArgument(
+            fmt::format("GatherRequest.roughness[{}] = {} is not in [0, 1]", i, r));
+      }
+    }
+  }
+  if (check_size(specular_color, kVec3Bytes, "specular_color")) {
+    for (size_t i = 0; i < count; ++i) {
+      const Imath::V3f c = read_vec3(specular_color, i);
+      if (!finite(c) || c.x < 0.f || c.y < 0.f || c.z < 0.f) {
+        throw InvalidArgument(fmt::format(
+            "GatherRequest.specular_color[{}] = ({}, {}, {}) is not a finite colour >= 0", i,
+            c.x, c.y, c.z));
+      }
+    }
+  }
+}
+
 std::string pack_floats(const float* data, size_t count) {
   return std::string(reinterpret_cast<const char*>(data), count * sizeof(float));
 }

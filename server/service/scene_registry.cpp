@@ -4,6 +4,7 @@
 #include "storage/format/errors.h"
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <chrono>
@@ -13,9 +14,30 @@
 #include <tuple>
 
 namespace pbgi::service {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+std::string selection_key(const StageSelection& s) {
+  std::string key;
+  for (const auto& [where, variant] : s.variant_selections) key += where + '=' + variant + ';';
+  if (s.time_code) key += fmt::format("t={}", *s.time_code);
+  return key;
+}
+
+}  // namespace
+
+uint64_t estimate_session_memory(const SceneSession& session) {
+  // Per triangle: the soup (positions, normals, uvs: ~100 bytes) and
+  // Embree's BVH (~100 bytes). Good to a factor of two, which is what an
+  // eviction policy needs.
+  constexpr uint64_t kBytesPerTriangle = 200;
+  return session.info.triangle_count * kBytesPerTriangle;
+}
 
 // One open, shared by its first caller (who runs it) and any waiters.
 struct SceneRegistry::Pending {
+  std::string scene_path;
   std::mutex mutex;
   std::condition_variable changed;
   std::string stage;
@@ -26,35 +48,55 @@ struct SceneRegistry::Pending {
   std::exception_ptr error;
 };
 
-SceneRegistry::SceneRegistry(SceneOpener opener) : opener_(std::move(opener)) {}
+SceneRegistry::SceneRegistry(SceneOpener opener, RegistryOptions options)
+    : opener_(std::move(opener)), options_(std::move(options)) {
+  if (!options_.memory_of) options_.memory_of = estimate_session_memory;
+}
 SceneRegistry::~SceneRegistry() = default;
 
 std::shared_ptr<SceneSession> SceneRegistry::open(const std::filesystem::path& canonical_path,
                                                   const OpenOptions& options,
                                                   const StageProgress& progress,
                                                   const std::function<bool()>& cancelled) {
-  const std::string key = canonical_path.string() + '\n' + open_options_key(options);
+  return open(canonical_path, options, StageSelection{}, progress, cancelled);
+}
 
-  // 1. Fast path: already open (shared lock only).
+std::shared_ptr<SceneSession> SceneRegistry::open(const std::filesystem::path& canonical_path,
+                                                  const OpenOptions& options,
+                                                  const StageSelection& selection,
+                                                  const StageProgress& progress,
+                                                  const std::function<bool()>& cancelled) {
+  const std::string key = canonical_path.string() + '\n' + open_options_key(options) + '\n' +
+                          selection_key(selection);
+
+  // 1. Known key: join it, unless it names a session unloaded since
+  //    (then it is forgotten and opened again).
   std::shared_ptr<Pending> pending;
-  {
-    std::shared_lock lock(mutex_);
-    auto it = by_key_.find(key);
-    if (it != by_key_.end()) pending = it->second;
-  }
-
-  // 2. Not known: register an open in flight, unless another caller did
-  //    between the two locks.
   bool runs_open = false;
-  if (!pending) {
+  {
     std::unique_lock lock(mutex_);
-    auto [it, inserted] = by_key_.try_emplace(key);
-    if (inserted) {
-      it->second = std::make_shared<Pending>();
+    auto it = by_key_.find(key);
+    if (it != by_key_.end()) {
+      bool stale = false;
+      {
+        std::lock_guard pending_lock(it->second->mutex);
+        stale = it->second->done && it->second->session &&
+                !by_id_.count(it->second->session->info.scene_id);
+      }
+      if (stale) {
+        by_key_.erase(it);
+      } else {
+        pending = it->second;
+      }
+    }
+    // 2. Not known: register an open in flight.
+    if (!pending) {
+      pending = std::make_shared<Pending>();
+      pending->scene_path = canonical_path.string();
+      by_key_.emplace(key, pending);
       ++opens_started_;
       runs_open = true;
     }
-    pending = it->second;
   }
 
   // 3a. First caller: run the open outside the registry lock, publishing
@@ -77,7 +119,7 @@ std::shared_ptr<SceneSession> SceneRegistry::open(const std::filesystem::path& c
     std::shared_ptr<SceneSession> session;
     std::exception_ptr error;
     try {
-      session = opener_(canonical_path, options, report);
+      session = opener_(canonical_path, options, selection, report);
       if (!session) throw Error(fmt::format("opening '{}' returned no session", canonical_path.string()));
     } catch (...) {
       error = std::current_exception();
@@ -87,7 +129,14 @@ std::shared_ptr<SceneSession> SceneRegistry::open(const std::filesystem::path& c
       if (error) {
         by_key_.erase(key);  // not cached: the next request tries again
       } else {
-        by_id_.try_emplace(session->info.scene_id, session);
+        Entry entry{session, key, Clock::now(), 0, options_.memory_of(*session)};
+        auto [it, inserted] = by_id_.try_emplace(session->info.scene_id, std::move(entry));
+        if (!inserted) {
+          // The same page set under another key (e.g. a path through a
+          // different root): serve the session already registered.
+          session = it->second.session;
+        }
+        evict_over_budget_locked(session->info.scene_id);
       }
     }
     {
@@ -122,32 +171,97 @@ std::shared_ptr<SceneSession> SceneRegistry::open(const std::filesystem::path& c
     }
   }
   if (pending->error) std::rethrow_exception(pending->error);
-  return pending->session;
+  std::shared_ptr<SceneSession> session = pending->session;
+  lock.unlock();
+  // Joining an open counts as a use; a session unloaded meanwhile is
+  // still returned (it stays valid while held).
+  find(session->info.scene_id);
+  return session;
 }
 
-std::shared_ptr<SceneSession> SceneRegistry::find(const std::string& scene_id) const {
-  std::shared_lock lock(mutex_);
+void SceneRegistry::evict_over_budget_locked(const std::string& keep_id) {
+  if (options_.scene_memory_budget == 0) return;
+  for (;;) {
+    uint64_t total = 0;
+    for (const auto& [id, entry] : by_id_) total += entry.memory_bytes;
+    if (total <= options_.scene_memory_budget) return;
+    auto victim = by_id_.end();
+    for (auto it = by_id_.begin(); it != by_id_.end(); ++it) {
+      if (it->first == keep_id) continue;
+      if (victim == by_id_.end() || it->second.last_used < victim->second.last_used) victim = it;
+    }
+    if (victim == by_id_.end()) return;  // only the new scene left: it stays
+    spdlog::info("unloading scene {} ('{}', ~{} MB) to stay within the scene memory budget",
+                 victim->first, victim->second.session->info.scene_path,
+                 victim->second.memory_bytes >> 20);
+    by_key_.erase(victim->second.key);
+    by_id_.erase(victim);
+    ++evictions_;
+  }
+}
+
+std::shared_ptr<SceneSession> SceneRegistry::find(const std::string& scene_id) {
+  std::unique_lock lock(mutex_);
   auto it = by_id_.find(scene_id);
-  return it == by_id_.end() ? nullptr : it->second;
+  if (it == by_id_.end()) return nullptr;
+  it->second.last_used = Clock::now();
+  ++it->second.requests;
+  return it->second.session;
+}
+
+bool SceneRegistry::unload(const std::string& scene_id) {
+  std::unique_lock lock(mutex_);
+  auto it = by_id_.find(scene_id);
+  if (it == by_id_.end()) return false;
+  by_key_.erase(it->second.key);
+  by_id_.erase(it);
+  return true;
+}
+
+std::vector<SceneUsage> SceneRegistry::usage() const {
+  std::vector<SceneUsage> out;
+  {
+    std::shared_lock lock(mutex_);
+    out.reserve(by_id_.size());
+    for (const auto& [id, e] : by_id_) {
+      out.push_back({e.session, e.last_used, e.requests, e.memory_bytes});
+    }
+  }
+  std::sort(out.begin(), out.end(), [](const SceneUsage& a, const SceneUsage& b) {
+    return std::tie(a.session->info.scene_path, a.session->info.scene_id) <
+           std::tie(b.session->info.scene_path, b.session->info.scene_id);
+  });
+  return out;
 }
 
 std::vector<std::shared_ptr<SceneSession>> SceneRegistry::list() const {
   std::vector<std::shared_ptr<SceneSession>> out;
+  for (SceneUsage& u : usage()) out.push_back(std::move(u.session));
+  return out;
+}
+
+std::vector<OpeningScene> SceneRegistry::opening() const {
+  std::vector<std::shared_ptr<Pending>> pendings;
   {
     std::shared_lock lock(mutex_);
-    out.reserve(by_id_.size());
-    for (const auto& [id, session] : by_id_) out.push_back(session);
+    for (const auto& [key, p] : by_key_) pendings.push_back(p);
   }
-  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) {
-    return std::tie(a->info.scene_path, a->info.scene_id) <
-           std::tie(b->info.scene_path, b->info.scene_id);
-  });
+  std::vector<OpeningScene> out;
+  for (const auto& p : pendings) {
+    std::lock_guard lock(p->mutex);
+    if (!p->done) out.push_back({p->scene_path, p->stage, p->fraction});
+  }
   return out;
 }
 
 uint64_t SceneRegistry::opens_started() const {
   std::shared_lock lock(mutex_);
   return opens_started_;
+}
+
+uint64_t SceneRegistry::evictions() const {
+  std::shared_lock lock(mutex_);
+  return evictions_;
 }
 
 }  // namespace pbgi::service

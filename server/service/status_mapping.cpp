@@ -1,5 +1,6 @@
 #include "server/service/status_mapping.h"
 
+#include "server/service/admission.h"
 #include "server/service/scene_roots.h"
 #include "storage/format/errors.h"
 
@@ -28,6 +29,10 @@ std::string what_of(const std::exception_ptr& error) {
 grpc::StatusCode status_code_of(const std::exception_ptr& error) {
   try {
     std::rethrow_exception(error);
+  } catch (const OutOfRange&) {
+    return grpc::StatusCode::OUT_OF_RANGE;
+  } catch (const Overloaded&) {
+    return grpc::StatusCode::RESOURCE_EXHAUSTED;
   } catch (const PermissionDenied&) {
     return grpc::StatusCode::PERMISSION_DENIED;
   } catch (const NotFound&) {

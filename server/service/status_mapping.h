@@ -3,6 +3,8 @@
 // prefixed with what the request was about (scene, tile, field).
 #pragma once
 
+#include "storage/format/errors.h"
+
 #include <grpcpp/support/status.h>
 
 #include <exception>
@@ -10,10 +12,17 @@
 
 namespace pbgi::service {
 
+// A request value outside what it refers to, e.g. a tile outside the image
+// (gRPC OUT_OF_RANGE).
+struct OutOfRange : Error {
+  using Error::Error;
+};
+
 //   PermissionDenied -> PERMISSION_DENIED   NotFound        -> NOT_FOUND
 //   InvalidArgument  -> INVALID_ARGUMENT    SceneError      -> INVALID_ARGUMENT
 //   IoError          -> FAILED_PRECONDITION VersionError    -> FAILED_PRECONDITION
 //   CorruptionError  -> DATA_LOSS           Cancelled       -> CANCELLED
+//   OutOfRange       -> OUT_OF_RANGE        Overloaded      -> RESOURCE_EXHAUSTED
 //   std::bad_alloc   -> RESOURCE_EXHAUSTED  anything else   -> INTERNAL
 grpc::StatusCode status_code_of(const std::exception_ptr& error);
 

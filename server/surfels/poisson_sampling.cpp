@@ -21,8 +21,18 @@
 //  3. Area: each piece's exact area is split evenly over its candidates;
 //     once the tile's darts are thrown, each rejected candidate gives its
 //     share to the nearest surfel within its radius. Shares sum to the
-//     scene's area exactly, and each surfel stands for the area closest to
+//     scene's area exactly (see below for copies), and each surfel stands for the area closest to
 //     it (radius = sqrt(area / pi)).
+//     Coincident coplanar surfaces (a duplicated wall, a common modelling
+//     error) are one surface: the renderers see one of the copies, so the
+//     surfels must stand for its area once. A candidate covered by k pieces
+//     of the tile lying in the same plane (within kCoplanarTolerance x r)
+//     with the same facing (coincident_surfaces.h) carries 1/k of its
+//     share; the copies' darts are rejected by each other's surfels (same
+//     normal, closer than r), so the area of the union is sampled at the
+//     usual density and counted once. Shares then sum to the area of the
+//     union of coincident copies, not to the sum of their areas.
+//     The two faces of a thin wall (opposite normals) are not duplicates.
 //  4. Streaming: surfels accepted near a cell's faces stay "live" for the
 //     neighbouring cells' checks and shares. When an octree cell is done,
 //     every live surfel inside it that is farther than its r from the
@@ -36,6 +46,7 @@
 #include "server/scene/rng.h"
 #include "server/scene/sample_patterns.h"
 #include "server/scene/surface_colors.h"
+#include "server/surfels/coincident_surfaces.h"
 #include "server/surfels/progress_meter.h"
 #include "server/surfels/spacing_field.h"
 #include "server/surfels/surfel_samplers.h"
@@ -46,6 +57,7 @@
 #include <algorithm>
 #include <cmath>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace pbgi {
@@ -63,6 +75,10 @@ constexpr int kMaxDepth = 24;
 constexpr float kMinNormalDot = -0.5f;
 // Surfels handed to the sink at once.
 constexpr size_t kChunk = 16384;
+
+// Coincident coplanar pieces: planes closer than this fraction of r
+// (coincident_surfaces.h).
+constexpr float kCoplanarTolerance = 0.01f;
 
 constexpr uint64_t kJitterDomain = 0x6a6974746572ull;    // "jitter"
 constexpr uint64_t kPriorityDomain = 0x7072696f72ull;    // "prior"
@@ -255,6 +271,8 @@ class PoissonSampler {
     // 1. Candidates, piece by piece.
     const float g = kLatticeFactor * kRadiusFactor * h_min;
     cands_.clear();
+    pieces_.clear();
+    piece_cands_.clear();
     for (uint32_t t : tris) {
       const V3f &a = vertex(t, 0), &b = vertex(t, 1), &c = vertex(t, 2);
       const Polygon piece = clip_to_box(a, b, c, box);
@@ -303,7 +321,15 @@ class PoissonSampler {
       }
       const double share = area / double(cands_.size() - first);
       for (size_t k = first; k < cands_.size(); ++k) cands_[k].weight = share;
+      PlanarPiece pp;
+      if (PlanarPiece::of_triangle(a, b, c, &pp)) {
+        pp.bounds = Box3f();  // the piece's, not the triangle's
+        for (int i = 0; i < piece.n; ++i) pp.bounds.extendBy(piece.v[i]);
+        pieces_.push_back(pp);
+        piece_cands_.push_back({first, cands_.size()});
+      }
     }
+    count_coincident_cover(box, h_min);
     std::sort(cands_.begin(), cands_.end(), [](const Candidate& x, const Candidate& y) {
       return x.priority != y.priority ? x.priority < y.priority : x.tri < y.tri;
     });
@@ -341,6 +367,24 @@ class PoissonSampler {
       const uint32_t owner = nearest_conflict(c.p, triangle_normal(c.tri), radius_at(c.p));
       live_[owner].weight += c.weight;  // the rejecter is still there: never kNone
     }
+  }
+
+  // Divides each candidate's share by the number of pieces of this tile
+  // covering its point in the same plane with the same facing (see step 3
+  // at the top; coincident_surfaces.h).
+  void count_coincident_cover(const Box3f& box, float h_min) {
+    if (pieces_.size() < 2) return;
+    const CoincidentCover cover(
+        uint32_t(pieces_.size()),
+        [this](uint32_t i, PlanarPiece* out) {
+          *out = pieces_[i];
+          return true;
+        },
+        box.center(), kCoplanarTolerance * kRadiusFactor * h_min);
+    if (!cover.any()) return;
+    for (uint32_t i = 0; i < pieces_.size(); ++i)
+      for (size_t k = piece_cands_[i].first; k < piece_cands_[i].second; ++k)
+        cands_[k].weight /= double(cover.cover(i, cands_[k].p));
   }
 
   V3f triangle_normal(uint32_t t) const {
@@ -472,6 +516,10 @@ class PoissonSampler {
 
   std::vector<Live> live_;
   std::vector<Candidate> cands_;
+  // The tile's triangle pieces and their candidates' range in cands_
+  // (before the priority sort), for count_coincident_cover().
+  std::vector<PlanarPiece> pieces_;
+  std::vector<std::pair<size_t, size_t>> piece_cands_;
   std::vector<uint32_t> rejected_;
   std::vector<Surfel> chunk_;
   std::unordered_map<uint64_t, uint32_t> heads_;

@@ -14,6 +14,13 @@
 // its largest triangle. Each surfel's disk has the area it stands for
 // (radius = sqrt(share / pi)), so the surfel areas sum to the scene's area.
 //
+// Coincident coplanar copies (a duplicated wall) are one surface to the
+// renderers: a surfel whose point is covered by k coincident pieces
+// (coincident_surfaces.h: same plane within 1% of the spacing, same facing)
+// stands for 1/k of its share, so the copies' area is counted once. The
+// copies keep their surfels (the density there is k times the usual one,
+// each surfel smaller).
+//
 // Double-sided meshes reflect light on both faces: each of their samples
 // yields two surfels at the same point with opposite normals, each standing
 // for the full area of its face (the area sum then counts those meshes
@@ -35,6 +42,7 @@
 #include "server/scene/scene_validation.h"
 #include "server/scene/surface_colors.h"
 #include "server/scene/surface_colors.h"
+#include "server/surfels/coincident_surfaces.h"
 #include "server/surfels/progress_meter.h"
 #include "server/surfels/surfel_samplers.h"
 #include "storage/format/errors.h"
@@ -180,7 +188,21 @@ void sample_uniform(const Scene& scene, const SurfelOptions& options, const Surf
                  skipped, tris);
   }
 
-  // 5. Positions and attributes, chunk by chunk of the global surfel
+  // 5. Coincident coplanar triangles (see the top of this file).
+  constexpr float kCoplanarTolerance = 0.01f;  // of the spacing
+  // Every triangle with area covers points, also those that draw no
+  // surfel; degenerate ones are left out.
+  auto piece = [&](uint32_t i, PlanarPiece* out) {
+    return plan[i].area > 0.f &&
+           PlanarPiece::of_triangle(t.positions[t.indices[3 * size_t(i) + 0]],
+                                    t.positions[t.indices[3 * size_t(i) + 1]],
+                                    t.positions[t.indices[3 * size_t(i) + 2]], out);
+  };
+  const Box3f bounds = scene.bounds();
+  const CoincidentCover cover(uint32_t(tris), piece, bounds.isEmpty() ? V3f(0.f) : bounds.center(),
+                              kCoplanarTolerance * float(spacing));
+
+  // 6. Positions and attributes, chunk by chunk of the global surfel
   //    index, in parallel within a chunk.
   ProgressMeter meter(progress, "sample_surfels", total);
   std::vector<Surfel> chunk;
@@ -211,7 +233,8 @@ void sample_uniform(const Scene& scene, const SurfelOptions& options, const Surf
         Surfel& s = chunk[g - g0];
         s.position = (1.f - b.x - b.y) * p0 + b.x * p1 + b.y * p2;
         s.normal = twin && (local & 1) ? -n : n;
-        s.radius = std::sqrt(p.share * kInvPi);
+        const float share = cover.any() ? p.share / float(cover.cover(uint32_t(i), s.position)) : p.share;
+        s.radius = std::sqrt(share * kInvPi);
         const SurfaceColors colors = surface_colors(scene, static_cast<uint32_t>(i), b.x, b.y, 2.f * s.radius);
         s.albedo = colors.albedo;
         s.emission = colors.emission;

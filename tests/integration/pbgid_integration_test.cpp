@@ -6,15 +6,26 @@
 //   - bad requests get NOT_FOUND / PERMISSION_DENIED / INVALID_ARGUMENT /
 //     OUT_OF_RANGE and the daemon keeps serving;
 //   - `pbgi render` writes a readable EXR and PNG;
+//   - a 1 ms deadline is honoured, cancelled work stops promptly, overload
+//     is refused with a retry hint, RenderTiles streams tiles, status and
+//     unload work, malformed / oversized / NaN / empty requests get their
+//     codes, and after all of it the daemon answers health and renders;
 //   - SIGTERM stops the daemon cleanly and removes its socket.
+// The daemon runs with a small admission limit (2 in flight, 2 queued) and
+// a config file ([limits]) so that these paths are exercised.
 #include "client/image/exr_image.h"
 #include "client/lib/frame_renderer.h"
 #include "client/lib/pbgi_client.h"
 #include "tests/integration/daemon_process.h"
 
+#include <grpcpp/generic/generic_stub.h>
+#include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
+#include <future>
+#include <limits>
 #include <cstdio>
 #include <fstream>
 #include <thread>
@@ -50,9 +61,14 @@ v1::GatherOptions fast_gather() {
 class Integration : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
+    const fs::path config = kBinaryDir / "tests" / "integration_pbgid.toml";
+    fs::create_directories(config.parent_path());
+    std::ofstream(config) << "[limits]\nmax_receivers = 200000\nmax_message_size = \"8MiB\"\n"
+                             "max_in_flight = 2\nmax_queued = 2\n";
     daemon = new testing::DaemonProcess(
         kBinaryDir / "bin" / "pbgid",
-        {"--scene-root", (kSourceDir / "scenes").string(), "--log-level", "info"});
+        {"--config", config.string(), "--scene-root", (kSourceDir / "scenes").string(),
+         "--log-level", "info"});
     client = new PbgiClient(daemon->address());
     info = new v1::SceneInfo(client->open_scene(kCornell.string(), small_build()));
   }
@@ -71,6 +87,51 @@ class Integration : public ::testing::Test {
     const auto out = client->gather(info->scene_id(), {{0, 1, 0}}, {{0, 1, 0}}, fast_gather());
     ASSERT_EQ(out.irradiance.size(), 1u);
     EXPECT_TRUE(std::isfinite(out.irradiance[0].x));
+  }
+
+  // grpc.health.v1.Health/Check for the whole server: SERVING is the
+  // message {status: 1}, bytes 08 01.
+  static bool healthy() {
+    grpc::GenericStub stub(grpc::CreateChannel(daemon->address(), grpc::InsecureChannelCredentials()));
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+    grpc::Slice empty_message("", 0);
+    grpc::ByteBuffer request(&empty_message, 1), response;
+    std::promise<grpc::Status> done;
+    stub.UnaryCall(&context, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request,
+                   &response, [&](grpc::Status s) { done.set_value(s); });
+    if (!done.get_future().get().ok()) return false;
+    std::vector<grpc::Slice> slices;
+    response.Dump(&slices);
+    std::string bytes;
+    for (const auto& sl : slices) bytes.append(reinterpret_cast<const char*>(sl.begin()), sl.size());
+    return bytes == std::string("\x08\x01", 2);
+  }
+
+  // Polls GetStatus until no gather or tile runs (in 3 polls in a row: a
+  // stream holds no slot between its tiles); the time it took.
+  static std::chrono::milliseconds wait_until_idle(std::chrono::milliseconds limit) {
+    const auto start = std::chrono::steady_clock::now();
+    int idle_polls = 0;
+    for (;;) {
+      const v1::GetStatusResponse status = client->status();
+      const bool idle = status.requests().in_flight() == 0 && status.requests().queued() == 0;
+      idle_polls = idle ? idle_polls + 1 : 0;
+      const auto waited = std::chrono::duration_cast<std::chrono::milliseconds>(
+          std::chrono::steady_clock::now() - start);
+      if (idle_polls == 3 || waited > limit) return waited;
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+  }
+
+  // n receivers on the floor, facing up.
+  static void floor_receivers(size_t n, std::vector<Imath::V3f>* p, std::vector<Imath::V3f>* nrm) {
+    p->resize(n);
+    nrm->assign(n, Imath::V3f(0, 1, 0));
+    for (size_t i = 0; i < n; ++i) {
+      (*p)[i] = Imath::V3f(-0.9f + 1.8f * float(i % 97) / 96.f, 0.001f,
+                           -0.9f + 1.8f * float(i / 97 % 97) / 96.f);
+    }
   }
 
   static grpc::StatusCode code_of(const std::function<void()>& call, std::string* message) {
@@ -336,6 +397,371 @@ TEST_F(Integration, CliRenderWritesExrAndPng) {
   char signature[8] = {};
   png_file.read(signature, 8);
   EXPECT_EQ(std::string(signature, 8), std::string("\x89PNG\r\n\x1a\n", 8)) << png;
+}
+
+TEST_F(Integration, OneMillisecondDeadlineIsHonoured) {
+  client::ClientOptions hurried;
+  hurried.call_deadline = std::chrono::milliseconds(1);
+  PbgiClient impatient(daemon->address(), hurried);
+  std::vector<Imath::V3f> p, n;
+  floor_receivers(2000, &p, &n);
+  std::string message;
+  EXPECT_EQ(code_of([&] { impatient.gather(info->scene_id(), p, n, fast_gather()); }, &message),
+            grpc::StatusCode::DEADLINE_EXCEEDED)
+      << message;
+  v1::RenderTileRequest tile;
+  tile.set_scene_id(info->scene_id());
+  tile.set_camera("/Camera");
+  tile.set_image_width(kSize);
+  tile.set_image_height(kSize);
+  tile.mutable_tile()->set_x1(kSize);
+  tile.mutable_tile()->set_y1(kSize);
+  EXPECT_EQ(code_of([&] { impatient.render_tile(tile); }, &message),
+            grpc::StatusCode::DEADLINE_EXCEEDED)
+      << message;
+  EXPECT_LT(wait_until_idle(std::chrono::seconds(5)), std::chrono::seconds(2));
+  expect_serving();
+}
+
+TEST_F(Integration, CancelledWorkStopsPromptly) {
+  // What one receiver costs here, to know how long the big gather would run.
+  std::vector<Imath::V3f> p, n;
+  floor_receivers(1000, &p, &n);
+  const auto t0 = std::chrono::steady_clock::now();
+  client->gather(info->scene_id(), p, n, fast_gather());
+  const double per_receiver =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / 1000;
+
+  // 150k receivers with a 300 ms deadline: the server must stop at the
+  // deadline, not when the gather would have finished.
+  floor_receivers(150000, &p, &n);
+  std::string message_sink;
+  client::ClientOptions hurried;
+  hurried.call_deadline = std::chrono::milliseconds(300);
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_EQ(code_of([&] { PbgiClient(daemon->address(), hurried).gather(info->scene_id(), p, n, fast_gather()); },
+                    &message_sink),
+            grpc::StatusCode::DEADLINE_EXCEEDED);
+  const auto idle_after = wait_until_idle(std::chrono::seconds(10));
+  const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::printf("cancel: full gather would take ~%.1f s; server idle %.2f s after the call began\n",
+              per_receiver * 150000, total);
+  EXPECT_LT(idle_after, std::chrono::milliseconds(1500)) << "the gather stopped at its deadline";
+  EXPECT_LT(total, 0.5 * per_receiver * 150000) << "well before the work could have finished";
+
+  // A client that cancels a RenderTiles stream after its first tile: the
+  // remaining tiles are not rendered.
+  const uint64_t completed_before = client->status().requests().completed();
+  v1::RenderTilesRequest request;
+  request.set_scene_id(info->scene_id());
+  request.set_camera("/Camera");
+  request.set_image_width(kSize);
+  request.set_image_height(kSize);
+  *request.mutable_options() = fast_gather();
+  for (const v1::Tile& t : client::tile_grid(kSize, kSize, 8)) *request.add_tiles() = t;
+  auto stub = v1::Pbgi::NewStub(grpc::CreateChannel(daemon->address(), grpc::InsecureChannelCredentials()));
+  grpc::ClientContext context;
+  auto reader = stub->RenderTiles(&context, request);
+  v1::RenderTileResponse first;
+  ASSERT_TRUE(reader->Read(&first));
+  context.TryCancel();
+  EXPECT_EQ(reader->Finish().error_code(), grpc::StatusCode::CANCELLED);
+  EXPECT_LT(wait_until_idle(std::chrono::seconds(5)), std::chrono::seconds(1));
+  const uint64_t rendered = client->status().requests().completed() - completed_before;
+  EXPECT_LT(rendered, uint64_t(request.tiles_size()) / 2)
+      << "of " << request.tiles_size() << " tiles";
+  expect_serving();
+}
+
+TEST_F(Integration, OverloadIsRefusedWithARetryHintAndRetriedByTheClient) {
+  // 10 simultaneous gathers (~0.1 s each) against 2 slots + 2 queue places.
+  ASSERT_LT(wait_until_idle(std::chrono::seconds(10)), std::chrono::seconds(10));
+  std::vector<Imath::V3f> p, n;
+  floor_receivers(100, &p, &n);
+  v1::GatherRequest request;
+  request.set_scene_id(info->scene_id());
+  request.set_positions(std::string(reinterpret_cast<const char*>(p.data()), p.size() * 12));
+  request.set_normals(std::string(reinterpret_cast<const char*>(n.data()), n.size() * 12));
+  *request.mutable_options() = fast_gather();
+  auto stub = v1::Pbgi::NewStub(grpc::CreateChannel(daemon->address(), grpc::InsecureChannelCredentials()));
+  std::atomic<int> ok{0}, refused{0}, hinted{0};
+  std::vector<std::thread> threads;
+  for (int i = 0; i < 10; ++i) {
+    threads.emplace_back([&] {
+      grpc::ClientContext context;
+      v1::GatherResponse response;
+      const grpc::Status s = stub->Gather(&context, request, &response);
+      if (s.ok()) ++ok;
+      if (s.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED) {
+        ++refused;
+        const auto& trailers = context.GetServerTrailingMetadata();
+        const auto it = trailers.find("retry-after-ms");
+        if (it != trailers.end() && std::stoi(std::string(it->second.data(), it->second.size())) > 0) {
+          ++hinted;
+        }
+      }
+    });
+  }
+  for (auto& t : threads) t.join();
+  std::printf("overload: %d served, %d refused (%d with a hint)\n", ok.load(), refused.load(),
+              hinted.load());
+  EXPECT_GE(ok, 4) << "2 running + 2 queued are served";
+  EXPECT_GE(refused, 1);
+  EXPECT_EQ(hinted, refused) << "every refusal carries retry-after-ms";
+  EXPECT_EQ(ok + refused, 10);
+  EXPECT_GE(client->status().requests().rejected(), uint64_t(refused));
+
+  // The client library waits as told and gets every one through.
+  std::atomic<int> done{0};
+  threads.clear();
+  client::ClientOptions patient;
+  patient.max_attempts = 50;
+  PbgiClient retrying(daemon->address(), patient);
+  for (int i = 0; i < 8; ++i) {
+    threads.emplace_back([&] {
+      if (retrying.gather(info->scene_id(), p, n, fast_gather()).irradiance.size() == p.size()) ++done;
+    });
+  }
+  for (auto& t : threads) t.join();
+  EXPECT_EQ(done, 8);
+}
+
+TEST_F(Integration, RenderTilesStreamsTilesLikeRenderTile) {
+  v1::RenderTilesRequest request;
+  request.set_scene_id(info->scene_id());
+  request.set_camera("/Camera");
+  request.set_image_width(kSize);
+  request.set_image_height(kSize);
+  *request.mutable_options() = fast_gather();
+  // Three 16x16 tiles of the bottom row (floor, walls, boxes).
+  std::vector<v1::Tile> grid = client::tile_grid(kSize, kSize, 16);
+  grid.erase(grid.begin(), grid.end() - 3);
+  for (const v1::Tile& t : grid) *request.add_tiles() = t;
+  std::vector<client::TileImage> tiles;
+  client->render_tiles(request, [&](client::TileImage&& t) { tiles.push_back(std::move(t)); });
+  ASSERT_EQ(tiles.size(), grid.size());
+  for (size_t i = 0; i < grid.size(); ++i) {
+    EXPECT_EQ(tiles[i].tile.x0(), grid[i].x0()) << "in request order";
+    EXPECT_EQ(tiles[i].tile.y0(), grid[i].y0());
+  }
+
+  v1::RenderTileRequest single;
+  single.set_scene_id(info->scene_id());
+  single.set_camera("/Camera");
+  single.set_image_width(kSize);
+  single.set_image_height(kSize);
+  *single.mutable_tile() = grid[1];
+  *single.mutable_options() = fast_gather();
+  const client::TileImage alone = client->render_tile(single);
+  ASSERT_EQ(alone.beauty.size(), tiles[1].beauty.size());
+  double sum = 0, diff = 0;
+  for (size_t i = 0; i < alone.beauty.size(); ++i) {
+    sum += std::abs(alone.beauty[i]);
+    diff += std::abs(alone.beauty[i] - tiles[1].beauty[i]);
+  }
+  EXPECT_GT(sum, 0.0);
+  EXPECT_LE(diff, 1e-4 * sum) << "the same tile, the same image";
+}
+
+TEST_F(Integration, StatusAndUnload) {
+  client->render_tile([&] {
+    v1::RenderTileRequest r;
+    r.set_scene_id(info->scene_id());
+    r.set_camera("/Camera");
+    r.set_image_width(kSize);
+    r.set_image_height(kSize);
+    r.mutable_tile()->set_x1(16);
+    r.mutable_tile()->set_y1(16);
+    *r.mutable_options() = fast_gather();
+    return r;
+  }());
+  // Other tests may have opened scenes too (a plain run shares the daemon).
+  v1::GetStatusResponse status = client->status();
+  const int scenes_before = status.scenes_size();
+  const v1::SceneStatus* ours = nullptr;
+  for (const v1::SceneStatus& s : status.scenes()) {
+    if (s.info().scene_id() == info->scene_id()) ours = &s;
+  }
+  ASSERT_NE(ours, nullptr);
+  EXPECT_GE(ours->requests(), 1u);
+  EXPECT_GT(ours->memory_bytes(), 0u);
+  EXPECT_LT(ours->idle_seconds(), 5.0);
+  EXPECT_GT(status.cache().misses(), 0u);
+  EXPECT_GT(status.cache().bytes_read(), 0u);
+  EXPECT_GT(status.cache().bytes_held(), 0u);
+  EXPECT_EQ(status.cache().budget_bytes(), 2ull << 30);
+  EXPECT_GT(status.rss_bytes(), 10u << 20);
+  EXPECT_EQ(status.requests().max_in_flight(), 2u);
+  EXPECT_FALSE(status.version().empty());
+
+  // Another scene (other build options), unloaded again.
+  v1::BuildOptions other = small_build();
+  other.set_target_surfels(3000);
+  const v1::SceneInfo second = client->open_scene(kCornell.string(), other);
+  EXPECT_EQ(client->status().scenes_size(), scenes_before + 1);
+  client->unload_scene(second.scene_id());
+  EXPECT_EQ(client->list_scenes().size(), size_t(scenes_before));
+  std::string message;
+  EXPECT_EQ(code_of([&] { client->unload_scene(second.scene_id()); }, &message),
+            grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(code_of([&] { client->gather(second.scene_id(), {{0, 1, 0}}, {{0, 1, 0}}); }, &message),
+            grpc::StatusCode::NOT_FOUND);
+  expect_serving();
+}
+
+TEST_F(Integration, MalformedOversizedNanAndEmptyRequestsThenStillHealthy) {
+  std::string message;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  // NaN position / normal.
+  EXPECT_EQ(code_of([&] { client->gather(info->scene_id(), {{0, nan, 0}}, {{0, 1, 0}}); }, &message),
+            grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(message.find("positions[0]"), std::string::npos) << message;
+  EXPECT_EQ(code_of([&] { client->gather(info->scene_id(), {{0, 1, 0}, {0, 1, 0}}, {{0, 1, 0}, {nan, nan, nan}}); },
+                    &message),
+            grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(message.find("normals[1]"), std::string::npos) << message;
+  // Zero normal; NaN option.
+  EXPECT_EQ(code_of([&] { client->gather(info->scene_id(), {{0, 1, 0}}, {{0, 0, 0}}); }, &message),
+            grpc::StatusCode::INVALID_ARGUMENT);
+  v1::GatherOptions nan_options = fast_gather();
+  nan_options.set_max_solid_angle(nan);
+  EXPECT_EQ(code_of([&] { client->gather(info->scene_id(), {{0, 1, 0}}, {{0, 1, 0}}, nan_options); },
+                    &message),
+            grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(message.find("max_solid_angle"), std::string::npos) << message;
+
+  // Empty: no receivers, no scene id, an empty RenderTiles.
+  EXPECT_EQ(code_of([&] { client->gather(info->scene_id(), {}, {}); }, &message),
+            grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(code_of([&] { client->gather("", {{0, 1, 0}}, {{0, 1, 0}}); }, &message),
+            grpc::StatusCode::INVALID_ARGUMENT);
+  v1::RenderTilesRequest no_tiles;
+  no_tiles.set_scene_id(info->scene_id());
+  no_tiles.set_camera("/Camera");
+  no_tiles.set_image_width(kSize);
+  no_tiles.set_image_height(kSize);
+  EXPECT_EQ(code_of([&] { client->render_tiles(no_tiles, {}); }, &message),
+            grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(code_of([&] { client->open_scene(""); }, &message), grpc::StatusCode::INVALID_ARGUMENT);
+
+  // Over the receiver limit (200000 in the config), and over the message
+  // size limit (8 MiB): refused before any work.
+  std::vector<Imath::V3f> p, n;
+  floor_receivers(200001, &p, &n);
+  EXPECT_EQ(code_of([&] { client->gather(info->scene_id(), p, n); }, &message),
+            grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(message.find("limit of 200000"), std::string::npos) << message;
+  floor_receivers(400000, &p, &n);
+  EXPECT_EQ(code_of([&] { client->gather(info->scene_id(), p, n); }, &message),
+            grpc::StatusCode::RESOURCE_EXHAUSTED);
+
+  // Garbage glossy arrays.
+  v1::GatherRequest glossy;
+  glossy.set_scene_id(info->scene_id());
+  const float up[3] = {0, 1, 0};
+  glossy.set_positions(std::string(reinterpret_cast<const char*>(up), 12));
+  glossy.set_normals(std::string(reinterpret_cast<const char*>(up), 12));
+  glossy.set_roughness(std::string(reinterpret_cast<const char*>(&nan), 4));
+  EXPECT_EQ(code_of([&] { client->gather_raw(glossy); }, &message), grpc::StatusCode::INVALID_ARGUMENT);
+  glossy.set_roughness(std::string(7, '\0'));
+  EXPECT_EQ(code_of([&] { client->gather_raw(glossy); }, &message), grpc::StatusCode::INVALID_ARGUMENT);
+  // Valid glossy arrays are accepted (and do not change the diffuse result).
+  const float half = 0.5f;
+  glossy.set_roughness(std::string(reinterpret_cast<const char*>(&half), 4));
+  glossy.set_view_directions(std::string(reinterpret_cast<const char*>(up), 12));
+  EXPECT_EQ(client->gather_raw(glossy).irradiance().size(), 12u);
+
+  // After all of it: healthy, and a tile renders finite and lit.
+  EXPECT_TRUE(healthy());
+  v1::RenderTileRequest tile;
+  tile.set_scene_id(info->scene_id());
+  tile.set_camera("/Camera");
+  tile.set_image_width(kSize);
+  tile.set_image_height(kSize);
+  tile.mutable_tile()->set_x0(16);
+  tile.mutable_tile()->set_y0(32);
+  tile.mutable_tile()->set_x1(48);
+  tile.mutable_tile()->set_y1(64);
+  *tile.mutable_options() = fast_gather();
+  const client::TileImage image = client->render_tile(tile);
+  double sum = 0;
+  for (float v : image.beauty) {
+    ASSERT_TRUE(std::isfinite(v));
+    sum += v;
+  }
+  EXPECT_GT(sum, 0.0);
+}
+
+// Runs the pbgi CLI with `args`; its exit status, stdout + stderr in *text.
+int run_cli(const std::vector<std::string>& args, const fs::path& dir, std::string* text) {
+  std::vector<std::string> argv = {(kBinaryDir / "bin" / "pbgi").string()};
+  argv.insert(argv.end(), args.begin(), args.end());
+  const pid_t pid = testing::spawn(argv, dir / "cli.out", dir / "cli.err");
+  const int status = testing::wait_for_exit(pid, std::chrono::seconds(60));
+  std::ifstream out(dir / "cli.out"), err(dir / "cli.err");
+  std::stringstream all;
+  all << out.rdbuf() << err.rdbuf();
+  *text = all.str();
+  return status;
+}
+
+TEST_F(Integration, CliStatusAndResumedRender) {
+  const fs::path dir = daemon->dir() / "cli-resume";
+  fs::create_directories(dir);
+  std::string text;
+  ASSERT_EQ(run_cli({"status", "--server", daemon->address()}, dir, &text), 0) << text;
+  EXPECT_NE(text.find(info->scene_id()), std::string::npos) << text;
+  EXPECT_NE(text.find("cache"), std::string::npos) << text;
+  ASSERT_EQ(run_cli({"status", "--server", daemon->address(), "--json"}, dir, &text), 0) << text;
+  EXPECT_NE(text.find("\"scenes\""), std::string::npos) << text;
+
+  // Options v1 cannot serve are refused by name, not ignored.
+  const std::vector<std::string> common = {
+      "render", kCornell.string(), "--server", daemon->address(), "--width", "32",
+      "--height", "24", "--tile", "8", "--jobs", "1", "--light-samples", "4",
+      "--target-surfels", "20000", "--build-light-samples", "4", "--no-png", "--quiet"};
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> v = common;
+    v.insert(v.end(), extra.begin(), extra.end());
+    return v;
+  };
+  EXPECT_NE(run_cli(with({"--payload", "wavelet", "--out", (dir / "x.exr").string()}), dir, &text), 0);
+  EXPECT_NE(text.find("--payload wavelet"), std::string::npos) << text;
+  EXPECT_NE(run_cli(with({"--bounces", "3", "--out", (dir / "x.exr").string()}), dir, &text), 0);
+  EXPECT_NE(text.find("--bounces 3"), std::string::npos) << text;
+
+  // Interrupted after 3 of 12 tiles, then resumed: only 9 are rendered and
+  // the image equals an uninterrupted render.
+  const fs::path out = dir / "resumed.exr";
+  EXPECT_EQ(run_cli(with({"--out", out.string(), "--max-new-tiles", "3"}), dir, &text), 3) << text;
+  EXPECT_TRUE(fs::exists(out.string() + ".partial")) << text;
+  EXPECT_FALSE(fs::exists(out));
+  ASSERT_EQ(run_cli(with({"--out", out.string(), "--resume"}), dir, &text), 0) << text;
+  EXPECT_NE(text.find("12 tiles, 3 resumed"), std::string::npos) << text;
+  EXPECT_FALSE(fs::exists(out.string() + ".partial")) << "the sidecar is removed when done";
+
+  const fs::path whole = dir / "whole.exr";
+  ASSERT_EQ(run_cli(with({"--out", whole.string()}), dir, &text), 0) << text;
+  const image::ExrImage a = image::read_exr(out.string()), b = image::read_exr(whole.string());
+  double sum = 0, diff = 0;
+  for (const char* channel : {"R", "G", "B", "indirect.G", "ao.Y"}) {
+    const auto& ca = a.channel(channel);
+    const auto& cb = b.channel(channel);
+    ASSERT_EQ(ca.size(), cb.size());
+    for (size_t i = 0; i < ca.size(); ++i) {
+      sum += std::abs(cb[i]);
+      diff += std::abs(ca[i] - cb[i]);
+    }
+  }
+  EXPECT_GT(sum, 0.0);
+  EXPECT_LE(diff, 1e-4 * sum) << "resumed and uninterrupted renders agree";
+
+  // A sidecar of another render is not mixed in.
+  EXPECT_EQ(run_cli(with({"--out", out.string(), "--max-new-tiles", "1"}), dir, &text), 3);
+  std::vector<std::string> other = with({"--out", out.string(), "--resume"});
+  other[5] = "40";  // --width
+  EXPECT_NE(run_cli(other, dir, &text), 0);
+  EXPECT_NE(text.find("another render"), std::string::npos) << text;
 }
 
 }  // namespace

@@ -52,6 +52,7 @@ PbgiScene::PbgiScene(const Scene& scene, const RenderSettings& s)
     : settings_(s), dir_("pbgi-" + scene.source_path) {
   OpenOptions open;
   open.surfels.target_surfels = s.target_surfels;
+  open.surfels.sampler = s.sampler;
   EngineContext ctx;
   ctx.cache_dir = dir_.path();
   ctx.cache = std::make_shared<storage::PageCache>(1ull << 30);
@@ -89,7 +90,7 @@ Aovs render_path(const Scene& scene, const std::string& camera, const RenderSett
   o.spp = s.reference_spp;
   o.pass_spp = s.reference_spp;
   o.max_depth = s.reference_max_depth;
-  o.seed = 7;
+  o.seed = s.reference_seed;
   const auto t0 = std::chrono::steady_clock::now();
   ReferenceImage r = render_reference(rays, camera_of(scene, camera), o);
   std::printf("[ timing   ] %s%s: reference %u spp %.2f s\n", scene.source_path.c_str(),

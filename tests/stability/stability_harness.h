@@ -5,6 +5,7 @@
 
 #include "server/gather/gather_options.h"
 #include "server/scene/scene.h"
+#include "server/surfels/surfel_options.h"
 
 #include <cstdint>
 #include <filesystem>
@@ -22,6 +23,9 @@ struct RenderSettings {
   uint32_t width = 32;
   uint32_t height = 32;
   uint64_t target_surfels = 20000;
+  // The surfel sampler (the daemon's default, uniform, unless a case needs
+  // the Poisson sampler's guarantees).
+  SurfelSampler sampler = SurfelSampler::kUniform;
   GatherOptions gather;           // the library defaults
   // PBGI camera rays per pixel: 4 stratified samples approach the box
   // filter the path tracer integrates, so edges do not count as error.
@@ -30,6 +34,7 @@ struct RenderSettings {
   // One diffuse bounce (PBGI's transport): the reference's indirect AOV is
   // then exactly what PBGI's gather estimates.
   uint32_t reference_max_depth = 2;
+  uint64_t reference_seed = 7;
 };
 
 // Pixel-interleaved RGB AOVs, row-major.

@@ -1,5 +1,7 @@
 #include "tests/stability/stability_scenes.h"
 
+#include "server/scene/render_origin.h"
+
 #include <cmath>
 
 namespace pbgi::stability {
@@ -141,7 +143,12 @@ void SceneBuilder::distant_light(const V3f& direction, const C3f& irradiance) {
   scene_.lights.push_back(l);
 }
 
-void SceneBuilder::translate(const V3f& offset) {
+void SceneBuilder::translate(const Imath::V3d& offset) {
+  scene_.render_origin += offset;  // exact: the local coordinates stay as built
+  rebase_to_local_frame(scene_);   // the frame ingest would pick
+}
+
+void SceneBuilder::translate_in_float(const V3f& offset) {
   for (V3f& p : scene_.triangles.positions) p += offset;
   for (Light& l : scene_.lights) {
     if (l.kind == LightKind::Distant) continue;  // a direction only
@@ -156,12 +163,20 @@ void SceneBuilder::translate(const V3f& offset) {
   }
 }
 
-Scene cornell_box(const V3f& offset, bool light) {
-  SceneBuilder b(offset == V3f(0, 0, 0) ? "cornell" : "cornell-translated");
+Scene cornell_box(const Imath::V3d& offset, bool light) {
+  SceneBuilder b(offset == Imath::V3d(0, 0, 0) ? "cornell" : "cornell-translated");
   add_cornell(b);
   // /Lights/Ceiling of the USD file: 0.5 x 0.4 at y = 1.98, radiance 40.
   if (light) b.rect_light({0, 1.98f, 0}, {0, -1, 0}, 0.5f, 0.4f, {40, 40, 40});
-  b.translate(offset);
+  if (offset != Imath::V3d(0, 0, 0)) b.translate(offset);
+  return b.take();
+}
+
+Scene cornell_box_in_float_world(const V3f& offset) {
+  SceneBuilder b("cornell-float-world");
+  add_cornell(b);
+  b.rect_light({0, 1.98f, 0}, {0, -1, 0}, 0.5f, 0.4f, {40, 40, 40});
+  b.translate_in_float(offset);
   return b.take();
 }
 

@@ -34,8 +34,15 @@ class SceneBuilder {
   // Distant light travelling along `direction` with irradiance `irradiance`
   // on a surface facing it.
   void distant_light(const V3f& direction, const C3f& irradiance);
-  // Moves everything added so far (geometry, lights, cameras) by `offset`.
-  void translate(const V3f& offset);
+  // Places everything added so far (geometry, lights, cameras) `offset`
+  // away in world space, in double precision, and stores the scene in a
+  // local frame around it (render_origin.h): what an ingest that computes
+  // world positions in double and rebases them gives.
+  void translate(const Imath::V3d& offset);
+  // Moves everything added so far by `offset` in float world coordinates
+  // (render_origin stays 0): what an ingest that rounds world positions to
+  // float gives -- positions quantized to the float spacing at `offset`.
+  void translate_in_float(const V3f& offset);
 
   Scene take() { return std::move(scene_); }
 
@@ -44,10 +51,14 @@ class SceneBuilder {
 };
 
 // The Cornell box of scenes/cornell.usda rebuilt in code (the boxes are
-// rotated about their centres as in the USD file; camera /Camera), moved by
-// `offset`. With `light` false it has no UsdLux light (for scenes that add
-// their own emitter).
-Scene cornell_box(const V3f& offset = {0, 0, 0}, bool light = true);
+// rotated about their centres as in the USD file; camera /Camera), placed
+// `offset` away (SceneBuilder::translate: modelled in double, stored in a
+// local frame). With `light` false it has no UsdLux light (for scenes that
+// add their own emitter).
+Scene cornell_box(const Imath::V3d& offset = {0, 0, 0}, bool light = true);
+// The same box moved by `offset` in float world coordinates
+// (SceneBuilder::translate_in_float): no local frame.
+Scene cornell_box_in_float_world(const V3f& offset);
 
 // Two sealed rooms side by side, x in [-2, 0] (lit by a rect light) and
 // [0, 2] (no light), separated by a wall of `wall_thickness` (two

@@ -7,7 +7,9 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <filesystem>
+#include <mutex>
 #include <thread>
 
 namespace pbgi::client {
@@ -66,6 +68,72 @@ TEST(PbgiClient, RetriesUnavailableThenSucceeds) {
   EXPECT_EQ(calls, 3);
   EXPECT_EQ(result.irradiance.size(), 2u);
   EXPECT_EQ(result.ao.size(), 2u);
+}
+
+TEST(PbgiClient, RetriesOverloadedAfterTheServersHintOnly) {
+  FakePbgiServer server;
+  std::atomic<int> calls{0};
+  std::vector<std::chrono::steady_clock::time_point> times;
+  std::mutex mutex;
+  server.service.gather = [&](grpc::ServerContext* context, const v1::GatherRequest*,
+                              v1::GatherResponse* out) {
+    {
+      std::lock_guard lock(mutex);
+      times.push_back(std::chrono::steady_clock::now());
+    }
+    if (++calls <= 2) {
+      context->AddTrailingMetadata("retry-after-ms", "60");
+      return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED, "overloaded");
+    }
+    const float zeros[4] = {};
+    out->set_irradiance(std::string(reinterpret_cast<const char*>(zeros), 12));
+    out->set_ao(std::string(reinterpret_cast<const char*>(zeros), 4));
+    return grpc::Status::OK;
+  };
+  PbgiClient client(server.address(), fast_retries(5));
+  EXPECT_EQ(client.gather("s", {{0, 0, 0}}, {{0, 1, 0}}).irradiance.size(), 1u);
+  ASSERT_EQ(calls, 3);
+  for (int i = 1; i < 3; ++i) {
+    EXPECT_GE(times[i] - times[i - 1], std::chrono::milliseconds(55))
+        << "waited at least the hint (backoff alone is <= 20 ms)";
+  }
+
+  // Without a hint (e.g. a message too large), RESOURCE_EXHAUSTED is final.
+  calls = 0;
+  server.service.gather = [&](auto*, auto*, auto*) {
+    ++calls;
+    return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED, "too big");
+  };
+  EXPECT_THROW(client.gather("s", {{0, 0, 0}}, {{0, 1, 0}}), RpcError);
+  EXPECT_EQ(calls, 1);
+  // Nor is it retried when the caller opts out.
+  ClientOptions no_retry = fast_retries(5);
+  no_retry.retry_overloaded = false;
+  calls = 0;
+  server.service.gather = [&](grpc::ServerContext* context, auto*, auto*) {
+    ++calls;
+    context->AddTrailingMetadata("retry-after-ms", "10");
+    return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED, "overloaded");
+  };
+  EXPECT_THROW(PbgiClient(server.address(), no_retry).gather("s", {{0, 0, 0}}, {{0, 1, 0}}),
+               RpcError);
+  EXPECT_EQ(calls, 1);
+}
+
+TEST(PbgiClient, SendsTheBearerToken) {
+  FakePbgiServer server;
+  std::string seen;
+  server.service.gather = [&](grpc::ServerContext* context, auto*, auto*) {
+    const auto it = context->client_metadata().find("authorization");
+    if (it != context->client_metadata().end()) seen.assign(it->second.data(), it->second.size());
+    return grpc::Status(grpc::StatusCode::NOT_FOUND, "");
+  };
+  ClientOptions o = fast_retries(1);
+  o.token = "tok";
+  EXPECT_THROW(PbgiClient(server.address(), o).gather("s", {{0, 0, 0}}, {{0, 1, 0}}), RpcError);
+  EXPECT_EQ(seen, "Bearer tok");
+  o.tls_ca_file = "/nonexistent/ca.pem";
+  EXPECT_THROW(PbgiClient(server.address(), o), IoError) << "a missing CA file is an error";
 }
 
 TEST(PbgiClient, GivesUpAfterMaxAttempts) {

@@ -64,6 +64,16 @@ DaemonOptions non_default_options() {
   o.service.limits.max_receivers = 1000;
   o.service.limits.max_image_side = 4096;
   o.service.limits.max_tile_pixels = 4096;
+  o.service.limits.max_tiles_per_call = 17;
+  o.service.limits.max_in_flight = 3;
+  o.service.limits.max_queued = 5;
+  o.scene_memory_budget = "6GiB";
+  o.log_format = "json";
+  o.metrics_listen = "127.0.0.1:9464";
+  o.tls_cert = "/etc/pbgi/server.crt";
+  o.tls_key = "/etc/pbgi/server.key";
+  o.tls_client_ca = "/etc/pbgi/clients.crt";
+  o.auth_token_file = "/etc/pbgi/token";
   return o;
 }
 
@@ -77,6 +87,26 @@ TEST(DaemonOptions, TomlRoundTrip) {
   EXPECT_NE(text.find("max_solid_angle = 0.03\n"), std::string::npos) << text;
   // And the defaults round-trip too.
   EXPECT_TRUE(parse_daemon_config(to_toml(DaemonOptions()), "defaults") == DaemonOptions());
+}
+
+TEST(DaemonOptions, TheExampleConfigParsesToTheDefaults) {
+  const DaemonOptions example =
+      load_daemon_config(std::string(PBGI_TEST_SOURCE_DIR) + "/config/pbgid.toml");
+  DaemonOptions expected;
+  expected.scene_roots = {"scenes"};
+  EXPECT_TRUE(example == expected) << "config/pbgid.toml documents the defaults:\n"
+                                   << to_toml(example);
+}
+
+TEST(DaemonOptions, SecretTokenIsNeverPrinted) {
+  DaemonOptions o;
+  apply_environment(o, fake_env({{"PBGI_AUTH_TOKEN", "hunter2"},
+                                 {"PBGI_METRICS_LISTEN", "127.0.0.1:0"}}));
+  EXPECT_EQ(o.auth_token, "hunter2");
+  EXPECT_EQ(o.metrics_listen, "127.0.0.1:0");
+  const std::string text = to_toml(o);
+  EXPECT_EQ(text.find("hunter2"), std::string::npos) << text;
+  EXPECT_NE(text.find("PBGI_AUTH_TOKEN"), std::string::npos) << text;
 }
 
 TEST(DaemonOptions, AbsentKeysKeepTheBase) {

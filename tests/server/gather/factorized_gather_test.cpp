@@ -63,7 +63,7 @@ std::pair<double, double> difference(const std::vector<GatherResult>& a,
   return {std::sqrt(se / double(a.size())) / (norm / double(a.size())), worst};
 }
 
-GatherOptions fpbgi(uint32_t k = 100, float eps = 0.01f) {
+GatherOptions fpbgi(uint32_t k = 100, float eps = 0.f) {  // eps 0: the default (auto)
   GatherOptions o;
   o.method = GatherMethod::kFpbgi;
   o.clusters = k;

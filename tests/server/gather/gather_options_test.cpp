@@ -75,12 +75,15 @@ TEST(GatherOptions, FactorizedParameters) {
   o.clusters = 1;
   EXPECT_EQ(error_of(o), "");
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  for (const float bad : {0.f, -0.01f, 0.6f, nan}) {
+  for (const float bad : {-0.01f, 0.6f, nan}) {
     o.epsilon = bad;
     EXPECT_NE(error_of(o).find("epsilon"), std::string::npos) << bad;
   }
   o.epsilon = 0.5f;
   EXPECT_EQ(error_of(o), "");
+  o.epsilon = 0.f;  // auto
+  EXPECT_EQ(error_of(o), "");
+  EXPECT_FLOAT_EQ(o.effective_epsilon(), 0.4f / float(o.microbuffer_resolution));
   for (const float bad : {-1.f, nan, std::numeric_limits<float>::infinity()}) {
     o.hdr_refine = bad;
     EXPECT_NE(error_of(o).find("hdr_refine"), std::string::npos) << bad;

@@ -100,8 +100,9 @@ TEST(HardCases, ReceiversLyingOnSurfelsSeeNoSelfShadow) {
   }
 }
 
-// Known defect (issue 6), disabled until fixed: mean |error| 0.034 (pbgi) / 0.036 (fpbgi) against the 0.03 bound.
-TEST(HardCases, DISABLED_GrazingReceiversNearAWall) {
+// Measured: mean |error| 0.005 (PBGI) / 0.008 (FPBGI); before near surfels
+// carried their depth extent and ray-casts their pixel coverage, 0.034.
+TEST(HardCases, GrazingReceiversNearAWall) {
   // An emitting wall x = a (10 x 5) standing on a black floor z = 0, seen
   // from receivers on the floor at distances a from 1 cm to 1 m, with
   // normals tilted towards and away from the wall: the wall meets the
@@ -136,35 +137,29 @@ TEST(HardCases, DISABLED_GrazingReceiversNearAWall) {
     }
     std::printf("grazing (%s): mean |error| %.4f\n",
                 o.method == GatherMethod::kPbgi ? "pbgi" : "fpbgi", sum / double(rs.size()));
-    EXPECT_LT(sum / double(rs.size()), 0.03);
+    EXPECT_LT(sum / double(rs.size()), 0.015);
   }
 }
 
-// Known defect (issue 6), disabled until fixed: duplicated coplanar surfels are counted twice.
-TEST(HardCases, DISABLED_CoincidentCoplanarSurfacesDoNotAddUp) {
-  // Two emitting squares in the same place (a duplicated mesh): the path
-  // tracer sees one of them, so light must not double.
-  const float L = 1.f;
-  std::vector<Surfel> one, two;
-  test::add_quad(one, {-1, -1, 1}, {0, 2, 0}, {2, 0, 0}, 50, 50, C3f(L));
-  two = one;
-  test::add_quad(two, {-1, -1, 1}, {0, 2, 0}, {2, 0, 0}, 37, 37, C3f(L));  // other sampling
-  test::SurfelTree t1(std::move(one)), t2(std::move(two));
-  std::vector<Receiver> rs;
-  for (int i = 0; i < 8; ++i) rs.push_back({{-0.7f + 0.2f * float(i), 0.1f, 0.f}, {0, 0, 1}});
-  for (const GatherOptions& o : {pbgi_options(), fpbgi_options()}) {
-    const std::vector<GatherResult> a = gather_all(t1, o, rs), b = gather_all(t2, o, rs);
-    for (size_t i = 0; i < rs.size(); ++i) {
-      EXPECT_NEAR(b[i].irradiance.x, a[i].irradiance.x, 0.05 * a[i].irradiance.x) << i;
-    }
-  }
-}
+// Coincident coplanar surfaces (a duplicated mesh) are not the gather's to
+// resolve: given two layers of surfels in one place it cannot tell a
+// modelling error from real geometry, and summing them is right for the
+// tree it is given. The contract is upstream: the surfel samplers never let
+// coincident coplanar copies add up (server/surfels/coincident_surfaces.h),
+// so the gather never sees doubled area. The case is tested there, through
+// both samplers and this gather:
+// tests/server/surfels/coincident_surfaces_gather_test.cpp
+// (CoincidentSurfaces.DuplicatedEmitterLightsAsOneThroughSamplerAndGather),
+// and at pipeline level by Stability.CoplanarDuplicateFloor. (This file's
+// test target does not link the sampler, hence the other home.)
 
-// Known defect (issue 6), disabled until fixed: the HDR cut makes the error worse (0.0156 against 0.0045 without).
-TEST(HardCases, DISABLED_TinyBrightEmitterIsResolvedWithTheHdrCut) {
+// Measured: mean |error| 0.0049 without, 0.0016 with the HDR cut (worst
+// 0.0044), both methods.
+TEST(HardCases, TinyBrightEmitterIsResolvedWithTheHdrCut) {
   // A 2 cm sphere of radiance 2e4 above a dim floor and wall: it brings
-  // ~90% of the light. Without refinement it is merged into nodes with the
-  // floor and smeared; the HDR-aware cut refines the nodes holding it.
+  // ~99% of the light. Unrefined it is drawn from the SH of a few nodes;
+  // the HDR-aware cut refines the nodes holding it into pieces drawn with
+  // their exact mean normals.
   const float R = 0.02f, H = 0.6f, Le = 2e4f;
   std::vector<Surfel> s;
   test::add_quad(s, {-2, -2, 0}, {4, 0, 0}, {0, 4, 0}, 120, 120, C3f(0.05f));
@@ -206,8 +201,9 @@ TEST(HardCases, DISABLED_TinyBrightEmitterIsResolvedWithTheHdrCut) {
   }
 }
 
-// Known defect (issue 6), disabled until fixed: light leaks through the thin wall.
-TEST(HardCases, DISABLED_ThinWallsDoNotLeakLight) {
+// Measured: worst inside irradiance 0.0047 (3e-5 of pi L outside; 11 when
+// both faces of the wall were drawn from one SH), both methods.
+TEST(HardCases, ThinWallsDoNotLeakLight) {
   // A closed dark room (inner faces black) whose walls are 2 cm thick,
   // their outer faces brightly lit (radiance 50): inside must stay dark.
   const float S = 2.f, t = 0.02f, Lout = 50.f;

@@ -5,6 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+
 namespace pbgi {
 namespace {
 
@@ -110,6 +113,64 @@ TEST(RayScene, EpsilonScalesWithScene) {
   const RayScene a(small), b(large);
   EXPECT_NEAR(b.ray_epsilon() / a.ray_epsilon(), 1000.f, 10.f);
   EXPECT_LT(b.ray_epsilon(), 1.f);  // well below the scene's features
+}
+
+// Far from the origin (1e5: floats 0.008 apart) secondary rays must clear
+// the surface they leave without skipping geometry a few centimetres away.
+// The old global epsilon (32 ulps of the largest coordinate, 0.38 here)
+// started them above the second quad, 0.05 away.
+TEST(RayScene, SpawnedRaysClearTheSurfaceFarFromTheOrigin) {
+  for (const float base : {0.f, 1e3f, 1e5f}) {
+    SCOPED_TRACE(base);
+    Scene s;
+    const uint32_t m = test::add_material(s, {0.5f, 0.5f, 0.5f});
+    // A tilted 2 x 2 quad (normal ~(0.2, 0.3, 0.93)) and a copy 0.05 above it
+    // facing it, both around (base, base, base).
+    const V3f o(base, base, base), n = V3f(0.2f, 0.3f, 0.93f).normalized();
+    const V3f e1 = V3f(1, 0, 0).cross(n).normalized(), e2 = n.cross(e1);
+    const V3f a = o - e1 - e2, b = o + e1 - e2, c = o + e1 + e2, d = o - e1 + e2;
+    test::add_quad(s, a, b, c, d, m, "/lower");
+    const V3f up = 0.05f * n;
+    test::add_quad(s, a + up, d + up, c + up, b + up, m, "/upper");
+    const RayScene rays(s);
+    EXPECT_LT(rays.ray_epsilon(), 1e-6f * base + 1e-5f);
+
+    uint64_t state = 12345;
+    auto uniform = [&state] {
+      state = state * 6364136223846793005ull + 1442695040888963407ull;
+      return float(state >> 40) * 0x1p-24f;
+    };
+    int hits_lower = 0, hits_upper = 0, escaped = 0;
+    float worst_offset = 0.f;
+    for (int i = 0; i < 2000; ++i) {
+      // A ray from far above onto the lower quad, between the quads' edges.
+      const V3f target = o + (1.4f * uniform() - 0.7f) * e1 + (1.4f * uniform() - 0.7f) * e2;
+      const V3f from = o + 0.02f * n + (target - o);  // between the quads
+      const Hit hit = rays.intersect(from, (target - from).normalized());
+      ASSERT_TRUE(hit.valid());
+      ASSERT_LT(hit.triangle, 2u) << "the first ray hit the upper quad";
+      const SurfacePoint sp = rays.hit_point(hit);
+      const V3f ng = hit.geometric_normal.dot(n) > 0.f ? hit.geometric_normal : -hit.geometric_normal;
+      // A direction in the upper hemisphere, down to 12 degrees of grazing.
+      const float phi = 6.2831853f * uniform(), cos_t = 0.2f + 0.8f * uniform();
+      const float sin_t = std::sqrt(1.f - cos_t * cos_t);
+      const V3f w = (cos_t * ng + sin_t * std::cos(phi) * e1 + sin_t * std::sin(phi) * e2).normalized();
+      const V3f origin = RayScene::offset_ray_origin(sp, ng, w);
+      worst_offset = std::max(worst_offset, (origin - sp.p).dot(ng));
+      const Hit next = rays.intersect(origin, w);
+      if (!next.valid()) ++escaped;
+      else if (next.triangle < 2) ++hits_lower;
+      else ++hits_upper;
+    }
+    EXPECT_EQ(hits_lower, 0) << "self-intersections";
+    // Everything leaving the centre region upward within 78 degrees of the
+    // normal meets the upper quad before its edge (0.7 + 0.05 tan 78 < 1).
+    EXPECT_EQ(hits_upper, 2000);
+    EXPECT_EQ(escaped, 0);
+    // The offset is a few ulps of the point's coordinates.
+    EXPECT_LT(worst_offset, 4e-7f * base + 1e-5f);
+    EXPECT_GT(worst_offset, 0.f);
+  }
 }
 
 TEST(RayScene, RejectsOutOfRangeIndicesNamingTheMesh) {

@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <limits>
 
 namespace fs = std::filesystem;
 
@@ -25,10 +26,11 @@ class PbgiServiceTest : public ::testing::Test {
     std::ofstream(root / "a.usda") << "#usda 1.0\n";
     std::ofstream(root / "bad.usda") << "not usd\n";
     auto registry = std::make_shared<SceneRegistry>(
-        [this](const fs::path& path, const OpenOptions& options,
+        [this](const fs::path& path, const OpenOptions& options, const StageSelection& selection,
                const StageProgress& progress) -> std::shared_ptr<SceneSession> {
           ++opens;
           last_open = options;
+          last_selection = selection;
           if (path.filename() == "bad.usda") {
             throw SceneError("'" + path.string() + "': not a USD layer");
           }
@@ -99,6 +101,7 @@ class PbgiServiceTest : public ::testing::Test {
   fs::path root;
   int opens = 0;
   OpenOptions last_open;
+  StageSelection last_selection;
   std::unique_ptr<PbgiService> service;
   std::unique_ptr<grpc::Server> server;
   std::unique_ptr<v1::Pbgi::Stub> stub;
@@ -230,6 +233,172 @@ TEST_F(PbgiServiceTest, RenderTileRequestErrors) {
   s = render(r);
   EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_TRUE(mentions(s, "microbuffer")) << s.error_message();
+}
+
+TEST_F(PbgiServiceTest, OpenSceneProgressHasElapsedAndEta) {
+  std::vector<v1::OpenSceneEvent> events;
+  ASSERT_TRUE(open("a.usda", &events).ok());
+  ASSERT_GE(events.size(), 3u);
+  for (size_t i = 0; i + 1 < events.size(); ++i) {
+    const auto& p = events[i].progress();
+    EXPECT_GE(p.elapsed_seconds(), 0.0);
+    // Too early to estimate at 0%, nothing left at 100%.
+    if (p.fraction() == 0.f) EXPECT_LT(p.eta_seconds(), 0.0) << p.stage();
+    if (p.fraction() == 1.f) EXPECT_EQ(p.eta_seconds(), 0.0) << p.stage();
+  }
+}
+
+TEST_F(PbgiServiceTest, OpenSceneStageSelectionIsCheckedAndPartOfTheKey) {
+  grpc::ClientContext context;
+  v1::OpenSceneRequest request;
+  request.set_scene_path("a.usda");
+  (*request.mutable_variant_selections())["/Car:color"] = "red";
+  request.set_time_code(24.0);
+  auto reader = stub->OpenScene(&context, request);
+  v1::OpenSceneEvent event;
+  while (reader->Read(&event)) {
+  }
+  ASSERT_TRUE(reader->Finish().ok());
+  EXPECT_EQ(last_selection.variant_selections.at("/Car:color"), "red");
+  ASSERT_TRUE(last_selection.time_code.has_value());
+  EXPECT_EQ(*last_selection.time_code, 24.0);
+  EXPECT_EQ(opens, 1);
+  ASSERT_TRUE(open("a.usda").ok());
+  EXPECT_EQ(opens, 2) << "no selection: another scene";
+  EXPECT_TRUE(last_selection.empty());
+
+  auto status_of = [&](const v1::OpenSceneRequest& r) {
+    grpc::ClientContext c;
+    auto rd = stub->OpenScene(&c, r);
+    v1::OpenSceneEvent e;
+    while (rd->Read(&e)) {
+    }
+    return rd->Finish();
+  };
+  for (const char* bad_key : {"Car:color", "/Car", "/Car:", ":color"}) {
+    v1::OpenSceneRequest r;
+    r.set_scene_path("a.usda");
+    (*r.mutable_variant_selections())[bad_key] = "red";
+    const grpc::Status s = status_of(r);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << bad_key;
+    EXPECT_TRUE(mentions(s, "variant_selections")) << s.error_message();
+  }
+  v1::OpenSceneRequest r;
+  r.set_scene_path("a.usda");
+  r.set_time_code(std::numeric_limits<double>::quiet_NaN());
+  const grpc::Status s = status_of(r);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_TRUE(mentions(s, "time_code")) << s.error_message();
+  EXPECT_EQ(opens, 2);
+}
+
+TEST_F(PbgiServiceTest, GatherRejectsEmptyAndBadGlossyArrays) {
+  const std::string id = open_id();
+  const float up[3] = {0, 1, 0};
+  v1::GatherRequest request;
+  request.set_scene_id(id);
+  grpc::Status s = gather(request);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << "no receivers";
+  EXPECT_TRUE(mentions(s, "empty")) << s.error_message();
+
+  request.set_positions(std::string(12, '\0'));
+  request.set_normals(std::string(reinterpret_cast<const char*>(up), sizeof(up)));
+  request.set_view_directions(std::string(24, '\0'));
+  s = gather(request);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_TRUE(mentions(s, "view_directions")) << s.error_message();
+
+  request.set_view_directions(std::string(reinterpret_cast<const char*>(up), sizeof(up)));
+  const float rough = 1.5f;
+  request.set_roughness(std::string(reinterpret_cast<const char*>(&rough), sizeof(rough)));
+  s = gather(request);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_TRUE(mentions(s, "roughness[0]")) << s.error_message();
+
+  const float nan_rgb[3] = {std::numeric_limits<float>::quiet_NaN(), 0, 0};
+  request.clear_roughness();
+  request.set_specular_color(std::string(reinterpret_cast<const char*>(nan_rgb), sizeof(nan_rgb)));
+  s = gather(request);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_TRUE(mentions(s, "specular_color[0]")) << s.error_message();
+}
+
+TEST_F(PbgiServiceTest, UnloadSceneAndStatus) {
+  const std::string id = open_id();
+  {
+    grpc::ClientContext context;
+    v1::GetStatusResponse status;
+    ASSERT_TRUE(stub->GetStatus(&context, v1::GetStatusRequest(), &status).ok());
+    ASSERT_EQ(status.scenes_size(), 1);
+    EXPECT_EQ(status.scenes(0).info().scene_id(), id);
+    EXPECT_EQ(status.scenes(0).memory_bytes(), 12u * 200) << "12 triangles, estimated";
+    EXPECT_GT(status.rss_bytes(), 0u);
+    EXPECT_GT(status.requests().max_in_flight(), 0u);
+    EXPECT_EQ(status.requests().in_flight(), 0u);
+  }
+  auto unload = [&](const std::string& scene_id) {
+    grpc::ClientContext context;
+    v1::UnloadSceneRequest request;
+    request.set_scene_id(scene_id);
+    v1::UnloadSceneResponse response;
+    return stub->UnloadScene(&context, request, &response);
+  };
+  EXPECT_TRUE(unload(id).ok());
+  grpc::Status s = unload(id);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_TRUE(mentions(s, id)) << s.error_message();
+  EXPECT_EQ(unload("").error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(render(tile_request(id)).error_code(), grpc::StatusCode::NOT_FOUND)
+      << "an unloaded scene is gone";
+
+  // Opening it again builds a new session.
+  const int before = opens;
+  EXPECT_FALSE(open_id().empty());
+  EXPECT_EQ(opens, before + 1);
+}
+
+TEST_F(PbgiServiceTest, RenderTilesChecksEveryTileBeforeRendering) {
+  const std::string id = open_id();
+  auto render_tiles = [&](const v1::RenderTilesRequest& request, int* received) {
+    grpc::ClientContext context;
+    auto reader = stub->RenderTiles(&context, request);
+    v1::RenderTileResponse response;
+    *received = 0;
+    while (reader->Read(&response)) ++*received;
+    return reader->Finish();
+  };
+  v1::RenderTilesRequest request;
+  request.set_scene_id(id);
+  request.set_camera("/Camera");
+  request.set_image_width(64);
+  request.set_image_height(48);
+  int received = -1;
+  grpc::Status s = render_tiles(request, &received);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_TRUE(mentions(s, "tiles is empty")) << s.error_message();
+
+  // The bad tile is the second: nothing is rendered (the fake session has
+  // no tree: rendering the first would crash the test).
+  for (uint32_t x0 : {0u, 32u}) {
+    v1::Tile* t = request.add_tiles();
+    t->set_x0(x0);
+    t->set_y0(0);
+    t->set_x1(x0 + 32);
+    t->set_y1(16);
+  }
+  request.mutable_tiles(1)->set_x1(65);
+  s = render_tiles(request, &received);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::OUT_OF_RANGE);
+  EXPECT_TRUE(mentions(s, "tiles[1]")) << s.error_message();
+  EXPECT_EQ(received, 0);
+
+  request.mutable_tiles(1)->set_x1(32);
+  s = render_tiles(request, &received);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << "empty tile";
+  EXPECT_TRUE(mentions(s, "tiles[1]")) << s.error_message();
+
+  request.set_camera("/Nope");
+  EXPECT_EQ(render_tiles(request, &received).error_code(), grpc::StatusCode::NOT_FOUND);
 }
 
 }  // namespace

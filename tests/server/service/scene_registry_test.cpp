@@ -19,7 +19,7 @@ TEST(SceneRegistry, SameKeyOpensOnceUnderConcurrency) {
   std::atomic<int> opens{0};
   std::promise<void> release;
   std::shared_future<void> released = release.get_future().share();
-  SceneRegistry registry([&](const std::filesystem::path& path, const OpenOptions&,
+  SceneRegistry registry([&](const std::filesystem::path& path, const OpenOptions&, const StageSelection&,
                              const StageProgress& progress) {
     ++opens;
     progress("ingest", 0.5f);
@@ -50,7 +50,7 @@ TEST(SceneRegistry, SameKeyOpensOnceUnderConcurrency) {
 
 TEST(SceneRegistry, DifferentOptionsOrPathsAreDifferentSessions) {
   int opens = 0;
-  SceneRegistry registry([&](const std::filesystem::path& path, const OpenOptions&,
+  SceneRegistry registry([&](const std::filesystem::path& path, const OpenOptions&, const StageSelection&,
                              const StageProgress&) {
     return testing::fake_session(path, "id-" + std::to_string(++opens));
   });
@@ -71,7 +71,7 @@ TEST(SceneRegistry, DifferentOptionsOrPathsAreDifferentSessions) {
 
 TEST(SceneRegistry, FailuresAreRethrownAndNotCached) {
   int opens = 0;
-  SceneRegistry registry([&](const std::filesystem::path& path, const OpenOptions&,
+  SceneRegistry registry([&](const std::filesystem::path& path, const OpenOptions&, const StageSelection&,
                              const StageProgress&) -> std::shared_ptr<SceneSession> {
     if (++opens == 1) throw SceneError("'/scenes/a.usda': prim </World/Bad>: broken");
     return testing::fake_session(path, "id");
@@ -83,7 +83,7 @@ TEST(SceneRegistry, FailuresAreRethrownAndNotCached) {
 }
 
 TEST(SceneRegistry, CallerRunningTheOpenSeesItsProgress) {
-  SceneRegistry registry([&](const std::filesystem::path& path, const OpenOptions&,
+  SceneRegistry registry([&](const std::filesystem::path& path, const OpenOptions&, const StageSelection&,
                              const StageProgress& progress) {
     progress("ingest", 0.f);
     progress("surfels", 1.f);
@@ -97,7 +97,7 @@ TEST(SceneRegistry, CallerRunningTheOpenSeesItsProgress) {
 TEST(SceneRegistry, WaiterCanBeCancelled) {
   std::promise<void> in_open, release;
   std::shared_future<void> released = release.get_future().share();
-  SceneRegistry registry([&](const std::filesystem::path& path, const OpenOptions&,
+  SceneRegistry registry([&](const std::filesystem::path& path, const OpenOptions&, const StageSelection&,
                              const StageProgress&) {
     in_open.set_value();
     released.wait();
@@ -109,6 +109,71 @@ TEST(SceneRegistry, WaiterCanBeCancelled) {
   release.set_value();
   first.join();
   EXPECT_NE(registry.find("id"), nullptr) << "the open itself went on";
+}
+
+TEST(SceneRegistry, EvictsLeastRecentlyUsedScenesOverTheMemoryBudget) {
+  int opens = 0;
+  RegistryOptions options;
+  options.scene_memory_budget = 2500;
+  options.memory_of = [](const SceneSession&) -> uint64_t { return 1000; };
+  SceneRegistry registry(
+      [&](const std::filesystem::path& path, const OpenOptions&, const StageSelection&,
+          const StageProgress&) {
+        ++opens;
+        return testing::fake_session(path, "id-" + path.stem().string());
+      },
+      options);
+  registry.open("/s/a.usda", {});
+  registry.open("/s/b.usda", {});
+  ASSERT_NE(registry.find("id-a"), nullptr);   // a is now more recent than b
+  registry.open("/s/c.usda", {});              // 3000 > 2500: b goes
+  EXPECT_EQ(registry.evictions(), 1u);
+  EXPECT_NE(registry.find("id-a"), nullptr);
+  EXPECT_EQ(registry.find("id-b"), nullptr);
+  EXPECT_NE(registry.find("id-c"), nullptr);
+  ASSERT_EQ(registry.usage().size(), 2u);
+  EXPECT_EQ(registry.usage()[0].memory_bytes, 1000u);
+
+  // Opening b again opens it anew (and evicts the least recent: a).
+  registry.open("/s/b.usda", {});
+  EXPECT_EQ(opens, 4);
+  EXPECT_EQ(registry.find("id-a"), nullptr);
+  EXPECT_EQ(registry.evictions(), 2u);
+
+  // A scene larger than the whole budget still opens (alone).
+  options.scene_memory_budget = 500;
+  SceneRegistry small([&](const std::filesystem::path& path, const OpenOptions&,
+                          const StageSelection&, const StageProgress&) {
+    return testing::fake_session(path, "id-" + path.stem().string());
+  }, options);
+  EXPECT_NE(small.open("/s/a.usda", {}), nullptr);
+  EXPECT_NE(small.open("/s/b.usda", {}), nullptr);
+  EXPECT_EQ(small.list().size(), 1u);
+}
+
+TEST(SceneRegistry, UnloadForgetsTheSessionAndItsKey) {
+  int opens = 0;
+  SceneRegistry registry([&](const std::filesystem::path& path, const OpenOptions&,
+                             const StageSelection&, const StageProgress&) {
+    ++opens;
+    return testing::fake_session(path, "id-" + std::to_string(opens));
+  });
+  const auto first = registry.open("/s/a.usda", {});
+  EXPECT_FALSE(registry.unload("nope"));
+  EXPECT_TRUE(registry.unload("id-1"));
+  EXPECT_EQ(registry.find("id-1"), nullptr);
+  EXPECT_TRUE(registry.list().empty());
+  EXPECT_EQ(first->info.scene_id, "id-1") << "a holder keeps a valid session";
+  const auto second = registry.open("/s/a.usda", {});
+  EXPECT_EQ(opens, 2);
+  EXPECT_EQ(second->info.scene_id, "id-2");
+
+  StageSelection selection;
+  selection.time_code = 3.0;
+  registry.open("/s/a.usda", {}, selection);
+  EXPECT_EQ(opens, 3) << "another stage selection, another session";
+  registry.open("/s/a.usda", {}, selection);
+  EXPECT_EQ(opens, 3);
 }
 
 }  // namespace

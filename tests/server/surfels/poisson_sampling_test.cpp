@@ -146,6 +146,44 @@ TEST(PoissonSampling, ThinWallFacesAreSampledIndependently) {
   EXPECT_NEAR(area_of(surfels), 32.0, 1e-3);
 }
 
+// Coincident coplanar copies (a duplicated mesh, or a second mesh laid over
+// part of the first) are one surface: the surfels stand for its area once,
+// at the usual density. Before the fix every copy's area was handed to the
+// surfels of the union (a doubled quad had twice its area).
+TEST(PoissonSampling, CoincidentCoplanarCopiesCountTheirAreaOnce) {
+  Scene s;
+  const uint32_t m = test::add_material(s, {0.5f, 0.5f, 0.5f});
+  add_tessellated_plane(s, 4.f, 2, 0.f, m);   // 16 units^2 in 8 triangles
+  add_tessellated_plane(s, 4.f, 3, 0.f, m);   // the same plane, other triangles
+  test::add_quad(s, V3f(0, 0, 0), V3f(4, 0, 0), V3f(4, 4, 0), V3f(0, 4, 0), m, "/copy");  // a third
+  // A fourth, partial: x in [1, 2.5], y in [0.5, 3.5].
+  test::add_quad(s, V3f(1, 0.5f, 0), V3f(2.5f, 0.5f, 0), V3f(2.5f, 3.5f, 0), V3f(1, 3.5f, 0), m, "/part");
+  // The face of a thin wall behind it (opposite normal) is not a copy.
+  add_tessellated_plane(s, 4.f, 2, 0.f, m, /*down=*/true);
+  const float spacing = 0.1f;
+  const auto surfels = sample_surfels(s, poisson(spacing));
+  double up_area = 0, down_area = 0, inside_part = 0;
+  size_t up = 0;
+  for (const Surfel& x : surfels) {
+    if (x.normal.z > 0) {
+      up_area += x.area();
+      ++up;
+      const V3f& p = x.position;
+      if (p.x > 1.2f && p.x < 2.3f && p.y > 0.7f && p.y < 3.3f) inside_part += x.area();
+    } else {
+      down_area += x.area();
+    }
+  }
+  std::printf("coincident copies: up area %.4f (one copy 16), down %.4f, %zu up surfels\n", up_area,
+              down_area, up);
+  EXPECT_NEAR(up_area, 16.0, 0.01 * 16.0);
+  EXPECT_NEAR(down_area, 16.0, 1e-3);
+  // The same density as a single plane (1600), and the same area per unit
+  // area where four copies overlap as elsewhere.
+  EXPECT_NEAR(up / 1600.0, 1.0, 0.15);
+  EXPECT_NEAR(inside_part / (1.1 * 2.6), 1.0, 0.1);
+}
+
 TEST(PoissonSampling, DoubleSidedTwinsAndTinyMeshes) {
   Scene s;
   const uint32_t m = test::add_material(s, {0.5f, 0.5f, 0.5f});

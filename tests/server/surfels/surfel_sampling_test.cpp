@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 
 namespace pbgi {
@@ -228,6 +229,33 @@ TEST(SampleSurfels, DoubleSidedMeshesGetTwins) {
   for (const Surfel& x : surfels) (x.normal.z > 0 ? up : down)++;
   EXPECT_EQ(up, down);
   EXPECT_NEAR(surfel_area(surfels), 2.0, 2e-3);  // one per face
+}
+
+// Coincident coplanar copies are one surface: a surfel covered by k copies
+// stands for 1/k of its share, so a doubled quad has the area of one (before:
+// twice). The reversed copy (the other face of a thin wall) counts on its own.
+TEST(SampleSurfels, CoincidentCoplanarCopiesCountTheirAreaOnce) {
+  Scene s;
+  const uint32_t m = test::add_material(s, {0.5f, 0.5f, 0.5f});
+  test::add_quad(s, V3f(0, 0, 0), V3f(4, 0, 0), V3f(4, 4, 0), V3f(0, 4, 0), m, "/a");
+  // The same square split along the other diagonal, and a partial copy.
+  test::add_quad(s, V3f(4, 0, 0), V3f(4, 4, 0), V3f(0, 4, 0), V3f(0, 0, 0), m, "/b");
+  test::add_quad(s, V3f(1, 0.5f, 0), V3f(2.5f, 0.5f, 0), V3f(2.5f, 3.5f, 0), V3f(1, 3.5f, 0), m, "/part");
+  test::add_quad(s, V3f(0, 0, 0), V3f(0, 4, 0), V3f(4, 4, 0), V3f(4, 0, 0), m, "/back");  // faces -z
+  SurfelOptions o;
+  o.spacing = 0.05f;
+  const std::vector<Surfel> surfels = sample_surfels(s, o);
+  double up = 0, down = 0, part = 0;
+  for (const Surfel& x : surfels) {
+    (x.normal.z > 0 ? up : down) += x.area();
+    const V3f& p = x.position;
+    if (x.normal.z > 0 && p.x > 1.2f && p.x < 2.3f && p.y > 0.7f && p.y < 3.3f) part += x.area();
+  }
+  std::printf("uniform sampler, coincident copies: up %.4f (one copy 16), down %.4f\n", up, down);
+  EXPECT_NEAR(up, 16.0, 0.01 * 16.0);
+  EXPECT_NEAR(down, 16.0, 1e-3);
+  // Where three copies overlap, the area per unit area is still 1.
+  EXPECT_NEAR(part / (1.1 * 2.6), 1.0, 0.03);
 }
 
 TEST(SampleSurfels, EmptySceneAndBadOptions) {

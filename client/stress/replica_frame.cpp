@@ -1,0 +1,116 @@
+#include "client/stress/replica_frame.h"
+
+#include "storage/format/errors.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <atomic>
+#include <exception>
+#include <mutex>
+#include <thread>
+
+namespace pbgi::stress {
+namespace {
+
+void blit(const std::vector<float>& tile_values, const v1::Tile& tile, uint32_t frame_width,
+          int channels, std::vector<float>& frame_values) {
+  const uint32_t w = tile.x1() - tile.x0();
+  for (uint32_t y = tile.y0(); y < tile.y1(); ++y) {
+    const float* src = tile_values.data() + size_t(y - tile.y0()) * w * channels;
+    float* dst = frame_values.data() + (size_t(y) * frame_width + tile.x0()) * channels;
+    std::copy(src, src + size_t(w) * channels, dst);
+  }
+}
+
+}  // namespace
+
+ReplicaFrame render_frame_replicated(const std::vector<client::PbgiClient*>& replicas,
+                                     const client::FrameRequest& request) {
+  if (replicas.empty()) throw InvalidArgument("render_frame_replicated: no replica");
+  if (request.width == 0 || request.height == 0 || request.tile_size == 0) {
+    throw InvalidArgument(fmt::format("render_frame_replicated: image {}x{} tile {} is empty",
+                                      request.width, request.height, request.tile_size));
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const size_t n = replicas.size();
+  ReplicaFrame out;
+  client::Frame& frame = out.frame;
+  frame.width = request.width;
+  frame.height = request.height;
+  const size_t pixels = size_t(request.width) * request.height;
+  frame.beauty.assign(3 * pixels, 0.f);
+  frame.direct.assign(3 * pixels, 0.f);
+  frame.indirect.assign(3 * pixels, 0.f);
+  frame.albedo.assign(3 * pixels, 0.f);
+  frame.ao.assign(pixels, 0.f);
+  out.tiles_per_replica.assign(n, 0);
+
+  const std::vector<v1::Tile> tiles = client::tile_grid(request.width, request.height, request.tile_size);
+  frame.tiles = static_cast<uint32_t>(tiles.size());
+  // Replica r's tiles are r, r + n, r + 2n, ...; its workers take them in order.
+  std::vector<std::atomic<size_t>> next(n);
+  for (size_t r = 0; r < n; ++r) next[r] = r;
+  std::atomic<bool> failed{false};
+  std::mutex mutex;  // guards the frame's stats, the counters and `error`
+  std::exception_ptr error;
+
+  auto worker = [&](size_t home) {
+    v1::RenderTileRequest tile_request;
+    tile_request.set_scene_id(request.scene_id);
+    tile_request.set_camera(request.camera);
+    tile_request.set_image_width(request.width);
+    tile_request.set_image_height(request.height);
+    *tile_request.mutable_options() = request.options;
+    for (;;) {
+      if (failed) return;
+      const size_t i = next[home].fetch_add(n);
+      if (i >= tiles.size()) return;
+      *tile_request.mutable_tile() = tiles[i];
+      // Home replica first, then the others in order while they are unavailable.
+      for (size_t attempt = 0; attempt < n; ++attempt) {
+        const size_t r = (home + attempt) % n;
+        try {
+          const client::TileImage tile = replicas[r]->render_tile(tile_request);
+          blit(tile.beauty, tile.tile, frame.width, 3, frame.beauty);
+          blit(tile.direct, tile.tile, frame.width, 3, frame.direct);
+          blit(tile.indirect, tile.tile, frame.width, 3, frame.indirect);
+          blit(tile.albedo, tile.tile, frame.width, 3, frame.albedo);
+          blit(tile.ao, tile.tile, frame.width, 1, frame.ao);
+          std::lock_guard lock(mutex);
+          ++out.tiles_per_replica[r];
+          if (attempt > 0) ++out.failovers;
+          v1::GatherStats& s = frame.stats;
+          s.set_receivers(s.receivers() + tile.stats.receivers());
+          s.set_nodes_visited(s.nodes_visited() + tile.stats.nodes_visited());
+          s.set_nodes_rasterized(s.nodes_rasterized() + tile.stats.nodes_rasterized());
+          s.set_surfels_raycast(s.surfels_raycast() + tile.stats.surfels_raycast());
+          s.set_seconds(s.seconds() + tile.stats.seconds());
+          break;
+        } catch (const client::RpcError& e) {
+          if (e.code() == grpc::StatusCode::UNAVAILABLE && attempt + 1 < n) continue;
+          std::lock_guard lock(mutex);
+          if (!error) error = std::current_exception();
+          failed = true;
+          return;
+        } catch (...) {
+          std::lock_guard lock(mutex);
+          if (!error) error = std::current_exception();
+          failed = true;
+          return;
+        }
+      }
+    }
+  };
+  const size_t jobs_per_replica = std::max<size_t>(1, (std::max(1u, request.jobs) + n - 1) / n);
+  std::vector<std::thread> threads;
+  for (size_t r = 0; r < n; ++r) {
+    for (size_t j = 0; j < jobs_per_replica; ++j) threads.emplace_back(worker, r);
+  }
+  for (std::thread& t : threads) t.join();
+  if (error) std::rethrow_exception(error);
+  frame.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return out;
+}
+
+}  // namespace pbgi::stress

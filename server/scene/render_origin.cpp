@@ -1,0 +1,54 @@
+#include "server/scene/render_origin.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace pbgi {
+namespace {
+
+V3f moved(const V3f& p, const V3d& shift) {
+  return V3f(float(double(p.x) + shift.x), float(double(p.y) + shift.y),
+             float(double(p.z) + shift.z));
+}
+
+// The translation row of a row-vector transform (p' = p * M).
+void move_translation(M44f& m, const V3d& shift) {
+  const V3f t = moved(V3f(m[3][0], m[3][1], m[3][2]), shift);
+  m[3][0] = t.x;
+  m[3][1] = t.y;
+  m[3][2] = t.z;
+}
+
+}  // namespace
+
+V3d render_origin_for(const Scene& scene) {
+  const Box3f b = scene.bounds();
+  if (b.isEmpty()) return V3d(0.0);
+  const V3d lo(b.min.x, b.min.y, b.min.z), hi(b.max.x, b.max.y, b.max.z);
+  const V3d centre = scene.render_origin + 0.5 * (lo + hi);
+  const double side = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+  if (!(side > 0.0)) return centre;
+  const double q = std::ldexp(1.0, int(std::ceil(std::log2(side))) - 4);
+  return V3d(std::round(centre.x / q) * q, std::round(centre.y / q) * q,
+             std::round(centre.z / q) * q);
+}
+
+void rebase_scene(Scene& scene, const V3d& origin) {
+  const V3d shift = scene.render_origin - origin;
+  if (shift == V3d(0.0)) return;
+  for (V3f& p : scene.triangles.positions) p = moved(p, shift);
+  for (Light& l : scene.lights) move_translation(l.local_to_world, shift);
+  for (auto& [path, camera] : scene.cameras) move_translation(camera.local_to_world, shift);
+  for (Volume& v : scene.volumes) {
+    move_translation(v.local_to_world, shift);
+    if (!v.bounds.isEmpty()) {
+      v.bounds.min = moved(v.bounds.min, shift);
+      v.bounds.max = moved(v.bounds.max, shift);
+    }
+  }
+  scene.render_origin = origin;
+}
+
+void rebase_to_local_frame(Scene& scene) { rebase_scene(scene, render_origin_for(scene)); }
+
+}  // namespace pbgi

@@ -1,0 +1,98 @@
+// Writes the seed corpora of the fuzz targets that need binary inputs made
+// by pbgi itself (tests/fuzz/make_corpus.sh adds the text and USD-reader
+// ones): valid requests, and the pages and manifest of a tiny page set.
+// Usage: fuzz_make_corpus <corpus dir>
+#include "pbgi/v1/pbgi.pb.h"
+#include "storage/pages/page_set.h"
+#include "storage/tree/surfel.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+void write(const fs::path& p, const std::string& bytes) {
+  fs::create_directories(p.parent_path());
+  std::ofstream(p, std::ios::binary) << bytes;
+}
+
+std::string floats(std::initializer_list<float> v) {
+  return std::string(reinterpret_cast<const char*>(std::data(v)), v.size() * sizeof(float));
+}
+
+void requests(const fs::path& dir) {
+  pbgi::v1::GatherRequest g;
+  g.set_scene_id("0123456789abcdef");
+  g.set_positions(floats({0, 1, 0, 0.5f, 0.2f, -0.3f}));
+  g.set_normals(floats({0, 1, 0, 0, 0, 1}));
+  write(dir / "gather_two_receivers", g.SerializeAsString());
+  g.mutable_options()->set_method(pbgi::v1::GatherOptions::FPBGI);
+  g.mutable_options()->set_microbuffer_resolution(8);
+  g.mutable_options()->set_max_solid_angle(0.03f);
+  g.mutable_options()->set_clusters(100);
+  g.mutable_options()->set_epsilon(0.01f);
+  g.mutable_options()->set_light_samples(4);
+  write(dir / "gather_fpbgi_options", g.SerializeAsString());
+  pbgi::v1::OpenSceneRequest o;
+  o.set_scene_path("cornell.usda");
+  o.mutable_build()->set_target_surfels(20000);
+  o.mutable_build()->set_light_samples(4);
+  o.mutable_build()->set_page_size(65536);
+  o.mutable_build()->set_leaf_size(4);
+  write(dir / "open_scene", o.SerializeAsString());
+}
+
+void pages(const fs::path& dir) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  std::vector<pbgi::Surfel> surfels(300);
+  for (pbgi::Surfel& s : surfels) {
+    s.position = {u(rng), u(rng), u(rng)};
+    s.normal = Imath::V3f(u(rng), u(rng), u(rng) + 2.f).normalized();
+    s.radius = 0.02f;
+    s.albedo = {0.5f, 0.4f, 0.3f};
+    s.radiance = {std::abs(u(rng)), 0.2f, 0.1f};
+  }
+  pbgi::tree::BuildOptions options;
+  options.leaf_size = 4;
+  options.page_size = 4096;
+  const fs::path tmp = fs::temp_directory_path() / ("pbgi-corpus-" + std::to_string(::getpid()));
+  fs::remove_all(tmp);
+  fs::create_directories(tmp);
+  const pbgi::storage::Manifest m =
+      pbgi::storage::build_page_set(surfels, options, "corpus", tmp / "set");
+  std::ifstream in(tmp / "set" / pbgi::storage::kPagesFileName, std::ios::binary);
+  const std::string all((std::istreambuf_iterator<char>(in)), {});
+  // A few pages (first, middle, last: the root) and the manifest.
+  const size_t n = m.pages.size();
+  for (size_t id : {size_t(0), n / 2, n - 1}) {
+    const auto& e = m.pages[id];
+    write(dir / ("page_" + std::to_string(id)), all.substr(e.offset, e.bytes));
+  }
+  std::ifstream mf(tmp / "set" / pbgi::storage::kManifestFileName, std::ios::binary);
+  write(dir / "manifest", std::string((std::istreambuf_iterator<char>(mf)), {}));
+  fs::remove_all(tmp);
+  std::printf("%zu pages in the tiny page set\n", n);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 2) {
+    std::fprintf(stderr, "usage: %s CORPUS_DIR\n", argv[0]);
+    return 2;
+  }
+  const fs::path root = argv[1];
+  requests(root / "fuzz_gather_request");
+  pages(root / "fuzz_page_reader");
+  return 0;
+}
