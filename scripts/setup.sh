@@ -19,7 +19,7 @@ DEB_PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libspdlog-dev libfmt-dev libcli11-dev libtomlplusplus-dev libxxhash-dev libpng-dev
   libopenimageio-dev
-  python3 python3-venv openimageio-tools
+  python3 python3-venv openimageio-tools ccache
 )
 missing=()
 for p in "${DEB_PACKAGES[@]}"; do
@@ -60,10 +60,14 @@ else
   log "Python packages: current"
 fi
 
-# 3. Configure (once) and build.
+# 3. Configure (once) and build. ccache makes a fresh clone's build (CI, a
+#    second worktree) reuse objects compiled before on this machine;
+#    CCACHE_BASEDIR keeps its keys independent of where the clone lives.
+export CCACHE_BASEDIR="$ROOT" CCACHE_NOHASHDIR=1
 if [ ! -f "$BUILD_DIR/build.ninja" ]; then
   log "configuring $BUILD_DIR"
   cmake -S "$ROOT" -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+        -DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache \
         -DPBGI_PYTHON="$VENV/bin/python3"
 fi
 log "building ($JOBS jobs)"
