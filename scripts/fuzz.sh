@@ -21,6 +21,7 @@ BUILD="${PBGI_FUZZ_BUILD_DIR:-$ROOT/build-fuzz}"
 CXX="${PBGI_FUZZ_CXX:-clang++-14}"
 CC="${PBGI_FUZZ_CC:-clang-14}"
 JOBS="${PBGI_JOBS:-2}"
+export CCACHE_BASEDIR="$ROOT" CCACHE_NOHASHDIR=1
 
 # libFuzzer ships with clang's runtime: check before a long build.
 probe="$(mktemp -d)"
@@ -35,6 +36,7 @@ mkdir -p "$LOGS"
 SAN="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
 cmake -S "$ROOT" -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_C_COMPILER="$CC" -DCMAKE_CXX_COMPILER="$CXX" \
+  -DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache \
   -DCMAKE_C_FLAGS="$SAN -fsanitize=fuzzer-no-link" -DCMAKE_CXX_FLAGS="$SAN -fsanitize=fuzzer-no-link" \
   -DCMAKE_EXE_LINKER_FLAGS="$SAN" -DPBGI_FUZZ=ON -DPBGI_BUILD_BENCHMARKS=OFF \
   -DPBGI_PYTHON="$ROOT/.venv/bin/python3" > "$LOGS/configure.log" 2>&1 \

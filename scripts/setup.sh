@@ -20,6 +20,7 @@ DEB_PACKAGES=(
   libspdlog-dev libfmt-dev libcli11-dev libtomlplusplus-dev libxxhash-dev libpng-dev
   libopenimageio-dev
   python3 python3-venv openimageio-tools ccache
+  clang-14 libclang-rt-14-dev llvm-14
 )
 missing=()
 for p in "${DEB_PACKAGES[@]}"; do

@@ -7,9 +7,11 @@ T0=$(date +%s)
 "$ROOT/scripts/setup.sh"
 cd "$ROOT/build"
 ctest --output-on-failure -j "${PBGI_TEST_JOBS:-2}" "$@"
-# Opt-in sanitizer step (a separate clang build): each libFuzzer target under
-# ASan+UBSan for a few seconds from its seed corpus.
-if [ "${PBGI_CI_SANITIZERS:-0}" = 1 ]; then
-  "$ROOT/scripts/fuzz.sh" "${PBGI_FUZZ_SECONDS:-10}"
+# Sanitizer step (separate clang builds, scripts/sanitizers.sh): the fuzz
+# targets under ASan+UBSan for a few seconds each, clients leaving an
+# instrumented daemon, the service's tests under TSan. PBGI_SANITIZERS=0
+# skips it (a quick local run).
+if [ "${PBGI_SANITIZERS:-1}" = 1 ]; then
+  "$ROOT/scripts/sanitizers.sh" "${PBGI_FUZZ_SECONDS:-10}"
 fi
 echo "[test] total $(( $(date +%s) - T0 )) s"

@@ -8,6 +8,7 @@
 // missing from it (after a crash, a daemon restart or Ctrl-C). The sidecar
 // is removed once the images are written.
 #include "client/cli/command.h"
+#include "client/cli/build_flags.h"
 #include "client/cli/connection_flags.h"
 #include "client/image/exr_image.h"
 #include "client/image/png_display.h"
@@ -36,8 +37,6 @@ struct RenderArgs {
   bool resume = false;
   uint32_t max_new_tiles = 0;   // 0 = all
   int retries = 8;
-  std::string payload;
-  uint32_t bounces = 0;
   std::string scene;
   std::string camera;
   uint32_t width = 512, height = 512, tile = 32;
@@ -55,9 +54,7 @@ struct RenderArgs {
   std::string method;         // "" = the daemon's default
   uint32_t clusters = 0;
   float epsilon = 0.f, hdr_refine = 0.f;
-  uint64_t target_surfels = 0;
-  float surfel_spacing = 0.f;
-  uint32_t build_light_samples = 0;
+  BuildArgs build;
 };
 
 // Thrown from the tile callback to end a render early (--max-new-tiles).
@@ -230,7 +227,6 @@ image::ExrImage to_exr(const client::Frame& frame, const RenderArgs& args,
 
 int run_render(const RenderArgs& args) {
   const auto start = Clock::now();
-  check_v1_served(args.payload, args.bounces);
   client::ClientOptions client_options = args.connection.client_options();
   client_options.call_deadline =
       std::chrono::milliseconds(static_cast<int64_t>(args.tile_deadline * 1000));
@@ -239,10 +235,7 @@ int run_render(const RenderArgs& args) {
   Progress progress(args.quiet);
 
   // 1. Open the scene (or join it if the daemon has it open already).
-  v1::BuildOptions build;
-  build.set_target_surfels(args.target_surfels);
-  build.set_surfel_spacing(args.surfel_spacing);
-  build.set_light_samples(args.build_light_samples);
+  const v1::BuildOptions build = args.build.to_proto();
   const v1::SceneInfo info = client.open_scene(
       client::scene_request_path(args.scene), build,
       [&](const std::string& stage, float fraction) { progress.open(stage, fraction); });
@@ -348,9 +341,6 @@ const CommandRegistrar kRegistrar{"render", [](CLI::App& app, int* exit_code) {
   cmd->add_option("--retries", args->retries,
                   "retries per tile on UNAVAILABLE / RESOURCE_EXHAUSTED, with back-off")
       ->capture_default_str()->check(CLI::Range(0, 100));
-  cmd->add_option("--payload", args->payload, "node payload codec: sh|quantized|wavelet|auto "
-                                              "(v1 serves sh)");
-  cmd->add_option("--bounces", args->bounces, "diffuse bounces (v1 serves 1)");
   cmd->add_option("--camera", args->camera, "camera prim path (default: the only camera)");
   cmd->add_option("--width", args->width, "image width")->capture_default_str();
   cmd->add_option("--height", args->height, "image height")->capture_default_str();
@@ -378,10 +368,7 @@ const CommandRegistrar kRegistrar{"render", [](CLI::App& app, int* exit_code) {
   cmd->add_option("--epsilon", args->epsilon, "FPBGI far/near split [0.01]");
   cmd->add_option("--hdr-refine", args->hdr_refine, "HDR-aware cut refinement, 0 = off");
   // Build options (they select which tree the daemon builds or reuses).
-  cmd->add_option("--target-surfels", args->target_surfels, "surfels to sample [200000]");
-  cmd->add_option("--surfel-spacing", args->surfel_spacing, "surfel spacing, world units");
-  cmd->add_option("--build-light-samples", args->build_light_samples,
-                  "shadow rays per surfel and light [16]");
+  args->build.add_to(cmd);
   cmd->callback([args, exit_code] { *exit_code = run_render(*args); });
 }};
 

@@ -2,6 +2,7 @@
 // running pbgid, writes its AOVs as a tile-sized multi-layer EXR and prints
 // the gather statistics of that tile (text, or JSON with --json).
 #include "client/cli/command.h"
+#include "client/cli/build_flags.h"
 #include "client/cli/connection_flags.h"
 #include "client/image/exr_image.h"
 #include "client/lib/pbgi_client.h"
@@ -18,8 +19,6 @@ namespace {
 
 struct TileArgs {
   ConnectionArgs connection;
-  std::string payload;
-  uint32_t bounces = 0;
   std::string scene;
   std::string camera;
   uint32_t width = 512, height = 512;
@@ -31,9 +30,7 @@ struct TileArgs {
   std::string method;         // "" = the daemon's default
   uint32_t clusters = 0;
   float epsilon = 0.f, hdr_refine = 0.f;
-  uint64_t target_surfels = 0;
-  float surfel_spacing = 0.f;
-  uint32_t build_light_samples = 0;
+  BuildArgs build;
 };
 
 // "x0,y0,x1,y1" -> Tile; throws InvalidArgument naming the flag.
@@ -52,14 +49,10 @@ v1::Tile parse_rect(const std::string& text) {
 }
 
 int run_tile(const TileArgs& args) {
-  check_v1_served(args.payload, args.bounces);
   client::PbgiClient client(args.connection.server, args.connection.client_options());
 
   // 1. Open (quietly: the statistics are this command's output).
-  v1::BuildOptions build;
-  build.set_target_surfels(args.target_surfels);
-  build.set_surfel_spacing(args.surfel_spacing);
-  build.set_light_samples(args.build_light_samples);
+  const v1::BuildOptions build = args.build.to_proto();
   const v1::SceneInfo info = client.open_scene(client::scene_request_path(args.scene), build);
   std::string camera = args.camera;
   if (camera.empty()) {
@@ -139,9 +132,6 @@ const CommandRegistrar kRegistrar{"tile", [](CLI::App& app, int* exit_code) {
                                              "print its gather statistics");
   cmd->add_option("scene", args->scene, "USD scene")->required();
   args->connection.add_to(cmd);
-  cmd->add_option("--payload", args->payload, "node payload codec: sh|quantized|wavelet|auto "
-                                              "(v1 serves sh)");
-  cmd->add_option("--bounces", args->bounces, "diffuse bounces (v1 serves 1)");
   cmd->add_option("--camera", args->camera, "camera prim path (default: the only camera)");
   cmd->add_option("--width", args->width, "image width")->capture_default_str();
   cmd->add_option("--height", args->height, "image height")->capture_default_str();
@@ -159,10 +149,7 @@ const CommandRegistrar kRegistrar{"tile", [](CLI::App& app, int* exit_code) {
   cmd->add_option("--clusters", args->clusters, "FPBGI clusters per 1024 receivers [100]");
   cmd->add_option("--epsilon", args->epsilon, "FPBGI far/near split [0.01]");
   cmd->add_option("--hdr-refine", args->hdr_refine, "HDR-aware cut refinement, 0 = off");
-  cmd->add_option("--target-surfels", args->target_surfels, "surfels to sample [200000]");
-  cmd->add_option("--surfel-spacing", args->surfel_spacing, "surfel spacing, world units");
-  cmd->add_option("--build-light-samples", args->build_light_samples,
-                  "shadow rays per surfel and light [16]");
+  args->build.add_to(cmd);
   cmd->callback([args, exit_code] { *exit_code = run_tile(*args); });
 }};
 

@@ -50,17 +50,4 @@ client::ClientOptions ConnectionArgs::client_options(client::ClientOptions base)
   return base;
 }
 
-void check_v1_served(const std::string& payload, uint32_t bounces) {
-  if (!payload.empty() && payload != "auto" && payload != "sh") {
-    throw InvalidArgument("--payload " + payload +
-                          ": this daemon's protocol (pbgi.v1) serves SH node payloads only; the "
-                          "page codec is chosen when the tree is built (use sh or auto)");
-  }
-  if (bounces != 0 && bounces != 1) {
-    throw InvalidArgument("--bounces " + std::to_string(bounces) +
-                          ": this daemon's protocol (pbgi.v1) gathers one diffuse bounce (its "
-                          "surfels carry direct light only); use 1");
-  }
-}
-
 }  // namespace pbgi::cli

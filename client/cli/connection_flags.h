@@ -27,10 +27,4 @@ struct ConnectionArgs {
   client::ClientOptions client_options(client::ClientOptions base = {}) const;
 };
 
-// --payload and --bounces name features the v1 protocol has no field for:
-// the daemon serves SH payloads and one diffuse bounce. Values it would
-// serve are accepted ("auto"/"sh", 1); anything else throws InvalidArgument
-// saying so, instead of being silently ignored.
-void check_v1_served(const std::string& payload, uint32_t bounces);
-
 }  // namespace pbgi::cli

@@ -284,6 +284,7 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
     build.read("seed", o.surfels.seed);
     build.read("page_size", o.tree.page_size);
     build.read("leaf_size", o.tree.leaf_size);
+    build.read("bounces", o.bounce.bounces);
     build.reject_unknown();
   }
   if (const toml::table* table = top.table("limits")) {
@@ -365,6 +366,7 @@ std::string to_toml(const DaemonOptions& o) {
   integer_value("seed", b.surfels.seed);
   integer_value("page_size", b.tree.page_size);
   integer_value("leaf_size", b.tree.leaf_size);
+  integer_value("bounces", b.bounce.bounces);
 
   const service::RequestLimits& l = o.service.limits;
   out << "\n[limits]\n";
@@ -445,7 +447,8 @@ bool operator==(const DaemonOptions& a, const DaemonOptions& b) {
          oa.surfels.target_surfels == ob.surfels.target_surfels &&
          oa.surfels.light_samples == ob.surfels.light_samples &&
          oa.surfels.seed == ob.surfels.seed && oa.tree.page_size == ob.tree.page_size &&
-         oa.tree.leaf_size == ob.tree.leaf_size && la.max_receivers == lb.max_receivers &&
+         oa.tree.leaf_size == ob.tree.leaf_size && oa.bounce.bounces == ob.bounce.bounces &&
+         la.max_receivers == lb.max_receivers &&
          la.max_image_side == lb.max_image_side && la.max_tile_pixels == lb.max_tile_pixels;
 }
 

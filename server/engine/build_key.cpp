@@ -25,6 +25,12 @@ std::string page_set_build_key(const std::string& scene_content_hash, const Open
                         s.image_width, s.image_height, s.pixel_footprint, s.min_spacing, s.offscreen_factor,
                         s.frustum_margin);
   }
+  if (o.bounce.bounces > 1) {
+    const GatherOptions& g = o.bounce.gather;
+    text += fmt::format("|bounces={}|bounce_gather={},{},{},{},{},{},{}", o.bounce.bounces, int(g.method),
+                        g.microbuffer_resolution, g.max_solid_angle, g.ao_max_distance, g.clusters,
+                        g.epsilon, g.hdr_refine);
+  }
   const XXH128_hash_t h = XXH3_128bits(text.data(), text.size());
   return fmt::format("{:016x}{:016x}", h.high64, h.low64);
 }

@@ -1,5 +1,6 @@
 #include "server/engine/scene_session.h"
 
+#include "server/engine/bounce_pages.h"
 #include "server/engine/build_key.h"
 #include "server/gather/page_views.h"
 #include "server/scene/render_origin.h"
@@ -34,6 +35,66 @@ std::unique_ptr<storage::PageSetReader> try_open_existing(const fs::path& dir,
     if (ec) throw IoError("cannot move corrupt page set " + dir.string() + " aside: " + ec.message());
     return nullptr;
   }
+}
+
+// Runs `build`, which publishes the page set `dir`, and opens it. If
+// another process (a replica sharing the cache directory) published the
+// same content-addressed set first, the build stops and that one is opened.
+std::unique_ptr<storage::PageSetReader> build_or_join(const fs::path& dir, const EngineContext& ctx,
+                                                      const std::function<void()>& build) {
+  try {
+    build();
+  } catch (const AlreadyExists& e) {
+    spdlog::info("page set {} was published by another build meanwhile ({}); using it",
+                 dir.string(), e.what());
+  }
+  return std::make_unique<storage::PageSetReader>(dir, ctx.cache, gather::attach_view);
+}
+
+// Builds the page set of `options` (steps 4-6 of open_scene_model), and
+// the sets it builds on that are missing: the set of direct light, then one
+// per extra bounce. Each is content-addressed, so what exists is reused.
+std::unique_ptr<storage::PageSetReader> build_page_sets(
+    const SceneSession& session, const OpenOptions& options, const EngineContext& ctx,
+    const std::function<void(const std::string&, float)>& report) {
+  const Scene& scene = *session.scene;
+  OpenOptions direct_options = options;
+  direct_options.bounce.bounces = 1;
+  fs::path dir = ctx.cache_dir / page_set_build_key(scene.content_hash, direct_options);
+  std::unique_ptr<storage::PageSetReader> tree = try_open_existing(dir, ctx);
+  if (!tree) {
+    tree = build_or_join(dir, ctx, [&] {
+      // 4. Surfels, sampled and shaded batch by batch, streamed into the
+      //    page-set build (external sort by Morton code, bounded memory).
+      storage::PageSetBuilder builder(options.tree, dir.filename().string(), dir, scene.bounds());
+      generate_surfels(scene, *session.rays, options.surfels,
+                       [&](std::span<const Surfel> batch) { builder.add(batch); },
+                       [&](const char* s, float f) { report(s, f); });
+      // 5. Tree pages, published atomically into the cache directory.
+      builder.finish([&](float f) { report("tree", f); });
+    });
+  }
+
+  // 6. More bounces: each a page set gathered from the previous one
+  //    (server/engine/bounce_pages.h).
+  std::unique_ptr<storage::PageSetReader> direct;
+  for (uint32_t b = 2; b <= options.bounce.bounces; ++b) {
+    OpenOptions bounce_options = options;
+    bounce_options.bounce.bounces = b;
+    dir = ctx.cache_dir / page_set_build_key(scene.content_hash, bounce_options);
+    auto next = try_open_existing(dir, ctx);
+    if (!next) {
+      const std::string stage = "bounce " + std::to_string(b);
+      next = build_or_join(dir, ctx, [&] {
+        build_bounce_page_set(direct ? *direct : *tree, *tree, options.bounce.gather, options.tree,
+                              dir.filename().string(), dir, scene.bounds(),
+                              [&](float f) { report(stage, f); });
+      });
+    }
+    if (!direct) direct = std::move(tree);
+    tree = std::move(next);
+  }
+  return tree;
 }
 
 }  // namespace
@@ -75,6 +136,7 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
   };
   options.surfels.validate();
   options.tree.validate();
+  options.bounce.validate();
   auto session = std::make_shared<SceneSession>();
   session->scene = std::move(scene);
 
@@ -88,21 +150,11 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
 
   // 3. Reuse the page set if this scene + options was built before.
   const std::string key = page_set_build_key(session->scene->content_hash, options);
-  const fs::path dir = ctx.cache_dir / key;
-  session->tree = try_open_existing(dir, ctx);
+  session->tree = try_open_existing(ctx.cache_dir / key, ctx);
   session->info.reused_cache = session->tree != nullptr;
-
   if (!session->tree) {
-    // 4. Surfels, sampled and shaded batch by batch, streamed into the
-    //    page-set build (external sort by Morton code, bounded memory).
     fs::create_directories(ctx.cache_dir);
-    storage::PageSetBuilder builder(options.tree, key, dir, session->scene->bounds());
-    generate_surfels(*session->scene, *session->rays, options.surfels,
-                     [&](std::span<const Surfel> batch) { builder.add(batch); },
-                     [&](const char* s, float f) { report(s, f); });
-    // 5. Tree pages, published atomically into the cache directory.
-    builder.finish([&](float f) { report("tree", f); });
-    session->tree = std::make_unique<storage::PageSetReader>(dir, ctx.cache, gather::attach_view);
+    session->tree = build_page_sets(*session, options, ctx, report);
   }
 
   session->info.scene_id = key;

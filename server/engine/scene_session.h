@@ -3,6 +3,7 @@
 // build options: ingest -> surfels -> tree pages (reused if already built).
 #pragma once
 
+#include "server/gather/surfel_bounce.h"
 #include "server/scene/ray_scene.h"
 #include "server/surfels/surfel_options.h"
 #include "storage/cache/page_cache.h"
@@ -19,6 +20,7 @@ namespace pbgi {
 struct OpenOptions {
   SurfelOptions surfels;
   tree::BuildOptions tree;
+  BounceOptions bounce;  // light bounces carried by the surfels (default 1: direct only)
 };
 
 struct SceneSessionInfo {

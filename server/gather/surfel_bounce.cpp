@@ -58,6 +58,14 @@ void rebuild_payloads(tree::Page& page) {
 
 }  // namespace
 
+void BounceOptions::validate() const {
+  if (bounces < 1 || bounces > kMaxBounces) {
+    throw InvalidArgument("bounces = " + std::to_string(bounces) + ": must be in [1, " +
+                          std::to_string(kMaxBounces) + "]");
+  }
+  gather.validate();
+}
+
 void gather_bounce(const tree::TreeSource& tree, std::span<Surfel> surfels,
                    std::span<const Imath::C3f> direct, const GatherOptions& options,
                    const std::function<bool()>& cancelled) {

@@ -1,4 +1,4 @@
-// Multiple bounces at build time (docs/gather.md, section 9): gather at
+// Multiple bounces at build time (docs/gather.md, section 9b): gather at
 // the surfels themselves to add indirect light to their outgoing radiance,
 //   radiance = emission + albedo / pi (E_direct + E_indirect),
 // and rebuild the tree's payloads from the new radiances.
@@ -37,6 +37,26 @@ namespace pbgi {
 
 inline constexpr uint32_t kMaxBounces = 4;
 inline constexpr size_t kBounceBatch = 1024;
+
+// The build option: how many bounces the surfels' radiance holds, and how
+// the bounce gathers are made. Shared by the config file ([build] bounces),
+// the CLI (--bounces) and pbgi.v1.BuildOptions.bounces.
+struct BounceOptions {
+  // 1 = direct light only (the default: a render's gather adds the one
+  // indirect bounce); n = the surfels carry n - 1 indirect bounces, so a
+  // render shows n. [1, kMaxBounces].
+  uint32_t bounces = 1;
+  // The gathers at the surfels. Factorized PBGI by default: a batch of
+  // surfels in Morton order is a compact patch, the case it is fastest on.
+  GatherOptions gather = [] {
+    GatherOptions g;
+    g.method = GatherMethod::kFpbgi;
+    return g;
+  }();
+
+  // Throws InvalidArgument naming the field.
+  void validate() const;
+};
 
 // One bounce: for every surfel i, gathers the irradiance E_i from `tree` at
 // the surfel and sets surfels[i].radiance = direct[i] + albedo_i / pi E_i.

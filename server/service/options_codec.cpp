@@ -56,8 +56,10 @@ OpenOptions decode_open_options(const v1::BuildOptions& proto, const OpenOptions
   out.surfels.light_samples = or_default(proto.light_samples(), defaults.surfels.light_samples);
   out.tree.page_size = or_default(proto.page_size(), defaults.tree.page_size);
   out.tree.leaf_size = or_default(proto.leaf_size(), defaults.tree.leaf_size);
+  out.bounce.bounces = or_default(proto.bounces(), defaults.bounce.bounces);
   out.surfels.validate();
   out.tree.validate();
+  out.bounce.validate();
   return out;
 }
 
@@ -110,15 +112,16 @@ v1::BuildOptions encode_open_options(const OpenOptions& options) {
   proto.set_light_samples(options.surfels.light_samples);
   proto.set_page_size(options.tree.page_size);
   proto.set_leaf_size(options.tree.leaf_size);
+  proto.set_bounces(options.bounce.bounces);
   return proto;
 }
 
 std::string open_options_key(const OpenOptions& o) {
   // fmt's "{}" prints the shortest text that reads back to the same float,
   // so distinct values never share a key.
-  return fmt::format("spacing={};target={};light={};seed={};leaf={};page={}", o.surfels.spacing,
-                     o.surfels.target_surfels, o.surfels.light_samples, o.surfels.seed,
-                     o.tree.leaf_size, o.tree.page_size);
+  return fmt::format("spacing={};target={};light={};seed={};leaf={};page={};bounces={}",
+                     o.surfels.spacing, o.surfels.target_surfels, o.surfels.light_samples,
+                     o.surfels.seed, o.tree.leaf_size, o.tree.page_size, o.bounce.bounces);
 }
 
 v1::SceneInfo encode_scene_info(const SceneSession& session) {

@@ -20,6 +20,9 @@ struct CorruptionError : Error { using Error::Error; };
 struct VersionError : Error { using Error::Error; };
 // A caller passed something invalid (names the field or option at fault).
 struct InvalidArgument : Error { using Error::Error; };
+// What a caller asked to create exists already (a page set directory that
+// another build published first: content-addressed, so it is the same).
+struct AlreadyExists : InvalidArgument { using InvalidArgument::InvalidArgument; };
 // A named thing (scene, camera, page set) does not exist.
 struct NotFound : Error { using Error::Error; };
 // Input scene could not be read (names the file and prim).

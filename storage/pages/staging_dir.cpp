@@ -42,7 +42,7 @@ void StagingDir::check_target(const fs::path& final_dir) {
                           " is not an existing directory");
   }
   if (fs::exists(fs::symlink_status(dir, ec))) {
-    throw InvalidArgument("page set directory " + dir.string() + " already exists");
+    throw AlreadyExists("page set directory " + dir.string() + " already exists");
   }
 }
 
@@ -92,7 +92,7 @@ void StagingDir::publish() {
   if (::renameat2(AT_FDCWD, staging_.c_str(), AT_FDCWD, final_.c_str(), RENAME_NOREPLACE) != 0) {
     const int err = errno;
     if (err == EEXIST || err == ENOTEMPTY) {
-      throw InvalidArgument("page set directory " + final_.string() + " already exists");
+      throw AlreadyExists("page set directory " + final_.string() + " already exists");
     }
     if (err != EINVAL) {
       throw IoError("cannot rename " + staging_.string() + " to " + final_.string() + ": " +
@@ -101,7 +101,7 @@ void StagingDir::publish() {
     // The filesystem does not support RENAME_NOREPLACE: check, then rename.
     std::error_code ec;
     if (fs::exists(fs::symlink_status(final_, ec))) {
-      throw InvalidArgument("page set directory " + final_.string() + " already exists");
+      throw AlreadyExists("page set directory " + final_.string() + " already exists");
     }
     if (::rename(staging_.c_str(), final_.c_str()) != 0) {
       throw IoError("cannot rename " + staging_.string() + " to " + final_.string() + ": " +

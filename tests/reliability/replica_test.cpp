@@ -48,15 +48,10 @@ TEST(Replicas, TwoDaemonsOnOnePageSetRenderIdenticalFrames) {
 
 // Both replicas asked for a scene nobody has built yet, at the same time:
 // both build it, one publishes first; the other must still serve it.
-// DISABLED: finds a defect (timing-dependent, seen in about half the runs).
-// The losing replica fails with INVALID_ARGUMENT "page set directory
-// <cache>/<key> already exists": server/engine/scene_session.cpp checks
-// for the page set once (try_open_existing) and then builds, and
-// PageSetBuilder / StagingDir::publish refuse an existing target. Fix:
-// when the build fails because the directory appeared meanwhile, open the
-// published page set instead (it is the same content: same build key).
-// Enable once fixed.
-TEST(Replicas, DISABLED_ConcurrentFirstOpensOnASharedCacheBothSucceed) {
+// (Regression: the loser failed with INVALID_ARGUMENT "page set directory
+// ... already exists" in about half the runs; it now opens the published
+// set, server/engine/scene_session.cpp build_or_join.)
+TEST(Replicas, ConcurrentFirstOpensOnASharedCacheBothSucceed) {
   TempDir tmp;
   const fs::path cache = tmp / "cache";
   auto a = start_daemon(tmp, "a", cache);

@@ -61,6 +61,7 @@ DaemonOptions non_default_options() {
   o.service.defaults.open.surfels.seed = 42;
   o.service.defaults.open.tree.page_size = 32768;
   o.service.defaults.open.tree.leaf_size = 8;
+  o.service.defaults.open.bounce.bounces = 2;
   o.service.limits.max_receivers = 1000;
   o.service.limits.max_image_side = 4096;
   o.service.limits.max_tile_pixels = 4096;

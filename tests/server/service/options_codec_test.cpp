@@ -114,5 +114,23 @@ TEST(OptionsCodec, BuildOptionsDefaultsAndKeys) {
   EXPECT_EQ(open_options_key(a), open_options_key(decode_open_options(v1::BuildOptions(), defaults)));
 }
 
+TEST(OptionsCodec, BouncesAreABuildOptionWithTheirOwnKey) {
+  OpenOptions defaults;
+  v1::BuildOptions proto;
+  EXPECT_EQ(decode_open_options(proto, defaults).bounce.bounces, 1u);
+  proto.set_bounces(3);
+  const OpenOptions three = decode_open_options(proto, defaults);
+  EXPECT_EQ(three.bounce.bounces, 3u);
+  EXPECT_EQ(encode_open_options(three).bounces(), 3u);
+  EXPECT_NE(open_options_key(three), open_options_key(defaults));
+  proto.set_bounces(kMaxBounces + 1);
+  try {
+    decode_open_options(proto, defaults);
+    FAIL() << "bounces out of range accepted";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("bounces"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace pbgi::service

@@ -1,0 +1,31 @@
+// The build flags `pbgi render` and `pbgi tile` share: they choose which
+// tree the daemon builds or reuses for a scene (pbgi.v1.BuildOptions; 0 or
+// empty = the daemon's default from its config file).
+#pragma once
+
+#include "pbgi/v1/pbgi.pb.h"
+
+#include <CLI/CLI.hpp>
+
+#include <cstdint>
+#include <string>
+
+namespace pbgi::cli {
+
+struct BuildArgs {
+  uint64_t target_surfels = 0;
+  float surfel_spacing = 0.f;
+  uint32_t light_samples = 0;
+  uint32_t bounces = 0;
+  std::string payload;
+
+  // Adds --target-surfels, --surfel-spacing, --build-light-samples,
+  // --bounces, --payload to `cmd`.
+  void add_to(CLI::App* cmd);
+
+  // The request message. Throws InvalidArgument for a --payload value this
+  // daemon's protocol cannot carry (it is never dropped silently).
+  v1::BuildOptions to_proto() const;
+};
+
+}  // namespace pbgi::cli

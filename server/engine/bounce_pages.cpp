@@ -1,0 +1,57 @@
+#include "server/engine/bounce_pages.h"
+
+#include <Imath/ImathColor.h>
+
+#include <vector>
+
+namespace pbgi {
+namespace {
+
+// Surfels gathered per call of gather_bounce(): enough batches of
+// kBounceBatch to keep every core busy, small enough that the copies stay
+// a few MiB whatever the scene's size.
+constexpr size_t kSurfelsPerPass = 64 * kBounceBatch;
+
+}  // namespace
+
+storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
+                                        const tree::TreeSource& previous,
+                                        const GatherOptions& gather,
+                                        const tree::BuildOptions& tree_options,
+                                        const std::string& build_key,
+                                        const std::filesystem::path& dir,
+                                        const Imath::Box3f& bounds,
+                                        const std::function<void(float)>& progress,
+                                        const std::function<bool()>& cancelled) {
+  gather.validate();
+  storage::PageSetBuilder builder(tree_options, build_key, dir, bounds);
+  std::vector<Surfel> batch;
+  std::vector<Imath::C3f> radiance;
+  batch.reserve(kSurfelsPerPass + 4096);
+  radiance.reserve(batch.capacity());
+
+  // The gather phase is most of the work: it gets [0, 0.9] of the progress.
+  const uint32_t pages = direct.manifest().stats.page_count;
+  auto flush = [&](uint32_t pages_done) {
+    if (batch.empty()) return;
+    gather_bounce(previous, batch, radiance, gather, cancelled);
+    builder.add(batch);
+    batch.clear();
+    radiance.clear();
+    if (progress) progress(0.9f * float(pages_done) / float(pages));
+  };
+  for (uint32_t id = 0; id < pages; ++id) {
+    const tree::PagePtr page = direct.page(id);
+    for (const Surfel& s : page->surfels) {
+      batch.push_back(s);
+      radiance.push_back(s.radiance);
+    }
+    if (batch.size() >= kSurfelsPerPass) flush(id + 1);
+  }
+  flush(pages);
+  return builder.finish([&](float f) {
+    if (progress) progress(0.9f + 0.1f * f);
+  });
+}
+
+}  // namespace pbgi

@@ -1,0 +1,46 @@
+// Multiple bounces out of core: the page set of bounce b is built from the
+// page set of direct light (bounce 1) and the page set of bounce b - 1,
+// page by page, without holding the surfels in memory.
+//
+// Every surfel of the direct set is a receiver: its indirect irradiance is
+// gathered from the tree of bounce b - 1 and its outgoing radiance becomes
+// direct + albedo/pi E (server/gather/surfel_bounce.h). The receivers are
+// always read from the *direct* set, whose radiance is the direct term the
+// new radiance is built on; the sets of later bounces only serve gathers.
+// Surfels go to a PageSetBuilder in the direct set's page order (Morton
+// order, so a gather batch is a compact patch), which sorts them again
+// within its memory bound.
+//
+// Each bounce's set is content-addressed like any page set (its key holds
+// the bounce count and the bounce gather options), so a build for 3 bounces
+// leaves the 2-bounce set behind, reused by a later open asking for 2.
+#pragma once
+
+#include "server/gather/surfel_bounce.h"
+#include "storage/pages/page_set.h"
+
+#include <Imath/ImathBox.h>
+
+#include <filesystem>
+#include <functional>
+#include <string>
+
+namespace pbgi {
+
+// Builds the page set of one more bounce into `dir` (published atomically,
+// as PageSetBuilder does). `direct` is the bounce-1 set, `previous` the set
+// to gather from (equal to `direct` for bounce 2). `progress` gets
+// fractions in [0, 1] on this thread; `cancelled` is polled between
+// gather batches. Throws what the reader, the gather and the builder
+// throw (nothing is published then).
+storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
+                                        const tree::TreeSource& previous,
+                                        const GatherOptions& gather,
+                                        const tree::BuildOptions& tree_options,
+                                        const std::string& build_key,
+                                        const std::filesystem::path& dir,
+                                        const Imath::Box3f& bounds,
+                                        const std::function<void(float)>& progress = {},
+                                        const std::function<bool()>& cancelled = {});
+
+}  // namespace pbgi
