@@ -699,9 +699,12 @@ int run_cli(const std::vector<std::string>& args, const fs::path& dir, std::stri
   const pid_t pid = testing::spawn(argv, dir / "cli.out", dir / "cli.err");
   const int status = testing::wait_for_exit(pid, std::chrono::seconds(60));
   std::ifstream out(dir / "cli.out"), err(dir / "cli.err");
-  std::stringstream all;
-  all << out.rdbuf() << err.rdbuf();
-  *text = all.str();
+  // (Inserting an empty streambuf sets failbit and drops what follows:
+  // read the two files separately.)
+  std::stringstream o, e;
+  o << out.rdbuf();
+  e << err.rdbuf();
+  *text = o.str() + e.str();
   return status;
 }
 
