@@ -172,6 +172,22 @@ struct Rgb {
   void add(const float* p) { r += p[0]; g += p[1]; b += p[2]; ++n; }
 };
 
+// Runs the pbgi CLI in `dir`; returns its exit status, stdout + stderr in `text`.
+int run_cli(const std::vector<std::string>& args, const fs::path& dir, std::string* text) {
+  std::vector<std::string> argv = {(kBinaryDir / "bin" / "pbgi").string()};
+  argv.insert(argv.end(), args.begin(), args.end());
+  const pid_t pid = testing::spawn(argv, dir / "cli.out", dir / "cli.err");
+  const int status = testing::wait_for_exit(pid, std::chrono::seconds(60));
+  std::ifstream out(dir / "cli.out"), err(dir / "cli.err");
+  // (Inserting an empty streambuf sets failbit and drops what follows:
+  // read the two files separately.)
+  std::stringstream o, e;
+  o << out.rdbuf();
+  e << err.rdbuf();
+  *text = o.str() + e.str();
+  return status;
+}
+
 TEST_F(Integration, SceneInfo) {
   EXPECT_EQ(info->scene_path(), fs::canonical(kCornell).string());
   EXPECT_GT(info->triangle_count(), 0u);
@@ -368,19 +384,15 @@ TEST_F(Integration, BadRequestsGetTheRightStatusAndTheDaemonKeepsServing) {
 TEST_F(Integration, CliRenderWritesExrAndPng) {
   const fs::path out = daemon->dir() / "cli" / "cornell.exr";
   fs::create_directories(out.parent_path());
-  const std::vector<std::string> argv = {
-      (kBinaryDir / "bin" / "pbgi").string(), "render", kCornell.string(),
-      "--server", daemon->address(), "--camera", "/Camera", "--width", "32", "--height", "24",
-      "--tile", "16", "--jobs", "2", "--out", out.string(), "--light-samples", "4",
-      "--target-surfels", "20000", "--build-light-samples", "4"};
-  const pid_t pid = testing::spawn(argv, daemon->dir() / "cli.out", daemon->dir() / "cli.err");
-  const int status = testing::wait_for_exit(pid, std::chrono::seconds(60));
-  std::ifstream cli_out(daemon->dir() / "cli.out"), cli_err(daemon->dir() / "cli.err");
-  std::stringstream text;
-  text << cli_out.rdbuf() << cli_err.rdbuf();
-  ASSERT_EQ(status, 0) << text.str();
-  EXPECT_NE(text.str().find(out.string()), std::string::npos) << "prints the paths\n" << text.str();
-  EXPECT_NE(text.str().find("total"), std::string::npos) << "prints timings\n" << text.str();
+  std::string text;
+  const int status = run_cli(
+      {"render", kCornell.string(), "--server", daemon->address(), "--camera", "/Camera",
+       "--width", "32", "--height", "24", "--tile", "16", "--jobs", "2", "--out", out.string(),
+       "--light-samples", "4", "--target-surfels", "20000", "--build-light-samples", "4"},
+      daemon->dir(), &text);
+  ASSERT_EQ(status, 0) << text;
+  EXPECT_NE(text.find(out.string()), std::string::npos) << "prints the paths\n" << text;
+  EXPECT_NE(text.find("total"), std::string::npos) << "prints timings\n" << text;
 
   const image::ExrImage exr = image::read_exr(out.string());
   EXPECT_EQ(exr.width(), 32u);
@@ -693,20 +705,6 @@ TEST_F(Integration, MalformedOversizedNanAndEmptyRequestsThenStillHealthy) {
 }
 
 // Runs the pbgi CLI with `args`; its exit status, stdout + stderr in *text.
-int run_cli(const std::vector<std::string>& args, const fs::path& dir, std::string* text) {
-  std::vector<std::string> argv = {(kBinaryDir / "bin" / "pbgi").string()};
-  argv.insert(argv.end(), args.begin(), args.end());
-  const pid_t pid = testing::spawn(argv, dir / "cli.out", dir / "cli.err");
-  const int status = testing::wait_for_exit(pid, std::chrono::seconds(60));
-  std::ifstream out(dir / "cli.out"), err(dir / "cli.err");
-  // (Inserting an empty streambuf sets failbit and drops what follows:
-  // read the two files separately.)
-  std::stringstream o, e;
-  o << out.rdbuf();
-  e << err.rdbuf();
-  *text = o.str() + e.str();
-  return status;
-}
 
 TEST_F(Integration, CliStatusAndResumedRender) {
   const fs::path dir = daemon->dir() / "cli-resume";
