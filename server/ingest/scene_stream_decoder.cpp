@@ -13,6 +13,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <string_view>
 #include <limits>
 #include <unordered_map>
 #include <utility>
@@ -21,6 +22,13 @@
 
 namespace pbgi {
 namespace {
+
+// memcpy of a packed array into place. An empty array may come with a null
+// destination (an empty vector's data()), which memcpy must never get,
+// even for zero bytes (found by fuzz_scene_stream under UBSan).
+void copy_bytes(void* to, std::string_view from) {
+  if (!from.empty()) std::memcpy(to, from.data(), from.size());
+}
 
 static_assert(std::endian::native == std::endian::little,
               "scene chunks carry little-endian float32/uint32 arrays copied as-is");
@@ -236,7 +244,7 @@ class SceneAssembler {
     soup.positions.resize(base + vertex_count);
     // V3f is three packed floats (asserted above); its user-declared
     // assignment does not change the layout.
-    std::memcpy(static_cast<void*>(soup.positions.data() + base), pos.data(), pos.size());
+    copy_bytes(soup.positions.data() + base, pos);
     for (size_t v = base; v < soup.positions.size(); ++v) {
       const V3f& p = soup.positions[v];
       if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
@@ -246,7 +254,7 @@ class SceneAssembler {
     if (has_normals) {
       // Zero-fills the vertices of earlier chunks without normals, if any.
       soup.normals.resize(base + vertex_count);
-      std::memcpy(static_cast<void*>(soup.normals.data() + base), nrm.data(), nrm.size());
+      copy_bytes(soup.normals.data() + base, nrm);
       any_normals_ = true;
     } else {
       any_without_normals_ = true;
@@ -261,7 +269,7 @@ class SceneAssembler {
     const size_t first_index = soup.indices.size();
     const size_t index_count = idx.size() / sizeof(uint32_t);
     soup.indices.resize(first_index + index_count);
-    std::memcpy(soup.indices.data() + first_index, idx.data(), idx.size());
+    copy_bytes(soup.indices.data() + first_index, idx);
     for (size_t i = first_index; i < soup.indices.size(); ++i) {
       if (soup.indices[i] >= vertex_count)
         fail(at, fmt::format("mesh {}: index {} out of range ({} vertices in the chunk)", prim, soup.indices[i], vertex_count));
@@ -339,7 +347,7 @@ class SceneAssembler {
     }
     values.resize(base, missing);
     values.resize(base + count);
-    std::memcpy(static_cast<void*>(values.data() + base), bytes.data(), bytes.size());
+    copy_bytes(values.data() + base, bytes);
   }
 
   uint32_t mesh_index(const std::string& prim, bool double_sided) {
