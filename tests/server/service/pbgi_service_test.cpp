@@ -12,6 +12,7 @@
 
 #include <fstream>
 #include <limits>
+#include <mutex>
 
 namespace fs = std::filesystem;
 
@@ -28,16 +29,23 @@ class PbgiServiceTest : public ::testing::Test {
     auto registry = std::make_shared<SceneRegistry>(
         [this](const fs::path& path, const OpenOptions& options, const StageSelection& selection,
                const StageProgress& progress) -> std::shared_ptr<SceneSession> {
-          ++opens;
-          last_open = options;
-          last_selection = selection;
+          int n;
+          {
+            // The handler runs on a gRPC thread; the test reads on its own
+            // after the call, ordered only through gRPC's core, which TSan
+            // cannot see: the lock makes the hand-off explicit.
+            std::lock_guard lock(record_mutex);
+            n = ++record_.opens;
+            record_.last_open = options;
+            record_.last_selection = selection;
+          }
           if (path.filename() == "bad.usda") {
             throw SceneError("'" + path.string() + "': not a USD layer");
           }
           progress("ingest", 0.f);
           progress("ingest", 1.f);
           progress("tree", 1.f);
-          return testing::fake_session(path.string(), "scene-" + std::to_string(opens));
+          return testing::fake_session(path.string(), "scene-" + std::to_string(n));
         });
     ServiceOptions options;
     options.defaults.open.surfels.target_surfels = 777;
@@ -99,9 +107,18 @@ class PbgiServiceTest : public ::testing::Test {
 
   testing::TempDir tmp;
   fs::path root;
-  int opens = 0;
-  OpenOptions last_open;
-  StageSelection last_selection;
+  // What the fake opener saw, read through record().
+  struct OpenRecord {
+    int opens = 0;
+    OpenOptions last_open;
+    StageSelection last_selection;
+  };
+  OpenRecord record() {
+    std::lock_guard lock(record_mutex);
+    return record_;
+  }
+  std::mutex record_mutex;
+  OpenRecord record_;
   std::unique_ptr<PbgiService> service;
   std::unique_ptr<grpc::Server> server;
   std::unique_ptr<v1::Pbgi::Stub> stub;
@@ -120,11 +137,12 @@ TEST_F(PbgiServiceTest, OpenSceneStreamsProgressThenInfo) {
   ASSERT_EQ(info.cameras_size(), 1);
   EXPECT_EQ(info.cameras(0), "/Camera");
   EXPECT_EQ(info.warnings_size(), 1);
-  EXPECT_EQ(last_open.surfels.target_surfels, 777u) << "unset build option takes the default";
+  EXPECT_EQ(record().last_open.surfels.target_surfels, 777u)
+      << "unset build option takes the default";
 
   // The same scene by its absolute path is the same session.
   ASSERT_TRUE(open((root / "a.usda").string()).ok());
-  EXPECT_EQ(opens, 1);
+  EXPECT_EQ(record().opens, 1);
   grpc::ClientContext context;
   v1::ListScenesResponse list;
   ASSERT_TRUE(stub->ListScenes(&context, v1::ListScenesRequest(), &list).ok());
@@ -135,8 +153,8 @@ TEST_F(PbgiServiceTest, OpenSceneStreamsProgressThenInfo) {
   v1::BuildOptions build;
   build.set_target_surfels(5000);
   ASSERT_TRUE(open("a.usda", nullptr, build).ok());
-  EXPECT_EQ(opens, 2);
-  EXPECT_EQ(last_open.surfels.target_surfels, 5000u);
+  EXPECT_EQ(record().opens, 2);
+  EXPECT_EQ(record().last_open.surfels.target_surfels, 5000u);
 }
 
 TEST_F(PbgiServiceTest, OpenSceneErrors) {
@@ -259,13 +277,13 @@ TEST_F(PbgiServiceTest, OpenSceneStageSelectionIsCheckedAndPartOfTheKey) {
   while (reader->Read(&event)) {
   }
   ASSERT_TRUE(reader->Finish().ok());
-  EXPECT_EQ(last_selection.variant_selections.at("/Car:color"), "red");
-  ASSERT_TRUE(last_selection.time_code.has_value());
-  EXPECT_EQ(*last_selection.time_code, 24.0);
-  EXPECT_EQ(opens, 1);
+  EXPECT_EQ(record().last_selection.variant_selections.at("/Car:color"), "red");
+  ASSERT_TRUE(record().last_selection.time_code.has_value());
+  EXPECT_EQ(*record().last_selection.time_code, 24.0);
+  EXPECT_EQ(record().opens, 1);
   ASSERT_TRUE(open("a.usda").ok());
-  EXPECT_EQ(opens, 2) << "no selection: another scene";
-  EXPECT_TRUE(last_selection.empty());
+  EXPECT_EQ(record().opens, 2) << "no selection: another scene";
+  EXPECT_TRUE(record().last_selection.empty());
 
   auto status_of = [&](const v1::OpenSceneRequest& r) {
     grpc::ClientContext c;
@@ -289,7 +307,7 @@ TEST_F(PbgiServiceTest, OpenSceneStageSelectionIsCheckedAndPartOfTheKey) {
   const grpc::Status s = status_of(r);
   EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_TRUE(mentions(s, "time_code")) << s.error_message();
-  EXPECT_EQ(opens, 2);
+  EXPECT_EQ(record().opens, 2);
 }
 
 TEST_F(PbgiServiceTest, GatherRejectsEmptyAndBadGlossyArrays) {
@@ -352,9 +370,9 @@ TEST_F(PbgiServiceTest, UnloadSceneAndStatus) {
       << "an unloaded scene is gone";
 
   // Opening it again builds a new session.
-  const int before = opens;
+  const int before = record().opens;
   EXPECT_FALSE(open_id().empty());
-  EXPECT_EQ(opens, before + 1);
+  EXPECT_EQ(record().opens, before + 1);
 }
 
 TEST_F(PbgiServiceTest, RenderTilesChecksEveryTileBeforeRendering) {
