@@ -58,6 +58,7 @@ struct RenderArgs {
   uint64_t target_surfels = 0;
   float surfel_spacing = 0.f;
   uint32_t build_light_samples = 0;
+  std::string payload_codec;  // "" = the daemon's default
 };
 
 // Thrown from the tile callback to end a render early (--max-new-tiles).
@@ -243,6 +244,7 @@ int run_render(const RenderArgs& args) {
   build.set_target_surfels(args.target_surfels);
   build.set_surfel_spacing(args.surfel_spacing);
   build.set_light_samples(args.build_light_samples);
+  build.set_payload_codec(args.payload_codec);
   const v1::SceneInfo info = client.open_scene(
       client::scene_request_path(args.scene), build,
       [&](const std::string& stage, float fraction) { progress.open(stage, fraction); });
@@ -382,6 +384,8 @@ const CommandRegistrar kRegistrar{"render", [](CLI::App& app, int* exit_code) {
   cmd->add_option("--surfel-spacing", args->surfel_spacing, "surfel spacing, world units");
   cmd->add_option("--build-light-samples", args->build_light_samples,
                   "shadow rays per surfel and light [16]");
+  cmd->add_option("--payload-codec", args->payload_codec,
+                  "node payloads: derived, float32-sh, kmeans-sh, auto [derived]");
   cmd->callback([args, exit_code] { *exit_code = run_render(*args); });
 }};
 

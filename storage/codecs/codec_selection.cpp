@@ -5,22 +5,6 @@
 
 namespace pbgi::storage {
 
-PayloadCodecPolicy parse_payload_codec_policy(const std::string& name) {
-  if (name == "auto") return PayloadCodecPolicy::kAuto;
-  if (name == "float32-sh") return PayloadCodecPolicy::kFloatSh;
-  if (name == "kmeans-sh") return PayloadCodecPolicy::kQuantizedSh;
-  throw InvalidArgument("payload codec \"" + name + "\": must be one of auto, float32-sh, kmeans-sh");
-}
-
-std::string to_string(PayloadCodecPolicy policy) {
-  switch (policy) {
-    case PayloadCodecPolicy::kAuto: return "auto";
-    case PayloadCodecPolicy::kFloatSh: return "float32-sh";
-    case PayloadCodecPolicy::kQuantizedSh: return "kmeans-sh";
-  }
-  return "?";
-}
-
 SceneMaterialStats scan_material_stats(std::span<const float> roughness, float glossy_roughness) {
   SceneMaterialStats s;
   s.surfels = roughness.size();
@@ -45,12 +29,18 @@ CodecSelection select_payload_codecs(const SceneMaterialStats& stats, PayloadCod
                                  : "no glossy senders -> no wavelets";
   // 2. Diffuse payloads.
   switch (policy) {
+    case PayloadCodecPolicy::kDerived:
+      out.diffuse = CodecId::kFloatSh;
+      out.reason = "derived float32-sh (requested); " + glossy;
+      return out;
     case PayloadCodecPolicy::kFloatSh:
       out.diffuse = CodecId::kFloatSh;
+      out.node_payloads = true;
       out.reason = "float32-sh (requested); " + glossy;
       return out;
     case PayloadCodecPolicy::kQuantizedSh:
       out.diffuse = CodecId::kQuantizedSh;
+      out.node_payloads = true;
       out.reason = "kmeans-sh (requested); " + glossy;
       return out;
     case PayloadCodecPolicy::kAuto:
@@ -58,13 +48,14 @@ CodecSelection select_payload_codecs(const SceneMaterialStats& stats, PayloadCod
   }
   if (!options.allow_lossy) {
     out.diffuse = CodecId::kFloatSh;
-    out.reason = "float32-sh (lossy payloads not allowed); " + glossy;
+    out.reason = "derived float32-sh (lossy payloads not allowed); " + glossy;
   } else if (stats.surfels < options.min_quantized_surfels) {
     out.diffuse = CodecId::kFloatSh;
-    out.reason = "float32-sh (" + std::to_string(stats.surfels) + " surfels < " +
+    out.reason = "derived float32-sh (" + std::to_string(stats.surfels) + " surfels < " +
                  std::to_string(options.min_quantized_surfels) + ": a LUT would not pay off); " + glossy;
   } else {
     out.diffuse = CodecId::kQuantizedSh;
+    out.node_payloads = true;
     out.reason = "kmeans-sh (" + std::to_string(stats.surfels) + " surfels); " + glossy;
   }
   return out;

@@ -1,8 +1,9 @@
 // `auto` payload codec selection: a scene pays only for the representation
 // its materials need.
-//   * Diffuse senders use SH: quantized SH (kmeans-sh) once the scene is
-//     large enough for the LUT (~0.6 MB at 4096 entries) and the sample tree
-//     to pay off, float SH below that or when lossy payloads are refused.
+//   * Diffuse senders use SH: quantized SH (kmeans-sh, stored for every
+//     node) once the scene is large enough for the LUT (~0.6 MB at 4096
+//     entries) and the sample tree to pay off; below that, or when lossy
+//     payloads are refused, derived payloads (exact, nothing stored per node).
 //   * Glossy senders (roughness below glossy_roughness) need Haar-wavelet
 //     cube maps (cube_wavelet.h, wavelet_tree_coding.h); a scene with none
 //     (or fewer than min_glossy_fraction of its surfels) never pays for them.
@@ -10,6 +11,7 @@
 #pragma once
 
 #include "storage/codecs/payload_codec.h"
+#include "storage/tree/build_options.h"
 
 #include <cstdint>
 #include <span>
@@ -17,16 +19,8 @@
 
 namespace pbgi::storage {
 
-enum class PayloadCodecPolicy : uint8_t {
-  kAuto,         // select_payload_codecs() decides
-  kFloatSh,      // always float32-sh
-  kQuantizedSh,  // always kmeans-sh
-};
-
-// "auto", "float32-sh", "kmeans-sh" (as in config files and CLI flags);
-// InvalidArgument naming the accepted values otherwise.
-PayloadCodecPolicy parse_payload_codec_policy(const std::string& name);
-std::string to_string(PayloadCodecPolicy policy);
+// The build option tree.payload_codec (parsed by tree::parse_payload_codec).
+using PayloadCodecPolicy = tree::PayloadCodecOption;
 
 struct SceneMaterialStats {
   uint64_t surfels = 0;
@@ -46,6 +40,7 @@ struct CodecSelectionOptions {
 
 struct CodecSelection {
   CodecId diffuse = CodecId::kFloatSh;   // codec of the SH node payloads
+  bool node_payloads = false;            // every node stores one (else derived at load)
   bool glossy_wavelets = false;          // glossy senders get wavelet radiance
   uint32_t cube_resolution = 0;          // when glossy_wavelets
   std::string reason;                    // one line, for logs and `pbgi inspect`
