@@ -11,6 +11,7 @@
 #include "storage/pages/manifest_file.h"
 #include "storage/pages/page_set.h"
 #include "storage/tree/memory_tree.h"
+#include "tests/storage/pages/file_bytes.h"
 #include "tests/storage/pages/temp_dir.h"
 #include "tests/storage/pages/tree_walk.h"
 #include "tests/storage/tree/random_surfels.h"
@@ -26,29 +27,12 @@ namespace {
 namespace fs = std::filesystem;
 using tree::PayloadCodecOption;
 
-std::vector<uint8_t> read_file(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(f), {}};
-}
-void write_file(const fs::path& p, const std::vector<uint8_t>& b) {
-  std::ofstream f(p, std::ios::binary | std::ios::trunc);
-  f.write(reinterpret_cast<const char*>(b.data()), std::streamsize(b.size()));
-}
+using test::read_file;
+using test::write_file;
 
 bool same_payload(const tree::Node& a, const tree::Node& b) {
   return std::memcmp(&a.radiance_sh, &b.radiance_sh, sizeof(a.radiance_sh)) == 0 &&
          std::memcmp(&a.coverage_sh, &b.coverage_sh, sizeof(a.coverage_sh)) == 0;
-}
-
-// Everything but the payload and the links.
-void expect_same_geometry(const tree::Node& a, const tree::Node& b, size_t i) {
-  ASSERT_EQ(a.center, b.center) << "node " << i;
-  ASSERT_EQ(a.radius, b.radius) << "node " << i;
-  ASSERT_EQ(a.cone_axis, b.cone_axis) << "node " << i;
-  ASSERT_EQ(a.cone_cos, b.cone_cos) << "node " << i;
-  ASSERT_EQ(a.area, b.area) << "node " << i;
-  ASSERT_EQ(a.child_count, b.child_count) << "node " << i;
-  ASSERT_EQ(a.surfel_count, b.surfel_count) << "node " << i;
 }
 
 tree::BuildOptions options_with(PayloadCodecOption codec, uint32_t page_size = 4096) {
@@ -128,7 +112,7 @@ TEST_F(PayloadCodecBuildTest, StreamingQuantizationEqualsQuantizingTheFinishedTr
   ASSERT_EQ(wq.nodes.size(), we.nodes.size());
   size_t raw = 0, changed = 0;
   for (size_t i = 0; i < wq.nodes.size(); ++i) {
-    expect_same_geometry(wq.nodes[i], we.nodes[i], i);  // geometry and area untouched
+    test::expect_same_geometry(wq.nodes[i], we.nodes[i], i);  // geometry and area untouched
     const QuantizedPayload q = codec.quantize(we.nodes[i]);
     tree::Node want = we.nodes[i];
     if (q.raw) {
