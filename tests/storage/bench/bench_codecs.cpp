@@ -26,6 +26,7 @@
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
+#include <tbb/global_control.h>
 #include <tbb/task_arena.h>
 
 #include <atomic>
@@ -35,6 +36,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 
 namespace pbgi {
 namespace {
@@ -55,6 +57,7 @@ struct Args {
   fs::path sets = "/tmp/pbgi_bench_codecs/sets";  // page sets built here (replaced)
   std::string camera = "/Camera";
   bool render = true;
+  uint32_t threads = 0;  // 0: all cores
 };
 
 // 1. Surfels of the scene, from the cache when present.
@@ -203,7 +206,7 @@ int run(const Args& a) {
   std::cout << fmt::format("scene {}, {} surfels, leaf_size {}, {} nodes, image {}^2, LUT sample {:.1f} %, "
                            "{} threads\n\n",
                            a.scene.filename().string(), surfels.size(), a.leaf_size, nodes, a.image,
-                           100 * a.fraction, tbb::this_task_arena::max_concurrency());
+                           100 * a.fraction, tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
   std::cout << "| variant | page set MB | tree ratio | payload MB | payload ratio | payload bits/node | pages | "
                "build s | of which LUT s | LUT entries / sample surfels | PSNR indirect dB | PSNR beauty dB |\n";
   std::cout << "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
@@ -238,7 +241,10 @@ int main(int argc, char** argv) {
   app.add_option("--sets", a.sets, "directory for the page sets (variants are deleted after measuring)");
   app.add_option("--camera", a.camera, "camera prim");
   app.add_flag("!--no-render", a.render, "skip the images (sizes and times only)");
+  app.add_option("--threads", a.threads, "worker threads (0: all cores; 1: the paper's single-threaded build)");
   CLI11_PARSE(app, argc, argv);
+  std::optional<tbb::global_control> threads;
+  if (a.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, a.threads);
   try {
     return pbgi::run(a);
   } catch (const std::exception& e) {
