@@ -50,6 +50,14 @@ void BuildOptions::validate() const {
   if (static_cast<uint8_t>(payload_codec) > static_cast<uint8_t>(PayloadCodecOption::kAuto)) {
     throw InvalidArgument("tree.payload_codec = " + to_string(payload_codec) + ": unknown");
   }
+  // Stored payloads: a page must also hold a full leaf's own payload (at
+  // most a float32 one and a code word).
+  const size_t min_stored_page = min_page + storage::kMaxPayloadBytesPerNode + 8;
+  if (payload_codec != PayloadCodecOption::kDerived && page_size < min_stored_page) {
+    throw InvalidArgument("tree.page_size = " + std::to_string(page_size) + ": must be at least " +
+                          std::to_string(min_stored_page) + " for tree.payload_codec = " +
+                          to_string(payload_codec) + " (a page holds a full leaf and its payload)");
+  }
   // Same range as storage::ShLutOptions (checked here so that bad options
   // fail before a build starts).
   constexpr uint32_t kMinLut = 64, kMaxLut = 1u << 16;

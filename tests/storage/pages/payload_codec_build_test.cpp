@@ -7,6 +7,7 @@
 #include "storage/format/errors.h"
 #include "storage/format/manifest_frame.h"
 #include "storage/format/page_frame.h"
+#include "storage/format/page_records.h"
 #include "storage/pages/lut_sample.h"
 #include "storage/pages/manifest_file.h"
 #include "storage/pages/page_set.h"
@@ -318,6 +319,14 @@ TEST(PayloadCodecOptions, ParseValidateAndSmallPages) {
   o = {};
   o.lut_sample_fraction = 0;
   EXPECT_THROW(o.validate(), InvalidArgument);
+  // The smallest page of derived payloads cannot hold a leaf's stored one.
+  o = {};
+  o.page_size = uint32_t(min_page_bytes(o.leaf_size));
+  EXPECT_NO_THROW(o.validate());
+  o.payload_codec = PayloadCodecOption::kQuantizedSh;
+  EXPECT_THROW(o.validate(), InvalidArgument);
+  o.page_size += 152;
+  EXPECT_NO_THROW(o.validate());
 }
 
 }  // namespace
