@@ -1,9 +1,10 @@
 // `auto` payload codec selection: a scene pays only for the representation
 // its materials need.
-//   * Diffuse senders use SH: quantized SH (kmeans-sh, stored for every
-//     node) once the scene is large enough for the LUT (~0.6 MB at 4096
-//     entries) and the sample tree to pay off; below that, or when lossy
-//     payloads are refused, derived payloads (exact, nothing stored per node).
+//   * Diffuse senders use derived SH payloads (exact, nothing stored per
+//     node): on the measured 5M-surfel scene (docs/codecs.md) they give
+//     the smallest page set and load as fast as stored kmeans-sh payloads,
+//     so `auto` never stores SH; kmeans-sh and float32-sh are there when
+//     asked for (e.g. to compare with the papers).
 //   * Glossy senders (roughness below glossy_roughness) need Haar-wavelet
 //     cube maps (cube_wavelet.h, wavelet_tree_coding.h); a scene with none
 //     (or fewer than min_glossy_fraction of its surfels) never pays for them.
@@ -33,8 +34,6 @@ SceneMaterialStats scan_material_stats(std::span<const float> roughness, float g
 struct CodecSelectionOptions {
   float glossy_roughness = 0.3f;           // below: a glossy sender
   double min_glossy_fraction = 0.0;        // glossy share needed to enable wavelets (0: any)
-  uint64_t min_quantized_surfels = 200000; // smaller scenes keep float SH
-  bool allow_lossy = true;                 // false: float SH only
   uint32_t cube_resolution = 16;           // wavelet cube faces n x n (8..32)
 };
 

@@ -97,7 +97,8 @@ struct BuildReport {
 // writes V2 pages; float32-sh and kmeans-sh store every node's payload in
 // V3 pages. kmeans-sh first learns its LUT on a tree over a random sample
 // of the surfels (lut_sample_fraction, drawn while they arrive) and stores
-// it in the manifest; auto picks kmeans-sh or derived by the surfel count.
+// it in the manifest; auto resolves by codec_selection.h (derived for
+// diffuse scenes).
 //
 // Thread-safety: one thread drives a builder.
 class PageSetBuilder {

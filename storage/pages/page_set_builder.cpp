@@ -106,10 +106,7 @@ ShLutOptions lut_options(const tree::BuildOptions& o) {
   return lo;
 }
 
-bool may_quantize(const tree::BuildOptions& o) {
-  return o.payload_codec == tree::PayloadCodecOption::kQuantizedSh ||
-         o.payload_codec == tree::PayloadCodecOption::kAuto;
-}
+bool may_quantize(const tree::BuildOptions& o) { return o.payload_codec == tree::PayloadCodecOption::kQuantizedSh; }
 
 }  // namespace
 
@@ -134,7 +131,7 @@ struct PageSetBuilder::Impl {
     }
   }
 
-  // The codec of this build: resolves `auto` by the surfel count, and for
+  // The codec of this build: resolves `auto` (codec_selection.h), and for
   // kmeans-sh learns the LUT on a tree over the sample.
   std::shared_ptr<const PayloadCodec> choose_codec(bool& node_payloads) {
     const CodecSelection sel = select_payload_codecs({report.surfels, 0}, options.payload_codec, {});

@@ -16,8 +16,9 @@ namespace pbgi::tree {
 //   kmeans-sh   every node stores a LUT index + log scale, bit-packed
 //               (Buchholz & Boubekeur 2012); the LUT is learned on a sample
 //               tree and stored in the manifest. Lossy.
-//   auto        kmeans-sh for scenes of at least 200k surfels, derived below
-//               (storage/codecs/codec_selection.h).
+//   auto        what the scene needs (storage/codecs/codec_selection.h):
+//               derived for diffuse senders (measured smallest, exact, as fast
+//               to load: docs/codecs.md); glossy wavelets once they exist.
 enum class PayloadCodecOption : uint8_t { kDerived = 0, kFloatSh = 1, kQuantizedSh = 2, kAuto = 3 };
 
 // InvalidArgument naming the accepted values for anything else.
