@@ -3,6 +3,22 @@
 #include "storage/format/errors.h"
 
 namespace pbgi::cli {
+namespace {
+
+// The CLI's short names over the build option's codec names
+// (storage/tree/build_options.h); those pass through, "" = the default.
+std::string payload_codec_name(const std::string& flag) {
+  if (flag == "sh") return "derived";
+  if (flag == "quantized") return "kmeans-sh";
+  if (flag == "wavelet") {
+    throw InvalidArgument(
+        "--payload wavelet: Haar-wavelet payloads for glossy senders are not served by this "
+        "daemon yet (use sh, quantized or auto)");
+  }
+  return flag;
+}
+
+}  // namespace
 
 void BuildArgs::add_to(CLI::App* cmd) {
   cmd->add_option("--target-surfels", target_surfels, "surfels to sample [200000]");
@@ -12,16 +28,18 @@ void BuildArgs::add_to(CLI::App* cmd) {
                   "light bounces in the image: 1 = one indirect bounce gathered at render time "
                   "(default); n > 1 adds n - 1 bounces to the surfels at build time [1..4]")
       ->check(CLI::Range(1u, 4u));
-  cmd->add_option("--payload", payload, "node payload codec: sh|quantized|wavelet|auto");
+  cmd->add_option("--payload", payload,
+                  "node payloads: sh (exact, derived from the surfels as pages load), quantized "
+                  "(k-means LUT), auto, or a codec name (derived, float32-sh, kmeans-sh); "
+                  "wavelet is not served yet [daemon default]");
+  cmd->add_option("--lut-entries", lut_entries, "quantized payloads: LUT size [4096]")
+      ->check(CLI::Range(64u, 65536u));
 }
 
 v1::BuildOptions BuildArgs::to_proto() const {
-  if (!payload.empty() && payload != "auto" && payload != "sh") {
-    throw InvalidArgument("--payload " + payload +
-                          ": this daemon's protocol (pbgi.v1) serves SH node payloads only; the "
-                          "page codec is chosen when the tree is built (use sh or auto)");
-  }
   v1::BuildOptions build;
+  build.set_payload_codec(payload_codec_name(payload));
+  build.set_lut_entries(lut_entries);
   build.set_target_surfels(target_surfels);
   build.set_surfel_spacing(surfel_spacing);
   build.set_light_samples(light_samples);

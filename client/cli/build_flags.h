@@ -18,13 +18,15 @@ struct BuildArgs {
   uint32_t light_samples = 0;
   uint32_t bounces = 0;
   std::string payload;
+  uint32_t lut_entries = 0;
 
   // Adds --target-surfels, --surfel-spacing, --build-light-samples,
-  // --bounces, --payload to `cmd`.
+  // --bounces, --payload, --lut-entries to `cmd`.
   void add_to(CLI::App* cmd);
 
-  // The request message. Throws InvalidArgument for a --payload value this
-  // daemon's protocol cannot carry (it is never dropped silently).
+  // The request message. Throws InvalidArgument for a --payload value the
+  // daemon cannot serve (it is never dropped silently); other unknown
+  // names are refused by the daemon, naming the field.
   v1::BuildOptions to_proto() const;
 };
 

@@ -49,8 +49,11 @@ void print_json(const std::string& dir, const storage::Manifest& m,
   out += fmt::format("  \"format\": {{\"manifest\": {}, \"page\": {}, \"page_set\": {}}},\n",
                      storage::kManifestFormatCurrent, m.page_format, storage::kPageSetFormatVersion);
   out += fmt::format("  \"codec\": {{\"id\": {}, \"name\": {}}},\n", m.codec, json_string(r.codec_name));
-  out += fmt::format("  \"options\": {{\"leaf_size\": {}, \"page_size\": {}}},\n", m.options.leaf_size,
-                     m.options.page_size);
+  out += fmt::format(
+      "  \"options\": {{\"leaf_size\": {}, \"page_size\": {}, \"payload_codec\": {}, \"lut_entries\": {}, "
+      "\"lut_sample_fraction\": {}}},\n  \"node_payloads\": {},\n",
+      m.options.leaf_size, m.options.page_size, json_string(tree::to_string(m.options.payload_codec)),
+      m.options.lut_entries, m.options.lut_sample_fraction, m.node_payloads ? "true" : "false");
   out += fmt::format(
       "  \"stats\": {{\"surfels\": {}, \"nodes\": {}, \"leaves\": {}, \"pages\": {}, \"max_depth\": {}, "
       "\"file_bytes\": {}}},\n",
@@ -86,7 +89,10 @@ void print_text(const std::string& dir, const storage::Manifest& m, const storag
   fmt::print("build key     {}\n", m.build_key);
   fmt::print("format        manifest v{}, pages v{}, codec {} ({})\n", storage::kManifestFormatCurrent,
              m.page_format, m.codec, r.codec_name);
-  fmt::print("options       leaf_size {}, page_size {}\n", m.options.leaf_size, m.options.page_size);
+  fmt::print("options       leaf_size {}, page_size {}, payload_codec {} (lut {} entries, sample {})\n",
+             m.options.leaf_size, m.options.page_size, tree::to_string(m.options.payload_codec),
+             m.options.lut_entries, m.options.lut_sample_fraction);
+  fmt::print("payloads      {}\n", m.node_payloads ? "stored for every node" : "derived when a page loads");
   fmt::print("surfels       {}\n", s.surfel_count);
   fmt::print("nodes         {} ({} leaves, {} internal)\n", s.node_count, s.leaf_count,
              s.node_count - s.leaf_count);

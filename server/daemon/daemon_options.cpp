@@ -284,6 +284,11 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
     build.read("seed", o.surfels.seed);
     build.read("page_size", o.tree.page_size);
     build.read("leaf_size", o.tree.leaf_size);
+    std::string payload_codec = tree::to_string(o.tree.payload_codec);
+    build.read("payload_codec", payload_codec);
+    o.tree.payload_codec = tree::parse_payload_codec(payload_codec);
+    build.read("lut_entries", o.tree.lut_entries);
+    build.read("lut_sample_fraction", o.tree.lut_sample_fraction);
     build.read("bounces", o.bounce.bounces);
     build.reject_unknown();
   }
@@ -366,6 +371,9 @@ std::string to_toml(const DaemonOptions& o) {
   integer_value("seed", b.surfels.seed);
   integer_value("page_size", b.tree.page_size);
   integer_value("leaf_size", b.tree.leaf_size);
+  string_value("payload_codec", tree::to_string(b.tree.payload_codec));
+  integer_value("lut_entries", b.tree.lut_entries);
+  float_value("lut_sample_fraction", b.tree.lut_sample_fraction);
   integer_value("bounces", b.bounce.bounces);
 
   const service::RequestLimits& l = o.service.limits;
@@ -447,8 +455,10 @@ bool operator==(const DaemonOptions& a, const DaemonOptions& b) {
          oa.surfels.target_surfels == ob.surfels.target_surfels &&
          oa.surfels.light_samples == ob.surfels.light_samples &&
          oa.surfels.seed == ob.surfels.seed && oa.tree.page_size == ob.tree.page_size &&
-         oa.tree.leaf_size == ob.tree.leaf_size && oa.bounce.bounces == ob.bounce.bounces &&
-         la.max_receivers == lb.max_receivers &&
+         oa.tree.leaf_size == ob.tree.leaf_size && oa.tree.payload_codec == ob.tree.payload_codec &&
+         oa.tree.lut_entries == ob.tree.lut_entries &&
+         oa.tree.lut_sample_fraction == ob.tree.lut_sample_fraction &&
+         oa.bounce.bounces == ob.bounce.bounces && la.max_receivers == lb.max_receivers &&
          la.max_image_side == lb.max_image_side && la.max_tile_pixels == lb.max_tile_pixels;
 }
 

@@ -20,6 +20,15 @@ std::string page_set_build_key(const std::string& scene_content_hash, const Open
   // Additions keep the text of the defaults unchanged, so that adding an
   // option does not rebuild every cached page set.
   if (s.sampler != SurfelSampler::kUniform) text += fmt::format("|sampler={}", int(s.sampler));
+  // Stored payloads change the bytes; the LUT options only matter when a
+  // LUT may be learned (kmeans-sh, auto).
+  const tree::BuildOptions& t = o.tree;
+  if (t.payload_codec != tree::PayloadCodecOption::kDerived) {
+    text += fmt::format("|payload={}", tree::to_string(t.payload_codec));
+    if (t.payload_codec != tree::PayloadCodecOption::kFloatSh) {
+      text += fmt::format("|lut={}|lut_fraction={}", t.lut_entries, t.lut_sample_fraction);
+    }
+  }
   if (s.adaptive()) {
     text += fmt::format("|camera={}|image={}x{}|footprint={}|min_spacing={}|offscreen={}|margin={}", s.camera,
                         s.image_width, s.image_height, s.pixel_footprint, s.min_spacing, s.offscreen_factor,

@@ -56,6 +56,9 @@ OpenOptions decode_open_options(const v1::BuildOptions& proto, const OpenOptions
   out.surfels.light_samples = or_default(proto.light_samples(), defaults.surfels.light_samples);
   out.tree.page_size = or_default(proto.page_size(), defaults.tree.page_size);
   out.tree.leaf_size = or_default(proto.leaf_size(), defaults.tree.leaf_size);
+  if (!proto.payload_codec().empty()) out.tree.payload_codec = tree::parse_payload_codec(proto.payload_codec());
+  out.tree.lut_entries = or_default(proto.lut_entries(), defaults.tree.lut_entries);
+  out.tree.lut_sample_fraction = or_default(proto.lut_sample_fraction(), defaults.tree.lut_sample_fraction);
   out.bounce.bounces = or_default(proto.bounces(), defaults.bounce.bounces);
   out.surfels.validate();
   out.tree.validate();
@@ -112,6 +115,9 @@ v1::BuildOptions encode_open_options(const OpenOptions& options) {
   proto.set_light_samples(options.surfels.light_samples);
   proto.set_page_size(options.tree.page_size);
   proto.set_leaf_size(options.tree.leaf_size);
+  proto.set_payload_codec(tree::to_string(options.tree.payload_codec));
+  proto.set_lut_entries(options.tree.lut_entries);
+  proto.set_lut_sample_fraction(options.tree.lut_sample_fraction);
   proto.set_bounces(options.bounce.bounces);
   return proto;
 }
@@ -119,9 +125,12 @@ v1::BuildOptions encode_open_options(const OpenOptions& options) {
 std::string open_options_key(const OpenOptions& o) {
   // fmt's "{}" prints the shortest text that reads back to the same float,
   // so distinct values never share a key.
-  return fmt::format("spacing={};target={};light={};seed={};leaf={};page={};bounces={}",
-                     o.surfels.spacing, o.surfels.target_surfels, o.surfels.light_samples,
-                     o.surfels.seed, o.tree.leaf_size, o.tree.page_size, o.bounce.bounces);
+  return fmt::format(
+      "spacing={};target={};light={};seed={};leaf={};page={};payload={};lut={};lut_fraction={};"
+      "bounces={}",
+      o.surfels.spacing, o.surfels.target_surfels, o.surfels.light_samples, o.surfels.seed,
+      o.tree.leaf_size, o.tree.page_size, tree::to_string(o.tree.payload_codec), o.tree.lut_entries,
+      o.tree.lut_sample_fraction, o.bounce.bounces);
 }
 
 v1::SceneInfo encode_scene_info(const SceneSession& session) {

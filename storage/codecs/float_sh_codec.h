@@ -16,6 +16,7 @@ class FloatShCodec final : public PayloadCodec {
   std::string name() const override { return "float32-sh"; }
   size_t bytes_per_node() const override { return kBytesPerNode; }
   void encode(std::span<const tree::Node> nodes, std::vector<uint8_t>& out) const override;
+  uint32_t payload_bits(const tree::Node&) const override { return kBytesPerNode * 8; }
   void decode(std::span<const uint8_t> bytes, std::span<tree::Node> nodes,
               const std::string& what) const override;
 };

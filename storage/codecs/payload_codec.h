@@ -39,6 +39,14 @@ class PayloadCodec {
 
   // Appends the payloads of `nodes` (radiance_sh, coverage_sh) to `out`.
   virtual void encode(std::span<const tree::Node> nodes, std::vector<uint8_t>& out) const = 0;
+  // Size on disk of `node`'s payload in bits: encode() of nodes n_i appends
+  // exactly ceil(sum payload_bits(n_i) / 8) bytes, so the streaming build
+  // knows a page's size before writing it. Cheap (no LUT search).
+  virtual uint32_t payload_bits(const tree::Node& node) const = 0;
+  // Serialized per-page-set state (the kmeans-sh LUT), stored in the
+  // manifest; empty for stateless codecs.
+  virtual std::vector<uint8_t> state() const { return {}; }
+
   // Decodes `bytes` (the whole payload array of a page) into the payload
   // fields of `nodes`. Throws CorruptionError (prefixed with `what`, e.g.
   // the page's location) if the size does not match.

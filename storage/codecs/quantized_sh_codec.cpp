@@ -4,6 +4,9 @@
 #include "storage/codecs/float_sh_codec.h"
 #include "storage/format/errors.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <string>
 
 namespace pbgi::storage {
@@ -47,8 +50,22 @@ QuantizedPayload QuantizedShCodec::quantize(const tree::Node& node, uint32_t hin
   }
   float q[D];
   basis_.rotate(p.v, q);
-  code.index = search_.search(q, hint < search_.size() ? hint : NearestCentreTable::kNoHint).index;
+  const NearestResult near = search_.search(q, hint < search_.size() ? hint : NearestCentreTable::kNoHint);
+  code.index = near.index;
+  // The HDR rule (sh_lut.h): bright nodes the LUT represents badly stay raw.
+  if (p.kind == PayloadKind::kRegular && table_->is_hdr(p.scale) && hdr_error_too_large(p.v, near.distance2)) {
+    code.raw = true;
+    code.scale = scale_.escape_code();
+    code.index = 0;
+  }
   return code;
+}
+
+bool QuantizedShCodec::hdr_error_too_large(const float* v, float distance2) const {
+  double norm2 = 0;
+  for (size_t k = 0; k < D; ++k) norm2 += double(v[k]) * v[k];
+  const double tol = double(table_->hdr_max_error());
+  return double(distance2) > tol * tol * norm2;
 }
 
 void QuantizedShCodec::dequantize(const QuantizedPayload& code, tree::Node& node) const {
@@ -78,13 +95,32 @@ void QuantizedShCodec::encode_codes(std::span<const QuantizedPayload> codes, std
     if (codes[i].raw) raw_codec.encode(nodes.subspan(i, 1), out);
 }
 
+bool QuantizedShCodec::escapes(const tree::Node& node) const {
+  const NormalizedPayload p = normalize_payload(node, table_->coverage_weight());
+  if (p.kind == PayloadKind::kRaw) return true;
+  if (p.kind == PayloadKind::kDark) return false;
+  if (scale_.encode(p.scale) == scale_.escape_code()) return true;
+  // Only HDR nodes (a small share) need the search to decide.
+  return table_->is_hdr(p.scale) && quantize(node).raw;
+}
+
+uint32_t QuantizedShCodec::payload_bits(const tree::Node& node) const {
+  return code_bits() + (escapes(node) ? uint32_t(FloatShCodec::kBytesPerNode * 8) : 0u);
+}
+
 void QuantizedShCodec::encode(std::span<const tree::Node> nodes, std::vector<uint8_t>& out) const {
+  // The LUT search dominates a build that stores kmeans-sh payloads: run it
+  // in parallel over chunks of the page. The search is exact, so a hint
+  // changes only its speed and the codes do not depend on the chunking.
   std::vector<QuantizedPayload> codes(nodes.size());
-  uint32_t hint = NearestCentreTable::kNoHint;
-  for (size_t i = 0; i < nodes.size(); ++i) {
-    codes[i] = quantize(nodes[i], hint);
-    if (!codes[i].raw) hint = codes[i].index;  // pre-order: the next node is often a child
-  }
+  constexpr size_t kChunk = 64;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nodes.size(), kChunk), [&](const auto& range) {
+    uint32_t hint = NearestCentreTable::kNoHint;
+    for (size_t i = range.begin(); i < range.end(); ++i) {
+      codes[i] = quantize(nodes[i], hint);
+      if (!codes[i].raw) hint = codes[i].index;  // pre-order: the next node is often a child
+    }
+  });
   encode_codes(codes, nodes, out);
 }
 

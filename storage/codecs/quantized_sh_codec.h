@@ -5,8 +5,10 @@
 // Per node a fixed-width code of index_bits + scale_bits bits:
 //   index  ceil(log2 l) bits  nearest LUT entry to the normalized vector
 //   scale  scale_bits bits    LogScaleQuantizer code; the escape code marks
-//                             a raw node (too bright, or unusual, see
-//                             sh_normalization.h), whose index bits are 0
+//                             a raw node (too bright, unusual, see
+//                             sh_normalization.h, or an HDR node the LUT
+//                             represents badly, see sh_lut.h), whose index
+//                             bits are 0
 // Page payload layout:
 //   codes      packed_bytes(N, index_bits + scale_bits) bytes, LSB-first
 //              (storage/codecs/bit_packing.h), node order, zero-padded
@@ -15,7 +17,8 @@
 //
 // Quantization is exact nearest-centre search (NearestCentreTable over the
 // LUT in its own PCA basis), so the dequantized normalized vector is the
-// LUT entry nearest to the node's: the error is the nearest-centre distance.
+// LUT entry nearest to the node's: the error is the nearest-centre distance
+// (or zero, for a node stored raw).
 //
 // Thread-safety: immutable after construction; every method is const and
 // may run concurrently.
@@ -46,6 +49,11 @@ class QuantizedShCodec final : public PayloadCodec {
   // 0: the size depends on how many nodes are stored raw.
   size_t bytes_per_node() const override { return 0; }
   void encode(std::span<const tree::Node> nodes, std::vector<uint8_t>& out) const override;
+  // code_bits(), plus 144 bytes if the node escapes (is stored raw).
+  uint32_t payload_bits(const tree::Node& node) const override;
+  // Whether quantize(node) stores it raw; no LUT search.
+  bool escapes(const tree::Node& node) const;
+  std::vector<uint8_t> state() const override { return table_->serialize(); }
   void decode(std::span<const uint8_t> bytes, std::span<tree::Node> nodes,
               const std::string& what) const override;
 
@@ -67,6 +75,8 @@ class QuantizedShCodec final : public PayloadCodec {
   NearestResult nearest(const float* normalized) const;
 
  private:
+  bool hdr_error_too_large(const float* normalized, float distance2) const;
+
   std::shared_ptr<const QuantizedShTable> table_;
   uint32_t index_bits_;
   LogScaleQuantizer scale_;

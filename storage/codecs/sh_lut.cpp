@@ -36,6 +36,12 @@ void ShLutOptions::validate() const {
     throw InvalidArgument("codec.max_range_octaves = " + std::to_string(max_range_octaves) +
                           ": must be in [4, 120]");
   }
+  if (!(hdr_quantile > 0.5 && hdr_quantile <= 1.0)) {
+    throw InvalidArgument("codec.hdr_quantile = " + std::to_string(hdr_quantile) + ": must be in (0.5, 1]");
+  }
+  if (!(hdr_max_error >= 0.f) || !std::isfinite(hdr_max_error)) {
+    throw InvalidArgument("codec.hdr_max_error = " + std::to_string(hdr_max_error) + ": must be >= 0");
+  }
   if (!(sample_fraction > 0.0 && sample_fraction <= 1.0)) {
     throw InvalidArgument("codec.sample_fraction = " + std::to_string(sample_fraction) + ": must be in (0, 1]");
   }
@@ -43,8 +49,18 @@ void ShLutOptions::validate() const {
 }
 
 QuantizedShTable::QuantizedShTable(std::vector<float> entries, uint32_t scale_bits, float coverage_weight,
-                                   float lo, float hi)
-    : entries_(std::move(entries)), scale_bits_(scale_bits), coverage_weight_(coverage_weight), lo_(lo), hi_(hi) {
+                                   float lo, float hi, float hdr_lo, float hdr_err)
+    : entries_(std::move(entries)),
+      scale_bits_(scale_bits),
+      coverage_weight_(coverage_weight),
+      lo_(lo),
+      hi_(hi),
+      hdr_lo_(hdr_lo),
+      hdr_err_(hdr_err) {
+  if (std::isnan(hdr_lo) || !(hdr_err >= 0.f) || !std::isfinite(hdr_err)) {
+    throw InvalidArgument("quantized SH table: HDR rule (" + std::to_string(hdr_lo) + ", " +
+                          std::to_string(hdr_err) + ")");
+  }
   const size_t l = entries_.size() / kDims;
   if (l == 0 || entries_.size() % kDims != 0 || l > ShLutOptions::kMaxEntries) {
     throw InvalidArgument("quantized SH table: " + std::to_string(entries_.size()) +
@@ -65,13 +81,15 @@ std::vector<uint8_t> QuantizedShTable::serialize() const {
   out.reserve(kHeaderBytes + entries_.size() * 4 + kTrailerBytes);
   ByteWriter w(out);
   w.put<uint32_t>(kShLutMagic);
-  w.put<uint32_t>(kShLutFormatV1);
+  w.put<uint32_t>(kShLutFormatV2);
   w.put<uint32_t>(uint32_t(kDims));
   w.put<uint32_t>(uint32_t(size()));
   w.put<uint32_t>(scale_bits_);
   w.put<float>(coverage_weight_);
   w.put<float>(lo_);
   w.put<float>(hi_);
+  w.put<float>(hdr_lo_);
+  w.put<float>(hdr_err_);
   for (float f : entries_) w.put<float>(f);
   w.put<uint64_t>(checksum64(out.data(), out.size()));
   return out;
@@ -86,7 +104,7 @@ QuantizedShTable QuantizedShTable::deserialize(std::span<const uint8_t> bytes, c
   ByteReader r(bytes, what);
   if (r.get<uint32_t>("lut magic") != kShLutMagic) throw corrupt("bad magic");
   const uint32_t version = r.get<uint32_t>("lut version");
-  if (version != kShLutFormatV1) {
+  if (version != kShLutFormatV1 && version != kShLutFormatV2) {
     throw VersionError(what + ": SH LUT format version " + std::to_string(version) +
                        " is not supported by this build");
   }
@@ -94,7 +112,8 @@ QuantizedShTable QuantizedShTable::deserialize(std::span<const uint8_t> bytes, c
   const uint32_t count = r.get<uint32_t>("lut entry_count");
   if (dims != kDims) throw corrupt("dims " + std::to_string(dims) + ", expected 36");
   if (count == 0 || count > ShLutOptions::kMaxEntries) throw corrupt("entry count " + std::to_string(count));
-  const size_t need = kHeaderBytes + size_t(count) * kDims * 4 + kTrailerBytes;
+  const size_t header = version == kShLutFormatV1 ? kHeaderBytes : kHeaderBytes + 8;
+  const size_t need = header + size_t(count) * kDims * 4 + kTrailerBytes;
   if (bytes.size() != need) {
     throw corrupt(std::to_string(bytes.size()) + " bytes for " + std::to_string(count) + " entries, expected " +
                   std::to_string(need));
@@ -109,10 +128,15 @@ QuantizedShTable QuantizedShTable::deserialize(std::span<const uint8_t> bytes, c
   const float weight = r.get<float>("lut coverage_weight");
   const float lo = r.get<float>("lut log2_scale_lo");
   const float hi = r.get<float>("lut log2_scale_hi");
+  float hdr_lo = std::numeric_limits<float>::infinity(), hdr_err = 0.f;
+  if (version >= kShLutFormatV2) {
+    hdr_lo = r.get<float>("lut hdr_log2_scale");
+    hdr_err = r.get<float>("lut hdr_max_error");
+  }
   std::vector<float> entries(size_t(count) * kDims);
   for (float& f : entries) f = r.get<float>("lut entry");
   try {
-    return QuantizedShTable(std::move(entries), scale_bits, weight, lo, hi);
+    return QuantizedShTable(std::move(entries), scale_bits, weight, lo, hi, hdr_lo, hdr_err);
   } catch (const InvalidArgument& e) {
     throw corrupt(e.what());
   }
@@ -139,6 +163,7 @@ ShLutTraining train_sh_lut(std::span<const tree::Node> nodes, const ShLutOptions
   // 2. Scale range: up to the bright quantile, down to the dimmest node
   //    (at most max_range_octaves below).
   float lo = -1.f, hi = 0.f;
+  float hdr_lo = std::numeric_limits<float>::infinity();
   if (!scales.empty()) {
     std::sort(scales.begin(), scales.end());
     const double q = options.bright_quantile;
@@ -146,6 +171,9 @@ ShLutTraining train_sh_lut(std::span<const tree::Node> nodes, const ShLutOptions
     hi = float(std::log2(double(bright)));
     lo = std::max(float(std::floor(std::log2(double(scales.front())))) - 1.f, hi - options.max_range_octaves);
     if (!(hi - lo >= 1.f)) lo = hi - 1.f;
+    if (options.hdr_quantile < 1.0) {
+      hdr_lo = float(std::log2(double(scales[size_t(options.hdr_quantile * double(scales.size() - 1))])));
+    }
   }
 
   // 3. k-means on the vectors.
@@ -153,7 +181,8 @@ ShLutTraining train_sh_lut(std::span<const tree::Node> nodes, const ShLutOptions
   km.clusters = options.entries;
   KMeansResult result = kmeans(vectors, kNormalizedDims, km);
   const uint64_t clustered = vectors.size() / kNormalizedDims;
-  QuantizedShTable table(result.centres, options.scale_bits, options.coverage_weight, lo, hi);
+  QuantizedShTable table(result.centres, options.scale_bits, options.coverage_weight, lo, hi, hdr_lo,
+                         options.hdr_max_error);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return ShLutTraining{std::move(table), std::move(result), nodes.size(), clustered, seconds};
 }

@@ -10,18 +10,28 @@
 // normalized vectors (storage/codecs/sh_normalization.h) are clustered with
 // k-means; the scale range comes from the sample's scales.
 //
-// Serialized form (all little-endian):
+// Serialized form (all little-endian; H = 32 in V1, 40 in V2):
 //   offset  size     field
 //   0       4        magic 'PBGL'
-//   4       4        version u32 (1)
+//   4       4        version u32 (1 or 2; written: 2)
 //   8       4        dims u32 (36)
 //   12      4        entry_count u32 l (1 .. 65536)
 //   16      4        scale_bits u32 (4 .. 16)
 //   20      4        coverage_weight f32 (> 0)
 //   24      4        log2_scale_lo f32
 //   28      4        log2_scale_hi f32 (> lo)
-//   32      144 l    entries: l x 36 f32 normalized vectors
-//   32+144l 8        XXH3-64 of bytes [0, 32 + 144 l)
+//   32      4        V2: hdr_log2_scale f32 (may be +inf: no HDR rule)
+//   36      4        V2: hdr_max_error f32 (>= 0)
+//   H       144 l    entries: l x 36 f32 normalized vectors
+//   H+144l  8        XXH3-64 of bytes [0, H + 144 l)
+// V1 tables read as hdr_log2_scale = +inf (no HDR rule).
+//
+// The HDR rule (V2). A few very bright nodes (emitters, and the small nodes
+// around them) dominate the light they send, yet are too rare for k-means to
+// spend entries on their unusual colours and lobes: their normalized error
+// can reach tens of percent. So a node whose scale is at least
+// 2^hdr_log2_scale (the sample's hdr_quantile) and whose normalized
+// quantization error |v' - v| / |v| exceeds hdr_max_error is stored raw.
 //
 // Thread-safety: QuantizedShTable is an immutable value once built.
 #pragma once
@@ -32,7 +42,9 @@
 #include "storage/tree/node.h"
 #include "storage/tree/surfel.h"
 
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <string>
 #include <vector>
@@ -41,6 +53,7 @@ namespace pbgi::storage {
 
 inline constexpr uint32_t kShLutMagic = fourcc("PBGL");
 inline constexpr uint32_t kShLutFormatV1 = 1;
+inline constexpr uint32_t kShLutFormatV2 = 2;  // + the HDR rule
 
 struct ShLutOptions {
   static constexpr uint32_t kMinEntries = 64;
@@ -60,6 +73,11 @@ struct ShLutOptions {
   // are stored unquantized (raw), so the few very bright nodes (emitters)
   // stay exact. 1 = only nodes brighter than the whole sample.
   double bright_quantile = 0.9999;
+  // The HDR rule (above): nodes at or above this quantile of the sample's
+  // scales are stored raw when their normalized error exceeds
+  // hdr_max_error. 1 disables the rule.
+  double hdr_quantile = 0.99;
+  float hdr_max_error = 0.1f;
   // The scale range spans at most this many octaves below the bright
   // threshold; dimmer nodes are coded with absolute error below its bottom.
   float max_range_octaves = 40.f;
@@ -83,7 +101,8 @@ class QuantizedShTable {
   static constexpr size_t kDims = kNormalizedDims;
 
   QuantizedShTable(std::vector<float> entries, uint32_t scale_bits, float coverage_weight, float log2_scale_lo,
-                   float log2_scale_hi);
+                   float log2_scale_hi, float hdr_log2_scale = std::numeric_limits<float>::infinity(),
+                   float hdr_max_error = 0.f);
 
   size_t size() const { return entries_.size() / kDims; }
   uint32_t index_bits() const;
@@ -94,6 +113,10 @@ class QuantizedShTable {
   const float* entry(uint32_t i) const { return &entries_[size_t(i) * kDims]; }
   const std::vector<float>& entries() const { return entries_; }
   LogScaleQuantizer scale_quantizer() const { return {scale_bits_, lo_, hi_}; }
+  float hdr_log2_scale() const { return hdr_lo_; }
+  float hdr_max_error() const { return hdr_err_; }
+  // Whether a node of scale s falls under the HDR rule.
+  bool is_hdr(float s) const { return s > 0.f && std::log2(s) >= hdr_lo_; }
 
   std::vector<uint8_t> serialize() const;
   // Throws CorruptionError (prefixed with `what`) for a bad magic, size,
@@ -105,6 +128,7 @@ class QuantizedShTable {
   uint32_t scale_bits_;
   float coverage_weight_;
   float lo_, hi_;
+  float hdr_lo_, hdr_err_;
 };
 
 struct ShLutTraining {

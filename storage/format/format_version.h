@@ -25,15 +25,29 @@ inline constexpr uint32_t kManifestMagic = fourcc("PBGM");  // manifest.pbgm
 //       payload array (codec, page-boundary nodes only), quantized surfel
 //       records (24 B/surfel), 8-byte XXH3-64 trailer. Bounds, cones, areas
 //       and payloads of the nodes inside a page are derived when it loads.
+//   V3: the V2 layout; header flag kPageFlagNodePayloads says the payload
+//       array holds every node's payload (pre-order) instead of the linked
+//       children's, so loads copy payloads instead of deriving them. Written
+//       only by builds that store node payloads (payload_codec float32-sh,
+//       kmeans-sh); derived-payload builds still write V2.
 inline constexpr uint32_t kPageFormatV1 = 1;
 inline constexpr uint32_t kPageFormatV2 = 2;
-inline constexpr uint32_t kPageFormatCurrent = kPageFormatV2;
+inline constexpr uint32_t kPageFormatV3 = 3;
+inline constexpr uint32_t kPageFormatCurrent = kPageFormatV2;  // derived payloads
+inline constexpr uint32_t kPageFormatNodePayloads = kPageFormatV3;
+
+// Page header flags (V3; a V2 page has none).
+inline constexpr uint32_t kPageFlagNodePayloads = 1u << 0;
 
 // Manifest layout versions.
 //   V1: 16-byte header, body (options, stats, root, codec, page table),
 //       8-byte XXH3-64 trailer.
+//   V2: V1 + payload storage (derived / every node), the codec's state (the
+//       kmeans-sh LUT, itself versioned and checksummed) and the payload
+//       build options (payload_codec, lut_entries, lut_sample_fraction).
 inline constexpr uint32_t kManifestFormatV1 = 1;
-inline constexpr uint32_t kManifestFormatCurrent = kManifestFormatV1;
+inline constexpr uint32_t kManifestFormatV2 = 2;
+inline constexpr uint32_t kManifestFormatCurrent = kManifestFormatV2;
 
 // Version of a page set as a whole (manifest + pages + codec set). Build keys
 // hash it, so bumping it makes every daemon rebuild its cached page sets.
@@ -43,7 +57,7 @@ inline constexpr uint32_t kPageSetFormatVersion = 2;
 
 // V1 pages are no longer read: their page sets are rebuilt (the build key
 // changed with kPageSetFormatVersion), so a V1 page is a VersionError.
-constexpr bool is_known_page_format(uint32_t v) { return v == kPageFormatV2; }
-constexpr bool is_known_manifest_format(uint32_t v) { return v == kManifestFormatV1; }
+constexpr bool is_known_page_format(uint32_t v) { return v == kPageFormatV2 || v == kPageFormatV3; }
+constexpr bool is_known_manifest_format(uint32_t v) { return v == kManifestFormatV1 || v == kManifestFormatV2; }
 
 }  // namespace pbgi::storage

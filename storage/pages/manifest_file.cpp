@@ -11,16 +11,26 @@ namespace pbgi::storage {
 
 namespace {
 constexpr uint32_t kMaxBuildKeyBytes = 4096;
+// A LUT of 65536 entries serializes to 9.4 MB; refuse lengths beyond before
+// allocating.
+constexpr uint32_t kMaxCodecStateBytes = 16u << 20;
 }
 
 std::vector<uint8_t> encode_manifest(const Manifest& m) {
   std::vector<uint8_t> body;
   ByteWriter w(body);
+  // Manifest V2 (FORMAT.md).
   w.put<uint32_t>(m.page_format);
   w.put<uint32_t>(m.codec);
+  w.put<uint32_t>(m.node_payloads ? 1u : 0u);
+  w.put<uint32_t>(static_cast<uint32_t>(m.codec_state.size()));
+  w.put_bytes(m.codec_state);
   w.put_string(m.build_key);
   w.put<uint32_t>(m.options.leaf_size);
   w.put<uint32_t>(m.options.page_size);
+  w.put<uint32_t>(static_cast<uint32_t>(m.options.payload_codec));
+  w.put<uint32_t>(m.options.lut_entries);
+  w.put<double>(m.options.lut_sample_fraction);
   w.put<uint64_t>(m.stats.surfel_count);
   w.put<uint64_t>(m.stats.node_count);
   w.put<uint64_t>(m.stats.leaf_count);
@@ -50,10 +60,48 @@ Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path)
                        std::to_string(kPageFormatCurrent) + ")");
   }
   m.codec = r.get<uint32_t>("codec");
-  make_payload_codec(m.codec);  // VersionError if unknown
+  if (!is_known_payload_codec(m.codec)) {
+    throw VersionError(path + ": payload codec " + std::to_string(m.codec) + " is not supported by this build");
+  }
+  const bool v2 = framed.version >= kManifestFormatV2;
+  if (v2) {
+    const uint32_t storage = r.get<uint32_t>("payload_storage");
+    if (storage > 1) throw corrupt("payload_storage " + std::to_string(storage) + " is neither 0 nor 1");
+    m.node_payloads = storage == 1;
+    const uint64_t state_at = r.file_offset();
+    const uint32_t state_bytes = r.get<uint32_t>("codec_state.size");
+    if (state_bytes > kMaxCodecStateBytes) {
+      throw corrupt("codec state of " + std::to_string(state_bytes) + " bytes at offset " +
+                    std::to_string(state_at) + " exceeds " + std::to_string(kMaxCodecStateBytes));
+    }
+    const auto state = r.get_bytes(state_bytes, "codec_state");
+    m.codec_state.assign(state.begin(), state.end());
+  }
+  const uint32_t want_format = m.node_payloads ? kPageFormatNodePayloads : kPageFormatV2;
+  if (m.page_format != want_format) {
+    throw corrupt("page format " + std::to_string(m.page_format) + " with " +
+                  (m.node_payloads ? "stored" : "derived") + " node payloads (expected " +
+                  std::to_string(want_format) + ")");
+  }
+  if (codec_needs_state(m.codec) != !m.codec_state.empty()) {
+    throw corrupt("payload codec " + std::to_string(m.codec) + " with " + std::to_string(m.codec_state.size()) +
+                  " bytes of codec state");
+  }
+  if (!m.node_payloads && m.codec != static_cast<uint32_t>(CodecId::kFloatSh)) {
+    throw corrupt("derived payloads need codec 0 (float32-sh) for the links, not " + std::to_string(m.codec));
+  }
   m.build_key = r.get_string("build_key", kMaxBuildKeyBytes);
   m.options.leaf_size = r.get<uint32_t>("leaf_size");
   m.options.page_size = r.get<uint32_t>("page_size");
+  if (v2) {
+    const uint32_t option = r.get<uint32_t>("payload_codec");
+    if (option > static_cast<uint32_t>(tree::PayloadCodecOption::kAuto)) {
+      throw corrupt("payload_codec option " + std::to_string(option) + " is unknown");
+    }
+    m.options.payload_codec = static_cast<tree::PayloadCodecOption>(option);
+    m.options.lut_entries = r.get<uint32_t>("lut_entries");
+    m.options.lut_sample_fraction = r.get<double>("lut_sample_fraction");
+  }
   m.stats.surfel_count = r.get<uint64_t>("surfel_count");
   m.stats.node_count = r.get<uint64_t>("node_count");
   m.stats.leaf_count = r.get<uint64_t>("leaf_count");

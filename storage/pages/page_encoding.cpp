@@ -21,6 +21,11 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
   out.insert(out.end(), t.leaf_records.begin(), t.leaf_records.end());
   size_t at = out.size();
   out.resize(at + t.links.size() * kLinkRecordBytes);
+  const bool node_payloads = !t.nodes.empty();
+  if (node_payloads && t.nodes.size() != n) {
+    throw Error("internal: treelet of " + std::to_string(n) + " nodes has " + std::to_string(t.nodes.size()) +
+                " stored payloads");
+  }
   std::vector<tree::Node> linked;
   linked.reserve(t.links.size());
   for (const tree::TreeletLink& l : t.links) {
@@ -29,13 +34,19 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
     linked.push_back(l.summary);
   }
   const size_t payload_at = out.size();
-  codec.encode(linked, out);
+  // V3: every node's payload, pre-order; V2: the linked children's.
+  if (node_payloads) {
+    codec.encode(t.nodes, out);
+  } else {
+    codec.encode(linked, out);
+  }
   const size_t payload_bytes = out.size() - payload_at;
   out.insert(out.end(), t.surfel_records.begin(), t.surfel_records.end());
   out.resize(out.size() + kPageTrailerBytes);
 
   PageHeader h;
-  h.format_version = static_cast<uint16_t>(kPageFormatCurrent);
+  h.format_version = static_cast<uint16_t>(node_payloads ? kPageFormatNodePayloads : kPageFormatCurrent);
+  h.flags = node_payloads ? kPageFlagNodePayloads : 0u;
   h.codec = static_cast<uint16_t>(codec.id());
   h.page_id = page_id;
   h.node_count = static_cast<uint32_t>(n);
@@ -57,7 +68,13 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
     throw corrupt("payload codec " + std::to_string(h.codec) + " differs from the manifest's " +
                   std::to_string(codec.id()));
   }
-  if (h.flags != 0) throw corrupt("reserved header flags are " + std::to_string(h.flags));
+  // V2 has no flags; V3 always stores node payloads (format_version.h).
+  const uint32_t want_flags = h.format_version == kPageFormatV3 ? kPageFlagNodePayloads : 0u;
+  if (h.flags != want_flags) {
+    throw corrupt("header flags are " + std::to_string(h.flags) + ", page format " +
+                  std::to_string(h.format_version) + " needs " + std::to_string(want_flags));
+  }
+  const bool node_payloads = (h.flags & kPageFlagNodePayloads) != 0;
   if (h.node_count == 0) throw corrupt("page has no nodes");
   // 1. Sizes. Leaf and link counts follow from the shapes (each byte is
   //    checked when the treelet is parsed).
@@ -83,7 +100,8 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
                   std::to_string(need) + " bytes, page has " + std::to_string(bytes.size()));
   }
 
-  // 2. Links and their payloads.
+  // 2. Links and the payloads: the linked children's (V2) or every
+  //    node's (V3).
   std::vector<tree::TreeletLink> link(links);
   std::vector<tree::Node> linked(links);
   for (uint64_t i = 0; i < links; ++i) {
@@ -93,7 +111,13 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
                     " outside the " + std::to_string(page_count) + " pages");
     }
   }
-  codec.decode(bytes.subspan(payload_at, h.payload_bytes), linked, at);
+  std::vector<tree::Node> stored;
+  if (node_payloads) {
+    stored.resize(h.node_count);
+    codec.decode(bytes.subspan(payload_at, h.payload_bytes), stored, at);
+  } else {
+    codec.decode(bytes.subspan(payload_at, h.payload_bytes), linked, at);
+  }
   for (uint64_t i = 0; i < links; ++i) link[i].summary = linked[i];
 
   // 3. The treelet, every summary derived.
@@ -102,6 +126,7 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   view.leaf_records = bytes.subspan(leaves_at, leaves * kLeafRecordBytes);
   view.links = link;
   view.surfel_records = bytes.subspan(surfels_at, uint64_t(h.surfel_count) * kSurfelRecordBytes);
+  view.payloads = stored;
   auto page = std::make_shared<tree::Page>();
   tree::expand_treelet(view, h.page_id, at, *page);
   return page;

@@ -3,7 +3,9 @@
 //   surfel records | trailer
 // The payload array holds, through the page set's codec, the payloads of
 // the linked children (the roots of other pages) in link order: what the
-// nodes of this page need to derive their own payloads.
+// nodes of this page need to derive their own payloads (V2). A treelet that
+// carries stored payloads (Treelet::nodes, codes) is written as a V3 page
+// whose payload array holds every node's payload in pre-order instead.
 #pragma once
 
 #include "storage/codecs/payload_codec.h"

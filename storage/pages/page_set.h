@@ -52,6 +52,10 @@ struct Manifest {
   PageSetStats stats;
   tree::NodeRef root;
   uint32_t codec = 0;          // payload codec id (0 = float SH)
+  // Every node stores its payload (V3 pages) rather than deriving it (V2).
+  bool node_payloads = false;
+  // The codec's serialized state (the kmeans-sh LUT); empty for float SH.
+  std::vector<uint8_t> codec_state;
   uint32_t page_format = kPageFormatCurrent;  // format version of every page
   std::vector<PageExtent> pages;              // page table, indexed by page id
 };
@@ -65,6 +69,10 @@ struct BuildReport {
   uint64_t sort_peak_bytes = 0;       // largest run + merge buffers (<= options.sort_memory_bytes)
   uint64_t tree_peak_pending_bytes = 0;  // largest size of nodes waiting for their page
   double add_seconds = 0;             // inside add(): copying, sorting and spilling runs
+  std::string payload_codec;          // what was stored: "derived", "float32-sh", "kmeans-sh"
+  uint64_t lut_sample_surfels = 0;    // kmeans-sh: surfels of the LUT's sample tree
+  uint32_t lut_entries = 0;           // kmeans-sh: entries learned (<= lut_entries asked)
+  double lut_seconds = 0;             // kmeans-sh: sample tree + k-means (inside finish)
   double finish_seconds = 0;          // merge, tree, pages, manifest, publish
 };
 
@@ -82,8 +90,15 @@ struct BuildReport {
 // same parent removes (StagingDir).
 //
 // The page set depends only on the surfels (in arrival order), `bounds`
-// and the tree options (leaf_size, page_size): never on the batch sizes or
-// the sort memory.
+// and the tree options (leaf_size, page_size, payload_codec, lut_entries,
+// lut_sample_fraction): never on the batch sizes or the sort memory.
+//
+// Payloads (options.payload_codec, FORMAT.md "Payload storage"): derived
+// writes V2 pages; float32-sh and kmeans-sh store every node's payload in
+// V3 pages. kmeans-sh first learns its LUT on a tree over a random sample
+// of the surfels (lut_sample_fraction, drawn while they arrive) and stores
+// it in the manifest; auto resolves by codec_selection.h (derived for
+// diffuse scenes).
 //
 // Thread-safety: one thread drives a builder.
 class PageSetBuilder {

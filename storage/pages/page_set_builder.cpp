@@ -1,9 +1,13 @@
 // PageSetBuilder: surfels -> external sort -> streaming tree -> pages ->
 // manifest -> atomic publish.
+#include "storage/codecs/codec_selection.h"
 #include "storage/codecs/payload_codec.h"
+#include "storage/codecs/quantized_sh_codec.h"
+#include "storage/codecs/sh_lut.h"
 #include "storage/format/errors.h"
 #include "storage/format/page_records.h"
 #include "storage/pages/file_io.h"
+#include "storage/pages/lut_sample.h"
 #include "storage/pages/manifest_file.h"
 #include "storage/pages/page_encoding.h"
 #include "storage/pages/page_set.h"
@@ -84,6 +88,26 @@ class PageWriter final : public tree::TreeletSink {
   uint64_t offset_ = 0;
 };
 
+// The streaming build's view of a codec when every node stores a payload.
+class CodecSizer final : public tree::NodePayloadSizer {
+ public:
+  explicit CodecSizer(const PayloadCodec& codec) : codec_(codec) {}
+  uint32_t bits(const tree::Node& node) const override { return codec_.payload_bits(node); }
+
+ private:
+  const PayloadCodec& codec_;
+};
+
+// The LUT options a build derives from its tree options.
+ShLutOptions lut_options(const tree::BuildOptions& o) {
+  ShLutOptions lo;
+  lo.entries = o.lut_entries;
+  lo.sample_fraction = o.lut_sample_fraction;
+  return lo;
+}
+
+bool may_quantize(const tree::BuildOptions& o) { return o.payload_codec == tree::PayloadCodecOption::kQuantizedSh; }
+
 }  // namespace
 
 struct PageSetBuilder::Impl {
@@ -95,10 +119,39 @@ struct PageSetBuilder::Impl {
   BuildReport report;
   bool finished = false;
   std::vector<Surfel> batch;  // checked copies on their way to the sorter
+  std::optional<LutSampleCollector> lut_sample;  // kmeans-sh / auto: the LUT's sample
 
   Impl(const tree::BuildOptions& o, std::string key, const fs::path& dir, const Imath::Box3f& bounds)
       : options(o), build_key(std::move(key)), frame(bounds), staging(checked(o, build_key, dir)) {
     sorter.emplace(frame, options.sort_memory_bytes, staging.path());
+    if (may_quantize(options)) {
+      const ShLutOptions lo = lut_options(options);
+      lut_sample.emplace(lo.sample_fraction,
+                         std::max(lo.min_sample_surfels, uint64_t(lo.min_surfels_per_entry) * lo.entries));
+    }
+  }
+
+  // The codec of this build: resolves `auto` (codec_selection.h), and for
+  // kmeans-sh learns the LUT on a tree over the sample.
+  std::shared_ptr<const PayloadCodec> choose_codec(bool& node_payloads) {
+    const CodecSelection sel = select_payload_codecs({report.surfels, 0}, options.payload_codec, {});
+    node_payloads = sel.node_payloads;
+    report.payload_codec = node_payloads ? "" : "derived";
+    if (sel.diffuse != CodecId::kQuantizedSh) {
+      if (node_payloads) report.payload_codec = "float32-sh";
+      return make_payload_codec(static_cast<uint32_t>(CodecId::kFloatSh));
+    }
+    const auto t0 = Clock::now();
+    std::vector<Surfel> sample = lut_sample->take();
+    lut_sample.reset();
+    report.lut_sample_surfels = sample.size();
+    const tree::BuiltTree sample_tree = tree::build_tree(std::move(sample), options);
+    ShLutTraining training = train_sh_lut(sample_tree.nodes, lut_options(options));
+    report.lut_entries = static_cast<uint32_t>(training.table.size());
+    report.lut_seconds = seconds_since(t0);
+    report.payload_codec = "kmeans-sh";
+    return std::make_shared<const QuantizedShCodec>(
+        std::make_shared<const QuantizedShTable>(std::move(training.table)));
   }
 
   // Checks everything cheap before the staging directory is created.
@@ -124,6 +177,7 @@ struct PageSetBuilder::Impl {
         tree::check_surfel(batch[i], report.surfels + i);
       }
       sorter->add({batch.data(), n});
+      if (lut_sample) lut_sample->add({batch.data(), n});
       report.surfels += n;
     }
     report.add_seconds += seconds_since(t0);
@@ -139,11 +193,16 @@ struct PageSetBuilder::Impl {
     report_progress(0.f);
     if (report.surfels == 0) throw InvalidArgument("cannot build a tree over 0 surfels");
 
-    // 1. The sorted stream into the tree builder; pages are written as the
-    //    tree completes them.
-    const auto codec = make_payload_codec(static_cast<uint32_t>(CodecId::kFloatSh));
+    // 1. The payload codec (kmeans-sh: its LUT, from the sample tree).
+    bool node_payloads = false;
+    const auto codec = choose_codec(node_payloads);
+    const CodecSizer sizer(*codec);
+
+    // 2. The sorted stream into the tree builder; pages are written as the
+    //    tree completes them (stored payloads: quantized by the page writer).
     PageWriter pages(staging.path() / kPagesFileName, codec);
-    tree::StreamingTreeBuilder tree(options, options.page_size, codec->bytes_per_node(), pages);
+    tree::StreamingTreeBuilder tree(options, options.page_size, node_payloads ? 0 : codec->bytes_per_node(), pages,
+                                    node_payloads ? &sizer : nullptr);
     sorter->drain([&](const Surfel& s, uint64_t code) { tree.add(s, code); },
                   [&](float f) { report_progress(0.95f * f); });
     const tree::StreamingTreeStats stats = tree.finish();
@@ -155,12 +214,14 @@ struct PageSetBuilder::Impl {
     report.tree_peak_pending_bytes = stats.peak_pending_bytes;
     sorter.reset();
 
-    // 2. The manifest that describes the pages.
+    // 3. The manifest that describes the pages.
     Manifest m;
     m.build_key = build_key;
     m.options = options;
     m.codec = codec->id();
-    m.page_format = kPageFormatCurrent;
+    m.node_payloads = node_payloads;
+    m.codec_state = codec->state();
+    m.page_format = node_payloads ? kPageFormatNodePayloads : kPageFormatCurrent;
     m.root = stats.root;
     m.stats.file_bytes = pages.file_bytes();
     m.pages = pages.close();
@@ -177,7 +238,7 @@ struct PageSetBuilder::Impl {
     }
     report_progress(0.97f);
 
-    // 3. Publish: one rename makes the complete page set visible.
+    // 4. Publish: one rename makes the complete page set visible.
     staging.publish();
     report.finish_seconds = seconds_since(t0);
     report_progress(1.f);

@@ -12,14 +12,15 @@ namespace pbgi::storage {
 PageSetInspection inspect_page_set(const PageSetReader& reader, bool walk) {
   const Manifest& m = reader.manifest();
   PageSetInspection r;
-  const auto codec = make_payload_codec(m.codec);
+  const auto codec = make_payload_codec(m.codec, m.codec_state, reader.directory().string());
   r.codec_name = codec->name();
+  r.node_payloads = m.node_payloads;
   r.topology_bytes_per_node = kShapeBytes;
-  r.payload_bytes_per_node = 0;
+  r.payload_bytes_per_node = m.node_payloads ? codec->bytes_per_node() : 0;
   r.surfel_record_bytes = kSurfelRecordBytes;
   r.leaf_record_bytes = kLeafRecordBytes;
   r.link_record_bytes = kLinkRecordBytes;
-  r.link_payload_bytes = codec->bytes_per_node();
+  r.link_payload_bytes = m.node_payloads ? 0 : codec->bytes_per_node();
 
   // 1. Page table.
   r.fill_min = m.pages.empty() ? 0 : std::numeric_limits<double>::infinity();

@@ -15,9 +15,11 @@ struct PageSetInspection {
   // Record sizes on disk (page format V2, FORMAT.md): every node takes a
   // shape byte; a leaf adds a leaf record, a child in another page a link
   // record plus its payload. Other nodes' bounds and payloads are derived
-  // at load, so no per-node payload is stored.
+  // at load, so no per-node payload is stored (V3: every node stores one,
+  // links none).
+  bool node_payloads = false;
   uint64_t topology_bytes_per_node = 0;  // the shape byte
-  uint64_t payload_bytes_per_node = 0;   // 0: derived (stored per link only)
+  uint64_t payload_bytes_per_node = 0;   // 0: derived, or variable (kmeans-sh)
   uint64_t surfel_record_bytes = 0;
   uint64_t leaf_record_bytes = 0;
   uint64_t link_record_bytes = 0;        // without the payload

@@ -12,7 +12,7 @@ struct PageSetReader::Impl {
   Impl(const std::filesystem::path& d, std::shared_ptr<PageCache> c, PageDecorator dec)
       : dir(d),
         manifest(read_manifest(d / kManifestFileName)),
-        codec(make_payload_codec(manifest.codec)),
+        codec(make_payload_codec(manifest.codec, manifest.codec_state, (d / kManifestFileName).string())),
         pages(File::open_read(d / kPagesFileName)),
         cache(std::move(c)),
         decorate(std::move(dec)) {

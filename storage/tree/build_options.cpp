@@ -7,6 +7,25 @@
 
 namespace pbgi::tree {
 
+PayloadCodecOption parse_payload_codec(const std::string& name) {
+  for (PayloadCodecOption o : {PayloadCodecOption::kDerived, PayloadCodecOption::kFloatSh,
+                               PayloadCodecOption::kQuantizedSh, PayloadCodecOption::kAuto}) {
+    if (name == to_string(o)) return o;
+  }
+  throw InvalidArgument("tree.payload_codec = \"" + name +
+                        "\": must be one of derived, float32-sh, kmeans-sh, auto");
+}
+
+std::string to_string(PayloadCodecOption option) {
+  switch (option) {
+    case PayloadCodecOption::kDerived: return "derived";
+    case PayloadCodecOption::kFloatSh: return "float32-sh";
+    case PayloadCodecOption::kQuantizedSh: return "kmeans-sh";
+    case PayloadCodecOption::kAuto: return "auto";
+  }
+  return "payload codec " + std::to_string(int(option));
+}
+
 void BuildOptions::validate() const {
   constexpr uint32_t kMaxLeafSize = 4096;
   constexpr uint32_t kMaxPageSize = 1u << 30;
@@ -27,6 +46,28 @@ void BuildOptions::validate() const {
   if (sort_memory_bytes < kMinSortMemory) {
     throw InvalidArgument("tree.sort_memory_bytes = " + std::to_string(sort_memory_bytes) +
                           ": must be at least " + std::to_string(kMinSortMemory));
+  }
+  if (static_cast<uint8_t>(payload_codec) > static_cast<uint8_t>(PayloadCodecOption::kAuto)) {
+    throw InvalidArgument("tree.payload_codec = " + to_string(payload_codec) + ": unknown");
+  }
+  // Stored payloads: a page must also hold a full leaf's own payload (at
+  // most a float32 one and a code word).
+  const size_t min_stored_page = min_page + storage::kMaxPayloadBytesPerNode + 8;
+  if (payload_codec != PayloadCodecOption::kDerived && page_size < min_stored_page) {
+    throw InvalidArgument("tree.page_size = " + std::to_string(page_size) + ": must be at least " +
+                          std::to_string(min_stored_page) + " for tree.payload_codec = " +
+                          to_string(payload_codec) + " (a page holds a full leaf and its payload)");
+  }
+  // Same range as storage::ShLutOptions (checked here so that bad options
+  // fail before a build starts).
+  constexpr uint32_t kMinLut = 64, kMaxLut = 1u << 16;
+  if (lut_entries < kMinLut || lut_entries > kMaxLut) {
+    throw InvalidArgument("tree.lut_entries = " + std::to_string(lut_entries) + ": must be in [" +
+                          std::to_string(kMinLut) + ", " + std::to_string(kMaxLut) + "]");
+  }
+  if (!(lut_sample_fraction > 0.0 && lut_sample_fraction <= 1.0)) {
+    throw InvalidArgument("tree.lut_sample_fraction = " + std::to_string(lut_sample_fraction) +
+                          ": must be in (0, 1]");
   }
 }
 

@@ -2,8 +2,28 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 
 namespace pbgi::tree {
+
+// How a page set stores node payloads (storage/format/FORMAT.md, "Payload
+// storage"). As written in config files, CLI flags and requests:
+//   derived     no node payload stored (only the linked children's, float32):
+//               every payload is recomputed from the decoded surfels when a
+//               page loads. Smallest for small trees, exact, costs CPU per load.
+//   float32-sh  every node stores its payload as 36 float32 (144 B): loads
+//               copy payloads, nothing to recompute. Lossless.
+//   kmeans-sh   every node stores a LUT index + log scale, bit-packed
+//               (Buchholz & Boubekeur 2012); the LUT is learned on a sample
+//               tree and stored in the manifest. Lossy.
+//   auto        what the scene needs (storage/codecs/codec_selection.h):
+//               derived for diffuse senders (measured smallest, exact, as fast
+//               to load: docs/codecs.md); glossy wavelets once they exist.
+enum class PayloadCodecOption : uint8_t { kDerived = 0, kFloatSh = 1, kQuantizedSh = 2, kAuto = 3 };
+
+// InvalidArgument naming the accepted values for anything else.
+PayloadCodecOption parse_payload_codec(const std::string& name);
+std::string to_string(PayloadCodecOption option);
 
 struct BuildOptions {
   uint32_t leaf_size = 4;        // max surfels per leaf node (1..4096)
@@ -13,6 +33,14 @@ struct BuildOptions {
   // Changes only speed and memory, never the page set (so it is neither
   // stored in the manifest nor part of build keys).
   uint64_t sort_memory_bytes = uint64_t(256) << 20;
+  // Node payload storage (above). The default keeps the V2 behaviour.
+  PayloadCodecOption payload_codec = PayloadCodecOption::kDerived;
+  // kmeans-sh: LUT size l (64 .. 65536); indices take ceil(log2 l) bits.
+  uint32_t lut_entries = 4096;
+  // kmeans-sh: share of the surfels (chosen at random, deterministically by
+  // arrival index) over which the sample tree that trains the LUT is built,
+  // in (0, 1]; at least 20000 surfels and 16 per LUT entry are taken.
+  double lut_sample_fraction = 0.02;
 
   void validate() const;  // throws pbgi::InvalidArgument
 };

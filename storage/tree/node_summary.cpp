@@ -6,7 +6,20 @@
 
 namespace pbgi::tree {
 
-void summarize_leaf(std::span<const Surfel> surfels, const storage::LeafFrame& frame, Node& out) {
+namespace {
+
+// The area of a node without its payload, summed in double in the same
+// order as PayloadAccumulator, so it is bit-identical to the payload path.
+template <typename Range, typename Area>
+float sum_area(const Range& items, Area area_of) {
+  double a = 0;
+  for (const auto& item : items) a += double(area_of(item));
+  return static_cast<float>(a);
+}
+
+}  // namespace
+
+void summarize_leaf(std::span<const Surfel> surfels, const storage::LeafFrame& frame, Node& out, bool payload) {
   const NormalCone cone = cone_of_normals(surfels);
   out.center = frame.center;
   out.radius = frame.radius;
@@ -14,12 +27,16 @@ void summarize_leaf(std::span<const Surfel> surfels, const storage::LeafFrame& f
   out.cone_cos = cone.cos_half_angle;
   out.child_count = 0;
   out.surfel_count = static_cast<uint32_t>(surfels.size());
+  if (!payload) {
+    out.area = sum_area(surfels, [](const Surfel& s) { return s.area(); });
+    return;
+  }
   PayloadAccumulator acc;
   for (const Surfel& s : surfels) acc.add_surfel(s);
   acc.store(out);
 }
 
-void summarize_internal(const Node& a, const Node* b, Node& out) {
+void summarize_internal(const Node& a, const Node* b, Node& out, bool payload) {
   PayloadAccumulator acc;
   acc.add_node(a);
   if (b) {
@@ -36,7 +53,12 @@ void summarize_internal(const Node& a, const Node* b, Node& out) {
     out.cone_axis = a.cone_axis;
     out.cone_cos = a.cone_cos;
   }
-  acc.store(out);
+  if (payload) {
+    acc.store(out);
+  } else {
+    const Node* children[2] = {&a, b};
+    out.area = sum_area(std::span<const Node* const>(children, b ? 2 : 1), [](const Node* n) { return n->area; });
+  }
   out.child_count = b ? 2 : 1;
   out.first_surfel = 0;
   out.surfel_count = 0;

@@ -18,12 +18,15 @@ namespace pbgi::tree {
 
 // Leaf over `surfels` (decoded, non-empty) stored in `frame`: sphere =
 // frame, cone around the normals, area and payload from the surfels. Sets
-// child_count = 0 and surfel_count; leaves first_surfel alone.
-void summarize_leaf(std::span<const Surfel> surfels, const storage::LeafFrame& frame, Node& out);
+// child_count = 0 and surfel_count; leaves first_surfel alone. With
+// `payload` false the SH payload is left alone (pages that store every
+// node's payload); the area is the same either way.
+void summarize_leaf(std::span<const Surfel> surfels, const storage::LeafFrame& frame, Node& out,
+                    bool payload = true);
 
 // Internal node over one or two children (`b` may be null): enclosing
 // sphere and cone, summed area, area-weighted payload. Sets child_count;
-// leaves the child links alone.
-void summarize_internal(const Node& a, const Node* b, Node& out);
+// leaves the child links alone. `payload` as for summarize_leaf().
+void summarize_internal(const Node& a, const Node* b, Node& out, bool payload = true);
 
 }  // namespace pbgi::tree

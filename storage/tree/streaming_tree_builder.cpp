@@ -30,6 +30,8 @@ struct Pending {
   uint32_t child[2] = {kNone, kNone};
   uint32_t page = kNone;        // written: the page whose root this node is
   uint64_t bytes = 0;           // on disk: its pending treelet, or its link if written
+  uint64_t payload_bits = 0;    // stored payloads of its pending treelet (0 once written)
+  uint32_t code_bits = 0;       // its own stored payload's size
   uint32_t height = 0;          // depth of its deepest leaf below it
   uint32_t levels = 0;          // levels of its pending treelet (0 once written)
   bool candidate = false;       // leaf not closed yet: `raw` holds its surfels
@@ -59,6 +61,7 @@ struct StreamingTreeBuilder::Impl {
     return e ? uint32_t(std::atoi(e)) : 1000u;
   }();
   TreeletSink& sink;
+  const NodePayloadSizer* sizer;  // null: derived payloads
 
   std::vector<Pending> arena;
   std::vector<uint32_t> free_nodes;
@@ -78,12 +81,18 @@ struct StreamingTreeBuilder::Impl {
   Treelet treelet;
   std::vector<uint32_t> visited;
 
-  Impl(const BuildOptions& o, uint64_t pb, uint64_t lpb, TreeletSink& s)
-      : options(o), page_bytes(pb), link_bytes(kLinkRecordBytes + lpb), sink(s) {
+  Impl(const BuildOptions& o, uint64_t pb, uint64_t lpb, TreeletSink& s, const NodePayloadSizer* z)
+      : options(o), page_bytes(pb), link_bytes(kLinkRecordBytes + lpb), sink(s), sizer(z) {
     options.validate();
     if (page_bytes != 0 && page_bytes < storage::min_page_bytes(options.leaf_size)) {
       throw InvalidArgument("page of " + std::to_string(page_bytes) + " bytes cannot hold a leaf of " +
                             std::to_string(options.leaf_size) + " surfels");
+    }
+    // A stored payload is at most a float32 one plus its code word.
+    constexpr uint64_t kMaxStoredPayload = storage::kMaxPayloadBytesPerNode + 8;
+    if (sizer && page_bytes != 0 && page_bytes < storage::min_page_bytes(options.leaf_size) + kMaxStoredPayload) {
+      throw InvalidArgument("page of " + std::to_string(page_bytes) + " bytes cannot hold a leaf of " +
+                            std::to_string(options.leaf_size) + " surfels and its stored payload");
     }
   }
 
@@ -103,6 +112,8 @@ struct StreamingTreeBuilder::Impl {
     p.child[0] = p.child[1] = kNone;
     p.page = kNone;
     p.bytes = 0;
+    p.payload_bits = 0;
+    p.code_bits = 0;
     p.height = 0;
     p.levels = 0;
     p.candidate = false;
@@ -110,6 +121,17 @@ struct StreamingTreeBuilder::Impl {
     p.records.clear();
     free_nodes.push_back(i);
   }
+
+  // Sizes a complete node's stored payload (post-order); the node keeps its
+  // exact payload for its parent and for the page writer's codec.
+  void size_payload(Pending& p) {
+    if (!sizer) return;
+    p.code_bits = sizer->bits(p.node);
+    p.payload_bits += p.code_bits;
+  }
+
+  // Bytes of a pending treelet once written (its payload array included).
+  static uint64_t disk_bytes(const Pending& q) { return q.bytes + (q.payload_bits + 7) / 8; }
 
   void note_pending(int64_t delta) {
     pending_bytes = uint64_t(int64_t(pending_bytes) + delta);
@@ -134,6 +156,8 @@ struct StreamingTreeBuilder::Impl {
     p.frame = quantize_leaf(p.raw, p.records.data(), decoded);
     summarize_leaf(decoded, p.frame, p.node);
     p.bytes = kShapeBytes + kLeafRecordBytes + n * kSurfelRecordBytes;
+    p.payload_bits = 0;
+    size_payload(p);
     p.height = 0;
     p.levels = 1;
     p.candidate = false;
@@ -165,6 +189,8 @@ struct StreamingTreeBuilder::Impl {
     summarize_internal(pa.node, &pb.node, p.node);
     p.height = 1 + std::max(pa.height, pb.height);
     p.bytes = kShapeBytes + pa.bytes + pb.bytes;
+    p.payload_bits = pa.payload_bits + pb.payload_bits;
+    size_payload(p);
     p.levels = 1 + std::max(pa.levels, pb.levels);
     note_pending(kShapeBytes);
     ++stats.node_count;
@@ -172,7 +198,7 @@ struct StreamingTreeBuilder::Impl {
     // taller one while it has too many levels, else the larger one.
     auto too_big = [&] {
       const Pending& q = arena[n];
-      return page_bytes != 0 && (q.bytes + kPageOverheadBytes > page_bytes || q.levels > max_levels);
+      return page_bytes != 0 && (disk_bytes(q) + kPageOverheadBytes > page_bytes || q.levels > max_levels);
     };
     while (too_big()) {
       const uint32_t c0 = arena[n].child[0], c1 = arena[n].child[1];
@@ -183,13 +209,14 @@ struct StreamingTreeBuilder::Impl {
       } else if (arena[n].levels > max_levels && q0.levels != q1.levels) {
         victim = q0.levels > q1.levels ? c0 : c1;
       } else {
-        victim = q0.bytes >= q1.bytes ? c0 : c1;
+        victim = disk_bytes(q0) >= disk_bytes(q1) ? c0 : c1;
       }
       if (arena[victim].written()) {
         throw Error("internal: a node with two linked children does not fit a page");  // min_page_bytes
       }
       write_page(victim);
       arena[n].bytes = kShapeBytes + arena[c0].bytes + arena[c1].bytes;
+      arena[n].payload_bits = arena[n].code_bits + arena[c0].payload_bits + arena[c1].payload_bits;
       arena[n].levels = 1 + std::max(arena[c0].levels, arena[c1].levels);
     }
     return n;
@@ -213,6 +240,7 @@ struct StreamingTreeBuilder::Impl {
       shape.child_count = static_cast<uint8_t>(p.node.child_count);
       for (uint32_t c = 0; c < p.node.child_count; ++c) shape.external[c] = arena[p.child[c]].written();
       treelet.shapes.push_back(storage::encode_shape(shape));
+      if (sizer) treelet.nodes.push_back(p.node);
       if (p.node.child_count == 0) {
         const size_t at = treelet.leaf_records.size();
         treelet.leaf_records.resize(at + kLeafRecordBytes);
@@ -256,6 +284,7 @@ struct StreamingTreeBuilder::Impl {
     note_pending(-freed);
     r.page = id;
     r.bytes = link_bytes;
+    r.payload_bits = 0;
     r.levels = 0;
     r.child[0] = r.child[1] = kNone;
     r.records.clear();
@@ -305,8 +334,9 @@ struct StreamingTreeBuilder::Impl {
 };
 
 StreamingTreeBuilder::StreamingTreeBuilder(const BuildOptions& options, uint64_t page_bytes,
-                                           uint64_t link_payload_bytes, TreeletSink& sink)
-    : impl_(std::make_unique<Impl>(options, page_bytes, link_payload_bytes, sink)) {}
+                                           uint64_t link_payload_bytes, TreeletSink& sink,
+                                           const NodePayloadSizer* sizer)
+    : impl_(std::make_unique<Impl>(options, page_bytes, link_payload_bytes, sink, sizer)) {}
 
 StreamingTreeBuilder::~StreamingTreeBuilder() = default;
 

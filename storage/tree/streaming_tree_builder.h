@@ -27,11 +27,18 @@
 // Leaves are quantized when they are closed (leaf_quantizer.h) and every
 // summary is computed from the decoded surfels, as a reader will.
 //
+// Stored node payloads. Given a NodePayloadSizer, every node's stored size
+// is taken as it completes (node_payload_sizer.h) and counts towards its
+// page's size, and each treelet carries its nodes' exact summaries for the
+// page writer's codec; links then carry no payload (the linked child's
+// payload is in its own page).
+//
 // Thread-safety: one builder per thread; not copyable.
 #pragma once
 
 #include "storage/tree/build_options.h"
 #include "storage/tree/node.h"
+#include "storage/tree/node_payload_sizer.h"
 #include "storage/tree/surfel.h"
 #include "storage/tree/treelet.h"
 
@@ -63,9 +70,12 @@ class StreamingTreeBuilder {
   // `page_bytes`: the most bytes a page may take on disk (options.page_size),
   // or 0 for a single unbounded page (in-memory trees). `link_payload_bytes`:
   // what a page stores per link besides the link record (the codec's
-  // payload). Throws InvalidArgument for invalid options.
+  // payload; 0 with a sizer). `sizer`: every node's payload is stored, of
+  // the size it says (null: payloads derived at load, V2 pages); must
+  // outlive the builder.
+  // Throws InvalidArgument for invalid options.
   StreamingTreeBuilder(const BuildOptions& options, uint64_t page_bytes, uint64_t link_payload_bytes,
-                       TreeletSink& sink);
+                       TreeletSink& sink, const NodePayloadSizer* sizer = nullptr);
   ~StreamingTreeBuilder();
   StreamingTreeBuilder(const StreamingTreeBuilder&) = delete;
   StreamingTreeBuilder& operator=(const StreamingTreeBuilder&) = delete;

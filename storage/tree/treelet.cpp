@@ -10,11 +10,19 @@ namespace pbgi::tree {
 
 size_t Treelet::surfel_count() const { return surfel_records.size() / storage::kSurfelRecordBytes; }
 
+namespace {
+void copy_payload(const Node& from, Node& to) {
+  to.radiance_sh = from.radiance_sh;
+  to.coverage_sh = from.coverage_sh;
+}
+}  // namespace
+
 void Treelet::clear() {
   shapes.clear();
   leaf_records.clear();
   links.clear();
   surfel_records.clear();
+  nodes.clear();
 }
 
 void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& what, Page& out) {
@@ -24,6 +32,10 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
   const size_t leaves = t.leaf_records.size() / kLeafRecordBytes;
   const size_t surfels = t.surfel_records.size() / kSurfelRecordBytes;
   if (n == 0) throw corrupt("page has no nodes");
+  const bool stored = !t.payloads.empty();
+  if (stored && t.payloads.size() != n) {
+    throw corrupt(std::to_string(t.payloads.size()) + " stored payloads for " + std::to_string(n) + " nodes");
+  }
   out.id = page_id;
   out.nodes.assign(n, Node{});
   out.surfels.resize(surfels);
@@ -107,8 +119,9 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
       const uint8_t* rec = t.surfel_records.data() + size_t(node.first_surfel) * kSurfelRecordBytes;
       for (uint32_t k = 0; k < node.surfel_count; ++k) decode_surfel_record(rec + k * kSurfelRecordBytes, f, s[k]);
       const uint32_t first = node.first_surfel;
-      summarize_leaf({s, node.surfel_count}, f, node);
+      summarize_leaf({s, node.surfel_count}, f, node, !stored);
       node.first_surfel = first;
+      if (stored) copy_payload(t.payloads[i], node);
       continue;
     }
     const Node* child[2] = {nullptr, nullptr};
@@ -116,7 +129,8 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
       child[c] = shape[i].external[c] ? &t.links[link_of[i][c]].summary : &out.nodes[node.children[c].index];
     }
     const NodeRef links[2] = {node.children[0], node.children[1]};
-    summarize_internal(*child[0], child[1], node);
+    summarize_internal(*child[0], child[1], node, !stored);
+    if (stored) copy_payload(t.payloads[i], node);
     node.children[0] = links[0];
     node.children[1] = links[1];
   }

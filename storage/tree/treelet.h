@@ -30,6 +30,10 @@ struct TreeletView {
   std::span<const uint8_t> leaf_records;    // storage::kLeafRecordBytes per leaf
   std::span<const TreeletLink> links;       // in the order the parse meets them
   std::span<const uint8_t> surfel_records;  // storage::kSurfelRecordBytes per surfel
+  // Pages that store every node's payload: one decoded node per node, in
+  // pre-order, whose radiance_sh and coverage_sh are taken instead of
+  // derived. Empty: payloads are derived from the surfels and links.
+  std::span<const Node> payloads;
 };
 
 // An owning treelet, as the builder hands it to a page writer.
@@ -38,8 +42,12 @@ struct Treelet {
   std::vector<uint8_t> leaf_records;
   std::vector<TreeletLink> links;
   std::vector<uint8_t> surfel_records;
+  // Builds that store every node's payload (NodePayloadSizer): each node's
+  // summary with its exact payload, in pre-order, for the page's codec.
+  // Empty otherwise.
+  std::vector<Node> nodes;
 
-  TreeletView view() const { return {shapes, leaf_records, links, surfel_records}; }
+  TreeletView view() const { return {shapes, leaf_records, links, surfel_records, {}}; }
   size_t node_count() const { return shapes.size(); }
   size_t surfel_count() const;
   void clear();

@@ -61,6 +61,9 @@ DaemonOptions non_default_options() {
   o.service.defaults.open.surfels.seed = 42;
   o.service.defaults.open.tree.page_size = 32768;
   o.service.defaults.open.tree.leaf_size = 8;
+  o.service.defaults.open.tree.payload_codec = tree::PayloadCodecOption::kQuantizedSh;
+  o.service.defaults.open.tree.lut_entries = 1000;
+  o.service.defaults.open.tree.lut_sample_fraction = 0.05;
   o.service.defaults.open.bounce.bounces = 2;
   o.service.limits.max_receivers = 1000;
   o.service.limits.max_image_side = 4096;
@@ -136,6 +139,7 @@ TEST(DaemonOptions, WrongTypesAndRangesAreRefusedByName) {
             std::string::npos);
   EXPECT_NE(error_of("threads = \n").find("line 1"), std::string::npos) << "parse errors have a line";
   EXPECT_NE(error_of("[gather]\nmethod = \"fast\"\n").find("gather.method"), std::string::npos);
+  EXPECT_NE(error_of("[build]\npayload_codec = \"zip\"\n").find("payload_codec"), std::string::npos);
 }
 
 TEST(DaemonOptions, ValidateChecksValuesByName) {

@@ -3,7 +3,6 @@
 // A white furnace gives the exact answer: inside a closed box whose walls
 // all emit Le and reflect a fraction a, the radiance after n bounces is
 // Le (1 + a + ... + a^(n-1)), everywhere.
-#include "server/engine/build_key.h"
 #include "server/engine/scene_session.h"
 #include "storage/cache/page_cache.h"
 #include "storage/format/errors.h"
@@ -110,20 +109,6 @@ TEST_F(EngineBounces, BounceCountOutOfRangeIsRefused) {
   EXPECT_THROW(open_scene_model(furnace(), o, ctx_), InvalidArgument);
   o.bounce.bounces = kMaxBounces + 1;
   EXPECT_THROW(open_scene_model(furnace(), o, ctx_), InvalidArgument);
-}
-
-TEST(EngineBuildKey, BounceCountAndBounceGatherChangeTheKey) {
-  OpenOptions a;
-  OpenOptions b = a;
-  b.bounce.bounces = 2;
-  EXPECT_NE(page_set_build_key("h", a), page_set_build_key("h", b));
-  OpenOptions c = b;
-  c.bounce.gather.microbuffer_resolution = 16;
-  EXPECT_NE(page_set_build_key("h", b), page_set_build_key("h", c));
-  // With one bounce the bounce gather is unused and must not split the cache.
-  OpenOptions d = a;
-  d.bounce.gather.microbuffer_resolution = 16;
-  EXPECT_EQ(page_set_build_key("h", a), page_set_build_key("h", d));
 }
 
 }  // namespace

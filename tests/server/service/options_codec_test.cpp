@@ -58,8 +58,18 @@ TEST(OptionsCodec, EncodeDecodeRoundTrip) {
   open.surfels.light_samples = 3;
   open.tree.page_size = 32768;
   open.tree.leaf_size = 8;
+  open.tree.payload_codec = tree::PayloadCodecOption::kQuantizedSh;
+  open.tree.lut_entries = 10000;
+  open.tree.lut_sample_fraction = 0.05;
   const OpenOptions open_back = decode_open_options(encode_open_options(open), OpenOptions());
   EXPECT_EQ(open_options_key(open_back), open_options_key(open));
+  EXPECT_EQ(open_back.tree.payload_codec, tree::PayloadCodecOption::kQuantizedSh);
+  EXPECT_EQ(open_back.tree.lut_entries, 10000u);
+  // Unset fields keep the defaults; a bad name is refused.
+  v1::BuildOptions empty;
+  EXPECT_EQ(decode_open_options(empty, open).tree.payload_codec, tree::PayloadCodecOption::kQuantizedSh);
+  empty.set_payload_codec("zip");
+  EXPECT_THROW(decode_open_options(empty, OpenOptions()), InvalidArgument);
 }
 
 TEST(OptionsCodec, MapsMethods) {

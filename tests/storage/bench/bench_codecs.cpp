@@ -1,29 +1,33 @@
-// bench_codecs: what the compressed node payloads cost and save on a real
-// scene (issue 5, "measure against the paper").
+// bench_codecs: what the stored node payloads cost and save on a real scene
+// (issue 5, "measure against the paper"). Every variant is a real page-set
+// build (build_page_set, the streaming build with its tree.payload_codec
+// option), read back through PageSetReader as the daemon would.
 //
-//   bench_codecs --scene scenes/cornell.usda --surfels 5000000 --image 256
+//   bench_codecs --scene scenes/cornell.usda --surfels 5000000 --image 256 --lut 100 --lut 1000 --lut 10000
 //
 // 1. Surfels: the scene sampled at --surfels and shaded with direct light
 //    (cached in --cache so repeated runs skip it).
-// 2. Reference: the float32-sh tree, rendered through PBGI (indirect AOV).
-// 3. Each variant: LUT learned on a --fraction sample tree, every node
-//    quantized, payloads decoded as a reader would, the image rendered again.
-// 4. The table: payload and tree bytes, ratios, LUT and quantization times,
-//    PSNR of the indirect and beauty images against the reference.
+// 2. Reference: the `derived` page set (exact payloads, V2 pages), rendered
+//    through PBGI (indirect and beauty AOVs).
+// 3. Each variant (float32-sh stored, kmeans-sh at each --lut): built with
+//    the same surfels and options, its bytes measured from the page headers,
+//    rendered again from disk.
+// 4. The table: page-set bytes, payload bytes, ratios, LUT and build times,
+//    PSNR of the images against the reference.
 #include "server/ingest/usd_ingest.h"
 #include "server/render/tile_renderer.h"
 #include "server/scene/ray_scene.h"
 #include "server/surfels/surfels.h"
-#include "storage/codecs/bit_packing.h"
-#include "storage/codecs/float_sh_codec.h"
-#include "storage/codecs/quantized_sh_codec.h"
+#include "storage/cache/page_cache.h"
 #include "storage/format/errors.h"
-#include "storage/tree/memory_tree.h"
+#include "storage/format/page_frame.h"
+#include "storage/pages/page_set.h"
 #include "storage/tree/tree_builder.h"
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
-#include <tbb/parallel_for.h>
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
 
 #include <atomic>
 #include <chrono>
@@ -32,6 +36,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 
 namespace pbgi {
 namespace {
@@ -48,10 +53,11 @@ struct Args {
   uint32_t leaf_size = 4;
   double fraction = 0.02;
   std::vector<uint32_t> luts = {100, 1000, 10000};
-  uint32_t scale_bits = 12;
   fs::path cache = "/tmp/pbgi_bench_codecs";
+  fs::path sets = "/tmp/pbgi_bench_codecs/sets";  // page sets built here (replaced)
   std::string camera = "/Camera";
   bool render = true;
+  uint32_t threads = 0;  // 0: all cores
 };
 
 // 1. Surfels of the scene, from the cache when present.
@@ -103,11 +109,63 @@ double psnr(const std::vector<float>& ref, const std::vector<float>& img) {
 
 struct Row {
   std::string name;
-  double payload_bytes = 0;
-  double lut_seconds = 0, quantize_seconds = 0;
-  uint64_t raw_nodes = 0;
+  uint64_t file_bytes = 0, payload_bytes = 0;
+  uint64_t pages = 0;
+  double build_seconds = 0, lut_seconds = 0;
+  double load_seconds = 0;  // read, verify and decode every page once (no cache)
+  uint64_t lut_sample = 0;
+  uint32_t lut_entries = 0;
   double psnr_indirect = INFINITY, psnr_beauty = INFINITY;
 };
+
+// Sum of the payload arrays of every page, from the page headers.
+uint64_t payload_bytes(const fs::path& dir, const storage::Manifest& m) {
+  std::ifstream f(dir / storage::kPagesFileName, std::ios::binary);
+  uint64_t total = 0;
+  uint8_t header[storage::kPageHeaderBytes];
+  for (const storage::PageExtent& e : m.pages) {
+    f.seekg(std::streamoff(e.offset));
+    f.read(reinterpret_cast<char*>(header), sizeof header);
+    if (!f) throw IoError(dir.string() + ": cannot read page header");
+    total += storage::read_page_header(header).payload_bytes;
+  }
+  return total;
+}
+
+// Builds one variant's page set from `surfels` and measures it.
+Row build_variant(const Args& a, const std::vector<Surfel>& surfels, const std::string& name,
+                  tree::PayloadCodecOption codec, uint32_t lut, const fs::path& dir) {
+  tree::BuildOptions o;
+  o.leaf_size = a.leaf_size;
+  o.payload_codec = codec;
+  o.lut_entries = lut;
+  o.lut_sample_fraction = a.fraction;
+  fs::remove_all(dir);
+  Row r{name};
+  storage::BuildReport report;
+  const auto t0 = Clock::now();
+  const storage::Manifest m = storage::build_page_set(surfels, o, "bench-" + name, dir, {}, &report);
+  r.build_seconds = since(t0);
+  r.file_bytes = m.stats.file_bytes + fs::file_size(dir / storage::kManifestFileName);
+  r.payload_bytes = payload_bytes(dir, m) + m.codec_state.size();  // the LUT counts as payload
+  r.pages = m.stats.page_count;
+  r.lut_seconds = report.lut_seconds;
+  r.lut_sample = report.lut_sample_surfels;
+  r.lut_entries = report.lut_entries;
+  {
+    // Every page loaded once, as a cold cache would (the file itself is
+    // likely in the OS page cache right after the build).
+    const storage::PageSetReader reader(dir, nullptr);
+    const auto t1 = Clock::now();
+    for (uint32_t id = 0; id < m.stats.page_count; ++id) (void)reader.page(id);
+    r.load_seconds = since(t1);
+  }
+  std::cerr << fmt::format("  {}: {} nodes, {} pages, {:.1f} MB, build {:.1f} s (LUT {:.1f} s: {} entries from {} "
+                           "surfels), load {:.2f} s\n",
+                           name, m.stats.node_count, r.pages, double(r.file_bytes) / 1e6, r.build_seconds,
+                           r.lut_seconds, r.lut_entries, r.lut_sample, r.load_seconds);
+  return r;
+}
 
 int run(const Args& a) {
   // 1. Scene and surfels.
@@ -116,113 +174,66 @@ int run(const Args& a) {
   const RayScene rays(scene);
   const Camera* cam = scene.find_camera(a.camera);
   if (!cam) throw NotFound("camera " + a.camera);
-  std::vector<Surfel> surfels = scene_surfels(a, scene, rays);
+  const std::vector<Surfel> surfels = scene_surfels(a, scene, rays);
   std::cerr << fmt::format("scene + surfels: {:.1f} s, {} surfels\n", since(t0), surfels.size());
-
-  // 2. Reference tree and image.
-  tree::BuildOptions bo;
-  bo.leaf_size = a.leaf_size;
-  t0 = Clock::now();
-  tree::BuiltTree ref = tree::build_tree(surfels, bo);
-  const double build_seconds = since(t0);
-  const size_t nodes = ref.nodes.size();
-  std::cerr << fmt::format("tree: {} nodes in {:.2f} s\n", nodes, build_seconds);
-  const std::vector<tree::Node> ref_nodes = ref.nodes;
-  t0 = Clock::now();
-  const Image ref_img = [&] {
+  fs::create_directories(a.sets);
+  auto render_set = [&](const fs::path& dir) {
     if (!a.render) return Image{};
-    tree::BuiltTree copy = ref;
-    const tree::MemoryTree mt(std::move(copy));
-    return render(rays, mt, *cam, a.image);
-  }();
-  std::cerr << fmt::format("reference render: {:.1f} s\n", since(t0));
+    const storage::PageSetReader reader(dir, std::make_shared<storage::PageCache>(uint64_t(8) << 30));
+    return render(rays, reader, *cam, a.image);
+  };
 
-  // Whole-tree bytes if every node's payload is stored (the paper's model):
-  // per node a shape byte, per leaf an 18-byte frame (V2 page records), per
-  // surfel a leaf record in format A (half floats, float32 position: 12 +
-  // radius 2 + normal 6 + radiance, albedo, emission 3 x 6 = 38 B) or B
-  // (V2's frame-relative 16-bit position and radius, octahedral normal,
-  // RGB9E5 colours: 24 B).
-  constexpr double kLeafA = 38, kLeafB = 24, kShape = 1, kLeafFrame = 18;
-  const double structure = double(nodes) * kShape + double(ref.leaf_count) * kLeafFrame;
-  const double surfels_a = double(surfels.size()) * kLeafA, surfels_b = double(surfels.size()) * kLeafB;
+  // 2. Reference: derived (exact) payloads.
   std::vector<Row> rows;
-  Row sh{"float32-sh"};
-  sh.payload_bytes = double(nodes) * storage::FloatShCodec::kBytesPerNode;
-  rows.push_back(sh);
+  rows.push_back(build_variant(a, surfels, "derived", tree::PayloadCodecOption::kDerived, 4096, a.sets / "derived"));
+  t0 = Clock::now();
+  const Image ref_img = render_set(a.sets / "derived");
+  std::cerr << fmt::format("reference render: {:.1f} s\n", since(t0));
+  uint64_t nodes = 0;
+  {
+    const storage::PageSetReader reader(a.sets / "derived", nullptr);
+    nodes = reader.manifest().stats.node_count;
+  }
 
-  // 3. Quantized variants.
-  for (uint32_t l : a.luts) {
-    Row r{fmt::format("kmeans-sh l={}", l)};
-    storage::ShLutOptions lo;
-    lo.entries = l;
-    lo.scale_bits = a.scale_bits;
-    lo.sample_fraction = a.fraction;
-    t0 = Clock::now();
-    const std::vector<Surfel> sample = storage::sample_surfels(surfels, lo);
-    const tree::BuiltTree sample_tree = tree::build_tree(sample, bo);
-    const storage::ShLutTraining training = storage::train_sh_lut(sample_tree.nodes, lo);
-    r.lut_seconds = since(t0);
-    const auto codec = std::make_shared<const storage::QuantizedShCodec>(
-        std::make_shared<const storage::QuantizedShTable>(training.table));
-    std::cerr << fmt::format("  l={}: {} entries from {} sample nodes, k-means {} iterations ({:.2f} s seeding, "
-                             "{:.2f} s Lloyd), objective {:.4g} -> {:.4g}, LUT {:.2f} s\n",
-                             l, training.table.size(), training.sample_nodes, training.kmeans.iterations,
-                             training.kmeans.seeding_seconds, training.kmeans.lloyd_seconds,
-                             training.kmeans.objective.front(), training.kmeans.objective.back(), r.lut_seconds);
-    // Quantize every node, then decode as a reader does (raw nodes verbatim).
-    tree::BuiltTree q = ref;
-    std::atomic<uint64_t> raw{0};
-    t0 = Clock::now();
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, nodes, 4096), [&](const auto& range) {
-      uint64_t local = 0;
-      uint32_t hint = storage::NearestCentreTable::kNoHint;  // pre-order: often the parent's entry
-      for (size_t i = range.begin(); i < range.end(); ++i) {
-        const storage::QuantizedPayload code = codec->quantize(q.nodes[i], hint);
-        if (code.raw) {
-          ++local;
-        } else {
-          hint = code.index;
-          codec->dequantize(code, q.nodes[i]);
-        }
-      }
-      raw += local;
-    });
-    r.quantize_seconds = since(t0);
-    r.raw_nodes = raw;
-    const double lut_bytes = double(training.table.serialize().size());
-    r.payload_bytes = double(storage::packed_bytes(nodes, codec->code_bits())) + double(r.raw_nodes) * 144 + lut_bytes;
+  // 3. Stored variants.
+  auto add_variant = [&](const std::string& name, tree::PayloadCodecOption codec, uint32_t lut) {
+    const fs::path dir = a.sets / name;
+    Row r = build_variant(a, surfels, name, codec, lut, dir);
+    const Image img = render_set(dir);
     if (a.render) {
-      const tree::MemoryTree mt(std::move(q));
-      const Image img = render(rays, mt, *cam, a.image);
       r.psnr_indirect = psnr(ref_img.indirect, img.indirect);
       r.psnr_beauty = psnr(ref_img.beauty, img.beauty);
     }
-    std::cerr << fmt::format("  quantized {} nodes in {:.2f} s ({} raw), PSNR {:.1f} dB\n", nodes, r.quantize_seconds,
-                             r.raw_nodes, r.psnr_indirect);
     rows.push_back(r);
-  }
+    fs::remove_all(dir);
+  };
+  add_variant("float32-sh", tree::PayloadCodecOption::kFloatSh, 4096);
+  for (uint32_t l : a.luts) add_variant(fmt::format("kmeans-sh-l{}", l), tree::PayloadCodecOption::kQuantizedSh, l);
 
-  // 4. Report.
-  std::cout << fmt::format("scene {}, {} surfels, leaf_size {}, {} nodes, tree build {:.2f} s, image {}^2, "
-                           "LUT sample {:.1f} %, scale bits {}\n\n",
-                           a.scene.filename().string(), surfels.size(), a.leaf_size, nodes, build_seconds, a.image,
-                           100 * a.fraction, a.scale_bits);
-  std::cout << "| variant | payload MB | payload ratio | bits/node | tree A MB | ratio A | tree B MB | ratio B | "
-               "raw nodes | LUT s | quantize s | PSNR indirect dB | PSNR beauty dB |\n";
+  // 4. Report. Ratios are against the float32-sh page set (every node's
+  //    payload stored as 144 bytes), the paper's uncompressed tree.
+  std::cout << fmt::format("scene {}, {} surfels, leaf_size {}, {} nodes, image {}^2, LUT sample {:.1f} %, "
+                           "{} threads\n\n",
+                           a.scene.filename().string(), surfels.size(), a.leaf_size, nodes, a.image,
+                           100 * a.fraction, tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+  std::cout << "| variant | page set MB | tree ratio | payload MB | payload ratio | payload bits/node | pages | "
+               "build s | of which LUT s | LUT entries / sample surfels | load all pages s | PSNR indirect dB | "
+               "PSNR beauty dB |\n";
   std::cout << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
-  const double ref_a = structure + rows[0].payload_bytes + surfels_a;
+  const Row& fl = rows[1];
   for (const Row& r : rows) {
-    const double tree_a = structure + r.payload_bytes + surfels_a, tree_b = structure + r.payload_bytes + surfels_b;
     std::cout << fmt::format(
-        "| {} | {:.2f} | {:.1f}x | {:.2f} | {:.1f} | {:.2f}x | {:.1f} | {:.2f}x | {} | {:.2f} | {:.2f} | {:.1f} | {:.1f} |\n",
-        r.name, r.payload_bytes / 1e6, rows[0].payload_bytes / r.payload_bytes, 8 * r.payload_bytes / double(nodes),
-        tree_a / 1e6, ref_a / tree_a, tree_b / 1e6, ref_a / tree_b, r.raw_nodes, r.lut_seconds, r.quantize_seconds,
-        r.psnr_indirect, r.psnr_beauty);
+        "| {} | {:.1f} | {:.2f}x | {:.2f} | {} | {:.2f} | {} | {:.1f} | {:.1f} | {} | {:.2f} | {:.1f} | {:.1f} |\n",
+        r.name,
+        double(r.file_bytes) / 1e6, double(fl.file_bytes) / double(r.file_bytes), double(r.payload_bytes) / 1e6,
+        r.name == "derived" ? std::string("(links only)")
+                            : fmt::format("{:.1f}x", double(fl.payload_bytes) / double(r.payload_bytes)),
+        8.0 * double(r.payload_bytes) / double(nodes), r.pages, r.build_seconds, r.lut_seconds,
+        r.lut_entries ? fmt::format("{} / {}", r.lut_entries, r.lut_sample) : std::string("-"), r.load_seconds,
+        r.psnr_indirect,
+        r.psnr_beauty);
   }
-  std::cout << fmt::format("\ntree ratios are against float32-sh with leaf format A ({:.1f} MB); structure "
-                           "(shapes + leaf frames) {:.1f} MB, {} leaves\n",
-                           ref_a / 1e6, structure / 1e6, ref.leaf_count);
+  std::cout << "\nPSNR against the derived (exact) page set; inf = identical images.\n";
   return 0;
 }
 
@@ -231,18 +242,21 @@ int run(const Args& a) {
 
 int main(int argc, char** argv) {
   pbgi::Args a;
-  CLI::App app{"bench_codecs: compressed node payloads against float SH"};
+  CLI::App app{"bench_codecs: stored node payloads (float SH, k-means-quantized SH) against derived ones"};
   app.add_option("--scene", a.scene, "USD scene");
   app.add_option("--surfels", a.surfels, "target surfel count");
   app.add_option("--image", a.image, "square image size in pixels");
   app.add_option("--leaf-size", a.leaf_size, "surfels per leaf");
   app.add_option("--fraction", a.fraction, "LUT sample fraction of the surfels");
   app.add_option("--lut", a.luts, "LUT sizes");
-  app.add_option("--scale-bits", a.scale_bits, "bits of the log scale");
   app.add_option("--cache", a.cache, "directory caching shaded surfels");
+  app.add_option("--sets", a.sets, "directory for the page sets (variants are deleted after measuring)");
   app.add_option("--camera", a.camera, "camera prim");
   app.add_flag("!--no-render", a.render, "skip the images (sizes and times only)");
+  app.add_option("--threads", a.threads, "worker threads (0: all cores; 1: the paper's single-threaded build)");
   CLI11_PARSE(app, argc, argv);
+  std::optional<tbb::global_control> threads;
+  if (a.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, a.threads);
   try {
     return pbgi::run(a);
   } catch (const std::exception& e) {

@@ -11,7 +11,8 @@ TEST(CodecSelection, DiffuseScenesNeverPayForWavelets) {
   const SceneMaterialStats s = scan_material_stats(rough, 0.3f);
   EXPECT_EQ(s.glossy_surfels, 0u);
   const CodecSelection c = select_payload_codecs(s, PayloadCodecPolicy::kAuto, {});
-  EXPECT_EQ(c.diffuse, CodecId::kQuantizedSh);
+  EXPECT_EQ(c.diffuse, CodecId::kFloatSh);
+  EXPECT_FALSE(c.node_payloads);  // derived: nothing stored per node
   EXPECT_FALSE(c.glossy_wavelets);
   EXPECT_NE(c.reason.find("no glossy"), std::string::npos);
 }
@@ -30,18 +31,23 @@ TEST(CodecSelection, GlossySendersGetWavelets) {
   EXPECT_FALSE(select_payload_codecs(s, PayloadCodecPolicy::kAuto, o).glossy_wavelets);
 }
 
+SceneMaterialStats big_scene() { return {10000000, 0}; }
+
 TEST(CodecSelection, SmallScenesAndPoliciesKeepFloatSh) {
   SceneMaterialStats small{1000, 0};
   EXPECT_EQ(select_payload_codecs(small, PayloadCodecPolicy::kAuto, {}).diffuse, CodecId::kFloatSh);
+  EXPECT_FALSE(select_payload_codecs(small, PayloadCodecPolicy::kAuto, {}).node_payloads);  // derived
+  EXPECT_FALSE(select_payload_codecs(big_scene(), PayloadCodecPolicy::kAuto, {}).node_payloads);  // derived
+  EXPECT_FALSE(select_payload_codecs(small, PayloadCodecPolicy::kDerived, {}).node_payloads);
+  EXPECT_TRUE(select_payload_codecs(small, PayloadCodecPolicy::kFloatSh, {}).node_payloads);
   SceneMaterialStats big{10000000, 0};
-  CodecSelectionOptions strict;
-  strict.allow_lossy = false;
-  EXPECT_EQ(select_payload_codecs(big, PayloadCodecPolicy::kAuto, strict).diffuse, CodecId::kFloatSh);
+  EXPECT_EQ(select_payload_codecs(big, PayloadCodecPolicy::kAuto, {}).diffuse, CodecId::kFloatSh);
   EXPECT_EQ(select_payload_codecs(big, PayloadCodecPolicy::kFloatSh, {}).diffuse, CodecId::kFloatSh);
   EXPECT_EQ(select_payload_codecs(small, PayloadCodecPolicy::kQuantizedSh, {}).diffuse, CodecId::kQuantizedSh);
-  EXPECT_EQ(parse_payload_codec_policy("kmeans-sh"), PayloadCodecPolicy::kQuantizedSh);
-  EXPECT_EQ(to_string(parse_payload_codec_policy("auto")), "auto");
-  EXPECT_THROW(parse_payload_codec_policy("zip"), InvalidArgument);
+  EXPECT_EQ(tree::parse_payload_codec("kmeans-sh"), PayloadCodecPolicy::kQuantizedSh);
+  EXPECT_EQ(tree::parse_payload_codec("derived"), PayloadCodecPolicy::kDerived);
+  EXPECT_EQ(tree::to_string(tree::parse_payload_codec("auto")), "auto");
+  EXPECT_THROW(tree::parse_payload_codec("zip"), InvalidArgument);
 }
 
 }  // namespace

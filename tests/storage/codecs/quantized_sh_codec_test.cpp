@@ -1,6 +1,7 @@
 #include "storage/codecs/bit_packing.h"
 #include "storage/codecs/float_sh_codec.h"
 #include "storage/codecs/quantized_sh_codec.h"
+#include "storage/format/checksum.h"
 #include "storage/format/errors.h"
 #include "tests/storage/codecs/node_payloads.h"
 
@@ -32,10 +33,14 @@ bool same_bits(const tree::Node& a, const tree::Node& b) {
   return std::memcmp(x.data(), y.data(), sizeof(x)) == 0;
 }
 
-ShLutTraining train(const std::vector<tree::Node>& sample, uint32_t entries, double bright_quantile = 0.9999) {
+// hdr_quantile 1: no HDR rule (sh_lut.h), so that errors are the plain
+// nearest-centre distances; the rule has its own test.
+ShLutTraining train(const std::vector<tree::Node>& sample, uint32_t entries, double bright_quantile = 0.9999,
+                    double hdr_quantile = 1.0) {
   ShLutOptions o;
   o.entries = entries;
   o.bright_quantile = bright_quantile;
+  o.hdr_quantile = hdr_quantile;
   return train_sh_lut(sample, o);
 }
 
@@ -256,15 +261,60 @@ TEST(QuantizedSh, HdrKeepsRelativeErrorBounded) {
   }
 }
 
+// The HDR rule: bright nodes (top 1 % of scales) whose normalized error
+// would exceed hdr_max_error are stored raw (exactly); every bright node
+// that stays quantized is within it; dim nodes are never escaped by it.
+TEST(QuantizedSh, HdrRuleBoundsTheErrorOfBrightNodes) {
+  std::mt19937 rng(9);
+  std::vector<tree::Node> sample;
+  for (int i = 0; i < 4000; ++i) sample.push_back(test::payload_node(rng, 0.01f + 0.1f * float(i % 10)));
+  for (int i = 0; i < 60; ++i) sample.push_back(test::payload_node(rng, 3e4f));  // emitters, odd colours
+  const auto training = train(sample, 128, 0.9999, 0.99);
+  const QuantizedShTable& t = training.table;
+  ASSERT_TRUE(std::isfinite(t.hdr_log2_scale()));
+  const auto codec = codec_of(training);
+  size_t hdr = 0, escaped = 0;
+  for (const tree::Node& n : sample) {
+    const NormalizedPayload p = normalize_payload(n, t.coverage_weight());
+    ASSERT_EQ(p.kind, PayloadKind::kRegular);
+    const QuantizedPayload q = codec->quantize(n);
+    EXPECT_EQ(codec->escapes(n), q.raw);  // the cheap sizing check agrees
+    if (!t.is_hdr(p.scale)) {
+      if (p.scale < 1.f) EXPECT_FALSE(q.raw);
+      continue;
+    }
+    ++hdr;
+    if (q.raw) {
+      ++escaped;
+      continue;
+    }
+    double norm2 = 0;
+    for (size_t k = 0; k < D; ++k) norm2 += double(p.v[k]) * p.v[k];
+    EXPECT_LE(nearest_entry_distance2(t, p.v), 0.01 * norm2 * (1 + 1e-5));
+  }
+  EXPECT_GE(hdr, 40u);
+  EXPECT_GT(escaped, 0u);  // this sample needs the rule
+  // Raw nodes decode bit for bit.
+  std::vector<uint8_t> bytes;
+  codec->encode(sample, bytes);
+  std::vector<tree::Node> back(sample.size());
+  codec->decode(bytes, back, "p");
+  for (size_t i = 0; i < sample.size(); ++i)
+    if (codec->quantize(sample[i]).raw) EXPECT_TRUE(same_bits(back[i], sample[i])) << i;
+}
+
 TEST(QuantizedShTable, SerializationRoundTripAndDamage) {
-  const auto training = train(test::payload_nodes(3000, 7), 256);
+  const auto training = train(test::payload_nodes(3000, 7), 256, 0.9999, 0.99);
   const std::vector<uint8_t> bytes = training.table.serialize();
-  ASSERT_EQ(bytes.size(), 32 + training.table.size() * 144 + 8);
+  ASSERT_EQ(bytes.size(), 40 + training.table.size() * 144 + 8);  // V2 header
   const QuantizedShTable back = QuantizedShTable::deserialize(bytes, "lut");
   EXPECT_EQ(back.entries(), training.table.entries());
   EXPECT_EQ(back.scale_bits(), training.table.scale_bits());
   EXPECT_EQ(back.log2_scale_lo(), training.table.log2_scale_lo());
   EXPECT_EQ(back.log2_scale_hi(), training.table.log2_scale_hi());
+  EXPECT_EQ(back.hdr_log2_scale(), training.table.hdr_log2_scale());
+  EXPECT_EQ(back.hdr_max_error(), training.table.hdr_max_error());
+  EXPECT_TRUE(std::isfinite(back.hdr_log2_scale()));
   // Registry: codec 1 built from its state.
   const auto codec = make_payload_codec(uint32_t(CodecId::kQuantizedSh), bytes, "m");
   EXPECT_EQ(codec->name(), "kmeans-sh");
@@ -281,8 +331,17 @@ TEST(QuantizedShTable, SerializationRoundTripAndDamage) {
     EXPECT_NE(std::string(e.what()).find("checksum"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("/x/manifest.pbgm"), std::string::npos);
   }
+  // A V1 table (no HDR fields) is still read, without the HDR rule.
+  std::vector<uint8_t> v1(bytes.begin(), bytes.begin() + 32);
+  v1.insert(v1.end(), bytes.begin() + 40, bytes.end() - 8);
+  v1[4] = 1;
+  const uint64_t sum = checksum64(v1.data(), v1.size());
+  for (int k = 0; k < 8; ++k) v1.push_back(uint8_t(sum >> (8 * k)));
+  const QuantizedShTable old = QuantizedShTable::deserialize(v1, "lut");
+  EXPECT_EQ(old.entries(), training.table.entries());
+  EXPECT_FALSE(old.is_hdr(1e30f));
   auto newer = bytes;
-  newer[4] = 2;
+  newer[4] = 3;
   EXPECT_THROW(QuantizedShTable::deserialize(newer, "lut"), VersionError);
   EXPECT_THROW(QuantizedShTable::deserialize(std::span(bytes).first(bytes.size() - 1), "lut"), CorruptionError);
 }

@@ -9,6 +9,7 @@
 #include "storage/pages/page_set.h"
 #include "storage/pages/page_set_inspection.h"
 #include "storage/tree/memory_tree.h"
+#include "tests/storage/pages/file_bytes.h"
 #include "tests/storage/pages/temp_dir.h"
 #include "tests/storage/pages/tree_walk.h"
 #include "tests/storage/tree/random_surfels.h"
@@ -26,14 +27,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::vector<uint8_t> read_file(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(f), {}};
-}
-void write_file(const fs::path& p, const std::vector<uint8_t>& b) {
-  std::ofstream f(p, std::ios::binary | std::ios::trunc);
-  f.write(reinterpret_cast<const char*>(b.data()), std::streamsize(b.size()));
-}
+using test::read_file;
+using test::write_file;
 bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
 
 std::vector<fs::path> leftovers(const fs::path& dir) {
@@ -207,7 +202,7 @@ TEST_F(PageSetTest, UnknownVersionsAreVersionErrors) {
 
   // A current manifest that declares pages of a newer format.
   Manifest m = decode_manifest(good, "m");
-  m.page_format = kPageFormatCurrent + 1;
+  m.page_format = 99;  // unknown to this build
   write_file(path, encode_manifest(m));
   EXPECT_THROW(PageSetReader(dir_, nullptr), VersionError);
 
@@ -224,7 +219,7 @@ TEST_F(PageSetTest, UnknownVersionsAreVersionErrors) {
   const PageExtent e = manifest_.pages[3];
   std::span<uint8_t> page(bytes.data() + e.offset, e.bytes);
   PageHeader h = read_page_header(page.data());
-  h.format_version = kPageFormatCurrent + 1;
+  h.format_version = 99;  // unknown to this build
   write_page_header(h, page.data());
   seal_page(page);
   write_file(pages, bytes);

@@ -1,0 +1,49 @@
+// Build keys: every option that changes the stored bytes changes the key;
+// the defaults keep the key they had before payload codecs were options.
+#include "server/engine/build_key.h"
+
+#include <gtest/gtest.h>
+
+namespace pbgi {
+namespace {
+
+TEST(BuildKey, PayloadCodecAndLutOptionsChangeTheKey) {
+  const OpenOptions base;
+  const std::string k = page_set_build_key("scene", base);
+  EXPECT_EQ(k, page_set_build_key("scene", base));
+  EXPECT_NE(k, page_set_build_key("other", base));
+
+  OpenOptions o = base;
+  o.tree.lut_entries = 100;  // no LUT with derived payloads: same bytes, same key
+  EXPECT_EQ(page_set_build_key("scene", o), k);
+  o.tree.payload_codec = tree::PayloadCodecOption::kFloatSh;
+  const std::string float_key = page_set_build_key("scene", o);
+  EXPECT_NE(float_key, k);
+  o.tree.payload_codec = tree::PayloadCodecOption::kQuantizedSh;
+  const std::string kmeans_100 = page_set_build_key("scene", o);
+  EXPECT_NE(kmeans_100, float_key);
+  o.tree.lut_entries = 1000;
+  EXPECT_NE(page_set_build_key("scene", o), kmeans_100);
+  o.tree.lut_entries = 100;
+  o.tree.lut_sample_fraction = 0.1;
+  EXPECT_NE(page_set_build_key("scene", o), kmeans_100);
+  o.tree.payload_codec = tree::PayloadCodecOption::kAuto;
+  EXPECT_NE(page_set_build_key("scene", o), kmeans_100);
+}
+
+TEST(BuildKey, BounceCountAndBounceGatherChangeTheKey) {
+  OpenOptions a;
+  OpenOptions b = a;
+  b.bounce.bounces = 2;
+  EXPECT_NE(page_set_build_key("h", a), page_set_build_key("h", b));
+  OpenOptions c = b;
+  c.bounce.gather.microbuffer_resolution = 16;
+  EXPECT_NE(page_set_build_key("h", b), page_set_build_key("h", c));
+  // With one bounce the bounce gather is unused and must not split the cache.
+  OpenOptions d = a;
+  d.bounce.gather.microbuffer_resolution = 16;
+  EXPECT_EQ(page_set_build_key("h", a), page_set_build_key("h", d));
+}
+
+}  // namespace
+}  // namespace pbgi
