@@ -34,6 +34,7 @@ EOF
 [ "$SAMPLER" = uniform ] || echo "sampler = \"$SAMPLER\"" >>"$CONFIG"
 
 LOG="$CACHE/scale.log"
+: >"$LOG"
 start=$(date +%s.%N)
 nice -n 10 "$PBGID" --config "$CONFIG" --listen "unix:$CACHE/scale.sock" --preload "$SCENE" 2>"$LOG" &
 daemon=$!
