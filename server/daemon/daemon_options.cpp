@@ -131,6 +131,17 @@ GatherMethod parse_method(const std::string& name, const std::string& source) {
                                     source, name));
 }
 
+std::string sampler_name(SurfelSampler sampler) {
+  return sampler == SurfelSampler::kPoisson ? "poisson" : "uniform";
+}
+
+SurfelSampler parse_sampler(const std::string& name, const std::string& source) {
+  if (name == "uniform") return SurfelSampler::kUniform;
+  if (name == "poisson") return SurfelSampler::kPoisson;
+  throw InvalidArgument(fmt::format("config '{}': key 'build.sampler' = '{}' is not uniform or poisson",
+                                    source, name));
+}
+
 toml::array string_array(const std::vector<std::string>& values) {
   toml::array array;
   for (const std::string& v : values) array.push_back(v);
@@ -279,6 +290,9 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
     TableReader build(*table, "build", source);
     OpenOptions& o = out.service.defaults.open;
     build.read("surfel_spacing", o.surfels.spacing);
+    std::string sampler = sampler_name(o.surfels.sampler);
+    build.read("sampler", sampler);
+    o.surfels.sampler = parse_sampler(sampler, source);
     build.read("target_surfels", o.surfels.target_surfels);
     build.read("light_samples", o.surfels.light_samples);
     build.read("seed", o.surfels.seed);
@@ -366,6 +380,7 @@ std::string to_toml(const DaemonOptions& o) {
   const OpenOptions& b = o.service.defaults.open;
   out << "\n[build]\n";
   float32_value("surfel_spacing", b.surfels.spacing);
+  string_value("sampler", sampler_name(b.surfels.sampler));
   integer_value("target_surfels", b.surfels.target_surfels);
   integer_value("light_samples", b.surfels.light_samples);
   integer_value("seed", b.surfels.seed);
@@ -451,7 +466,7 @@ bool operator==(const DaemonOptions& a, const DaemonOptions& b) {
          ra.light_samples == rb.light_samples && ra.pixel_samples == rb.pixel_samples &&
          ra.gather.method == rb.gather.method && ra.gather.clusters == rb.gather.clusters &&
          ra.gather.epsilon == rb.gather.epsilon && ra.gather.hdr_refine == rb.gather.hdr_refine &&
-         oa.surfels.spacing == ob.surfels.spacing &&
+         oa.surfels.spacing == ob.surfels.spacing && oa.surfels.sampler == ob.surfels.sampler &&
          oa.surfels.target_surfels == ob.surfels.target_surfels &&
          oa.surfels.light_samples == ob.surfels.light_samples &&
          oa.surfels.seed == ob.surfels.seed && oa.tree.page_size == ob.tree.page_size &&

@@ -10,6 +10,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
 #include <system_error>
 
@@ -35,6 +36,20 @@ std::unique_ptr<storage::PageSetReader> try_open_existing(const fs::path& dir,
     if (ec) throw IoError("cannot move corrupt page set " + dir.string() + " aside: " + ec.message());
     return nullptr;
   }
+}
+
+// One line per build with where its time went, so that the throughput of
+// a production-size build can be read from the daemon's log.
+void log_build(const std::string& key, const SurfelGenerationStats& g, const storage::BuildReport& r,
+               const storage::PageSetStats& s) {
+  const double n = double(g.surfels);
+  const double tree_seconds = r.add_seconds + r.finish_seconds;  // sort runs + merge, tree, pages
+  spdlog::info("built page set {}: {} surfels; sample {:.1f} s + shade {:.1f} s ({:.3g} surfels/s), tree {:.1f} s "
+               "({:.3g} surfels/s; {} sort runs, {} merges), {} pages, {:.2f} bytes/surfel",
+               key, g.surfels, g.sample_seconds, g.shade_seconds,
+               n / std::max(1e-9, g.sample_seconds + g.shade_seconds), tree_seconds,
+               n / std::max(1e-9, tree_seconds), r.runs, r.merges, s.page_count,
+               double(s.file_bytes) / std::max(1.0, n));
 }
 
 // Runs `build`, which publishes the page set `dir`, and opens it. If
@@ -67,11 +82,13 @@ std::unique_ptr<storage::PageSetReader> build_page_sets(
       // 4. Surfels, sampled and shaded batch by batch, streamed into the
       //    page-set build (external sort by Morton code, bounded memory).
       storage::PageSetBuilder builder(options.tree, dir.filename().string(), dir, scene.bounds());
-      generate_surfels(scene, *session.rays, options.surfels,
-                       [&](std::span<const Surfel> batch) { builder.add(batch); },
-                       [&](const char* s, float f) { report(s, f); });
+      const SurfelGenerationStats generated =
+          generate_surfels(scene, *session.rays, options.surfels,
+                           [&](std::span<const Surfel> batch) { builder.add(batch); },
+                           [&](const char* s, float f) { report(s, f); });
       // 5. Tree pages, published atomically into the cache directory.
-      builder.finish([&](float f) { report("tree", f); });
+      const storage::Manifest built = builder.finish([&](float f) { report("tree", f); });
+      log_build(dir.filename().string(), generated, builder.report(), built.stats);
     });
   }
 

@@ -56,6 +56,7 @@ DaemonOptions non_default_options() {
   o.service.defaults.render.gather.epsilon = 0.02f;
   o.service.defaults.render.gather.hdr_refine = 0.5f;
   o.service.defaults.open.surfels.spacing = 0.013f;
+  o.service.defaults.open.surfels.sampler = SurfelSampler::kPoisson;
   o.service.defaults.open.surfels.target_surfels = 12345;
   o.service.defaults.open.surfels.light_samples = 9;
   o.service.defaults.open.surfels.seed = 42;
@@ -140,6 +141,7 @@ TEST(DaemonOptions, WrongTypesAndRangesAreRefusedByName) {
   EXPECT_NE(error_of("threads = \n").find("line 1"), std::string::npos) << "parse errors have a line";
   EXPECT_NE(error_of("[gather]\nmethod = \"fast\"\n").find("gather.method"), std::string::npos);
   EXPECT_NE(error_of("[build]\npayload_codec = \"zip\"\n").find("payload_codec"), std::string::npos);
+  EXPECT_NE(error_of("[build]\nsampler = \"blue\"\n").find("build.sampler"), std::string::npos);
 }
 
 TEST(DaemonOptions, ValidateChecksValuesByName) {

@@ -15,6 +15,7 @@
 #include <memory>
 #include <random>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace pbgi {
@@ -117,6 +118,61 @@ TEST(GatherPageSet, AttachedViewsGiveIdenticalResults) {
   const tree::PagePtr root_page = attached->page(attached->root().page);
   ASSERT_NE(root_page->attachment, nullptr);
   EXPECT_GT(root_page->attachment->memory_bytes(), 0u);
+}
+
+// A budget changes speed only: one page set read through caches of no
+// room, of about 1/8 of its decoded pages and of everything, by two
+// threads gathering at once (so pages are evicted while the other thread
+// holds them), gives bit-identical results for every receiver.
+TEST(GatherPageSet, ResultsIdenticalWhateverTheBudget) {
+  TempDir tmp;
+  const std::vector<Surfel> surfels = scene(0.4f);
+  tree::BuildOptions o;
+  o.page_size = 4096;  // many pages, so that 1/8 of them really evicts
+  storage::build_page_set(surfels, o, "gather-test", tmp.path() / "set");
+  uint64_t decoded = 0;
+  {
+    storage::PageSetReader probe(tmp.path() / "set", nullptr, gather::attach_view);
+    ASSERT_GT(probe.manifest().stats.page_count, 16u);
+    for (uint32_t p = 0; p < probe.manifest().stats.page_count; ++p) decoded += probe.page(p)->memory_bytes();
+  }
+  std::vector<Receiver> receivers;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  for (int i = 0; i < 64; ++i) {
+    receivers.push_back({V3f(1.5f * u(rng), 1.5f * u(rng), 0.3f * u(rng)),
+                         V3f(0.3f * u(rng), 0.3f * u(rng), 1).normalized()});
+  }
+  auto run = [&](uint64_t budget, storage::CacheCounters* counters) {
+    auto cache = std::make_shared<storage::PageCache>(budget);
+    storage::PageSetReader reader(tmp.path() / "set", cache, gather::attach_view);
+    std::vector<GatherResult> out(receivers.size());
+    std::vector<std::thread> threads;
+    for (size_t t = 0; t < 2; ++t) {
+      threads.emplace_back([&, t] {
+        Gatherer g(reader, GatherOptions{});
+        for (size_t i = t; i < receivers.size(); i += 2) out[i] = g.gather(receivers[i]);
+      });
+    }
+    for (auto& t : threads) t.join();
+    *counters = cache->counters();
+    return out;
+  };
+  storage::CacheCounters none{}, eighth{}, all{};
+  const auto a = run(1, &none);
+  const auto b = run(decoded / 8, &eighth);
+  const auto c = run(~uint64_t(0), &all);
+  EXPECT_GT(eighth.evictions, 0u) << "1/8 of the pages must not hold the working set";
+  EXPECT_LE(eighth.bytes_held, decoded / 8);
+  EXPECT_EQ(all.evictions, 0u);
+  EXPECT_GT(none.misses, eighth.misses);
+  EXPECT_GT(eighth.misses, all.misses);
+  for (size_t i = 0; i < receivers.size(); ++i) {
+    EXPECT_EQ(a[i].irradiance, c[i].irradiance) << "receiver " << i;
+    EXPECT_EQ(b[i].irradiance, c[i].irradiance) << "receiver " << i;
+    EXPECT_EQ(a[i].ao, c[i].ao) << "receiver " << i;
+    EXPECT_EQ(b[i].ao, c[i].ao) << "receiver " << i;
+  }
 }
 
 }  // namespace

@@ -9,6 +9,13 @@
 // surfel on disk, peak RSS of the build (getrusage), receivers/s of the
 // gathers for each cache budget, and cache counters. A JSON line at the end
 // repeats the figures. --reuse skips the build when the page set exists.
+//
+//   bench_out_of_core --page-set DIR [--receivers N] [--threads N]
+//
+// serves the same gathers from an existing page set instead (e.g. one that
+// pbgid built from a USD scene): receivers are picked on the set's own
+// surfels. Either way the results of the two budgets are compared bit for
+// bit (a budget changes speed only).
 #include "server/gather/gather.h"
 #include "server/gather/page_views.h"
 #include "storage/cache/page_cache.h"
@@ -25,6 +32,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <optional>
 #include <random>
 #include <string>
 #include <thread>
@@ -76,6 +84,7 @@ struct Args {
   uint32_t threads = 2;
   bool reuse = false;
   bool keep = false;
+  fs::path page_set;  // serve this set instead of building the synthetic city
 };
 
 Args parse(int argc, char** argv) {
@@ -98,10 +107,12 @@ Args parse(int argc, char** argv) {
     else if (k == "--threads") a.threads = uint32_t(parse_size(val()));
     else if (k == "--reuse") a.reuse = true;
     else if (k == "--keep") a.keep = true;
+    else if (k == "--page-set") a.page_set = val();
     else {
       std::fprintf(stderr,
                    "usage: bench_out_of_core [--surfels N] [--dir DIR] [--sort-memory SIZE] [--leaf-size N]\n"
-                   "       [--page-size BYTES] [--receivers N] [--threads N] [--reuse] [--keep]\n");
+                   "       [--page-size BYTES] [--receivers N] [--threads N] [--reuse] [--keep]\n"
+                   "       bench_out_of_core --page-set DIR [--receivers N] [--threads N]\n");
       std::exit(2);
     }
   }
@@ -123,8 +134,31 @@ std::vector<Receiver> make_receivers(const test::SyntheticCity& city, uint32_t c
   return out;
 }
 
+// Receivers on the surfels of an existing page set: random pages, a random
+// surfel of each, and a tile-like 8 x 8 group in its tangent plane
+// (1 mm above it), as a shading tile around that point would ask.
+std::vector<Receiver> make_receivers(const storage::PageSetReader& set, uint32_t count) {
+  std::mt19937 rng(17);
+  const uint32_t pages = set.manifest().stats.page_count;
+  std::vector<Receiver> out;
+  while (out.size() < count) {
+    const tree::PagePtr page = set.page(std::uniform_int_distribution<uint32_t>(0, pages - 1)(rng));
+    if (page->surfels.empty()) continue;
+    const Surfel& s = page->surfels[std::uniform_int_distribution<size_t>(0, page->surfels.size() - 1)(rng)];
+    const Imath::V3f n = s.normal.normalized();
+    const Imath::V3f t = (std::abs(n.x) < 0.9f ? Imath::V3f(1, 0, 0) : Imath::V3f(0, 1, 0)).cross(n).normalized();
+    const Imath::V3f b = n.cross(t);
+    const float step = std::max(s.radius, 1e-3f);
+    for (int k = 0; k < 64 && out.size() < count; ++k) {
+      out.push_back({s.position + 1e-3f * n + step * (float(k % 8) * t + float(k / 8) * b), n});
+    }
+  }
+  return out;
+}
+
 struct GatherRun {
   double receivers_per_s = 0;
+  std::vector<GatherResult> results;  // of the timed pass, per receiver
   storage::CacheCounters cache;
   double pages_per_receiver = 0;
   double nodes_per_receiver = 0;
@@ -136,6 +170,7 @@ GatherRun gather(const fs::path& set, uint64_t budget, const std::vector<Receive
   auto cache = std::make_shared<storage::PageCache>(budget);
   storage::PageSetReader reader(set, cache, gather::attach_view);
   GatherRun out;
+  out.results.resize(rs.size());
   for (int pass = 0; pass < 2; ++pass) {
     const storage::CacheCounters before = cache->counters();
     std::atomic<size_t> next{0};
@@ -147,7 +182,7 @@ GatherRun gather(const fs::path& set, uint64_t budget, const std::vector<Receive
         Gatherer g(reader, GatherOptions{});
         constexpr size_t kChunk = 64;  // one tile at a time
         for (size_t at = next.fetch_add(kChunk); at < rs.size(); at = next.fetch_add(kChunk)) {
-          for (size_t i = at; i < std::min(rs.size(), at + kChunk); ++i) g.gather(rs[i]);
+          for (size_t i = at; i < std::min(rs.size(), at + kChunk); ++i) out.results[i] = g.gather(rs[i]);
         }
         pages += g.counters().pages_fetched;
         nodes += g.counters().nodes_visited;
@@ -166,27 +201,32 @@ GatherRun gather(const fs::path& set, uint64_t budget, const std::vector<Receive
 }
 
 int run(const Args& a) {
-  const test::SyntheticCity city(a.surfels);
-  fs::create_directories(a.dir);
-  const fs::path set = a.dir / ("bench-ooc-" + std::to_string(city.count()) + "-l" + std::to_string(a.leaf_size) +
-                                "-p" + std::to_string(a.page_size));
-  std::printf("surfels        %llu (spacing %.4g over a %.0f m city)\n", (unsigned long long)city.count(),
-              city.spacing(), city.size());
+  // The synthetic city is built unless an existing page set is served.
+  std::optional<test::SyntheticCity> city;
+  fs::path set = a.page_set;
+  if (set.empty()) {
+    city.emplace(a.surfels);
+    fs::create_directories(a.dir);
+    set = a.dir / ("bench-ooc-" + std::to_string(city->count()) + "-l" + std::to_string(a.leaf_size) + "-p" +
+                   std::to_string(a.page_size));
+    std::printf("surfels        %llu (spacing %.4g over a %.0f m city)\n", (unsigned long long)city->count(),
+                city->spacing(), city->size());
+  }
 
   // 1. Build.
   storage::BuildReport report;
   double generate_seconds = 0, build_seconds = 0;
   bool built = false;
-  if (!(a.reuse && fs::exists(set / storage::kManifestFileName))) {
+  if (city && !(a.reuse && fs::exists(set / storage::kManifestFileName))) {
     fs::remove_all(set);
     tree::BuildOptions o;
     o.leaf_size = a.leaf_size;
     o.page_size = a.page_size;
     o.sort_memory_bytes = a.sort_memory;
     const auto t0 = Clock::now();
-    storage::PageSetBuilder b(o, "bench-ooc", set, city.bounds());
+    storage::PageSetBuilder b(o, "bench-ooc", set, city->bounds());
     int last = -1;
-    city.generate(65536, [&](std::span<const Surfel> batch) { b.add(batch); });
+    city->generate(65536, [&](std::span<const Surfel> batch) { b.add(batch); });
     b.finish([&](float f) {
       const int pct = int(f * 20);
       if (pct != last) {
@@ -201,7 +241,9 @@ int run(const Args& a) {
     built = true;
   }
   const double build_rss = peak_rss_gib();
-  storage::PageSetReader probe(set, nullptr);
+  // Pages carry the gather's views as the daemon's do: decoded sizes below
+  // are what the cache budget counts.
+  storage::PageSetReader probe(set, nullptr, gather::attach_view);
   const storage::Manifest& m = probe.manifest();
   const storage::PageSetInspection ins = storage::inspect_page_set(probe, false);
   const double bytes_per_surfel = double(m.stats.file_bytes) / double(m.stats.surfel_count);
@@ -220,12 +262,13 @@ int run(const Args& a) {
               set.c_str(), double(m.stats.file_bytes) / (1 << 30), m.stats.page_count, 100 * ins.fill_mean,
               (unsigned long long)m.stats.node_count, (unsigned long long)m.stats.leaf_count, m.stats.max_depth);
   std::printf("bytes/surfel   %.2f\n", bytes_per_surfel);
-  std::printf("peak RSS       %.2f GiB after the build\n", build_rss);
+  if (built) std::printf("peak RSS       %.2f GiB after the build\n", build_rss);
 
-  // 2. Decoding alone: every page read, verified and decoded once.
+  // 2. Decoding alone: every page read, verified, decoded and given its
+  //    gather views once.
+  uint64_t decoded = 0;
   {
     const double c0 = thread_cpu_seconds();
-    uint64_t decoded = 0;
     for (uint32_t id = 0; id < m.stats.page_count; ++id) decoded += probe.page(id)->memory_bytes();
     const double s = thread_cpu_seconds() - c0;
     std::printf("decode         %.0f pages/s, %.0f MiB/s of pages per CPU second; %.2f GiB decoded (%.1fx the page bytes)\n",
@@ -233,10 +276,13 @@ int run(const Args& a) {
                 double(decoded) / double(m.stats.file_bytes));
   }
 
-  // 3. Gathers: 1/8 of the page set's size, then everything.
-  const std::vector<Receiver> rs = make_receivers(city, a.receivers);
+  // 3. Gathers: a cache of 1/8 of the page set's size on disk, of 1/8 of
+  //    its decoded size (what the budget counts), then of everything.
+  const std::vector<Receiver> rs = city ? make_receivers(*city, a.receivers) : make_receivers(probe, a.receivers);
   const uint64_t eighth = m.stats.file_bytes / 8;
   const GatherRun small = gather(set, eighth, rs, a.threads);
+  const uint64_t eighth_decoded = decoded / 8;
+  const GatherRun medium = gather(set, eighth_decoded, rs, a.threads);
   const GatherRun full = gather(set, ~uint64_t(0), rs, a.threads);
   auto print_run = [](const char* name, uint64_t budget, const GatherRun& r) {
     const double lookups = double(r.cache.hits + r.cache.misses);
@@ -247,17 +293,30 @@ int run(const Args& a) {
                 double(r.cache.bytes_read) / (1 << 20), double(r.cache.bytes_held) / (1 << 20));
   };
   print_run("1/8", eighth, small);
+  print_run("1/8dec", eighth_decoded, medium);
   print_run("all", ~uint64_t(0), full);
+  size_t differ = 0;
+  for (size_t i = 0; i < rs.size(); ++i) {
+    for (const GatherRun* r : {&small, &medium}) {
+      if (!(r->results[i].irradiance == full.results[i].irradiance) || r->results[i].ao != full.results[i].ao) {
+        ++differ;
+        break;
+      }
+    }
+  }
+  std::printf("budgets        %zu of %zu receivers differ between the smaller caches and the unlimited one\n", differ, rs.size());
   std::printf("peak RSS       %.2f GiB at the end (the unlimited cache included)\n", peak_rss_gib());
   std::printf("{\"surfels\": %llu, \"bytes_per_surfel\": %.3f, \"file_bytes\": %llu, \"build_seconds\": %.2f, "
               "\"tree_surfels_per_s\": %.4g, \"build_peak_rss_gib\": %.3f, \"runs\": %u, \"merges\": %u, "
-              "\"receivers\": %u, \"threads\": %u, \"receivers_per_s_eighth\": %.2f, \"receivers_per_s_all\": %.2f}\n",
+              "\"receivers\": %u, \"threads\": %u, \"receivers_per_s_eighth\": %.2f, "
+              "\"receivers_per_s_eighth_decoded\": %.2f, \"receivers_per_s_all\": %.2f, "
+              "\"results_differ\": %zu}\n",
               (unsigned long long)m.stats.surfel_count, bytes_per_surfel, (unsigned long long)m.stats.file_bytes,
               build_seconds, built ? double(report.surfels) / (report.add_seconds + report.finish_seconds) : 0.0,
               build_rss, report.runs, report.merges, a.receivers, a.threads, small.receivers_per_s,
-              full.receivers_per_s);
-  if (!a.keep && !a.reuse) fs::remove_all(set);
-  return 0;
+              medium.receivers_per_s, full.receivers_per_s, differ);
+  if (city && !a.keep && !a.reuse) fs::remove_all(set);
+  return differ == 0 ? 0 : 1;
 }
 
 }  // namespace

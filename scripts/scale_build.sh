@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# Builds the page set of one USD scene the way the daemon does (pbgid
+# --preload) and measures it: wall time, the build line of the daemon's log
+# (surfels/s of sampling+shading and of the tree, bytes/surfel), and the
+# peak RSS of the daemon (VmHWM) and of its USD reader child (sampled every
+# 0.5 s from /proc, since the child exits before the build ends).
+#
+#   scripts/scale_build.sh SCENE.usda CACHE_DIR SPACING [MEMORY_BUDGET] [SAMPLER]
+#
+# e.g. scripts/scale_build.sh /tmp/city/city.usda /tmp/city/cache 0.05 2GiB
+# (scene from scripts/gen_large_scene.py). Runs under nice; the daemon is
+# stopped with SIGTERM once the scene is preloaded. Output: CACHE_DIR/scale.log
+# (the daemon's log) and a summary on stdout.
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+SCENE="$(realpath "$1")"
+CACHE="$2"
+SPACING="$3"
+BUDGET="${4:-2GiB}"
+SAMPLER="${5:-uniform}"
+PBGID="${PBGID:-$ROOT/build/bin/pbgid}"
+
+mkdir -p "$CACHE"
+CACHE="$(realpath "$CACHE")"
+CONFIG="$CACHE/scale.toml"
+cat >"$CONFIG" <<EOF
+scene_roots = ["$(dirname "$SCENE")"]
+cache_dir = "$CACHE"
+memory_budget = "$BUDGET"
+log_level = "info"
+[build]
+surfel_spacing = $SPACING
+EOF
+[ "$SAMPLER" = uniform ] || echo "sampler = \"$SAMPLER\"" >>"$CONFIG"
+
+LOG="$CACHE/scale.log"
+: >"$LOG"
+start=$(date +%s.%N)
+nice -n 10 "$PBGID" --config "$CONFIG" --listen "unix:$CACHE/scale.sock" --preload "$SCENE" 2>"$LOG" &
+daemon=$!
+child_peak_kb=0
+daemon_peak_kb=0
+while kill -0 "$daemon" 2>/dev/null; do
+  if grep -q "preloaded '" "$LOG"; then break; fi
+  if grep -q "\[error\]\|\[critical\]" "$LOG"; then
+    echo "pbgid failed:" >&2
+    tail -5 "$LOG" >&2
+    kill "$daemon" 2>/dev/null || true
+    exit 1
+  fi
+  for c in $(pgrep -P "$daemon" || true); do
+    kb=$(awk '/^VmRSS/ {print $2}' "/proc/$c/status" 2>/dev/null || echo 0)
+    ((kb > child_peak_kb)) && child_peak_kb=$kb
+  done
+  kb=$(awk '/^VmHWM/ {print $2}' "/proc/$daemon/status" 2>/dev/null || echo 0)
+  ((kb > daemon_peak_kb)) && daemon_peak_kb=$kb
+  sleep 0.5
+done
+end=$(date +%s.%N)
+kb=$(awk '/^VmHWM/ {print $2}' "/proc/$daemon/status" 2>/dev/null || echo 0)
+((kb > daemon_peak_kb)) && daemon_peak_kb=$kb
+kill -TERM "$daemon" 2>/dev/null || true
+wait "$daemon" || true
+
+grep "built page set\|preloaded" "$LOG" || true
+awk -v s="$start" -v e="$end" -v d="$daemon_peak_kb" -v c="$child_peak_kb" 'BEGIN {
+  printf "wall           %.1f s (start to preloaded)\n", e - s
+  printf "peak RSS       pbgid %.3f GiB (VmHWM), USD reader child %.3f GiB (sampled)\n", d / 1048576, c / 1048576
+}'
