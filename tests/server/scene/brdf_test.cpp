@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
 namespace pbgi {
@@ -199,8 +200,9 @@ TEST(Brdf, SamplingMatchesPdf) {
     ++dof;
   }
   ASSERT_GT(dof, 100);
-  // A matching sampler gives chi2 / dof ~ 1; a wrong lobe (e.g. the pdf of
-  // D instead of the visible normals) gives hundreds.
+  // A matching sampler gives chi2 / dof ~ 1; pdf() of plain D sampling
+  // against these visible-normal samples gave 4.8 (512 bins) when written.
+  std::printf("[ measured ] GGX sampling chi2 / dof %.3f over %d bins\n", chi2 / dof, dof);
   EXPECT_LT(chi2 / dof, 2.0) << "chi2 " << chi2 << " over " << dof << " bins";
 }
 
