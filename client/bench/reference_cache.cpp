@@ -15,7 +15,8 @@ namespace {
 // Bump when the path tracer's estimator or the stored layout changes, so
 // that old references are not reused.
 // 2: emissive triangles sampled directly (MIS) and pbrt-style ray offsets.
-constexpr int kCacheVersion = 2;
+// 3: glossy and metallic materials reflect by the GGX BRDF (brdf.h).
+constexpr int kCacheVersion = 3;
 
 constexpr char kKeyAttribute[] = "pbgi/bench_reference_key";
 constexpr char kSecondsAttribute[] = "pbgi/render_seconds";

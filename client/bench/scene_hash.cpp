@@ -62,6 +62,9 @@ std::string scene_model_hash(const Scene& scene) {
     h.value(m.emission);
     h.value(m.roughness);
     h.value(m.metallic);
+    h.value(m.specular_color);
+    h.value(m.use_specular_workflow);
+    h.value(m.ior);
   }
   h.value(scene.lights.size());
   for (const Light& l : scene.lights) {

@@ -23,7 +23,8 @@ namespace {
 namespace fs = std::filesystem;
 
 // Bumped whenever the entry layout or what is stored changes.
-constexpr int kStoreFormatVersion = 1;
+// 2: materials carry specularColor, useSpecularWorkflow and ior.
+constexpr int kStoreFormatVersion = 2;
 constexpr const char* kEntryExtension = ".pbgiscene";
 constexpr const char* kDepsExtension = ".deps";
 
@@ -202,6 +203,9 @@ void write_scene(const Scene& scene, const ChunkStoreOptions& options, std::ofst
     set_vec3(d->mutable_emissive_color(), m.emission.x, m.emission.y, m.emission.z);
     d->set_roughness(m.roughness);
     d->set_metallic(m.metallic);
+    set_vec3(d->mutable_specular_color(), m.specular_color.x, m.specular_color.y, m.specular_color.z);
+    d->set_use_specular_workflow(m.use_specular_workflow);
+    d->set_ior(m.ior);
     if (!m.albedo_texture.file.empty()) texture_ref(m.albedo_texture, d->mutable_diffuse_texture());
     if (!m.emission_texture.file.empty()) texture_ref(m.emission_texture, d->mutable_emissive_texture());
     d->set_diffuse_from_vertex_colors(m.albedo_from_vertex_colors);

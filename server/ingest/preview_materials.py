@@ -1,13 +1,14 @@
 """Bound materials -> MaterialDef.
 
-UsdPreviewSurface: constant diffuseColor, emissiveColor, roughness and
-metallic; diffuseColor and emissiveColor may also come from a UsdUVTexture
-(sent as a TextureRef: resolved file, wrap modes, scale/bias, source colour
-space, the output channel, st from a UsdPrimvarReader_float2 -- whose
+UsdPreviewSurface: constant diffuseColor, emissiveColor, roughness,
+metallic, specularColor, useSpecularWorkflow and ior; diffuseColor and
+emissiveColor may also come from a UsdUVTexture (sent as a TextureRef:
+resolved file, wrap modes, scale/bias, source colour space, the output
+channel, st from a UsdPrimvarReader_float2 -- whose
 varname the mesh chunks then carry as uvs -- through an optional
 UsdTransform2d; the daemon loads and filters the image) or from the
 gprim's displayColor primvar (constant: folded into the material; varying:
-sent per vertex with the mesh). Roughness/metallic textures are reduced to
+sent per vertex with the mesh). Textures on the other inputs are reduced to
 their authored value or fallback, with one WARNING. A texture's constant
 stand-in (used where the image cannot be read or a mesh has no st) is the
 input's own authored value, else the texture's authored fallback, else mid
@@ -36,6 +37,9 @@ _DEFAULTS = {
     "emissiveColor": (0.0, 0.0, 0.0),
     "roughness": 0.5,
     "metallic": 0.0,
+    "specularColor": (0.0, 0.0, 0.0),
+    "useSpecularWorkflow": 0,
+    "ior": 1.5,
 }
 # Unknown average albedo of a texture: mid grey keeps bounce energy plausible.
 _TEXTURE_GREY = (0.5, 0.5, 0.5)
@@ -60,9 +64,12 @@ TextureSpec = collections.namedtuple(
     "TextureSpec", "file wrap_s wrap_t scale bias color_space channel st_transform uv_primvar "
                    "constant_st")
 
-# Resolved material: what MaterialDef carries.
+# Resolved material: what MaterialDef carries. The specular inputs default
+# to UsdPreviewSurface's (MaterialX and displayColor materials use them).
 Resolved = collections.namedtuple(
-    "Resolved", "diffuse emissive roughness metallic diffuse_texture emissive_texture vertex_colors")
+    "Resolved", "diffuse emissive roughness metallic diffuse_texture emissive_texture vertex_colors "
+                "specular use_specular_workflow ior",
+    defaults=(_DEFAULTS["specularColor"], False, _DEFAULTS["ior"]))
 
 # MaterialX surfaces: node id -> (base colour inputs (weight, colour),
 # roughness, metalness, emission (weight, colour)) with the defaults of each
@@ -203,6 +210,9 @@ class MaterialTable:
         m.emissive_color.x, m.emissive_color.y, m.emissive_color.z = values.emissive
         m.roughness = values.roughness
         m.metallic = values.metallic
+        m.specular_color.x, m.specular_color.y, m.specular_color.z = values.specular
+        m.use_specular_workflow = bool(values.use_specular_workflow)
+        m.ior = values.ior
         if values.diffuse_texture is not None:
             _fill_texture_ref(m.diffuse_texture, values.diffuse_texture)
         if values.emissive_texture is not None:
@@ -231,9 +241,13 @@ class MaterialTable:
         emissive, emissive_texture = self._input(shader, "emissiveColor", gprim, path)
         roughness, _ = self._input(shader, "roughness", gprim, path)
         metallic, _ = self._input(shader, "metallic", gprim, path)
+        specular, _ = self._input(shader, "specularColor", gprim, path)
+        workflow, _ = self._input(shader, "useSpecularWorkflow", gprim, path)
+        ior, _ = self._input(shader, "ior", gprim, path)
         return Resolved(_as_color(diffuse), _as_color(emissive), float(roughness[0]),
                         float(metallic[0]), diffuse_texture, emissive_texture,
-                        self._vertex_colors)
+                        self._vertex_colors, _as_color(specular), bool(workflow[0]),
+                        float(ior[0]))
 
     def _input(self, shader, name, gprim, material_path):
         """(constant value, TextureSpec or None) of a UsdPreviewSurface input."""

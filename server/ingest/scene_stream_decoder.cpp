@@ -418,6 +418,9 @@ class SceneAssembler {
     m.emission = color_from(d.emissive_color());
     m.roughness = d.roughness();
     m.metallic = d.metallic();
+    m.specular_color = color_from(d.specular_color());
+    m.use_specular_workflow = d.use_specular_workflow();
+    if (d.has_ior()) m.ior = d.ior();
     if (d.has_diffuse_texture() && !d.diffuse_texture().file().empty())
       m.albedo_texture = binding_from(d.diffuse_texture());
     if (d.has_emissive_texture() && !d.emissive_texture().file().empty())

@@ -2,6 +2,7 @@
 
 #include "server/reference/emissive_triangles.h"
 
+#include "server/scene/brdf.h"
 #include "server/scene/camera_rays.h"
 #include "server/scene/light_sampling.h"
 #include "server/scene/rng.h"
@@ -60,16 +61,6 @@ bool is_finite(const C3f& c) {
 float power_heuristic(float pdf_a, float pdf_b) {
   const float a = pdf_a * pdf_a, b = pdf_b * pdf_b;
   return a + b > 0.f ? a / (a + b) : 0.f;
-}
-
-// Cosine-weighted direction around unit n (Malley's method over the
-// concentric disk map, which keeps the spacing of u).
-V3f cosine_hemisphere(const V3f& n, float u1, float u2) {
-  const Imath::V2f d = square_to_disk({u1, u2});
-  const float z = std::sqrt(std::max(0.f, 1.f - d.x * d.x - d.y * d.y));
-  V3f t, b;
-  orthonormal_basis(n, &t, &b);
-  return (d.x * t + d.y * b + z * n).normalized();
 }
 
 class PathTracer {
@@ -167,26 +158,28 @@ PathSample PathTracer::trace(const Ray& camera_ray, Rng& rng, uint64_t* ray_coun
     if (surfaces == 1) out.indirect1 += c;
   };
   C3f beta(1.f, 1.f, 1.f);  // throughput from the camera to x_k, without f(x_k)
+  V3f wo = -camera_ray.direction.normalized();  // from x_k toward x_{k-1}
   for (uint32_t k = 1;; ++k) {
-    const C3f albedo = v.albedo;
-    const C3f f = albedo * kInvPi;
+    const Brdf brdf(brdf_lobes(*v.material, v.albedo), v.ns);
 
     // 3a. Next-event estimation at x_k: one sample of every light; light
     // from a UsdLux light reflected at x_k, ..., x1 left k-1 surfaces.
-    if (!is_black(albedo)) {
+    if (!brdf.is_black()) {
       for (const Light& light : lights) {
         const float u1 = rng.uniform(), u2 = rng.uniform();
         const LightSample ls = sample_light(light, v.p, u1, u2);
         if (!(ls.pdf > 0.f) || is_black(ls.radiance)) continue;
         const float cos_s = v.ns.dot(ls.direction);
         if (!(cos_s > 0.f) || !(v.ng.dot(ls.direction) > 0.f)) continue;
+        const C3f f = brdf.eval(wo, ls.direction);
+        if (is_black(f)) continue;
         const V3f origin = offset_origin(v, ls.direction);
         const float tmax = std::isinf(ls.distance)
                                ? kInf
                                : ls.distance * (1.f - 1e-4f) - 2.f * (origin - v.p).length();
         ++*ray_count;
         if (tmax <= 0.f || rays_.occluded(origin, ls.direction, 0.f, tmax)) continue;
-        const float w = ls.delta ? 1.f : power_heuristic(ls.pdf, cos_s * kInvPi);
+        const float w = ls.delta ? 1.f : power_heuristic(ls.pdf, brdf.pdf(wo, ls.direction));
         add(k - 1, beta * f * ls.radiance * (cos_s * w / ls.pdf));
       }
     }
@@ -195,7 +188,7 @@ PathSample PathTracer::trace(const Ray& camera_ray, Rng& rng, uint64_t* ray_coun
     // of them (emissive_triangles.h), MIS-weighted against BSDF sampling
     // (3b). Light leaving the triangle x_{k+1} left k surfaces by x1.
     const bool nee_triangles = options_.sample_emissive_triangles && !emitters_.empty();
-    if (nee_triangles && !is_black(albedo)) {
+    if (nee_triangles && !brdf.is_black()) {
       const float u0 = rng.uniform(), u1 = rng.uniform(), u2 = rng.uniform();
       const EmitterSample es = emitters_.sample(u0, u1, u2);
       const V3f to = es.point.p - v.p;
@@ -212,19 +205,21 @@ PathSample PathTracer::trace(const Ray& camera_ray, Rng& rng, uint64_t* ray_coun
           ++*ray_count;
           if (!rays_.occluded(from, target - from, 0.f, 1.f - 1e-4f)) {
             const float pdf_light = es.pdf_area * dist2 / cos_l;
-            const float wgt = power_heuristic(pdf_light, cos_s * kInvPi);
-            add(k, beta * f * le * (cos_s * wgt / pdf_light));
+            const float wgt = power_heuristic(pdf_light, brdf.pdf(wo, w));
+            add(k, beta * brdf.eval(wo, w) * le * (cos_s * wgt / pdf_light));
           }
         }
       }
     }
 
-    // 3b. BSDF sampling: cosine-weighted, so f cos / pdf = albedo.
+    // 3b. BSDF sampling (brdf.h): for a Lambert surface cosine-weighted,
+    // so f cos / pdf = albedo.
     const float u1 = rng.uniform(), u2 = rng.uniform();
-    const V3f d = cosine_hemisphere(v.ns, u1, u2);
-    const float pdf_bsdf = v.ns.dot(d) * kInvPi;
+    const BrdfSample bs = brdf.sample(wo, u1, u2);
+    const V3f d = bs.wi;
+    const float pdf_bsdf = bs.pdf;
     if (!(pdf_bsdf > 0.f) || !(d.dot(v.ng) > 0.f)) break;
-    beta *= albedo;
+    beta *= bs.weight;
     if (is_black(beta)) break;
     const V3f origin = offset_origin(v, d);
     const Hit next = rays_.intersect(origin, d);
@@ -240,6 +235,7 @@ PathSample PathTracer::trace(const Ray& camera_ray, Rng& rng, uint64_t* ray_coun
     }
     if (!next.valid()) break;
     v = make_vertex(next, d);
+    wo = -d;
     // Emission of x_{k+1}: it left a surface, so one more than above.
     // MIS-weighted against 3a' when emissive triangles are sampled.
     if (!is_black(v.emission)) {

@@ -3,14 +3,18 @@
 // AOVs so that PBGI images can be measured against it ("speed against
 // error").
 //
-// Light transport (all surfaces diffuse, f = albedo / pi):
+// Light transport (surfaces reflect by the Material's BRDF, server/scene/
+// brdf.h: Lambert, plus a GGX lobe for glossy and metallic materials; matte
+// materials are exactly Lambert, f = albedo / pi):
 //  * Surfaces are two-sided: at every path vertex the geometric normal is
 //    flipped toward the incoming ray (at the first hit: toward the camera,
 //    as the daemon's receivers are), the shading normal with it, and the
 //    shading normal is replaced by the geometric one if it then points below
 //    the surface (the daemon's rule). Material emission leaves both sides.
-//  * Directions are sampled from the cosine-weighted hemisphere around the
-//    shading normal; a direction below the geometric surface ends the path.
+//  * Directions are sampled from the BRDF (Brdf::sample: cosine-weighted
+//    around the shading normal for the diffuse lobe, GGX visible normals
+//    for the specular one); a direction below the geometric surface ends
+//    the path. The BRDF's pdf is the BSDF side of every MIS weight below.
 //  * UsdLux lights are sampled at every vertex with sample_light (each light
 //    once: next-event estimation); light hit by a BSDF-sampled ray
 //    (intersect_light, up to the next surface) is counted too, and the two
@@ -42,13 +46,15 @@
 //             emission, plus (lights_visible_to_camera) the radiance of the
 //             nearest area light in front of x1, which then hides x1: such a
 //             pixel has albedo 0 and ao 1, as in the daemon.
-//   indirect1 s = 1, the one-bounce diffuse interreflection:
-//               albedo(x1)/pi * integral over the hemisphere at x1 of
-//               [Le(x2 -> x1) + Ld(x2 -> x1)] cos(theta) d(omega),
+//   indirect1 s = 1, the one-bounce interreflection:
+//               integral over the hemisphere at x1 of
+//               f(x1) [Le(x2 -> x1) + Ld(x2 -> x1)] cos(theta) d(omega),
 //             where x2 is the surface seen from x1 in that direction, Le its
-//             emission and Ld its direct lighting from UsdLux lights. This is
-//             what a single-bounce PBGI gather of surfels shaded with
-//             emission + direct light estimates.
+//             emission and Ld its direct lighting from UsdLux lights
+//             (reflected by x2's BRDF toward x1: a glossy caustic is here).
+//             For Lambert surfaces (f = albedo / pi) this is what a
+//             single-bounce PBGI gather of surfels shaded with emission +
+//             direct light estimates; glossy x1 or x2 are not in PBGI yet.
 //   indirect  s >= 1: all interreflections (includes indirect1).
 //   beauty    direct + indirect.
 //   albedo    albedo of x1's material (0 where the camera ray misses).

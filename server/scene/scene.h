@@ -1,6 +1,7 @@
 // The scene model: what ingest produces and what every later stage reads.
-// Geometry is triangles in world space; materials are diffuse (this slice),
-// with optional textures (server/scene/texture.h) or vertex colours; lights
+// Geometry is triangles in world space; materials are Lambert + GGX
+// specular (server/scene/brdf.h), with optional textures
+// (server/scene/texture.h) or vertex colours; lights
 // are UsdLux lights reduced to emitters that can be sampled.
 //
 // Textures and dome maps are held by shared_ptr to immutable objects: copies
@@ -59,8 +60,14 @@ struct Material {
   std::string prim_path;
   C3f albedo{0.5f, 0.5f, 0.5f};   // diffuse reflectance, linear
   C3f emission{0.f, 0.f, 0.f};    // emitted radiance, W/(sr m^2)
+  // UsdPreviewSurface specular inputs, evaluated by server/scene/brdf.h
+  // (GGX lobe): roughness 1 with metallic 0 (metallic workflow) or a black
+  // specular_color (specular workflow) is pure Lambert.
   float roughness = 1.f;
   float metallic = 0.f;
+  C3f specular_color{0.f, 0.f, 0.f};  // F0 in the specular workflow
+  bool use_specular_workflow = false;
+  float ior = 1.5f;                   // F0 of the metallic workflow's dielectric
   // Spatially varying inputs (server/scene/surface_colors.h evaluates them):
   // textures win over vertex colours, which win over the constants above.
   TextureBinding albedo_texture;    // diffuseColor

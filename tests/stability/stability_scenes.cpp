@@ -2,7 +2,9 @@
 
 #include "server/scene/render_origin.h"
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace pbgi::stability {
 namespace {
@@ -41,6 +43,28 @@ CornellMaterials add_cornell(SceneBuilder& b) {
   return m;
 }
 
+// One facet of the glossy caustic's reflector: centre and unit normal.
+struct Facet {
+  V3f centre, normal;
+};
+constexpr float kFacetSize = 0.3f;
+
+// The reflector: a 4 x 3 grid of facets in the plane x = -1.5 (y from 0.35
+// to 1.25, z from -0.45 to 0.45), each turned to the bisector of the
+// direction to the sun and the direction to the focus, so that its mirror
+// reflection of the sun lands on the focus.
+std::vector<Facet> caustic_facets() {
+  std::vector<Facet> facets;
+  for (int iy = 0; iy < 4; ++iy) {
+    for (int iz = 0; iz < 3; ++iz) {
+      const V3f c(-1.5f, 0.5f + kFacetSize * iy, kFacetSize * (iz - 1));
+      const V3f to_focus = (kCausticFocus - c).normalized();
+      facets.push_back({c, (to_focus - kCausticSunDirection).normalized()});
+    }
+  }
+  return facets;
+}
+
 }  // namespace
 
 SceneBuilder::SceneBuilder(std::string name) {
@@ -56,6 +80,13 @@ uint32_t SceneBuilder::material(const C3f& albedo, const C3f& emission) {
   m.emission = emission;
   scene_.materials.push_back(m);
   return static_cast<uint32_t>(scene_.materials.size() - 1);
+}
+
+uint32_t SceneBuilder::metal(const C3f& color, float roughness) {
+  const uint32_t id = material(color);
+  scene_.materials[id].metallic = 1.f;
+  scene_.materials[id].roughness = roughness;
+  return id;
 }
 
 void SceneBuilder::triangle(const V3f& p0, const V3f& p1, const V3f& p2, uint32_t material,
@@ -289,6 +320,36 @@ Scene grazing_floor() {
   b.rect_light({0, 1.5f, -5.5f}, {0, -0.2f, -1}, 2.f, 1.f, {30, 30, 30});
   b.camera("/Camera", {0, 0.05f, 0.5f}, {0, 0.0f, -8}, 35.f, 36.f);
   return b.take();
+}
+
+Scene glossy_caustic() {
+  SceneBuilder b("glossy-caustic");
+  const float a = kCausticFloorAlbedo;
+  const uint32_t floor = b.material({a, a, a});
+  const float m = kCausticMetalColor;
+  const uint32_t metal = b.metal({m, m, m}, kCausticRoughness);
+  b.quad({-3, 0, -3}, {-3, 0, 3}, {3, 0, 3}, {3, 0, -3}, floor, "/floor");
+  int i = 0;
+  for (const Facet& f : caustic_facets()) {
+    // Square facet around f.centre in the plane of f.normal; wound to face it.
+    const V3f u = (std::fabs(f.normal.y) < 0.9f ? V3f(0, 1, 0) : V3f(1, 0, 0)).cross(f.normal).normalized();
+    const V3f v = f.normal.cross(u);
+    const float h = 0.5f * kFacetSize;
+    b.quad(f.centre - h * u - h * v, f.centre + h * u - h * v, f.centre + h * u + h * v,
+           f.centre - h * u + h * v, metal, "/reflector/facet" + std::to_string(i++));
+  }
+  const float e = kCausticSunIrradiance;
+  b.distant_light(kCausticSunDirection, {e, e, e});
+  b.camera("/Camera", {0.3f, 2.6f, 1.6f}, {0.2f, 0, 0}, 35.f);
+  return b.take();
+}
+
+double caustic_facet_power() {
+  double power = 0.0;
+  for (const Facet& f : caustic_facets())
+    power += kCausticSunIrradiance * std::max(0.f, -f.normal.dot(kCausticSunDirection)) *
+             kFacetSize * kFacetSize;
+  return power;
 }
 
 }  // namespace pbgi::stability

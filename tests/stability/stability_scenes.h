@@ -15,6 +15,9 @@ class SceneBuilder {
   explicit SceneBuilder(std::string name);
 
   uint32_t material(const C3f& albedo, const C3f& emission = {0, 0, 0});
+  // A metal (UsdPreviewSurface metallic 1): specular colour `color`, GGX
+  // roughness `roughness` (server/scene/brdf.h).
+  uint32_t metal(const C3f& color, float roughness);
   // Quad p0 p1 p2 p3 as two triangles; its surfels face (p1-p0)x(p2-p0).
   void quad(const V3f& p0, const V3f& p1, const V3f& p2, const V3f& p3, uint32_t material,
             const std::string& path, bool double_sided = false);
@@ -93,5 +96,22 @@ Scene cornell_with_reversed_copy();
 // A long floor with a lit coloured wall at its end, seen by /Camera from
 // 5 cm above the floor: most pixels are receivers at grazing angles.
 Scene grazing_floor();
+
+// A glossy caustic: a low sun (travelling along kCausticSunDirection,
+// irradiance kCausticSunIrradiance) grazes a diffuse floor (albedo
+// kCausticFloorAlbedo) and strikes a concave reflector at x = -1.5: a 4 x 3
+// grid of metal facets (roughness kCausticRoughness, colour
+// kCausticMetalColor), each aimed so that it reflects the sun onto
+// kCausticFocus on the floor. /Camera looks down at the floor around the
+// focus. caustic_facet_power() is the sun's power the facets intercept
+// (what a perfect reflector could send to the floor at most).
+inline const V3f kCausticSunDirection = V3f(-1.f, -0.2f, 0.f).normalized();
+inline constexpr float kCausticSunIrradiance = 5.f;
+inline constexpr float kCausticFloorAlbedo = 0.5f;
+inline constexpr float kCausticRoughness = 0.2f;
+inline constexpr float kCausticMetalColor = 0.9f;
+inline const V3f kCausticFocus(0.f, 0.f, 0.f);
+Scene glossy_caustic();
+double caustic_facet_power();
 
 }  // namespace pbgi::stability

@@ -37,6 +37,16 @@ TEST(SceneHash, ChangesWithWhatLightTransportReads) {
   Scene d = a;
   d.lights[0].radiance *= 2.f;
   EXPECT_NE(scene_model_hash(a), scene_model_hash(d));
+  // The specular inputs the reference's BRDF reads.
+  Scene e = a;
+  e.materials[0].ior = 1.4f;
+  EXPECT_NE(scene_model_hash(a), scene_model_hash(e));
+  Scene f = a;
+  f.materials[0].use_specular_workflow = true;
+  EXPECT_NE(scene_model_hash(a), scene_model_hash(f));
+  Scene g = a;
+  g.materials[0].specular_color.x = 0.5f;
+  EXPECT_NE(scene_model_hash(a), scene_model_hash(g));
 }
 
 TEST(ReferenceCache, KeyCoversSizeSppDepthSeedAndCamera) {

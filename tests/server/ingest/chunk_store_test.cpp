@@ -199,6 +199,9 @@ def Scope "Looks"
             color3f inputs:diffuseColor = (0.2, 0.3, 0.4)
             color3f inputs:emissiveColor = (1, 2, 3)
             float inputs:roughness = 0.25
+            int inputs:useSpecularWorkflow = 1
+            color3f inputs:specularColor = (0.5, 0.25, 0.125)
+            float inputs:ior = 1.33
             token outputs:surface
         }
     }
@@ -279,6 +282,10 @@ TEST(ChunkStore, ReopeningAnUnchangedSceneSkipsIngest) {
     EXPECT_EQ(second.materials[m].albedo, first.materials[m].albedo);
     EXPECT_EQ(second.materials[m].emission, first.materials[m].emission);
     EXPECT_EQ(second.materials[m].roughness, first.materials[m].roughness);
+    EXPECT_EQ(second.materials[m].metallic, first.materials[m].metallic);
+    EXPECT_EQ(second.materials[m].specular_color, first.materials[m].specular_color);
+    EXPECT_EQ(second.materials[m].use_specular_workflow, first.materials[m].use_specular_workflow);
+    EXPECT_EQ(second.materials[m].ior, first.materials[m].ior);
     EXPECT_EQ(second.materials[m].albedo_from_vertex_colors, first.materials[m].albedo_from_vertex_colors);
   }
   ASSERT_EQ(second.lights.size(), 1u);

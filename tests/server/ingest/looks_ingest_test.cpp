@@ -122,8 +122,53 @@ def Xform "W"
         point3f[] points = [(0, 0, 6), (1, 0, 6), (0, 1, 6)]
         rel material:binding = </W/Looks/Mtlx>
     }
+    def Mesh "Gold" (
+        prepend apiSchemas = ["MaterialBindingAPI"]
+    )
+    {
+        uniform token subdivisionScheme = "none"
+        int[] faceVertexCounts = [3]
+        int[] faceVertexIndices = [0, 1, 2]
+        point3f[] points = [(0, 0, 7), (1, 0, 7), (0, 1, 7)]
+        rel material:binding = </W/Looks/Gold>
+    }
+    def Mesh "Varnish" (
+        prepend apiSchemas = ["MaterialBindingAPI"]
+    )
+    {
+        uniform token subdivisionScheme = "none"
+        int[] faceVertexCounts = [3]
+        int[] faceVertexIndices = [0, 1, 2]
+        point3f[] points = [(0, 0, 8), (1, 0, 8), (0, 1, 8)]
+        rel material:binding = </W/Looks/Varnish>
+    }
     def Scope "Looks"
     {
+        def Material "Gold"
+        {
+            token outputs:surface.connect = </W/Looks/Gold/Surface.outputs:surface>
+            def Shader "Surface"
+            {
+                uniform token info:id = "UsdPreviewSurface"
+                color3f inputs:diffuseColor = (1, 0.77, 0.34)
+                float inputs:metallic = 1
+                float inputs:roughness = 0.1
+                float inputs:ior = 2.5
+                token outputs:surface
+            }
+        }
+        def Material "Varnish"
+        {
+            token outputs:surface.connect = </W/Looks/Varnish/Surface.outputs:surface>
+            def Shader "Surface"
+            {
+                uniform token info:id = "UsdPreviewSurface"
+                int inputs:useSpecularWorkflow = 1
+                color3f inputs:specularColor = (0.9, 0.6, 0.2)
+                float inputs:roughness = 0.3
+                token outputs:surface
+            }
+        }
         def Material "Auto"
         {
             token outputs:surface.connect = </W/Looks/Auto/Surface.outputs:surface>
@@ -403,6 +448,28 @@ TEST_F(LooksIngest, MaterialXStandardSurfaceIsApproximated) {
   EXPECT_NEAR(m.metallic, 0.25f, 1e-6f);
   EXPECT_NEAR(m.roughness, 0.6f, 1e-6f);
   EXPECT_EQ(warnings_naming("/W/Looks/Mtlx", "MaterialX ND_standard_surface_surfaceshader approximated"), 1u);
+}
+
+// The specular inputs of UsdPreviewSurface reach Material (server/scene/
+// brdf.h builds the GGX lobe from them); unauthored ones get the spec's
+// defaults (specularColor black, metallic workflow, ior 1.5).
+TEST_F(LooksIngest, PreviewSurfaceSpecularInputs) {
+  const Material& gold = material_of("/W/Gold");
+  EXPECT_FALSE(gold.use_specular_workflow);
+  EXPECT_NEAR(gold.metallic, 1.f, 1e-6f);
+  EXPECT_NEAR(gold.roughness, 0.1f, 1e-6f);
+  EXPECT_NEAR(gold.ior, 2.5f, 1e-6f);
+  EXPECT_EQ(gold.specular_color, C3f(0, 0, 0));
+  const Material& varnish = material_of("/W/Varnish");
+  EXPECT_TRUE(varnish.use_specular_workflow);
+  EXPECT_NEAR(varnish.specular_color.x, 0.9f, 1e-6f);
+  EXPECT_NEAR(varnish.specular_color.y, 0.6f, 1e-6f);
+  EXPECT_NEAR(varnish.specular_color.z, 0.2f, 1e-6f);
+  EXPECT_NEAR(varnish.ior, 1.5f, 1e-6f);
+  // A MaterialX approximation keeps the defaults.
+  const Material& mtlx = material_of("/W/Standard");
+  EXPECT_FALSE(mtlx.use_specular_workflow);
+  EXPECT_NEAR(mtlx.ior, 1.5f, 1e-6f);
 }
 
 TEST_F(LooksIngest, DomeLightWithAMapIgnoresNormalize) {

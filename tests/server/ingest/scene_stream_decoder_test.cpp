@@ -136,9 +136,15 @@ TEST(SceneStreamDecoder, AssemblesAValidStream) {
   info.mutable_diagnostic()->set_severity(pbgi::v1::Diagnostic::INFO);
   info.mutable_diagnostic()->set_message("just saying");
 
+  // Material 3 has the specular inputs, 7 none of them (an older stream).
+  SceneChunk specular = material_chunk(3, 0, 1, 0);
+  specular.mutable_material()->set_use_specular_workflow(true);
+  specular.mutable_material()->mutable_specular_color()->set_y(0.5f);
+  specular.mutable_material()->set_ior(1.8f);
+
   // Material ids 7 and 3 become indices 0 and 1; /A has two chunks.
   const std::string data = frame(header_chunk()) + frame(progress) + frame(material_chunk(7, 1, 0, 0)) +
-                           frame(triangle_chunk("/A", 7, true)) + frame(material_chunk(3, 0, 1, 0)) +
+                           frame(triangle_chunk("/A", 7, true)) + frame(specular) +
                            frame(triangle_chunk("/B", 3, true)) + frame(triangle_chunk("/A", 7, true)) +
                            frame(camera) + frame(light) + frame(warning) + frame(info) + frame(end_chunk(11, 3));
   std::vector<std::pair<std::string, float>> seen;
@@ -159,6 +165,12 @@ TEST(SceneStreamDecoder, AssemblesAValidStream) {
   ASSERT_EQ(scene.materials.size(), 2u);
   EXPECT_EQ(scene.materials[0].albedo, C3f(1, 0, 0));
   EXPECT_EQ(scene.materials[1].prim_path, "/M3");
+  EXPECT_FALSE(scene.materials[0].use_specular_workflow);
+  EXPECT_EQ(scene.materials[0].specular_color, C3f(0, 0, 0));
+  EXPECT_FLOAT_EQ(scene.materials[0].ior, 1.5f);  // unset: the UsdPreviewSurface default
+  EXPECT_TRUE(scene.materials[1].use_specular_workflow);
+  EXPECT_EQ(scene.materials[1].specular_color, C3f(0, 0.5f, 0));
+  EXPECT_FLOAT_EQ(scene.materials[1].ior, 1.8f);
   ASSERT_EQ(scene.lights.size(), 1u);
   EXPECT_EQ(scene.lights[0].kind, LightKind::Rect);
   EXPECT_FLOAT_EQ(scene.lights[0].radiance.x, 3.f);
