@@ -2,6 +2,7 @@
 // and the server's own message (which names the scene, tile or field).
 #pragma once
 
+#include "proto/status_code_name.h"
 #include "storage/format/errors.h"
 
 #include <grpcpp/support/status.h>
@@ -25,7 +26,7 @@ class RpcError : public Error {
   std::string server_message_;
 };
 
-// "NOT_FOUND", "OUT_OF_RANGE", ...
-const char* status_code_name(grpc::StatusCode code);
+// "NOT_FOUND", "OUT_OF_RANGE", ... (shared with the daemon's metrics).
+using ::pbgi::status_code_name;
 
 }  // namespace pbgi::client

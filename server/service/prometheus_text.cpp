@@ -1,5 +1,7 @@
 #include "server/service/prometheus_text.h"
 
+#include "proto/status_code_name.h"
+
 #include <fmt/format.h>
 
 namespace pbgi::service {
@@ -41,7 +43,7 @@ std::string prometheus_text(const v1::GetStatusResponse& status,
   w.family("requests_total", "counter", "Calls served, by RPC and gRPC status code.");
   for (const auto& [key, count] : requests.calls) {
     w.sample("requests_total", double(count),
-             fmt::format("rpc=\"{}\",code=\"{}\"", key.first, status_code_label(key.second)));
+             fmt::format("rpc=\"{}\",code=\"{}\"", key.first, status_code_name(key.second)));
   }
   w.family("request_duration_seconds", "histogram", "Time to serve a call, by RPC.");
   for (const auto& [rpc, h] : requests.latency) {

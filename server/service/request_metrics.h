@@ -41,7 +41,4 @@ class RequestMetrics {
   RequestMetricsSnapshot data_;
 };
 
-// "OK", "NOT_FOUND", ... (as Prometheus label values and in logs).
-const char* status_code_label(grpc::StatusCode code);
-
 }  // namespace pbgi::service
