@@ -34,9 +34,16 @@ void BuildArgs::add_to(CLI::App* cmd) {
                   "wavelet is not served yet [daemon default]");
   cmd->add_option("--lut-entries", lut_entries, "quantized payloads: LUT size [4096]")
       ->check(CLI::Range(64u, 65536u));
+  cmd->add_option("--sampler", sampler, "surfel sampler: uniform or poisson (blue noise) [uniform]")
+      ->check(CLI::IsMember({"uniform", "poisson"}));
+  cmd->add_option("--spacing-camera", spacing_camera,
+                  "camera-adaptive surfel spacing (poisson): the spacing follows this camera's "
+                  "pixel footprint for the rendered image size");
+  cmd->add_option("--pixel-footprint", pixel_footprint,
+                  "with --spacing-camera: surfel spacing in pixels [1]");
 }
 
-v1::BuildOptions BuildArgs::to_proto() const {
+v1::BuildOptions BuildArgs::to_proto(uint32_t image_width, uint32_t image_height) const {
   v1::BuildOptions build;
   build.set_payload_codec(payload_codec_name(payload));
   build.set_lut_entries(lut_entries);
@@ -44,6 +51,13 @@ v1::BuildOptions BuildArgs::to_proto() const {
   build.set_surfel_spacing(surfel_spacing);
   build.set_light_samples(light_samples);
   build.set_bounces(bounces);
+  build.set_sampler(sampler);
+  build.set_spacing_camera(spacing_camera);
+  build.set_pixel_footprint(pixel_footprint);
+  if (!spacing_camera.empty()) {
+    build.set_spacing_image_width(image_width);
+    build.set_spacing_image_height(image_height);
+  }
   return build;
 }
 

@@ -19,15 +19,21 @@ struct BuildArgs {
   uint32_t bounces = 0;
   std::string payload;
   uint32_t lut_entries = 0;
+  std::string sampler;         // "uniform" / "poisson"; "" = the daemon's default
+  std::string spacing_camera;  // camera-adaptive spacing; "" = absolute
+  float pixel_footprint = 0.f;
 
   // Adds --target-surfels, --surfel-spacing, --build-light-samples,
-  // --bounces, --payload, --lut-entries to `cmd`.
+  // --bounces, --payload, --lut-entries, --sampler, --spacing-camera and
+  // --pixel-footprint to `cmd`.
   void add_to(CLI::App* cmd);
 
   // The request message. Throws InvalidArgument for a --payload value the
   // daemon cannot serve (it is never dropped silently); other unknown
-  // names are refused by the daemon, naming the field.
-  v1::BuildOptions to_proto() const;
+  // names are refused by the daemon, naming the field. `image_width` x
+  // `image_height` is the image a --spacing-camera spacing is for (the
+  // one the command renders); 0 = the daemon's default.
+  v1::BuildOptions to_proto(uint32_t image_width = 0, uint32_t image_height = 0) const;
 };
 
 }  // namespace pbgi::cli

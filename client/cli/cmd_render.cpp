@@ -9,6 +9,7 @@
 // is removed once the images are written.
 #include "client/cli/command.h"
 #include "client/cli/build_flags.h"
+#include "client/cli/gather_flags.h"
 #include "client/cli/connection_flags.h"
 #include "client/image/exr_image.h"
 #include "client/image/png_display.h"
@@ -49,11 +50,7 @@ struct RenderArgs {
   bool quiet = false;
   double tile_deadline = 300;  // seconds per RenderTile call
   // 0 = the daemon's default.
-  uint32_t mb_res = 0, light_samples = 0, pixel_samples = 0;
-  float max_solid_angle = 0.f, ao_max_distance = 0.f;
-  std::string method;         // "" = the daemon's default
-  uint32_t clusters = 0;
-  float epsilon = 0.f, hdr_refine = 0.f;
+  GatherArgs gather;
   BuildArgs build;
 };
 
@@ -235,7 +232,7 @@ int run_render(const RenderArgs& args) {
   Progress progress(args.quiet);
 
   // 1. Open the scene (or join it if the daemon has it open already).
-  const v1::BuildOptions build = args.build.to_proto();
+  const v1::BuildOptions build = args.build.to_proto(args.width, args.height);
   const v1::SceneInfo info = client.open_scene(
       client::scene_request_path(args.scene), build,
       [&](const std::string& stage, float fraction) { progress.open(stage, fraction); });
@@ -251,17 +248,8 @@ int run_render(const RenderArgs& args) {
   request.height = args.height;
   request.tile_size = args.tile;
   request.jobs = args.jobs;
-  v1::GatherOptions& o = request.options;
-  o.set_microbuffer_resolution(args.mb_res);
-  o.set_max_solid_angle(args.max_solid_angle);
-  o.set_ao_max_distance(args.ao_max_distance);
-  o.set_light_samples(args.light_samples);
-  o.set_pixel_samples(args.pixel_samples);
-  if (args.method == "pbgi") o.set_method(v1::GatherOptions::PBGI);
-  if (args.method == "fpbgi") o.set_method(v1::GatherOptions::FPBGI);
-  o.set_clusters(args.clusters);
-  o.set_epsilon(args.epsilon);
-  o.set_hdr_refine(args.hdr_refine);
+  request.options = args.gather.to_proto();
+  const v1::GatherOptions& o = request.options;
 
   // Finished tiles of an interrupted run of the same render, and the
   // sidecar this run records its tiles in.
@@ -357,16 +345,7 @@ const CommandRegistrar kRegistrar{"render", [](CLI::App& app, int* exit_code) {
   cmd->add_option("--tile-deadline", args->tile_deadline, "seconds allowed per tile request")
       ->capture_default_str();
   // Gather options; 0 = the daemon's default (shown in brackets).
-  cmd->add_option("--mb-res", args->mb_res, "microbuffer resolution per cube face [8]");
-  cmd->add_option("--max-solid-angle", args->max_solid_angle, "cut threshold, sr [0.03]");
-  cmd->add_option("--ao-max-distance", args->ao_max_distance, "AO distance, 0 = unbounded");
-  cmd->add_option("--light-samples", args->light_samples, "shadow rays per pixel and light [16]");
-  cmd->add_option("--pixel-samples", args->pixel_samples, "camera rays per pixel [1]");
-  cmd->add_option("--method", args->method, "gather: pbgi or fpbgi [pbgi]")
-      ->check(CLI::IsMember({"pbgi", "fpbgi"}));
-  cmd->add_option("--clusters", args->clusters, "FPBGI clusters per 1024 receivers [100]");
-  cmd->add_option("--epsilon", args->epsilon, "FPBGI far/near split [0.01]");
-  cmd->add_option("--hdr-refine", args->hdr_refine, "HDR-aware cut refinement, 0 = off");
+  args->gather.add_to(cmd);
   // Build options (they select which tree the daemon builds or reuses).
   args->build.add_to(cmd);
   cmd->callback([args, exit_code] { *exit_code = run_render(*args); });

@@ -3,6 +3,7 @@
 // the gather statistics of that tile (text, or JSON with --json).
 #include "client/cli/command.h"
 #include "client/cli/build_flags.h"
+#include "client/cli/gather_flags.h"
 #include "client/cli/connection_flags.h"
 #include "client/image/exr_image.h"
 #include "client/lib/pbgi_client.h"
@@ -25,11 +26,7 @@ struct TileArgs {
   std::string rect = "0,0,32,32";
   std::string out = "tile.exr";
   bool json = false;
-  uint32_t mb_res = 0, light_samples = 0, pixel_samples = 0;
-  float max_solid_angle = 0.f, ao_max_distance = 0.f;
-  std::string method;         // "" = the daemon's default
-  uint32_t clusters = 0;
-  float epsilon = 0.f, hdr_refine = 0.f;
+  GatherArgs gather;
   BuildArgs build;
 };
 
@@ -52,7 +49,7 @@ int run_tile(const TileArgs& args) {
   client::PbgiClient client(args.connection.server, args.connection.client_options());
 
   // 1. Open (quietly: the statistics are this command's output).
-  const v1::BuildOptions build = args.build.to_proto();
+  const v1::BuildOptions build = args.build.to_proto(args.width, args.height);
   const v1::SceneInfo info = client.open_scene(client::scene_request_path(args.scene), build);
   std::string camera = args.camera;
   if (camera.empty()) {
@@ -70,17 +67,7 @@ int run_tile(const TileArgs& args) {
   request.set_image_width(args.width);
   request.set_image_height(args.height);
   *request.mutable_tile() = parse_rect(args.rect);
-  v1::GatherOptions& o = *request.mutable_options();
-  o.set_microbuffer_resolution(args.mb_res);
-  o.set_max_solid_angle(args.max_solid_angle);
-  o.set_ao_max_distance(args.ao_max_distance);
-  o.set_light_samples(args.light_samples);
-  o.set_pixel_samples(args.pixel_samples);
-  if (args.method == "pbgi") o.set_method(v1::GatherOptions::PBGI);
-  if (args.method == "fpbgi") o.set_method(v1::GatherOptions::FPBGI);
-  o.set_clusters(args.clusters);
-  o.set_epsilon(args.epsilon);
-  o.set_hdr_refine(args.hdr_refine);
+  *request.mutable_options() = args.gather.to_proto();
   const auto start = std::chrono::steady_clock::now();
   const client::TileImage tile = client.render_tile(request);
   const double round_trip =
@@ -139,16 +126,7 @@ const CommandRegistrar kRegistrar{"tile", [](CLI::App& app, int* exit_code) {
       ->capture_default_str();
   cmd->add_option("--out", args->out, "EXR of the tile")->capture_default_str();
   cmd->add_flag("--json", args->json, "statistics as one JSON object");
-  cmd->add_option("--mb-res", args->mb_res, "microbuffer resolution per cube face [8]");
-  cmd->add_option("--max-solid-angle", args->max_solid_angle, "cut threshold, sr [0.03]");
-  cmd->add_option("--ao-max-distance", args->ao_max_distance, "AO distance, 0 = unbounded");
-  cmd->add_option("--light-samples", args->light_samples, "shadow rays per pixel and light [16]");
-  cmd->add_option("--pixel-samples", args->pixel_samples, "camera rays per pixel [1]");
-  cmd->add_option("--method", args->method, "gather: pbgi or fpbgi [pbgi]")
-      ->check(CLI::IsMember({"pbgi", "fpbgi"}));
-  cmd->add_option("--clusters", args->clusters, "FPBGI clusters per 1024 receivers [100]");
-  cmd->add_option("--epsilon", args->epsilon, "FPBGI far/near split [0.01]");
-  cmd->add_option("--hdr-refine", args->hdr_refine, "HDR-aware cut refinement, 0 = off");
+  args->gather.add_to(cmd);
   args->build.add_to(cmd);
   cmd->callback([args, exit_code] { *exit_code = run_tile(*args); });
 }};

@@ -131,15 +131,12 @@ GatherMethod parse_method(const std::string& name, const std::string& source) {
                                     source, name));
 }
 
-std::string sampler_name(SurfelSampler sampler) {
-  return sampler == SurfelSampler::kPoisson ? "poisson" : "uniform";
-}
-
 SurfelSampler parse_sampler(const std::string& name, const std::string& source) {
-  if (name == "uniform") return SurfelSampler::kUniform;
-  if (name == "poisson") return SurfelSampler::kPoisson;
-  throw InvalidArgument(fmt::format("config '{}': key 'build.sampler' = '{}' is not uniform or poisson",
-                                    source, name));
+  try {
+    return parse_surfel_sampler(name);
+  } catch (const InvalidArgument& e) {
+    throw InvalidArgument(fmt::format("config '{}': key 'build.sampler': {}", source, e.what()));
+  }
 }
 
 toml::array string_array(const std::vector<std::string>& values) {
@@ -290,9 +287,13 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
     TableReader build(*table, "build", source);
     OpenOptions& o = out.service.defaults.open;
     build.read("surfel_spacing", o.surfels.spacing);
-    std::string sampler = sampler_name(o.surfels.sampler);
+    std::string sampler = to_string(o.surfels.sampler);
     build.read("sampler", sampler);
     o.surfels.sampler = parse_sampler(sampler, source);
+    build.read("spacing_camera", o.surfels.camera);
+    build.read("spacing_image_width", o.surfels.image_width);
+    build.read("spacing_image_height", o.surfels.image_height);
+    build.read("pixel_footprint", o.surfels.pixel_footprint);
     build.read("target_surfels", o.surfels.target_surfels);
     build.read("light_samples", o.surfels.light_samples);
     build.read("seed", o.surfels.seed);
@@ -380,7 +381,11 @@ std::string to_toml(const DaemonOptions& o) {
   const OpenOptions& b = o.service.defaults.open;
   out << "\n[build]\n";
   float32_value("surfel_spacing", b.surfels.spacing);
-  string_value("sampler", sampler_name(b.surfels.sampler));
+  string_value("sampler", to_string(b.surfels.sampler));
+  string_value("spacing_camera", b.surfels.camera);
+  integer_value("spacing_image_width", b.surfels.image_width);
+  integer_value("spacing_image_height", b.surfels.image_height);
+  float32_value("pixel_footprint", b.surfels.pixel_footprint);
   integer_value("target_surfels", b.surfels.target_surfels);
   integer_value("light_samples", b.surfels.light_samples);
   integer_value("seed", b.surfels.seed);
@@ -467,6 +472,9 @@ bool operator==(const DaemonOptions& a, const DaemonOptions& b) {
          ra.gather.method == rb.gather.method && ra.gather.clusters == rb.gather.clusters &&
          ra.gather.epsilon == rb.gather.epsilon && ra.gather.hdr_refine == rb.gather.hdr_refine &&
          oa.surfels.spacing == ob.surfels.spacing && oa.surfels.sampler == ob.surfels.sampler &&
+         oa.surfels.camera == ob.surfels.camera && oa.surfels.image_width == ob.surfels.image_width &&
+         oa.surfels.image_height == ob.surfels.image_height &&
+         oa.surfels.pixel_footprint == ob.surfels.pixel_footprint &&
          oa.surfels.target_surfels == ob.surfels.target_surfels &&
          oa.surfels.light_samples == ob.surfels.light_samples &&
          oa.surfels.seed == ob.surfels.seed && oa.tree.page_size == ob.tree.page_size &&

@@ -60,6 +60,17 @@ OpenOptions decode_open_options(const v1::BuildOptions& proto, const OpenOptions
   out.tree.lut_entries = or_default(proto.lut_entries(), defaults.tree.lut_entries);
   out.tree.lut_sample_fraction = or_default(proto.lut_sample_fraction(), defaults.tree.lut_sample_fraction);
   out.bounce.bounces = or_default(proto.bounces(), defaults.bounce.bounces);
+  if (!proto.sampler().empty()) {
+    try {
+      out.surfels.sampler = parse_surfel_sampler(proto.sampler());
+    } catch (const InvalidArgument& e) {
+      throw InvalidArgument(fmt::format("BuildOptions.sampler: {}", e.what()));
+    }
+  }
+  if (!proto.spacing_camera().empty()) out.surfels.camera = proto.spacing_camera();
+  out.surfels.image_width = or_default(proto.spacing_image_width(), defaults.surfels.image_width);
+  out.surfels.image_height = or_default(proto.spacing_image_height(), defaults.surfels.image_height);
+  out.surfels.pixel_footprint = or_default(proto.pixel_footprint(), defaults.surfels.pixel_footprint);
   out.surfels.validate();
   out.tree.validate();
   out.bounce.validate();
@@ -119,6 +130,11 @@ v1::BuildOptions encode_open_options(const OpenOptions& options) {
   proto.set_lut_entries(options.tree.lut_entries);
   proto.set_lut_sample_fraction(options.tree.lut_sample_fraction);
   proto.set_bounces(options.bounce.bounces);
+  proto.set_sampler(to_string(options.surfels.sampler));
+  proto.set_spacing_camera(options.surfels.camera);
+  proto.set_spacing_image_width(options.surfels.image_width);
+  proto.set_spacing_image_height(options.surfels.image_height);
+  proto.set_pixel_footprint(options.surfels.pixel_footprint);
   return proto;
 }
 
@@ -127,10 +143,11 @@ std::string open_options_key(const OpenOptions& o) {
   // so distinct values never share a key.
   return fmt::format(
       "spacing={};target={};light={};seed={};leaf={};page={};payload={};lut={};lut_fraction={};"
-      "bounces={}",
+      "bounces={};sampler={};camera={};image={}x{};footprint={}",
       o.surfels.spacing, o.surfels.target_surfels, o.surfels.light_samples, o.surfels.seed,
       o.tree.leaf_size, o.tree.page_size, tree::to_string(o.tree.payload_codec), o.tree.lut_entries,
-      o.tree.lut_sample_fraction, o.bounce.bounces);
+      o.tree.lut_sample_fraction, o.bounce.bounces, to_string(o.surfels.sampler), o.surfels.camera,
+      o.surfels.image_width, o.surfels.image_height, o.surfels.pixel_footprint);
 }
 
 v1::SceneInfo encode_scene_info(const SceneSession& session) {

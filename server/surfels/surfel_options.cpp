@@ -8,6 +8,16 @@
 
 namespace pbgi {
 
+std::string to_string(SurfelSampler sampler) {
+  return sampler == SurfelSampler::kPoisson ? "poisson" : "uniform";
+}
+
+SurfelSampler parse_surfel_sampler(const std::string& name) {
+  if (name == "uniform") return SurfelSampler::kUniform;
+  if (name == "poisson") return SurfelSampler::kPoisson;
+  throw InvalidArgument(fmt::format("sampler '{}' is not uniform or poisson", name));
+}
+
 void SurfelOptions::validate() const {
   if (sampler != SurfelSampler::kUniform && sampler != SurfelSampler::kPoisson) {
     throw InvalidArgument(fmt::format("surfels.sampler = {}: unknown sampler", int(sampler)));

@@ -52,4 +52,10 @@ struct SurfelOptions {
   void validate() const;  // throws pbgi::InvalidArgument
 };
 
+// "uniform" / "poisson": the names the config file, the gRPC BuildOptions
+// and the CLI share.
+std::string to_string(SurfelSampler sampler);
+// Throws InvalidArgument naming the value for any other name.
+SurfelSampler parse_surfel_sampler(const std::string& name);
+
 }  // namespace pbgi

@@ -57,6 +57,10 @@ DaemonOptions non_default_options() {
   o.service.defaults.render.gather.hdr_refine = 0.5f;
   o.service.defaults.open.surfels.spacing = 0.013f;
   o.service.defaults.open.surfels.sampler = SurfelSampler::kPoisson;
+  o.service.defaults.open.surfels.camera = "/World/Camera";
+  o.service.defaults.open.surfels.image_width = 640;
+  o.service.defaults.open.surfels.image_height = 360;
+  o.service.defaults.open.surfels.pixel_footprint = 1.5f;
   o.service.defaults.open.surfels.target_surfels = 12345;
   o.service.defaults.open.surfels.light_samples = 9;
   o.service.defaults.open.surfels.seed = 42;

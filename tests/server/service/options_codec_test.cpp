@@ -142,5 +142,42 @@ TEST(OptionsCodec, BouncesAreABuildOptionWithTheirOwnKey) {
   }
 }
 
+TEST(OptionsCodec, SamplerAndAdaptiveSpacingAreBuildOptionsWithTheirOwnKey) {
+  OpenOptions defaults;
+  v1::BuildOptions proto;
+  EXPECT_EQ(decode_open_options(proto, defaults).surfels.sampler, SurfelSampler::kUniform);
+  proto.set_sampler("poisson");
+  const OpenOptions poisson = decode_open_options(proto, defaults);
+  EXPECT_EQ(poisson.surfels.sampler, SurfelSampler::kPoisson);
+  EXPECT_NE(open_options_key(poisson), open_options_key(defaults));
+
+  proto.set_spacing_camera("/World/Camera");
+  proto.set_spacing_image_width(640);
+  proto.set_spacing_image_height(360);
+  proto.set_pixel_footprint(2.f);
+  const OpenOptions adaptive = decode_open_options(proto, defaults);
+  EXPECT_TRUE(adaptive.surfels.adaptive());
+  EXPECT_EQ(adaptive.surfels.camera, "/World/Camera");
+  EXPECT_EQ(adaptive.surfels.image_width, 640u);
+  EXPECT_EQ(adaptive.surfels.image_height, 360u);
+  EXPECT_EQ(adaptive.surfels.pixel_footprint, 2.f);
+  EXPECT_NE(open_options_key(adaptive), open_options_key(poisson));
+  // Round trip through the encoder keeps every field (and so the key).
+  EXPECT_EQ(open_options_key(decode_open_options(encode_open_options(adaptive), defaults)),
+            open_options_key(adaptive));
+
+  // A camera needs the poisson sampler; an unknown sampler is refused by name.
+  proto.set_sampler("uniform");
+  EXPECT_THROW(decode_open_options(proto, defaults), InvalidArgument);
+  proto.set_sampler("stratified");
+  try {
+    decode_open_options(proto, defaults);
+    FAIL() << "unknown sampler accepted";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("BuildOptions.sampler"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("stratified"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace pbgi::service

@@ -84,6 +84,10 @@ struct Args {
   uint32_t threads = 2;
   bool reuse = false;
   bool keep = false;
+  // The 1/8-of-decoded-size budget is informative but slow on a 100M set:
+  // --skip-decoded-budget measures only what issue 4 asks (1/8 of the disk
+  // size against everything cached).
+  bool skip_decoded_budget = false;
   fs::path page_set;  // serve this set instead of building the synthetic city
 };
 
@@ -107,12 +111,13 @@ Args parse(int argc, char** argv) {
     else if (k == "--threads") a.threads = uint32_t(parse_size(val()));
     else if (k == "--reuse") a.reuse = true;
     else if (k == "--keep") a.keep = true;
+    else if (k == "--skip-decoded-budget") a.skip_decoded_budget = true;
     else if (k == "--page-set") a.page_set = val();
     else {
       std::fprintf(stderr,
                    "usage: bench_out_of_core [--surfels N] [--dir DIR] [--sort-memory SIZE] [--leaf-size N]\n"
                    "       [--page-size BYTES] [--receivers N] [--threads N] [--reuse] [--keep]\n"
-                   "       bench_out_of_core --page-set DIR [--receivers N] [--threads N]\n");
+                   "       bench_out_of_core --page-set DIR [--receivers N] [--threads N] [--skip-decoded-budget]\n");
       std::exit(2);
     }
   }
@@ -279,11 +284,6 @@ int run(const Args& a) {
   // 3. Gathers: a cache of 1/8 of the page set's size on disk, of 1/8 of
   //    its decoded size (what the budget counts), then of everything.
   const std::vector<Receiver> rs = city ? make_receivers(*city, a.receivers) : make_receivers(probe, a.receivers);
-  const uint64_t eighth = m.stats.file_bytes / 8;
-  const GatherRun small = gather(set, eighth, rs, a.threads);
-  const uint64_t eighth_decoded = decoded / 8;
-  const GatherRun medium = gather(set, eighth_decoded, rs, a.threads);
-  const GatherRun full = gather(set, ~uint64_t(0), rs, a.threads);
   auto print_run = [](const char* name, uint64_t budget, const GatherRun& r) {
     const double lookups = double(r.cache.hits + r.cache.misses);
     std::printf("gather %-7s budget %8.1f MiB: %8.1f receivers/s, %.0f nodes and %.1f pages/receiver, hit rate %.3f, "
@@ -292,12 +292,18 @@ int run(const Args& a) {
                 r.nodes_per_receiver, r.pages_per_receiver, lookups > 0 ? double(r.cache.hits) / lookups : 0.0,
                 double(r.cache.bytes_read) / (1 << 20), double(r.cache.bytes_held) / (1 << 20));
   };
-  print_run("1/8", eighth, small);
-  print_run("1/8dec", eighth_decoded, medium);
+  const uint64_t eighth = m.stats.file_bytes / 8;
+  const GatherRun small = gather(set, eighth, rs, a.threads);
+  print_run("1/8", eighth, small);  // as each budget ends: a 100M run is long
+  const uint64_t eighth_decoded = decoded / 8;
+  const GatherRun medium = a.skip_decoded_budget ? GatherRun{} : gather(set, eighth_decoded, rs, a.threads);
+  const GatherRun full = gather(set, ~uint64_t(0), rs, a.threads);
+  if (!a.skip_decoded_budget) print_run("1/8dec", eighth_decoded, medium);
   print_run("all", ~uint64_t(0), full);
   size_t differ = 0;
   for (size_t i = 0; i < rs.size(); ++i) {
     for (const GatherRun* r : {&small, &medium}) {
+      if (r->results.empty()) continue;
       if (!(r->results[i].irradiance == full.results[i].irradiance) || r->results[i].ao != full.results[i].ao) {
         ++differ;
         break;

@@ -1,0 +1,33 @@
+#include "client/cli/gather_flags.h"
+
+namespace pbgi::cli {
+
+void GatherArgs::add_to(CLI::App* cmd) {
+  cmd->add_option("--mb-res", microbuffer_resolution, "microbuffer resolution per cube face [8]");
+  cmd->add_option("--max-solid-angle", max_solid_angle, "cut threshold, sr [0.03]");
+  cmd->add_option("--ao-max-distance", ao_max_distance, "AO distance, 0 = unbounded");
+  cmd->add_option("--light-samples", light_samples, "shadow rays per pixel and light [16]");
+  cmd->add_option("--pixel-samples", pixel_samples, "camera rays per pixel [1]");
+  cmd->add_option("--method", method, "gather: pbgi or fpbgi [pbgi]")
+      ->check(CLI::IsMember({"pbgi", "fpbgi"}));
+  cmd->add_option("--clusters", clusters, "FPBGI clusters per 1024 receivers [100]");
+  cmd->add_option("--epsilon", epsilon, "FPBGI far/near split, radians [0.4 / mb-res]");
+  cmd->add_option("--hdr-refine", hdr_refine, "HDR-aware cut refinement, 0 = off");
+}
+
+v1::GatherOptions GatherArgs::to_proto() const {
+  v1::GatherOptions o;
+  o.set_microbuffer_resolution(microbuffer_resolution);
+  o.set_max_solid_angle(max_solid_angle);
+  o.set_ao_max_distance(ao_max_distance);
+  o.set_light_samples(light_samples);
+  o.set_pixel_samples(pixel_samples);
+  if (method == "pbgi") o.set_method(v1::GatherOptions::PBGI);
+  if (method == "fpbgi") o.set_method(v1::GatherOptions::FPBGI);
+  o.set_clusters(clusters);
+  o.set_epsilon(epsilon);
+  o.set_hdr_refine(hdr_refine);
+  return o;
+}
+
+}  // namespace pbgi::cli

@@ -1,0 +1,36 @@
+// The gather flags `pbgi render` and `pbgi tile` share: how the daemon
+// gathers each pixel's indirect light (pbgi.v1.GatherOptions; 0 or empty =
+// the daemon's default, shown in brackets in --help and documented in
+// server/gather/gather_options.h).
+#pragma once
+
+#include "pbgi/v1/pbgi.pb.h"
+
+#include <CLI/CLI.hpp>
+
+#include <cstdint>
+#include <string>
+
+namespace pbgi::cli {
+
+struct GatherArgs {
+  uint32_t microbuffer_resolution = 0;
+  float max_solid_angle = 0.f;
+  float ao_max_distance = 0.f;
+  uint32_t light_samples = 0;
+  uint32_t pixel_samples = 0;
+  std::string method;  // "pbgi" or "fpbgi"; "" = the daemon's default
+  uint32_t clusters = 0;
+  float epsilon = 0.f;
+  float hdr_refine = 0.f;
+
+  // Adds --mb-res, --max-solid-angle, --ao-max-distance, --light-samples,
+  // --pixel-samples, --method, --clusters, --epsilon, --hdr-refine.
+  void add_to(CLI::App* cmd);
+
+  // The request message; the daemon validates the values and names the
+  // field it refuses.
+  v1::GatherOptions to_proto() const;
+};
+
+}  // namespace pbgi::cli

@@ -1,0 +1,50 @@
+// The build flags parse into the request's BuildOptions: short payload
+// names map onto codec names, a wavelet request is refused by name, the
+// adaptive-spacing image comes from the rendered image.
+#include "client/cli/build_flags.h"
+
+#include "storage/format/errors.h"
+
+#include <gtest/gtest.h>
+
+#include <vector>
+
+namespace pbgi::cli {
+namespace {
+
+BuildArgs parse(std::vector<std::string> argv) {
+  CLI::App app;
+  BuildArgs args;
+  args.add_to(&app);
+  argv.insert(argv.begin(), "pbgi");
+  std::vector<const char*> c;
+  for (const auto& a : argv) c.push_back(a.c_str());
+  app.parse(int(c.size()), c.data());
+  return args;
+}
+
+TEST(BuildFlags, PayloadNamesMapOntoCodecs) {
+  EXPECT_EQ(parse({"--payload", "sh"}).to_proto().payload_codec(), "derived");
+  EXPECT_EQ(parse({"--payload", "quantized"}).to_proto().payload_codec(), "kmeans-sh");
+  EXPECT_EQ(parse({"--payload", "float32-sh"}).to_proto().payload_codec(), "float32-sh");
+  EXPECT_EQ(parse({}).to_proto().payload_codec(), "");
+  EXPECT_THROW(parse({"--payload", "wavelet"}).to_proto(), InvalidArgument);
+}
+
+TEST(BuildFlags, SamplerAndSpacingCamera) {
+  const v1::BuildOptions plain = parse({"--sampler", "poisson"}).to_proto(640, 480);
+  EXPECT_EQ(plain.sampler(), "poisson");
+  EXPECT_EQ(plain.spacing_camera(), "");
+  EXPECT_EQ(plain.spacing_image_width(), 0u);  // no camera: the image does not matter
+  const v1::BuildOptions adaptive =
+      parse({"--sampler", "poisson", "--spacing-camera", "/Cam", "--pixel-footprint", "1.5"})
+          .to_proto(640, 480);
+  EXPECT_EQ(adaptive.spacing_camera(), "/Cam");
+  EXPECT_EQ(adaptive.spacing_image_width(), 640u);
+  EXPECT_EQ(adaptive.spacing_image_height(), 480u);
+  EXPECT_FLOAT_EQ(adaptive.pixel_footprint(), 1.5f);
+  EXPECT_THROW(parse({"--sampler", "grid"}), CLI::ValidationError);
+}
+
+}  // namespace
+}  // namespace pbgi::cli

@@ -1,0 +1,53 @@
+// The gather flags `pbgi render` and `pbgi tile` share parse into the
+// request's GatherOptions; unset flags stay 0 (= the daemon's default).
+#include "client/cli/gather_flags.h"
+
+#include <gtest/gtest.h>
+
+#include <vector>
+
+namespace pbgi::cli {
+namespace {
+
+v1::GatherOptions parse(std::vector<std::string> argv) {
+  CLI::App app;
+  GatherArgs args;
+  args.add_to(&app);
+  argv.insert(argv.begin(), "pbgi");
+  std::vector<const char*> c;
+  for (const auto& a : argv) c.push_back(a.c_str());
+  app.parse(int(c.size()), c.data());
+  return args.to_proto();
+}
+
+TEST(GatherFlags, UnsetFlagsLeaveTheDaemonDefaults) {
+  const v1::GatherOptions o = parse({});
+  EXPECT_EQ(o.microbuffer_resolution(), 0u);
+  EXPECT_EQ(o.max_solid_angle(), 0.f);
+  EXPECT_EQ(o.method(), v1::GatherOptions::METHOD_DEFAULT);
+  EXPECT_EQ(o.clusters(), 0u);
+}
+
+TEST(GatherFlags, EveryFlagReachesItsField) {
+  const v1::GatherOptions o =
+      parse({"--mb-res", "16", "--max-solid-angle", "0.01", "--ao-max-distance", "2",
+             "--light-samples", "4", "--pixel-samples", "3", "--method", "fpbgi", "--clusters",
+             "50", "--epsilon", "0.02", "--hdr-refine", "0.5"});
+  EXPECT_EQ(o.microbuffer_resolution(), 16u);
+  EXPECT_FLOAT_EQ(o.max_solid_angle(), 0.01f);
+  EXPECT_FLOAT_EQ(o.ao_max_distance(), 2.f);
+  EXPECT_EQ(o.light_samples(), 4u);
+  EXPECT_EQ(o.pixel_samples(), 3u);
+  EXPECT_EQ(o.method(), v1::GatherOptions::FPBGI);
+  EXPECT_EQ(o.clusters(), 50u);
+  EXPECT_FLOAT_EQ(o.epsilon(), 0.02f);
+  EXPECT_FLOAT_EQ(o.hdr_refine(), 0.5f);
+  EXPECT_EQ(parse({"--method", "pbgi"}).method(), v1::GatherOptions::PBGI);
+}
+
+TEST(GatherFlags, UnknownMethodIsRefused) {
+  EXPECT_THROW(parse({"--method", "radiosity"}), CLI::ValidationError);
+}
+
+}  // namespace
+}  // namespace pbgi::cli
