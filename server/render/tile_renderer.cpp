@@ -59,7 +59,8 @@ SurfaceSample trace_sample(const RayScene& rays, const Ray& ray, const RenderOpt
   SurfaceSample out;
   PixelValue& v = out.value;
   const Scene& scene = rays.scene();
-  const Hit hit = rays.intersect(ray.origin, ray.direction);
+  // Clipped to the camera's range, as the reference path tracer does.
+  const Hit hit = rays.intersect(ray.origin, ray.direction, ray.tmin, ray.tmax);
 
   // 1. An emitter in front of the first surface: its radiance, nothing to gather.
   C3f emitted;

@@ -131,6 +131,25 @@ TEST(RenderTile, MissIsBlackAndUnoccluded) {
   for (float v : out.ao) EXPECT_EQ(v, 1.f);
 }
 
+// The camera's clipping range bounds what the pixel sees, as in the
+// reference: a far plane in front of the floor (at depth 3) shows the miss,
+// one behind it shows the floor; a near plane beyond the floor also misses.
+TEST(RenderTile, CameraClippingRangeBoundsThePrimaryHit) {
+  Scene s = floor_scene();
+  const RayScene rays(s);
+  const EmptyTree tree;
+  const uint32_t c = kSize / 2;
+  auto center_albedo = [&](float near_clip, float far_clip) {
+    Camera cam = s.cameras["/cam"];
+    cam.near_clip = near_clip;
+    cam.far_clip = far_clip;
+    return render_tile(rays, tree, cam, kSize, kSize, {c, c, c + 1, c + 1}, RenderOptions()).albedo[0];
+  };
+  EXPECT_FLOAT_EQ(center_albedo(0.1f, 10.f), kAlbedo);
+  EXPECT_EQ(center_albedo(0.1f, 2.5f), 0.f);
+  EXPECT_EQ(center_albedo(3.5f, 10.f), 0.f);
+}
+
 TEST(RenderTile, TilesMatchTheWholeImage) {
   const Scene s = floor_scene();
   const RayScene rays(s);
