@@ -402,9 +402,11 @@ class MaterialTable:
         note = "; ".join(approximated)
         self._stream.diagnostic(
             WARNING, path,
-            f"MaterialX {node} approximated as a diffuse surface: base colour {_fmt(diffuse)}, "
+            f"MaterialX {node} approximated by a base-colour/roughness/metalness surface "
+            f"(Lambert + GGX, as UsdPreviewSurface): base colour {_fmt(diffuse)}, "
             f"roughness {roughness:g}, metalness {metallic:g}, emission {_fmt(emissive)}; "
-            f"specular, coat, sheen, transmission, subsurface and thin-film ignored"
+            f"specular colour and IOR take their defaults; coat, sheen, transmission, "
+            f"subsurface and thin-film ignored"
             + (f"; {note}" if note else ""), kind="materialx")
         return Resolved(diffuse, emissive, roughness, metallic, None, None, False)
 

@@ -448,6 +448,9 @@ TEST_F(LooksIngest, MaterialXStandardSurfaceIsApproximated) {
   EXPECT_NEAR(m.metallic, 0.25f, 1e-6f);
   EXPECT_NEAR(m.roughness, 0.6f, 1e-6f);
   EXPECT_EQ(warnings_naming("/W/Looks/Mtlx", "MaterialX ND_standard_surface_surfaceshader approximated"), 1u);
+  // The warning names what the approximation keeps and what it drops.
+  EXPECT_EQ(warnings_naming("/W/Looks/Mtlx", "GGX"), 1u);
+  EXPECT_EQ(warnings_naming("/W/Looks/Mtlx", "coat, sheen, transmission"), 1u);
 }
 
 // The specular inputs of UsdPreviewSurface reach Material (server/scene/
