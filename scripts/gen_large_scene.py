@@ -12,6 +12,18 @@ reader streams them one by one), each holding a UsdGeomPointInstancer:
 Plus a tessellated ground, a sun (DistantLight), a sky (DomeLight) and a
 street-level camera (/World/Camera). Every face is diffuse (UsdPreviewSurface).
 
+A third kind, for ingest-memory tests (issue 3: "200 payload-loaded assets
+totalling 20M triangles"), has no instancing at all:
+
+  assets  --assets N distinct asset layers (.usdc, next to --out), each one
+          non-instanced triangle mesh (a torus displaced along its normal by
+          a seeded sum of waves, so no two assets are equal) of about
+          --triangles / N triangles, each payloaded on its own prim
+          /World/Assets/A<i> on a grid, plus the ground, lights and camera.
+
+    .venv/bin/python scripts/gen_large_scene.py --kind assets --assets 200 \
+        --triangles 20e6 --out /work/tmp/assets200/assets.usda
+
 Size: --surfels N picks the number of cells so that the scene's surface area
 holds N surfels at --spacing metres (area / spacing^2 >= N); --blocks sets it
 directly. The defaults reach 100M surfels at the default spacing (5 cm):
@@ -215,6 +227,86 @@ def write_district(path, kind, cells, seed, mats_colors):
     return area, len(positions)
 
 
+def write_asset(path, triangles, seed, color):
+    """One asset layer: /Asset (defaultPrim) with a material and one mesh of
+    `triangles` triangles (rounded to an even grid): a torus (major radius 1,
+    minor 0.35, so closed and without degenerate poles) displaced along its
+    normal. Returns (triangles written, area estimate in m^2)."""
+    import numpy as np
+    rng = np.random.default_rng(seed)
+    quads = max(1, triangles // 2)
+    seg = max(3, int(round(math.sqrt(quads * 2.857))))  # around the major circle (R/r ~ 2.857)
+    ring = max(3, quads // seg)                         # around the tube
+    u = np.arange(seg) * (2 * math.pi / seg)
+    v = np.arange(ring) * (2 * math.pi / ring)
+    uu, vv = np.meshgrid(u, v, indexing="ij")           # (seg, ring)
+    disp = np.zeros_like(uu)
+    for _ in range(6):  # a few random waves; amplitude small next to the tube radius
+        a, b = rng.integers(1, 12), rng.integers(1, 8)
+        disp += rng.uniform(0.005, 0.03) * np.sin(a * uu + b * vv + rng.uniform(0, 2 * math.pi))
+    r = 0.35 + disp
+    x = (1.0 + r * np.cos(vv)) * np.cos(uu)
+    z = (1.0 + r * np.cos(vv)) * np.sin(uu)
+    y = r * np.sin(vv) + 0.6
+    points = np.stack([x, y, z], axis=-1).reshape(-1, 3).astype(np.float32)
+    i = np.arange(seg)[:, None]
+    j = np.arange(ring)[None, :]
+    a_ = i * ring + j
+    b_ = ((i + 1) % seg) * ring + j
+    c_ = ((i + 1) % seg) * ring + (j + 1) % ring
+    d_ = i * ring + (j + 1) % ring
+    # Two triangles per quad, wound so that the normal points out of the tube.
+    tris = np.stack([np.stack([a_, d_, c_], -1), np.stack([a_, c_, b_], -1)], axis=2)
+    indices = tris.reshape(-1).astype(np.int32)
+    count = indices.size // 3
+
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    root = UsdGeom.Xform.Define(stage, "/Asset")
+    stage.SetDefaultPrim(root.GetPrim())
+    mat = material(stage, "/Asset/Looks/M", color)
+    m = UsdGeom.Mesh.Define(stage, "/Asset/Body")
+    m.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+    m.CreateOrientationAttr(UsdGeom.Tokens.rightHanded)
+    m.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
+    m.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(count, 3, dtype=np.int32)))
+    m.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(indices))
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    m.CreateExtentAttr(Vt.Vec3fArray([Gf.Vec3f(*map(float, lo)), Gf.Vec3f(*map(float, hi))]))
+    UsdShade.MaterialBindingAPI.Apply(m.GetPrim()).Bind(mat)
+    stage.GetRootLayer().Save()
+    return count, 4 * math.pi ** 2 * 1.0 * 0.35
+
+
+ASSET_PITCH = 3.0  # metres between asset centres (each is ~2.7 m across)
+
+
+def assets_ground_size(assets):
+    return math.ceil(math.sqrt(assets)) * ASSET_PITCH
+
+
+def write_assets_scene(a, stage, out_dir, stem, colors):
+    """--kind assets: the asset layers and their payload prims. Returns
+    (area in m^2, triangles)."""
+    per_side = math.ceil(math.sqrt(a.assets))
+    pitch = ASSET_PITCH
+    UsdGeom.Scope.Define(stage, "/World/Assets")
+    os.makedirs(os.path.join(out_dir, stem + "_assets"), exist_ok=True)
+    per_asset = int(a.triangles // a.assets)
+    area, triangles = 0.0, 0
+    for k in range(a.assets):
+        layer = f"{stem}_assets/a{k:04d}.usdc"
+        t, ar = write_asset(os.path.join(out_dir, layer), per_asset, a.seed * 7919 + k, colors[k % 4])
+        triangles += t
+        area += ar
+        prim = stage.DefinePrim(f"/World/Assets/A{k:04d}", "Xform")
+        prim.GetPayloads().AddPayload(f"./{layer}")
+        UsdGeom.Xformable(prim).AddTranslateOp().Set(
+            Gf.Vec3d((k % per_side + 0.5) * pitch, 0.0, (k // per_side + 0.5) * pitch))
+    return area, triangles
+
+
 def cells_for(kind, surfels, spacing, seed):
     """Cells per side so that the expected area holds `surfels` at `spacing`."""
     rng = random.Random(seed + 99)
@@ -227,7 +319,10 @@ def cells_for(kind, surfels, spacing, seed):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--kind", choices=["city", "forest"], default="city")
+    ap.add_argument("--kind", choices=["city", "forest", "assets"], default="city")
+    ap.add_argument("--assets", type=int, default=200, help="assets of --kind assets (default 200)")
+    ap.add_argument("--triangles", type=float, default=20e6,
+                    help="triangles of all assets together, --kind assets (default 2e7)")
     ap.add_argument("--surfels", type=float, default=100e6,
                     help="surfels the scene should hold at --spacing (default 1e8)")
     ap.add_argument("--spacing", type=float, default=0.05,
@@ -238,7 +333,9 @@ def main():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--out", required=True, help="output .usda/.usdc (district layers go next to it)")
     a = ap.parse_args()
-    blocks = a.blocks or cells_for(a.kind, a.surfels, a.spacing, a.seed)
+    if a.kind == "assets" and (a.assets < 1 or a.triangles < 2 * a.assets):
+        ap.error("--assets must be >= 1 and --triangles >= 2 per asset")
+    blocks = 0 if a.kind == "assets" else a.blocks or cells_for(a.kind, a.surfels, a.spacing, a.seed)
     out_dir = os.path.dirname(os.path.abspath(a.out))
     os.makedirs(out_dir, exist_ok=True)
     stem = os.path.splitext(os.path.basename(a.out))[0]
@@ -251,28 +348,36 @@ def main():
     colors = [(0.55, 0.52, 0.48), (0.7, 0.35, 0.25), (0.3, 0.45, 0.6), (0.2, 0.5, 0.2), (0.4, 0.4, 0.42)]
     ground_mat = material(stage, "/World/Looks/Ground", colors[4])
 
-    size = blocks * CELL
+    size = assets_ground_size(a.assets) if a.kind == "assets" else blocks * CELL
     p, c, i = [], [], []
     grid_quad((0, 0, size), (size, 0, 0), (0, 0, -size), a.ground_tiles, p, c, i)  # +y
     mesh(stage, "/World/Ground", p, c, i, ground_mat)
     area = size * size
 
-    # Districts: one layer each, payloaded under /World/Districts.
-    UsdGeom.Scope.Define(stage, "/World/Districts")
-    instances = 0
-    n_districts = math.ceil(blocks / a.district)
-    for dx in range(n_districts):
-        for dz in range(n_districts):
-            cells = [((bx + 0.5) * CELL, (bz + 0.5) * CELL)
-                     for bx in range(dx * a.district, min(blocks, (dx + 1) * a.district))
-                     for bz in range(dz * a.district, min(blocks, (dz + 1) * a.district))]
-            layer = f"{stem}_d{dx:03d}_{dz:03d}.usdc"
-            d_area, d_inst = write_district(os.path.join(out_dir, layer), a.kind, cells,
-                                            a.seed * 100003 + dx * 1009 + dz, colors)
-            area += d_area
-            instances += d_inst
-            prim = stage.DefinePrim(f"/World/Districts/D{dx:03d}_{dz:03d}", "Xform")
-            prim.GetPayloads().AddPayload(f"./{layer}")
+    if a.kind == "assets":
+        a_area, triangles = write_assets_scene(a, stage, out_dir, stem, colors)
+        area += a_area
+        summary = f"{a.assets} payload assets, {triangles} triangles"
+    else:
+
+        # Districts: one layer each, payloaded under /World/Districts.
+        UsdGeom.Scope.Define(stage, "/World/Districts")
+        instances = 0
+        n_districts = math.ceil(blocks / a.district)
+        for dx in range(n_districts):
+            for dz in range(n_districts):
+                cells = [((bx + 0.5) * CELL, (bz + 0.5) * CELL)
+                         for bx in range(dx * a.district, min(blocks, (dx + 1) * a.district))
+                         for bz in range(dz * a.district, min(blocks, (dz + 1) * a.district))]
+                layer = f"{stem}_d{dx:03d}_{dz:03d}.usdc"
+                d_area, d_inst = write_district(os.path.join(out_dir, layer), a.kind, cells,
+                                                a.seed * 100003 + dx * 1009 + dz, colors)
+                area += d_area
+                instances += d_inst
+                prim = stage.DefinePrim(f"/World/Districts/D{dx:03d}_{dz:03d}", "Xform")
+                prim.GetPayloads().AddPayload(f"./{layer}")
+        summary = (f"{blocks}x{blocks} cells in {n_districts ** 2} payload districts, "
+                   f"{instances} instances")
 
     sun = UsdLux.DistantLight.Define(stage, "/World/Sun")
     sun.CreateIntensityAttr(3.0)
@@ -291,8 +396,7 @@ def main():
     xf.AddRotateYOp().Set(-30.0)  # looking into the scene along -z, a little to +x
 
     stage.GetRootLayer().Save()
-    print(f"{a.out}: {a.kind}, {blocks}x{blocks} cells over {size:.0f} m in {n_districts ** 2} payload "
-          f"districts, {instances} instances, about {area:.4g} m^2 of surface: "
+    print(f"{a.out}: {a.kind}, {summary} over {size:.0f} m, about {area:.4g} m^2 of surface: "
           f"{area / a.spacing ** 2:.3g} surfels at spacing {a.spacing} m "
           f"(build with --surfel-spacing {a.spacing})")
     return 0

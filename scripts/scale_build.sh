@@ -3,7 +3,12 @@
 # --preload) and measures it: wall time, the build line of the daemon's log
 # (surfels/s of sampling+shading and of the tree, bytes/surfel), and the
 # peak RSS of the daemon (VmHWM) and of its USD reader child (sampled every
-# 0.5 s from /proc, since the child exits before the build ends).
+# 0.2 s from /proc, since the child exits before the build ends). The
+# daemon's VmHWM is also read when its "read '<scene>'" line appears (end of
+# ingest: the stream is decoded, surfel sampling not started), which gives
+# the ingest peak to within one sampling period, next to the largest frame
+# (chunk) the reader sent; scripts/ingest_memory.sh checks it against the
+# bound of issue 3.
 #
 #   scripts/scale_build.sh SCENE.usda CACHE_DIR SPACING [MEMORY_BUDGET] [SAMPLER]
 #
@@ -40,7 +45,13 @@ nice -n 10 "$PBGID" --config "$CONFIG" --listen "unix:$CACHE/scale.sock" --prelo
 daemon=$!
 child_peak_kb=0
 daemon_peak_kb=0
+ingest_peak_kb=0
+ingest_end=""
 while kill -0 "$daemon" 2>/dev/null; do
+  if [ -z "$ingest_end" ] && grep -q "\] read '" "$LOG"; then
+    ingest_end=$(date +%s.%N)
+    ingest_peak_kb=$(awk '/^VmHWM/ {print $2}' "/proc/$daemon/status" 2>/dev/null || echo 0)
+  fi
   if grep -q "preloaded '" "$LOG"; then break; fi
   if grep -q "\[error\]\|\[critical\]" "$LOG"; then
     echo "pbgid failed:" >&2
@@ -54,7 +65,7 @@ while kill -0 "$daemon" 2>/dev/null; do
   done
   kb=$(awk '/^VmHWM/ {print $2}' "/proc/$daemon/status" 2>/dev/null || echo 0)
   ((kb > daemon_peak_kb)) && daemon_peak_kb=$kb
-  sleep 0.5
+  sleep 0.2
 done
 end=$(date +%s.%N)
 kb=$(awk '/^VmHWM/ {print $2}' "/proc/$daemon/status" 2>/dev/null || echo 0)
@@ -62,8 +73,10 @@ kb=$(awk '/^VmHWM/ {print $2}' "/proc/$daemon/status" 2>/dev/null || echo 0)
 kill -TERM "$daemon" 2>/dev/null || true
 wait "$daemon" || true
 
-grep "built page set\|preloaded" "$LOG" || true
-awk -v s="$start" -v e="$end" -v d="$daemon_peak_kb" -v c="$child_peak_kb" 'BEGIN {
+grep "\] read '\|built page set\|preloaded" "$LOG" || true
+awk -v s="$start" -v e="$end" -v i="${ingest_end:-0}" -v ip="$ingest_peak_kb" -v d="$daemon_peak_kb" \
+    -v c="$child_peak_kb" 'BEGIN {
+  if (i > 0) printf "ingest         %.1f s (start to the read line), pbgid VmHWM then %.3f GiB\n", i - s, ip / 1048576
   printf "wall           %.1f s (start to preloaded)\n", e - s
   printf "peak RSS       pbgid %.3f GiB (VmHWM), USD reader child %.3f GiB (sampled)\n", d / 1048576, c / 1048576
 }'

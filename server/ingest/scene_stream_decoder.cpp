@@ -9,6 +9,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <bit>
 #include <cerrno>
 #include <cmath>
@@ -609,6 +610,7 @@ SceneStreamDecoder::SceneStreamDecoder(std::string source_name, Progress progres
 }
 
 Scene SceneStreamDecoder::decode(int fd) {
+  stats_ = {};
   FdReader reader(fd, source_);
   SceneAssembler assembler(source_, subdivision_);
   FramePosition at;
@@ -657,6 +659,9 @@ Scene SceneStreamDecoder::decode(int fd) {
                                        assembler.streamed_triangle_count()));
       ended = true;
     }
+    ++stats_.frames;
+    stats_.bytes += sizeof prefix + length;
+    stats_.largest_frame_bytes = std::max<uint64_t>(stats_.largest_frame_bytes, length);
     assembler.add(chunk, at);
     at.offset += sizeof prefix + length;
   }

@@ -25,6 +25,14 @@ namespace pbgi {
 // few MiB; this only stops a corrupt length from allocating gigabytes).
 inline constexpr uint32_t kMaxSceneFrameBytes = 256u << 20;
 
+// What one decode() read, for the daemon's ingest log line: the largest
+// frame is the "largest chunk" of the ingest memory bound (docs/scaling.md).
+struct SceneStreamStats {
+  uint64_t frames = 0;               // length-prefixed frames, SceneEnd included
+  uint64_t bytes = 0;                // all frame bytes, length prefixes included
+  uint64_t largest_frame_bytes = 0;  // largest frame body (serialized SceneChunk)
+};
+
 class SceneStreamDecoder {
  public:
   using Progress = std::function<void(const std::string& stage, float fraction)>;
@@ -43,11 +51,15 @@ class SceneStreamDecoder {
   // may still be writing.
   bool reached_eof() const { return eof_; }
 
+  // The frames read so far (complete after decode returns).
+  const SceneStreamStats& stats() const { return stats_; }
+
  private:
   std::string source_;
   Progress progress_;
   SubdivisionOptions subdivision_;
   bool eof_ = false;
+  SceneStreamStats stats_;
 };
 
 }  // namespace pbgi

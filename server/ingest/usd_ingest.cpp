@@ -158,6 +158,13 @@ Scene run_usd_reader(const std::filesystem::path& path, const IngestOptions& opt
   if (!stream_error.empty())
     throw SceneError(log.empty() ? stream_error : fmt::format("{} (reader stderr: {})", stream_error, log));
   if (!log.empty()) spdlog::debug("USD reader on '{}':\n{}", path.string(), log);
+  // The largest frame bounds what the decoder holds besides the scene it
+  // assembles (one frame body + its parsed chunk): the ingest memory bound
+  // of docs/scaling.md is stated in it.
+  const SceneStreamStats& stats = decoder.stats();
+  if (!hash_only)
+    spdlog::info("read '{}': {} frames, {} bytes streamed, largest frame {} bytes; {} triangles", path.string(),
+                 stats.frames, stats.bytes, stats.largest_frame_bytes, scene->triangles.triangle_count());
   return std::move(*scene);
 }
 

@@ -59,12 +59,13 @@ SurfaceSample trace_sample(const RayScene& rays, const Ray& ray, const RenderOpt
   SurfaceSample out;
   PixelValue& v = out.value;
   const Scene& scene = rays.scene();
-  // Clipped to the camera's range, as the reference path tracer does.
+  // Only what lies within the camera's clipping range is seen (camera_ray
+  // sets tmin/tmax from it): a near plane cuts through occluders in front.
   const Hit hit = rays.intersect(ray.origin, ray.direction, ray.tmin, ray.tmax);
 
   // 1. An emitter in front of the first surface: its radiance, nothing to gather.
   C3f emitted;
-  if (nearest_light(scene.lights, ray, hit.t, &emitted)) {
+  if (nearest_light(scene.lights, ray, hit.valid() ? hit.t : ray.tmax, &emitted)) {
     v.beauty = v.direct = emitted;
     v.ao = 1.f;
     return out;

@@ -184,6 +184,34 @@ TEST(SceneStreamDecoder, AssemblesAValidStream) {
   EXPECT_FLOAT_EQ(seen[0].second, 0.5f);
 }
 
+TEST(SceneStreamDecoder, StatsCountFramesBytesAndTheLargestFrame) {
+  // A big mesh chunk between small ones: the largest frame is its body.
+  SceneChunk big = triangle_chunk("/Big", 0, false);
+  std::vector<float> positions(3 * 300);
+  std::vector<uint32_t> indices(300);
+  for (size_t i = 0; i < positions.size(); ++i) positions[i] = float(i % 7);
+  for (uint32_t i = 0; i < indices.size(); ++i) indices[i] = i;
+  big.mutable_mesh()->set_positions(bytes(positions));
+  big.mutable_mesh()->set_indices(bytes(indices));
+  const std::vector<SceneChunk> chunks = {header_chunk(), material_chunk(0, .5f, .5f, .5f), big,
+                                          triangle_chunk("/Small", 0, false), end_chunk(4, 101)};
+  std::string data;
+  for (const SceneChunk& c : chunks) data += frame(c);
+
+  int fds[2];
+  ASSERT_EQ(pipe(fds), 0);
+  ASSERT_EQ(write(fds[1], data.data(), data.size()), static_cast<ssize_t>(data.size()));  // < pipe buffer
+  close(fds[1]);
+  SceneStreamDecoder decoder("test-stream");
+  const Scene scene = decoder.decode(fds[0]);
+  close(fds[0]);
+  EXPECT_EQ(scene.triangles.triangle_count(), 101u);
+  EXPECT_EQ(decoder.stats().frames, chunks.size());
+  EXPECT_EQ(decoder.stats().bytes, data.size());
+  EXPECT_EQ(decoder.stats().largest_frame_bytes, big.ByteSizeLong());
+  EXPECT_GT(big.ByteSizeLong(), 300u * 12u);
+}
+
 TEST(SceneStreamDecoder, ChunksWithoutNormalsGetFlatVerticesWhenOthersHaveNormals) {
   // A quad without normals (4 shared vertices) next to a triangle with normals.
   SceneChunk quad;

@@ -131,23 +131,26 @@ TEST(RenderTile, MissIsBlackAndUnoccluded) {
   for (float v : out.ao) EXPECT_EQ(v, 1.f);
 }
 
-// The camera's clipping range bounds what the pixel sees, as in the
-// reference: a far plane in front of the floor (at depth 3) shows the miss,
-// one behind it shows the floor; a near plane beyond the floor also misses.
-TEST(RenderTile, CameraClippingRangeBoundsThePrimaryHit) {
+TEST(RenderTile, CameraSeesOnlyWithinItsClippingRange) {
+  // An occluder (albedo 0.2) at z = 2 over the floor (albedo 0.5) at z = 0;
+  // the camera at z = 3 looks down the axis, so the center pixel's ray hits
+  // them at depths 1 and 3.
   Scene s = floor_scene();
+  const float occluder_albedo = 0.2f;
+  const uint32_t m = test::add_material(s, {occluder_albedo, occluder_albedo, occluder_albedo});
+  test::add_square_z(s, 0, 0, 2.f, 0.5f, m, false, "/occluder");
   const RayScene rays(s);
   const EmptyTree tree;
   const uint32_t c = kSize / 2;
   auto center_albedo = [&](float near_clip, float far_clip) {
-    Camera cam = s.cameras["/cam"];
+    Camera cam = s.cameras.at("/cam");
     cam.near_clip = near_clip;
     cam.far_clip = far_clip;
     return render_tile(rays, tree, cam, kSize, kSize, {c, c, c + 1, c + 1}, RenderOptions()).albedo[0];
   };
-  EXPECT_FLOAT_EQ(center_albedo(0.1f, 10.f), kAlbedo);
-  EXPECT_EQ(center_albedo(0.1f, 2.5f), 0.f);
-  EXPECT_EQ(center_albedo(3.5f, 10.f), 0.f);
+  EXPECT_EQ(center_albedo(0.01f, 100.f), occluder_albedo);
+  EXPECT_EQ(center_albedo(1.5f, 100.f), kAlbedo);  // the near plane cuts the occluder away
+  EXPECT_EQ(center_albedo(1.5f, 2.5f), 0.f);       // and the far plane the floor
 }
 
 TEST(RenderTile, TilesMatchTheWholeImage) {
