@@ -302,10 +302,10 @@ int run_render(const RenderArgs& args) {
   sidecar.remove();
 
   // 4. Report.
-  std::printf("scene   %s (id %s, %llu triangles, %llu surfels%s)\n", info.scene_path().c_str(),
+  std::printf("scene   %s (id %s, %llu triangles, %llu surfels%s%s)\n", info.scene_path().c_str(),
               info.scene_id().c_str(), static_cast<unsigned long long>(info.triangle_count()),
               static_cast<unsigned long long>(info.surfel_count()),
-              info.reused_cache() ? ", cached tree" : "");
+              info.reused_ingest() ? ", stored ingest" : "", info.reused_cache() ? ", cached tree" : "");
   std::printf("open    %.2f s\n", open_seconds);
   std::printf("render  %.2f s (%ux%u, %u tiles, %zu resumed, %u in flight, %llu nodes visited)\n",
               render_seconds, frame.width, frame.height, frame.tiles, resumed_tiles, args.jobs,

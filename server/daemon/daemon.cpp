@@ -145,32 +145,21 @@ void Daemon::start() {
     context.cache_dir = cache_dir;
     context.cache = cache_;
     context.python = options_.python;
+    ChunkStoreOptions store;
+    store.directory = cache_dir / "ingested";
+    context.ingested = std::make_shared<const ChunkStore>(store);
     opener_ = [context](const fs::path& path, const OpenOptions& options,
                         const service::StageSelection& selection,
                         const StageProgress& progress) -> std::shared_ptr<SceneSession> {
-      if (selection.empty()) return open_scene(path, options, context, progress);
-      // Variants or a time code: the engine's open_scene with the reader
-      // told how to compose the stage (the selection is part of the
-      // scene's content hash, hence of its page set and scene_id).
-      const auto start = std::chrono::steady_clock::now();
-      IngestOptions ingest;
-      if (!context.python.empty()) ingest.python = context.python;
-      ingest.target_edge_length = options.surfels.spacing;
-      ingest.variant_selections = selection.variant_selections;
+      // Variants and a time code are part of the scene's content hash,
+      // hence of its stored ingest, page set and scene_id.
+      IngestOptions composition;
+      composition.variant_selections = selection.variant_selections;
       if (selection.time_code) {
-        ingest.time_code = *selection.time_code;
-        ingest.use_time_code = true;
+        composition.time_code = *selection.time_code;
+        composition.use_time_code = true;
       }
-      auto scene = std::make_unique<Scene>(read_usd_scene(
-          path, ingest, [&](const std::string& s, float f) {
-            if (progress) progress("read:" + s, f);
-          }));
-      for (const auto& w : scene->warnings) spdlog::warn("{}: {}", path.string(), w);
-      auto session = open_scene_model(std::move(scene), options, context, progress);
-      session->info.scene_path = path.string();
-      session->info.open_seconds =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      return session;
+      return open_scene(path, options, context, progress, std::move(composition));
     };
   }
 

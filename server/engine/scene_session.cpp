@@ -117,7 +117,8 @@ std::unique_ptr<storage::PageSetReader> build_page_sets(
 }  // namespace
 
 std::shared_ptr<SceneSession> open_scene(const fs::path& scene_path, const OpenOptions& options,
-                                         const EngineContext& ctx, const StageProgress& progress) {
+                                         const EngineContext& ctx, const StageProgress& progress,
+                                         IngestOptions composition) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   auto report = [&](const std::string& stage, float f) {
@@ -127,16 +128,20 @@ std::shared_ptr<SceneSession> open_scene(const fs::path& scene_path, const OpenO
   options.tree.validate();
 
   // 1. Read the USD scene in the reader process.
-  IngestOptions ingest;
+  IngestOptions ingest = std::move(composition);
   if (!ctx.python.empty()) ingest.python = ctx.python;
   // Subdivision surfaces are refined until their edges are shorter than the
   // surfel spacing, never deeper (0: spacing derived later; a fixed level).
   ingest.target_edge_length = options.surfels.spacing;
+  const auto on_read = [&](const std::string& s, float f) { report("read:" + s, f); };
+  bool reused_ingest = false;
   auto scene = std::make_unique<Scene>(
-      read_usd_scene(scene_path, ingest, [&](const std::string& s, float f) { report("read:" + s, f); }));
+      ctx.ingested ? read_usd_scene_cached(scene_path, ingest, *ctx.ingested, on_read, &reused_ingest)
+                   : read_usd_scene(scene_path, ingest, on_read));
   for (const auto& w : scene->warnings) spdlog::warn("{}: {}", scene_path.string(), w);
   report("read", 1.f);
   auto session = open_scene_model(std::move(scene), options, ctx, progress);
+  session->info.reused_ingest = reused_ingest;
   session->info.scene_path = scene_path.string();
   session->info.open_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   return session;

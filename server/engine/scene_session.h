@@ -4,6 +4,8 @@
 #pragma once
 
 #include "server/gather/surfel_bounce.h"
+#include "server/ingest/chunk_store.h"
+#include "server/ingest/usd_ingest.h"
 #include "server/scene/ray_scene.h"
 #include "server/surfels/surfel_options.h"
 #include "storage/cache/page_cache.h"
@@ -28,7 +30,8 @@ struct SceneSessionInfo {
   std::string scene_path;
   uint64_t triangle_count = 0;
   storage::PageSetStats tree;
-  bool reused_cache = false;
+  bool reused_cache = false;     // the page set was built before
+  bool reused_ingest = false;    // the scene came from the chunk store
   double open_seconds = 0;
 };
 
@@ -43,16 +46,24 @@ struct EngineContext {
   std::filesystem::path cache_dir;              // page sets live here
   std::shared_ptr<storage::PageCache> cache;    // shared page cache
   std::string python;                           // interpreter for the USD reader
+  // Ingested scenes (refined meshes Draco-compressed, server/ingest/
+  // chunk_store.h) so that reopening an unchanged scene skips the USD
+  // traversal and refinement; null = always ingest.
+  std::shared_ptr<const ChunkStore> ingested;
 };
 
 using StageProgress = std::function<void(const std::string& stage, float fraction)>;
 
 // Opens `scene_path` (already checked against the scene roots): reads the USD
-// scene, samples and shades surfels, builds or reuses the page set.
+// scene (or reuses it from ctx.ingested), samples and shades surfels, builds
+// or reuses the page set. `composition` carries the stage's variant
+// selections and time code; its python and target_edge_length are set here
+// (from ctx and the surfel spacing).
 // Throws SceneError / IoError / CorruptionError with the file at fault.
 std::shared_ptr<SceneSession> open_scene(const std::filesystem::path& scene_path,
                                          const OpenOptions& options, const EngineContext& ctx,
-                                         const StageProgress& progress = {});
+                                         const StageProgress& progress = {},
+                                         IngestOptions composition = {});
 
 // The same pipeline from step 2 on, for a scene already in memory (built in
 // code by tests and benchmarks, or read by the caller). scene->content_hash

@@ -160,6 +160,7 @@ v1::SceneInfo encode_scene_info(const SceneSession& session) {
   proto.set_node_count(info.tree.node_count);
   proto.set_page_count(info.tree.page_count);
   proto.set_reused_cache(info.reused_cache);
+  proto.set_reused_ingest(info.reused_ingest);
   proto.set_open_seconds(info.open_seconds);
   if (session.scene) {
     for (const auto& [path, camera] : session.scene->cameras) proto.add_cameras(path);

@@ -163,6 +163,7 @@ TEST(FaultInjection, KillWhileServingThenRestart) {
   PbgiClient client(b->address(), no_retry());
   const v1::SceneInfo again = client.open_scene(kCornell.string(), build_with(kSmallBuild));
   EXPECT_TRUE(again.reused_cache());
+  EXPECT_TRUE(again.reused_ingest()) << "the stored ingest, same pixels below";
   EXPECT_EQ(again.scene_id(), info.scene_id());
   for (int i = 0; i < 3; ++i) {
     const client::Frame after = client::render_frame(client, frame_request(again.scene_id()));

@@ -25,6 +25,8 @@ TEST(Replicas, TwoDaemonsOnOnePageSetRenderIdenticalFrames) {
   const v1::SceneInfo ib = cb.open_scene(kCornell.string(), build_with(20000));
   EXPECT_FALSE(ia.reused_cache());
   EXPECT_TRUE(ib.reused_cache()) << "the second replica reads the first one's page set";
+  EXPECT_FALSE(ia.reused_ingest());
+  EXPECT_TRUE(ib.reused_ingest()) << "the second replica reads the first one's stored ingest";
   ASSERT_EQ(ia.scene_id(), ib.scene_id()) << "scene ids are content addresses";
   EXPECT_EQ(published_page_sets(cache).size(), 1u);
 
