@@ -305,6 +305,10 @@ TEST_F(BenchRunner, RendersPbgiInTheSessionsFrame) {
   EXPECT_EQ(moved.rows[0].name, "pbgi/s2k/mb8/sa0.1");
   const double at_origin = row("pbgi/s2k/mb8/sa0.1")->indirect.error.mse;
   EXPECT_LT(moved.rows[0].indirect.error.mse, 1.5 * at_origin);
+  // The absolute check: the camera in the wrong frame misses the box for
+  // both, and its error (6e-3) exceeds the path tracer's at 16 spp.
+  EXPECT_LT(moved.rows[0].indirect.error.mse, row("path/spp16")->indirect.error.mse);
+  EXPECT_LT(at_origin, row("path/spp16")->indirect.error.mse);
   EXPECT_LT(moved.rows[0].beauty.error.mse, 1.5 * row("pbgi/s2k/mb8/sa0.1")->beauty.error.mse);
 }
 
