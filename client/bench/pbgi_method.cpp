@@ -203,8 +203,8 @@ MethodConfig pbgi_config(const PbgiSweep& sweep, const std::string& build, const
   c.method = method;
   c.name = fmt::format("{}/s{}{}/mb{}/sa{:g}", method, surfel_label(k.surfels), payload, k.mb, k.sa);
   // Main payload: a curve over the cut threshold per microbuffer; another
-  // payload: a curve over the microbuffer resolution.
-  c.series = k.main_payload
+  // payload, or a sweep of one cut: a curve over the microbuffer resolution.
+  c.series = k.main_payload && sweep.max_solid_angles.size() > 1
                  ? fmt::format("{} s{}{} mb{}", method, surfel_label(k.surfels), payload, k.mb)
                  : fmt::format("{} s{} {}", method, surfel_label(k.surfels), k.payload.label());
   if (k.pixel_samples != sweep.pixel_samples) {
