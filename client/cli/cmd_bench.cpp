@@ -130,7 +130,7 @@ const CommandRegistrar kRegistrar("bench", [](CLI::App& app, int* exit_code) {
   cmd->add_option("--clusters", args->clusters, "FPBGI clusters per 1024 receivers (default 100)");
   cmd->add_option("--epsilon", args->epsilon,
                   "FPBGI far/near split (default 0 = auto, 0.4 / microbuffer resolution)");
-  cmd->add_flag("--quick", args->quick, "Small sweep for CI (64x64, 20k surfels, 4 PBGI settings)");
+  cmd->add_flag("--quick", args->quick, "Small sweep for CI (64x64, 20k surfels, 4 settings per gather method)");
   cmd->add_flag("--images", args->images, "Also write <out-dir>/images/<config>.exr");
   cmd->add_flag("--no-plot", args->no_plot, "Do not run scripts/plot_bench.py");
   cmd->add_flag("--quiet,-q", args->quiet, "No progress lines");
