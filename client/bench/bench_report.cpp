@@ -268,7 +268,7 @@ std::string bench_summary(const BenchResult& r) {
   if (!r.builds.empty()) s += "\n";
 
   s += fmt::format(
-      "{:<31} {:>8} {:>8} {:>8} {:>8} | {:>10} {:>6} {:>9} {:>6} | {:>10} {:>6} {:>9} {:>6}  {}\n",
+      "{:<40} {:>8} {:>8} {:>8} {:>8} | {:>10} {:>6} {:>9} {:>6} | {:>10} {:>6} {:>9} {:>6}  {}\n",
       "configuration", "build s", "render s", "total s", "CPU s", "ind MSE", "PSNR", "relMSE",
       "pdiff", "beauty MSE", "PSNR", "relMSE", "pdiff", "flags");
   for (const BenchRow& row : r.rows) {
@@ -277,7 +277,7 @@ std::string bench_summary(const BenchResult& r) {
     if (row.pareto_indirect) flags += "P-ind ";
     if (row.pareto_beauty) flags += "P-beauty";
     s += fmt::format(
-        "{:<31} {:8.3f} {:8.3f} {:8.3f} {:8.3f} | {:10.4g} {:6.2f} {:9.4g} {:6} | {:10.4g} {:6.2f} "
+        "{:<40} {:8.3f} {:8.3f} {:8.3f} {:8.3f} | {:10.4g} {:6.2f} {:9.4g} {:6} | {:10.4g} {:6.2f} "
         "{:9.4g} {:6}  {}\n",
         row.name, row.build_seconds, row.render_seconds, row.total_seconds,
         row.render_cpu_seconds, row.indirect.error.mse,
