@@ -5,8 +5,10 @@ Usage: plot_bench.py BENCH_JSON OUT_PNG [--time wall|cpu]
 
 Two log-log panels (MSE of the indirect AOV, MSE of the beauty) against
 render time in seconds. One line per series of the sweep (the path tracer
-over spp; PBGI per surfel budget and microbuffer resolution over the cut
-threshold), coloured by method. Pareto-optimal configurations are ringed
+over spp; PBGI and factorized PBGI per surfel budget and microbuffer
+resolution over the cut threshold; each further payload codec per gather
+method over the microbuffer resolution), coloured by method (PBGI blues,
+FPBGI greens). Pareto-optimal configurations are ringed
 and joined by a dashed staircase; PBGI's default configuration is a star,
 its time including the build a hollow star; the path tracer's
 interpolated point at the default's MSE is a cross. `--time cpu` puts the
@@ -36,8 +38,9 @@ except ImportError as e:  # pragma: no cover - depends on the environment
 METHOD_PALETTES = {
     "path": ["tab:red"],
     "pbgi": ["tab:blue", "tab:cyan", "navy", "tab:purple", "steelblue", "darkturquoise"],
+    "fpbgi": ["tab:green", "olive", "darkgreen", "limegreen", "teal", "yellowgreen"],
 }
-EXTRA_PALETTES = [["tab:green", "olive", "darkgreen"], ["tab:orange", "tab:brown", "gold"]]
+EXTRA_PALETTES = [["tab:orange", "tab:brown", "gold"], ["tab:pink", "tab:gray", "black"]]
 LINESTYLES = ["-", "--", ":", "-."]
 MARKERS = ["o", "s", "^", "D", "v", "P"]
 

@@ -1,6 +1,6 @@
 // The sweep of `pbgi bench` is a list of named method configurations. A
-// method (PBGI, the path tracer, later factorized PBGI or other payload
-// codecs) contributes a MethodPlan: the builds it needs (e.g. one page set
+// method (PBGI and factorized PBGI with their payload codecs, the path
+// tracer) contributes a MethodPlan: the builds it needs (e.g. one page set
 // per surfel budget) and the configurations it renders, each from one build
 // or from the scene alone. The runner times builds and renders separately
 // and measures every rendered image against the same reference, so a new
@@ -72,6 +72,13 @@ struct MethodConfig {
   uint32_t spp = 0;            // samples per pixel of a sampling method (0 = n/a)
   // The configuration the equal-error figure is computed for (one per sweep).
   bool is_default = false;
+  // Also compare with the path tracer (and, for other methods or payloads
+  // than the default's, with the default's curve) at this configuration's
+  // error: BenchResult::equal_points.
+  bool equal_error_point = false;
+  // Part of the default configuration's curve (its method and payload at
+  // any gather setting): the curve other methods' speed-up is measured on.
+  bool default_curve = false;
   // `built` is the state of `build`, nullptr when build is "". Throws pbgi::Error.
   std::function<RenderedAovs(const BenchInput&, const BuiltState* built)> render;
 };

@@ -59,8 +59,9 @@ struct BenchOptions {
 };
 
 // The small sweep of `pbgi bench --quick` (CI): 64x64, one surfel budget of
-// 20k, microbuffers 4 and 8, cut thresholds 0.1 and 0.03, the path tracer up
-// to 64 spp, a 1024-spp reference.
+// 20k, microbuffers 4 and 8, cut thresholds 0.1 and 0.03, both gather
+// methods and payload codecs of the full sweep, the path tracer up to 64 spp,
+// a 1024-spp reference.
 BenchOptions quick_bench_options();
 
 }  // namespace pbgi::bench

@@ -53,6 +53,10 @@ void write_equal_error(JsonWriter& w, const EqualError& e) {
   w.field("speedup", e.speedup);
   w.field("speedup_including_build", e.speedup_including_build);
   w.field("speedup_cpu", e.speedup_cpu);
+  w.field("default_curve_seconds", e.default_curve_seconds);
+  w.field("default_curve_cpu_seconds", e.default_curve_cpu_seconds);
+  w.field("speedup_over_default", e.speedup_over_default);
+  w.field("speedup_over_default_cpu", e.speedup_over_default_cpu);
   w.end_object();
 }
 
@@ -89,6 +93,27 @@ std::string equal_error_text(const EqualError& e) {
                      "reference spp for a firmer figure.\n",
                      100 * e.noise_floor / e.pbgi_mse);
   return s;
+}
+
+// One line per equal-error point: its indirect MSE and CPU time, the path
+// tracer's CPU time there and, off the default's curve, that curve's.
+std::string equal_points_table(const BenchResult& r) {
+  std::string s = fmt::format("indirect, equal error (CPU seconds):\n{:<40} {:>10} {:>8} {:>9} {:>8} {:>9} {:>8}\n",
+                              "configuration", "MSE", "CPU s", "path CPU", "x path", "curve CPU",
+                              "x curve");
+  for (const EqualError& e : r.equal_points) {
+    const std::string path = e.valid ? fmt::format("{:9.3f} {:7.2f}x{}", e.path_cpu_seconds,
+                                                   e.speedup_cpu, e.extrapolated ? "*" : " ")
+                                     : fmt::format("{:>9} {:>8} ", "-", "-");
+    const std::string curve = e.default_curve_cpu_seconds > 0
+                                  ? fmt::format("{:9.3f} {:7.2f}x", e.default_curve_cpu_seconds,
+                                                e.speedup_over_default_cpu)
+                                  : fmt::format("{:>9} {:>8}", "-", "-");
+    s += fmt::format("{:<40} {:10.4g} {:8.3f} {} {}\n", e.pbgi_name, e.pbgi_mse,
+                     e.pbgi_render_cpu_seconds, path, curve);
+  }
+  return s + "(* path tracer extrapolated with MSE ~ 1/spp; curve: the default configuration's "
+             "method and payload over its settings, '-' = outside its error range)\n";
 }
 
 }  // namespace
@@ -146,6 +171,8 @@ std::string bench_json(const BenchResult& r) {
     w.field("build", row.build);
     w.field("spp", row.spp);
     w.field("is_default", row.is_default);
+    w.field("equal_error_point", row.equal_error_point);
+    w.field("default_curve", row.default_curve);
     w.key("params");
     write_params(w, row.params);
     w.field("render_seconds", row.render_seconds);
@@ -171,6 +198,11 @@ std::string bench_json(const BenchResult& r) {
   w.key("beauty");
   write_equal_error(w, r.equal_beauty);
   w.end_object();
+
+  w.key("equal_error_points");
+  w.begin_array();
+  for (const EqualError& e : r.equal_points) write_equal_error(w, e);
+  w.end_array();
 
   w.key("warnings");
   w.begin_array();
@@ -236,7 +268,7 @@ std::string bench_summary(const BenchResult& r) {
   if (!r.builds.empty()) s += "\n";
 
   s += fmt::format(
-      "{:<31} {:>8} {:>8} {:>8} {:>8} | {:>10} {:>6} {:>9} {:>6} | {:>10} {:>6} {:>9} {:>6}  {}\n",
+      "{:<40} {:>8} {:>8} {:>8} {:>8} | {:>10} {:>6} {:>9} {:>6} | {:>10} {:>6} {:>9} {:>6}  {}\n",
       "configuration", "build s", "render s", "total s", "CPU s", "ind MSE", "PSNR", "relMSE",
       "pdiff", "beauty MSE", "PSNR", "relMSE", "pdiff", "flags");
   for (const BenchRow& row : r.rows) {
@@ -245,7 +277,7 @@ std::string bench_summary(const BenchResult& r) {
     if (row.pareto_indirect) flags += "P-ind ";
     if (row.pareto_beauty) flags += "P-beauty";
     s += fmt::format(
-        "{:<31} {:8.3f} {:8.3f} {:8.3f} {:8.3f} | {:10.4g} {:6.2f} {:9.4g} {:6} | {:10.4g} {:6.2f} "
+        "{:<40} {:8.3f} {:8.3f} {:8.3f} {:8.3f} | {:10.4g} {:6.2f} {:9.4g} {:6} | {:10.4g} {:6.2f} "
         "{:9.4g} {:6}  {}\n",
         row.name, row.build_seconds, row.render_seconds, row.total_seconds,
         row.render_cpu_seconds, row.indirect.error.mse,
@@ -258,6 +290,7 @@ std::string bench_summary(const BenchResult& r) {
                    r.reference.noise_mse_indirect, r.reference.noise_mse_beauty);
   s += equal_error_text(r.equal_indirect);
   s += equal_error_text(r.equal_beauty);
+  if (!r.equal_points.empty()) s += "\n" + equal_points_table(r);
   for (const auto& w : r.warnings) s += "warning: " + w + "\n";
   return s;
 }

@@ -25,6 +25,7 @@ struct BenchRow {
   std::vector<Param> params;
   uint32_t spp = 0;
   bool is_default = false;
+  bool equal_error_point = false, default_curve = false;  // MethodConfig's
   // Wall-clock seconds (stopwatch.h): the render alone, its build + load
   // (0 without a build), and their sum.
   double render_seconds = 0.0, build_seconds = 0.0, total_seconds = 0.0;
@@ -82,6 +83,12 @@ struct EqualError {
   double speedup = 0.0;                  // path_seconds / pbgi_render_seconds
   double speedup_including_build = 0.0;  // path_seconds / pbgi_total_seconds
   double speedup_cpu = 0.0;              // path_cpu_seconds / pbgi_render_cpu_seconds
+  // For a configuration off the default's curve (another gather method or
+  // payload): the render seconds (wall and CPU) of the default's curve at
+  // this MSE (equal_error.h, front_seconds_at_error; 0 = outside its range)
+  // and the speed-up over it.
+  double default_curve_seconds = 0.0, default_curve_cpu_seconds = 0.0;
+  double speedup_over_default = 0.0, speedup_over_default_cpu = 0.0;
 };
 
 struct BenchResult {
@@ -95,6 +102,10 @@ struct BenchResult {
   std::vector<BuildRecord> builds;
   std::vector<BenchRow> rows;
   EqualError equal_indirect, equal_beauty;
+  // Indirect AOV, one per MethodConfig::equal_error_point row: the path
+  // tracer's cost at its error and, off the default's curve, the speed-up
+  // over that curve.
+  std::vector<EqualError> equal_points;
   std::filesystem::path json_file, csv_file, plot_file;  // plot_file empty: no plot
   std::vector<std::string> warnings;
   double wall_seconds = 0.0;      // the whole run

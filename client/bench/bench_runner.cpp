@@ -133,6 +133,8 @@ BenchRow run_config(const MethodConfig& c, const BenchInput& in, const BuiltStat
   row.params = c.params;
   row.spp = c.spp;
   row.is_default = c.is_default;
+  row.equal_error_point = c.equal_error_point;
+  row.default_curve = c.default_curve;
   if (build) {
     row.build_seconds = build->build_seconds + build->load_seconds;
     row.build_cpu_seconds = build->build_cpu_seconds + build->load_cpu_seconds;
@@ -149,24 +151,24 @@ BenchRow run_config(const MethodConfig& c, const BenchInput& in, const BuiltStat
   return row;
 }
 
-EqualError equal_error(const BenchResult& r, bool indirect) {
+// The path tracer's cost at the error of `target` (null: no such row).
+EqualError equal_error(const BenchResult& r, const BenchRow* target, bool indirect) {
   EqualError e;
   e.aov = indirect ? "indirect" : "beauty";
   auto mse = [&](const BenchRow& row) {
     return indirect ? row.indirect.error.mse : row.beauty.error.mse;
   };
-  const auto def = std::find_if(r.rows.begin(), r.rows.end(),
-                                [](const BenchRow& row) { return row.is_default; });
   std::vector<SweepPoint> wall, cpu;
   for (const BenchRow& row : r.rows) {
     if (row.method != "path") continue;
     wall.push_back({double(row.spp), row.render_seconds, mse(row)});
     cpu.push_back({double(row.spp), row.render_cpu_seconds, mse(row)});
   }
-  if (def == r.rows.end() || wall.empty()) {
+  if (!target || wall.empty()) {
     e.note = "needs the default PBGI configuration and path-tracer rows";
     return e;
   }
+  const BenchRow* def = target;
   e.pbgi_name = def->name;
   e.pbgi_mse = mse(*def);
   e.noise_floor = indirect ? r.reference.noise_mse_indirect : r.reference.noise_mse_beauty;
@@ -174,6 +176,21 @@ EqualError equal_error(const BenchResult& r, bool indirect) {
   e.pbgi_total_seconds = def->total_seconds;
   e.pbgi_render_cpu_seconds = def->render_cpu_seconds;
   e.pbgi_total_cpu_seconds = def->total_cpu_seconds;
+  auto ratio = [](double a, double b) { return b > 0 ? a / b : 0.0; };
+  // Off the default's curve: the default's curve's time at this error (no
+  // noise floor: both carry the same one).
+  if (!def->default_curve) {
+    std::vector<SweepPoint> curve_wall, curve_cpu;
+    for (const BenchRow& row : r.rows) {
+      if (!row.default_curve) continue;
+      curve_wall.push_back({0, row.render_seconds, mse(row)});
+      curve_cpu.push_back({0, row.render_cpu_seconds, mse(row)});
+    }
+    e.default_curve_seconds = front_seconds_at_error(curve_wall, e.pbgi_mse);
+    e.default_curve_cpu_seconds = front_seconds_at_error(curve_cpu, e.pbgi_mse);
+    e.speedup_over_default = ratio(e.default_curve_seconds, e.pbgi_render_seconds);
+    e.speedup_over_default_cpu = ratio(e.default_curve_cpu_seconds, e.pbgi_render_cpu_seconds);
+  }
   const EqualErrorPoint p = equal_error_point(wall, e.pbgi_mse, e.noise_floor);
   const EqualErrorPoint pc = equal_error_point(cpu, e.pbgi_mse, e.noise_floor);
   if (!p.valid || !pc.valid) {
@@ -187,7 +204,6 @@ EqualError equal_error(const BenchResult& r, bool indirect) {
   e.path_seconds = p.seconds;
   e.path_cpu_seconds = pc.seconds;
   e.extrapolated = p.extrapolated;
-  auto ratio = [](double a, double b) { return b > 0 ? a / b : 0.0; };
   e.speedup = ratio(e.path_seconds, e.pbgi_render_seconds);
   e.speedup_including_build = ratio(e.path_seconds, e.pbgi_total_seconds);
   e.speedup_cpu = ratio(e.path_cpu_seconds, e.pbgi_render_cpu_seconds);
@@ -217,8 +233,13 @@ void analyse(BenchResult& r) {
     r.reference.noise_mse_indirect = most->indirect.error.mse * scale;
     r.reference.noise_mse_beauty = most->beauty.error.mse * scale;
   }
-  r.equal_indirect = equal_error(r, true);
-  r.equal_beauty = equal_error(r, false);
+  const auto def = std::find_if(r.rows.begin(), r.rows.end(),
+                                [](const BenchRow& row) { return row.is_default; });
+  const BenchRow* default_row = def == r.rows.end() ? nullptr : &*def;
+  r.equal_indirect = equal_error(r, default_row, true);
+  r.equal_beauty = equal_error(r, default_row, false);
+  for (const BenchRow& row : r.rows)
+    if (row.equal_error_point) r.equal_points.push_back(equal_error(r, &row, true));
 }
 
 }  // namespace

@@ -61,6 +61,33 @@ EqualErrorPoint equal_error_point(std::vector<SweepPoint> points, double target,
   return along_rate(target < lo->mse ? *lo : *hi, target);
 }
 
+double front_seconds_at_error(const std::vector<SweepPoint>& points, double target) {
+  if (!std::isfinite(target) || target <= 0) return 0.0;
+  std::vector<double> t, e;
+  for (const SweepPoint& p : points)
+    if (std::isfinite(p.seconds) && std::isfinite(p.mse) && p.seconds > 0 && p.mse > 0) {
+      t.push_back(p.seconds);
+      e.push_back(p.mse);
+    }
+  const std::vector<bool> optimal = pareto_optimal(t, e);
+  std::vector<SweepPoint> front;
+  for (size_t i = 0; i < t.size(); ++i)
+    if (optimal[i]) front.push_back({0, t[i], e[i]});
+  // On the front, MSE falls as seconds grow.
+  std::sort(front.begin(), front.end(),
+            [](const SweepPoint& a, const SweepPoint& b) { return a.seconds < b.seconds; });
+  for (size_t i = 0; i < front.size(); ++i) {
+    const SweepPoint& a = front[i];
+    if (a.mse == target) return a.seconds;
+    if (i + 1 == front.size()) break;
+    const SweepPoint& b = front[i + 1];
+    if ((a.mse - target) * (b.mse - target) >= 0) continue;
+    const double f = (std::log(target) - std::log(a.mse)) / (std::log(b.mse) - std::log(a.mse));
+    return std::exp(std::log(a.seconds) + f * (std::log(b.seconds) - std::log(a.seconds)));
+  }
+  return 0.0;
+}
+
 std::vector<bool> pareto_optimal(const std::vector<double>& seconds,
                                  const std::vector<double>& error) {
   if (seconds.size() != error.size())

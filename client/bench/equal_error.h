@@ -35,6 +35,14 @@ struct EqualErrorPoint {
 EqualErrorPoint equal_error_point(std::vector<SweepPoint> points, double target_mse,
                                   double noise_floor = 0.0);
 
+// The seconds at which a deterministic method's curve (points: seconds and
+// MSE; spp ignored) reaches `target_mse`: over the points' Pareto front,
+// sorted by seconds, interpolated linearly in log-log between the two front
+// points whose MSE brackets the target (a point at exactly the target: its
+// seconds). 0 when the target lies outside the front's MSE range: a gather's
+// error follows no known rate, so nothing is extrapolated.
+double front_seconds_at_error(const std::vector<SweepPoint>& points, double target_mse);
+
 // Pareto flags of (seconds, error) points to be minimized together: a point
 // is optimal unless another has seconds <= and error <=, one strictly.
 // Points with a non-finite coordinate are never optimal and dominate none.

@@ -59,7 +59,8 @@ std::string surfel_label(uint64_t n) {
 }
 
 std::unique_ptr<BuiltState> build_pbgi(const BenchInput& input, const PbgiSweep& sweep,
-                                       uint64_t target_surfels, const std::string& dir_name) {
+                                       uint64_t target_surfels, const PayloadSpec& payload,
+                                       const std::string& dir_name) {
   // 1. A fresh directory: a page set left by an earlier run would be reused
   // by open_scene_model and the build time would not be measured.
   const fs::path dir = input.work_dir / dir_name;
@@ -73,6 +74,8 @@ std::unique_ptr<BuiltState> build_pbgi(const BenchInput& input, const PbgiSweep&
   options.surfels.target_surfels = target_surfels;
   options.surfels.light_samples = sweep.surfel_light_samples;
   options.surfels.seed = sweep.seed;
+  options.tree.payload_codec = payload.codec;
+  options.tree.lut_entries = payload.lut_entries;
   EngineContext ctx;
   ctx.cache_dir = dir;
   ctx.cache = std::make_shared<storage::PageCache>(input.page_cache_bytes);
@@ -90,8 +93,15 @@ RenderedAovs render_pbgi(const BenchInput& input, const BuiltState* built,
   const auto* pbgi = dynamic_cast<const PbgiBuilt*>(built);
   if (!pbgi) throw InvalidArgument("PBGI configuration rendered without its page set");
   const SceneSession& s = pbgi->session();
+  // The session renders in its scene-local frame (open_scene_model rebases
+  // the scene, server/scene/render_origin.h): the camera must be the
+  // session's copy, moved with the geometry, not the world-space one.
+  const Camera* camera = s.scene->find_camera(input.camera.prim_path);
+  if (!camera)
+    throw NotFound(fmt::format("bench: camera {} missing from the PBGI session's scene",
+                               input.camera.prim_path));
   const TileRect whole{0, 0, input.width, input.height};
-  TileAovs t = render_tile(*s.rays, *s.tree, input.camera, input.width, input.height, whole, options);
+  TileAovs t = render_tile(*s.rays, *s.tree, *camera, input.width, input.height, whole, options);
   return {std::move(t.beauty), std::move(t.direct), std::move(t.indirect)};
 }
 
@@ -130,6 +140,24 @@ void PbgiSweep::validate() const {
     if (px == pixel_samples || std::count(extra_pixel_samples.begin(), extra_pixel_samples.end(), px) > 1)
       throw InvalidArgument(fmt::format("bench: extra_pixel_samples {} repeats a pixel sample count", px));
   }
+  if (methods.empty() || payloads.empty())
+    throw InvalidArgument("bench: the PBGI sweep needs at least one gather method and payload");
+  for (size_t i = 0; i < methods.size(); ++i)
+    if (std::count(methods.begin(), methods.end(), methods[i]) > 1)
+      throw InvalidArgument("bench: gather method " + gather_method_name(methods[i]) + " repeated");
+  for (const PayloadSpec& p : payloads) {
+    p.validate();
+    if (std::count(payloads.begin(), payloads.end(), p) > 1)
+      throw InvalidArgument("bench: payload " + p.label() + " repeated");
+  }
+  GatherOptions f;
+  f.method = GatherMethod::kFpbgi;
+  f.clusters = fpbgi_clusters;
+  f.epsilon = fpbgi_epsilon;
+  f.validate();
+  if (!contains(methods, default_method))
+    throw InvalidArgument("bench: the default gather method " + gather_method_name(default_method) +
+                          " must be part of the sweep");
   if (!contains(target_surfels, default_target_surfels) ||
       !contains(microbuffer_resolutions, default_microbuffer_resolution) ||
       !contains(max_solid_angles, default_max_solid_angle))
@@ -141,57 +169,131 @@ void PbgiSweep::validate() const {
 
 namespace {
 
-MethodConfig pbgi_config(const PbgiSweep& sweep, const std::string& build, uint64_t surfels,
-                         uint32_t mb, float sa, uint32_t pixel_samples) {
+// Names carry the payload codec unless it is the library default (derived),
+// so that a plain PBGI sweep keeps its names.
+std::string payload_suffix(const PayloadSpec& p) {
+  return p.codec == tree::PayloadCodecOption::kDerived ? "" : "/" + p.label();
+}
+
+// One gather setting of one page set. `main_payload`: the sweep's first
+// payload, which gets the full sweep.
+struct ConfigKey {
+  GatherMethod method;
+  uint64_t surfels;
+  const PayloadSpec& payload;
+  bool main_payload;
+  uint32_t mb;
+  float sa;
+  uint32_t pixel_samples;
+};
+
+MethodConfig pbgi_config(const PbgiSweep& sweep, const std::string& build, const ConfigKey& k) {
   RenderOptions options;
-  options.gather.microbuffer_resolution = mb;
-  options.gather.max_solid_angle = sa;
-  options.pixel_samples = pixel_samples;
+  options.gather.method = k.method;
+  options.gather.microbuffer_resolution = k.mb;
+  options.gather.max_solid_angle = k.sa;
+  options.gather.clusters = sweep.fpbgi_clusters;
+  options.gather.epsilon = sweep.fpbgi_epsilon;
+  options.pixel_samples = k.pixel_samples;
   options.light_samples = sweep.light_samples;
   options.seed = sweep.seed;
+  const std::string method = gather_method_name(k.method);
+  const std::string payload = payload_suffix(k.payload);
   MethodConfig c;
-  c.method = "pbgi";
-  c.name = fmt::format("{}/mb{}/sa{:g}", build, mb, sa);
-  c.series = fmt::format("pbgi s{} mb{}", surfel_label(surfels), mb);
-  if (pixel_samples != sweep.pixel_samples) {
-    c.name += fmt::format("/px{}", pixel_samples);
-    c.series = fmt::format("pbgi s{} mb{} sa{:g} px", surfel_label(surfels), mb, sa);
+  c.method = method;
+  c.name = fmt::format("{}/s{}{}/mb{}/sa{:g}", method, surfel_label(k.surfels), payload, k.mb, k.sa);
+  // Main payload: a curve over the cut threshold per microbuffer; another
+  // payload, or a sweep of one cut: a curve over the microbuffer resolution.
+  c.series = k.main_payload && sweep.max_solid_angles.size() > 1
+                 ? fmt::format("{} s{}{} mb{}", method, surfel_label(k.surfels), payload, k.mb)
+                 : fmt::format("{} s{} {}", method, surfel_label(k.surfels), k.payload.label());
+  if (k.pixel_samples != sweep.pixel_samples) {
+    c.name += fmt::format("/px{}", k.pixel_samples);
+    c.series = fmt::format("{} s{}{} mb{} sa{:g} px", method, surfel_label(k.surfels), payload, k.mb,
+                           k.sa);
   }
   c.build = build;
-  c.params = {{"target_surfels", std::to_string(surfels)},
-              {"microbuffer_resolution", std::to_string(mb)},
-              {"max_solid_angle", fmt::format("{:g}", sa)},
-              {"pixel_samples", std::to_string(pixel_samples)},
+  c.params = {{"gather_method", method},
+              {"target_surfels", std::to_string(k.surfels)},
+              {"payload_codec", k.payload.label()},
+              {"microbuffer_resolution", std::to_string(k.mb)},
+              {"max_solid_angle", fmt::format("{:g}", k.sa)},
+              {"pixel_samples", std::to_string(k.pixel_samples)},
               {"light_samples", std::to_string(sweep.light_samples)}};
-  c.is_default = surfels == sweep.default_target_surfels &&
-                 mb == sweep.default_microbuffer_resolution &&
-                 sa == sweep.default_max_solid_angle && pixel_samples == sweep.pixel_samples;
+  if (k.method == GatherMethod::kFpbgi) {
+    c.params.push_back({"clusters", std::to_string(options.gather.clusters)});
+    c.params.push_back({"epsilon", fmt::format("{:g}", options.gather.effective_epsilon())});
+  }
+  const bool default_point = k.surfels == sweep.default_target_surfels &&
+                             k.sa == sweep.default_max_solid_angle &&
+                             k.pixel_samples == sweep.pixel_samples;
+  c.is_default = default_point && k.main_payload && k.method == sweep.default_method &&
+                 k.mb == sweep.default_microbuffer_resolution;
+  c.equal_error_point = default_point;
+  c.default_curve = k.main_payload && k.method == sweep.default_method &&
+                    k.surfels == sweep.default_target_surfels && k.pixel_samples == sweep.pixel_samples;
   c.render = [options](const BenchInput& in, const BuiltState* built) {
     return render_pbgi(in, built, options);
   };
   return c;
 }
 
+BuildSpec pbgi_build(const PbgiSweep& sweep, uint64_t surfels, const PayloadSpec& codec,
+                     std::string* name) {
+  *name = "pbgi/s" + surfel_label(surfels) + payload_suffix(codec);
+  std::string dir_name = "pbgi-s" + std::to_string(surfels) + "-" + codec.label();
+  std::replace(dir_name.begin(), dir_name.end(), ':', '-');
+  return {*name,
+          {{"target_surfels", std::to_string(surfels)}, {"payload_codec", codec.label()}},
+          [sweep, surfels, codec, dir_name](const BenchInput& in) {
+            return build_pbgi(in, sweep, surfels, codec, dir_name);
+          }};
+}
+
 }  // namespace
+
+std::string gather_method_name(GatherMethod method) {
+  return method == GatherMethod::kFpbgi ? "fpbgi" : "pbgi";
+}
+
+GatherMethod parse_gather_method(const std::string& name) {
+  if (name == "pbgi") return GatherMethod::kPbgi;
+  if (name == "fpbgi") return GatherMethod::kFpbgi;
+  throw InvalidArgument("bench: gather method '" + name + "': expected pbgi or fpbgi");
+}
 
 MethodPlan pbgi_plan(const PbgiSweep& sweep) {
   sweep.validate();
   MethodPlan plan;
+  std::string build;
+  // 1. The main payload: every surfel budget, method, microbuffer and cut;
+  // the antialiased extras of the default configuration.
   for (uint64_t surfels : sweep.target_surfels) {
-    const std::string build = "pbgi/s" + surfel_label(surfels);
-    const std::string dir_name = "pbgi-s" + std::to_string(surfels);
-    plan.builds.push_back({build,
-                           {{"target_surfels", std::to_string(surfels)}},
-                           [sweep, surfels, dir_name](const BenchInput& in) {
-                             return build_pbgi(in, sweep, surfels, dir_name);
-                           }});
-    for (uint32_t mb : sweep.microbuffer_resolutions)
-      for (float sa : sweep.max_solid_angles)
-        plan.configs.push_back(pbgi_config(sweep, build, surfels, mb, sa, sweep.pixel_samples));
+    const PayloadSpec& payload = sweep.payloads.front();
+    plan.builds.push_back(pbgi_build(sweep, surfels, payload, &build));
+    for (GatherMethod m : sweep.methods)
+      for (uint32_t mb : sweep.microbuffer_resolutions)
+        for (float sa : sweep.max_solid_angles)
+          plan.configs.push_back(
+              pbgi_config(sweep, build, {m, surfels, payload, true, mb, sa, sweep.pixel_samples}));
     if (surfels != sweep.default_target_surfels) continue;
     for (uint32_t px : sweep.extra_pixel_samples)
-      plan.configs.push_back(pbgi_config(sweep, build, surfels, sweep.default_microbuffer_resolution,
-                                         sweep.default_max_solid_angle, px));
+      plan.configs.push_back(pbgi_config(sweep, build,
+                                         {sweep.default_method, surfels, payload, true,
+                                          sweep.default_microbuffer_resolution,
+                                          sweep.default_max_solid_angle, px}));
+  }
+  // 2. Every other payload at the default budget and cut: each method over
+  // the microbuffer resolutions.
+  for (size_t i = 1; i < sweep.payloads.size(); ++i) {
+    const PayloadSpec& payload = sweep.payloads[i];
+    const uint64_t surfels = sweep.default_target_surfels;
+    plan.builds.push_back(pbgi_build(sweep, surfels, payload, &build));
+    for (GatherMethod m : sweep.methods)
+      for (uint32_t mb : sweep.microbuffer_resolutions)
+        plan.configs.push_back(pbgi_config(
+            sweep, build,
+            {m, surfels, payload, false, mb, sweep.default_max_solid_angle, sweep.pixel_samples}));
   }
   return plan;
 }

@@ -1,10 +1,12 @@
-// PBGI as a benchmark method: one build (surfels + page set, through
-// open_scene_model) per surfel budget, then one render per gather setting
-// (microbuffer resolution x cut threshold) with render_tile over the whole
-// image.
+// PBGI and factorized PBGI as benchmark methods: one build (surfels + page
+// set, through open_scene_model) per surfel budget and payload codec, then
+// one render per gather setting (method x microbuffer resolution x cut
+// threshold) with render_tile over the whole image.
 #pragma once
 
 #include "client/bench/bench_method.h"
+#include "client/bench/payload_spec.h"
+#include "server/gather/gather_options.h"
 
 #include <cstdint>
 #include <vector>
@@ -24,6 +26,21 @@ struct PbgiSweep {
   uint64_t default_target_surfels = 200000;
   uint32_t default_microbuffer_resolution = 8;
   float default_max_solid_angle = 0.03f;
+  // Gather methods: each renders every setting above from the same page
+  // sets (method "pbgi" or "fpbgi" in bench.csv, one curve each).
+  std::vector<GatherMethod> methods{GatherMethod::kPbgi, GatherMethod::kFpbgi};
+  GatherMethod default_method = GatherMethod::kPbgi;
+  // FPBGI's clusters per 1024 receivers (k) and far/near split (0 = auto),
+  // GatherOptions' defaults.
+  uint32_t fpbgi_clusters = GatherOptions{}.clusters;
+  float fpbgi_epsilon = GatherOptions{}.epsilon;
+  // Payload codecs. The first gets the full sweep above (the default
+  // configuration is one of its); every other one is one more page set at
+  // default_target_surfels, rendered by each method at each microbuffer
+  // resolution at default_max_solid_angle: a curve per method and codec.
+  std::vector<PayloadSpec> payloads{
+      PayloadSpec{},
+      PayloadSpec{tree::PayloadCodecOption::kQuantizedSh, 1024}};
   // RenderOptions of every PBGI render (camera rays per pixel, shadow rays
   // per pixel sample and light) and SurfelOptions::light_samples of builds.
   uint32_t pixel_samples = 1;
@@ -37,11 +54,20 @@ struct PbgiSweep {
   uint32_t surfel_light_samples = 16;
   uint64_t seed = 1;
 
-  // Throws InvalidArgument naming the field (empty lists, values the gather
-  // or surfel options reject, defaults not in the lists).
+  // Throws InvalidArgument naming the field (empty lists, repeated methods
+  // or payloads, values the gather, surfel or build options reject, defaults
+  // not in the lists).
   void validate() const;
 };
 
+// Configurations at default_target_surfels, default_max_solid_angle and
+// pixel_samples (every method, microbuffer and payload) are marked
+// MethodConfig::equal_error_point: the runner matches the path tracer's
+// cost to each of their errors.
 MethodPlan pbgi_plan(const PbgiSweep& sweep);
+
+// "pbgi" or "fpbgi"; parse_gather_method throws InvalidArgument otherwise.
+std::string gather_method_name(GatherMethod method);
+GatherMethod parse_gather_method(const std::string& name);
 
 }  // namespace pbgi::bench

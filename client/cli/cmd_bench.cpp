@@ -1,5 +1,6 @@
 // `pbgi bench SCENE`: speed against error. Builds PBGI page sets and renders
-// a sweep of PBGI settings and of path-tracer sample counts in this
+// a sweep of PBGI and factorized-PBGI settings and payload codecs, and of
+// path-tracer sample counts in this
 // process, measures each against a converged (cached) reference, writes
 // bench.json / bench.csv / bench.png to --out-dir and prints a summary with
 // the path tracer's cost at PBGI's error. See docs/benchmarks.md.
@@ -25,6 +26,10 @@ struct BenchArgs {
   std::vector<uint32_t> microbuffers;
   std::vector<float> solid_angles;
   std::optional<std::vector<uint32_t>> extra_pixel_samples;
+  std::vector<std::string> methods;
+  std::vector<std::string> payloads;
+  std::optional<uint32_t> clusters;
+  std::optional<float> epsilon;
   bool quick = false;
   bool images = false;
   bool no_plot = false;
@@ -50,6 +55,17 @@ int run(const BenchArgs& args) {
   if (!args.surfels.empty()) o.pbgi.target_surfels = args.surfels;
   if (!args.microbuffers.empty()) o.pbgi.microbuffer_resolutions = args.microbuffers;
   if (!args.solid_angles.empty()) o.pbgi.max_solid_angles = args.solid_angles;
+  if (!args.methods.empty()) {
+    o.pbgi.methods.clear();
+    for (const std::string& m : args.methods) o.pbgi.methods.push_back(bench::parse_gather_method(m));
+  }
+  if (!args.payloads.empty()) {
+    o.pbgi.payloads.clear();
+    for (const std::string& p : args.payloads) o.pbgi.payloads.push_back(bench::parse_payload_spec(p));
+  }
+  if (args.clusters) o.pbgi.fpbgi_clusters = *args.clusters;
+  if (args.epsilon) o.pbgi.fpbgi_epsilon = *args.epsilon;
+  pick_default(o.pbgi.methods, &o.pbgi.default_method);
   pick_default(o.pbgi.target_surfels, &o.pbgi.default_target_surfels);
   pick_default(o.pbgi.microbuffer_resolutions, &o.pbgi.default_microbuffer_resolution);
   pick_default(o.pbgi.max_solid_angles, &o.pbgi.default_max_solid_angle);
@@ -103,7 +119,18 @@ const CommandRegistrar kRegistrar("bench", [](CLI::App& app, int* exit_code) {
                   "Extra renders of the default PBGI configuration with this many camera rays "
                   "per pixel (default 4; 0 = none)")
       ->delimiter(',');
-  cmd->add_flag("--quick", args->quick, "Small sweep for CI (64x64, 20k surfels, 4 PBGI settings)");
+  cmd->add_option("--methods", args->methods,
+                  "Gather methods, each over every PBGI setting: pbgi, fpbgi (default pbgi,fpbgi)")
+      ->delimiter(',');
+  cmd->add_option("--payloads", args->payloads,
+                  "Payload codecs: derived, float32-sh, kmeans-sh[:LUT_ENTRIES]. The first gets "
+                  "the full sweep, the others a page set at the default surfel budget rendered "
+                  "at each microbuffer (default derived,kmeans-sh:1024)")
+      ->delimiter(',');
+  cmd->add_option("--clusters", args->clusters, "FPBGI clusters per 1024 receivers (default 100)");
+  cmd->add_option("--epsilon", args->epsilon,
+                  "FPBGI far/near split (default 0 = auto, 0.4 / microbuffer resolution)");
+  cmd->add_flag("--quick", args->quick, "Small sweep for CI (64x64, 20k surfels, 4 settings per gather method)");
   cmd->add_flag("--images", args->images, "Also write <out-dir>/images/<config>.exr");
   cmd->add_flag("--no-plot", args->no_plot, "Do not run scripts/plot_bench.py");
   cmd->add_flag("--quiet,-q", args->quiet, "No progress lines");

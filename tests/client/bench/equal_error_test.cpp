@@ -103,5 +103,22 @@ TEST(Pareto, EqualPointsAreBothOptimalAndNaNIsNever) {
   EXPECT_THROW(pareto_optimal({1}, {1, 2}), std::exception);
 }
 
+TEST(FrontSecondsAtError, InterpolatesLogLogOnTheParetoFront) {
+  // A curve with MSE ~ 1/seconds^2 (exact in log-log), one dominated point
+  // (slower and worse) that must not be bracketed.
+  const std::vector<SweepPoint> curve{{0, 1, 1.0}, {0, 4, 0.0625}, {0, 3, 2.0}, {0, 2, 0.25}};
+  EXPECT_NEAR(front_seconds_at_error(curve, 0.25), 2.0, 1e-12);     // a point
+  EXPECT_NEAR(front_seconds_at_error(curve, 0.5), std::sqrt(2.0), 1e-12);
+  EXPECT_NEAR(front_seconds_at_error(curve, 0.125), std::sqrt(8.0), 1e-12);
+}
+
+TEST(FrontSecondsAtError, NeverExtrapolates) {
+  const std::vector<SweepPoint> curve{{0, 1, 1.0}, {0, 2, 0.25}};
+  EXPECT_EQ(front_seconds_at_error(curve, 2.0), 0.0);   // worse than the fastest
+  EXPECT_EQ(front_seconds_at_error(curve, 0.1), 0.0);   // better than the best
+  EXPECT_EQ(front_seconds_at_error({}, 0.5), 0.0);
+  EXPECT_EQ(front_seconds_at_error(curve, std::numeric_limits<double>::quiet_NaN()), 0.0);
+}
+
 }  // namespace
 }  // namespace pbgi::bench
