@@ -2,6 +2,7 @@
 // names map onto codec names, a wavelet request is refused by name, the
 // adaptive-spacing image comes from the rendered image.
 #include "client/cli/build_flags.h"
+#include "tests/client/cli/parse_flags.h"
 
 #include "storage/format/errors.h"
 
@@ -13,14 +14,7 @@ namespace pbgi::cli {
 namespace {
 
 BuildArgs parse(std::vector<std::string> argv) {
-  CLI::App app;
-  BuildArgs args;
-  args.add_to(&app);
-  argv.insert(argv.begin(), "pbgi");
-  std::vector<const char*> c;
-  for (const auto& a : argv) c.push_back(a.c_str());
-  app.parse(int(c.size()), c.data());
-  return args;
+  return testing::parse_flags<BuildArgs>(std::move(argv));
 }
 
 TEST(BuildFlags, PayloadNamesMapOntoCodecs) {

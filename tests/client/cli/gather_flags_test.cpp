@@ -1,6 +1,7 @@
 // The gather flags `pbgi render` and `pbgi tile` share parse into the
 // request's GatherOptions; unset flags stay 0 (= the daemon's default).
 #include "client/cli/gather_flags.h"
+#include "tests/client/cli/parse_flags.h"
 
 #include <gtest/gtest.h>
 
@@ -10,14 +11,7 @@ namespace pbgi::cli {
 namespace {
 
 v1::GatherOptions parse(std::vector<std::string> argv) {
-  CLI::App app;
-  GatherArgs args;
-  args.add_to(&app);
-  argv.insert(argv.begin(), "pbgi");
-  std::vector<const char*> c;
-  for (const auto& a : argv) c.push_back(a.c_str());
-  app.parse(int(c.size()), c.data());
-  return args.to_proto();
+  return testing::parse_flags<GatherArgs>(std::move(argv)).to_proto();
 }
 
 TEST(GatherFlags, UnsetFlagsLeaveTheDaemonDefaults) {
