@@ -403,12 +403,17 @@ Scene read_usd_scene_cached(const fs::path& path, const IngestOptions& options, 
     return std::move(*stored);
   }
   Scene scene = read_usd_scene(path, options, progress);
+  if (from_store) *from_store = false;
   try {
     store.save(key, scene);
   } catch (const Error& e) {
     spdlog::warn("chunk store: cannot save '{}': {}", path.string(), e.what());
+    return scene;
   }
-  if (from_store) *from_store = false;
+  // The first open serves the stored (Draco-quantized) scene too, so that
+  // what a daemon renders never depends on whether the store had the entry:
+  // a restart or a replica reading the entry renders identical pixels.
+  if (std::optional<Scene> stored = store.load(key)) return std::move(*stored);
   return scene;
 }
 

@@ -80,9 +80,10 @@ class ChunkStore {
 
 // What the engine calls instead of read_usd_scene when it has a store:
 // hashes the scene (the reader stops after opening the stage), loads the
-// entry if there is one, else ingests and saves. `from_store` (optional)
-// tells which happened. A failure to save is logged, not thrown: the scene
-// was read.
+// entry if there is one, else ingests, saves and returns the saved entry
+// (so results never depend on whether the entry existed). `from_store`
+// (optional) tells which happened. A failure to save is logged, not
+// thrown: the scene as read is returned.
 Scene read_usd_scene_cached(const std::filesystem::path& path, const IngestOptions& options,
                             const ChunkStore& store,
                             const std::function<void(const std::string&, float)>& progress = {},
