@@ -38,13 +38,13 @@ def quad_normal(p):
     return Gf.GetNormalized(Gf.Cross(b - a, c - a))
 
 
-def define_material(stage, path, color):
+def define_material(stage, path, color, roughness=1.0, metallic=0.0):
     material = UsdShade.Material.Define(stage, path)
     shader = UsdShade.Shader.Define(stage, path + "/PreviewSurface")
     shader.CreateIdAttr("UsdPreviewSurface")
     shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*color))
-    shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(1.0)
-    shader.CreateInput("metallic", Sdf.ValueTypeNames.Float).Set(0.0)
+    shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(roughness)
+    shader.CreateInput("metallic", Sdf.ValueTypeNames.Float).Set(metallic)
     material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
     return material
 
@@ -114,7 +114,7 @@ def check_exposure():
     return WHITE[0] / math.pi * irradiance
 
 
-def main(out_path):
+def main(out_path, glossy=False):
     if os.path.exists(out_path):
         os.remove(out_path)  # CreateNew refuses to overwrite
     stage = Usd.Stage.CreateNew(out_path)
@@ -129,6 +129,10 @@ def main(out_path):
     white = define_material(stage, "/World/Materials/White", WHITE)
     red = define_material(stage, "/World/Materials/Red", RED)
     green = define_material(stage, "/World/Materials/Green", GREEN)
+    # The glossy variant (cornell_glossy.usda): a gold-like metal tall box,
+    # a glossy sender that reflects the light onto the walls and floor.
+    tall = define_material(stage, "/World/Materials/Gold", (0.95, 0.8, 0.45), roughness=0.15,
+                           metallic=1.0) if glossy else white
 
     UsdGeom.Xform.Define(stage, "/World/Room")
     wall(stage, "/World/Room/Floor",
@@ -142,7 +146,7 @@ def main(out_path):
     wall(stage, "/World/Room/RightWall",
          [(1, 0, -1), (1, 0, 1), (1, 2, 1), (1, 2, -1)], (-1, 0, 0), green)
 
-    box(stage, "/World/TallBox", (0.6, 1.2, 0.6), (-0.33, 0.6, -0.3), 15.0, white)
+    box(stage, "/World/TallBox", (0.6, 1.2, 0.6), (-0.33, 0.6, -0.3), 15.0, tall)
     box(stage, "/World/ShortBox", (0.6, 0.6, 0.6), (0.33, 0.3, 0.35), -18.0, white)
 
     UsdGeom.Scope.Define(stage, "/Lights")
@@ -175,4 +179,7 @@ def main(out_path):
 
 if __name__ == "__main__":
     here = os.path.dirname(os.path.abspath(__file__))
-    main(sys.argv[1] if len(sys.argv) > 1 else os.path.join(here, "cornell.usda"))
+    glossy = "--glossy" in sys.argv[1:]
+    args = [a for a in sys.argv[1:] if a != "--glossy"]
+    default = "cornell_glossy.usda" if glossy else "cornell.usda"
+    main(args[0] if args else os.path.join(here, default), glossy)

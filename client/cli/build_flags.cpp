@@ -12,8 +12,9 @@ std::string payload_codec_name(const std::string& flag) {
   if (flag == "quantized") return "kmeans-sh";
   if (flag == "wavelet") {
     throw InvalidArgument(
-        "--payload wavelet: Haar-wavelet payloads for glossy senders are not served by this "
-        "daemon yet (use sh, quantized or auto)");
+        "--payload wavelet: --payload picks the diffuse SH payload (sh, quantized or auto); "
+        "glossy senders get Haar-wavelet radiance whatever it is (see --glossy-roughness, "
+        "--glossy-resolution and --wavelet-threshold)");
   }
   return flag;
 }
@@ -31,7 +32,7 @@ void BuildArgs::add_to(CLI::App* cmd) {
   cmd->add_option("--payload", payload,
                   "node payloads: sh (exact, derived from the surfels as pages load), quantized "
                   "(k-means LUT), auto, or a codec name (derived, float32-sh, kmeans-sh); "
-                  "wavelet is not served yet [daemon default]");
+                  "glossy senders' wavelet radiance has its own flags [daemon default]");
   cmd->add_option("--lut-entries", lut_entries, "quantized payloads: LUT size [4096]")
       ->check(CLI::Range(64u, 65536u));
   cmd->add_option("--sampler", sampler, "surfel sampler: uniform or poisson (blue noise) [uniform]")
@@ -41,6 +42,16 @@ void BuildArgs::add_to(CLI::App* cmd) {
                   "pixel footprint for the rendered image size");
   cmd->add_option("--pixel-footprint", pixel_footprint,
                   "with --spacing-camera: surfel spacing in pixels [1]");
+  cmd->add_option("--glossy-roughness", glossy_roughness,
+                  "materials with a GGX roughness below this are glossy senders whose outgoing radiance "
+                  "the tree stores as wavelet cube maps; 0 = none [0.3]")
+      ->check(CLI::Range(0.f, 1.f));
+  cmd->add_option("--glossy-resolution", glossy_resolution,
+                  "glossy senders' cube maps: pixels per face side [16]")
+      ->check(CLI::IsMember({8u, 16u, 32u}));
+  cmd->add_option("--wavelet-threshold", wavelet_threshold,
+                  "drop wavelet detail blocks (one cube face) whose L2 norm is below this; 0 = exact [0]")
+      ->check(CLI::NonNegativeNumber);
 }
 
 v1::BuildOptions BuildArgs::to_proto(uint32_t image_width, uint32_t image_height) const {
@@ -54,6 +65,9 @@ v1::BuildOptions BuildArgs::to_proto(uint32_t image_width, uint32_t image_height
   build.set_sampler(sampler);
   build.set_spacing_camera(spacing_camera);
   build.set_pixel_footprint(pixel_footprint);
+  if (glossy_roughness) build.set_glossy_roughness(*glossy_roughness);
+  build.set_glossy_resolution(glossy_resolution);
+  if (wavelet_threshold) build.set_wavelet_threshold(*wavelet_threshold);
   if (!spacing_camera.empty()) {
     build.set_spacing_image_width(image_width);
     build.set_spacing_image_height(image_height);

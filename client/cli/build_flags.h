@@ -8,6 +8,7 @@
 #include <CLI/CLI.hpp>
 
 #include <cstdint>
+#include <optional>
 #include <string>
 
 namespace pbgi::cli {
@@ -22,10 +23,14 @@ struct BuildArgs {
   std::string sampler;         // "uniform" / "poisson"; "" = the daemon's default
   std::string spacing_camera;  // camera-adaptive spacing; "" = absolute
   float pixel_footprint = 0.f;
+  std::optional<float> glossy_roughness;   // unset = the daemon's default
+  uint32_t glossy_resolution = 0;          // 0 = the daemon's default
+  std::optional<float> wavelet_threshold;  // unset = the daemon's default
 
   // Adds --target-surfels, --surfel-spacing, --build-light-samples,
-  // --bounces, --payload, --lut-entries, --sampler, --spacing-camera and
-  // --pixel-footprint to `cmd`.
+  // --bounces, --payload, --lut-entries, --sampler, --spacing-camera,
+  // --pixel-footprint, --glossy-roughness, --glossy-resolution and
+  // --wavelet-threshold to `cmd`.
   void add_to(CLI::App* cmd);
 
   // The request message. Throws InvalidArgument for a --payload value the

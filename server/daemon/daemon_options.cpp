@@ -294,6 +294,9 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
     build.read("spacing_image_width", o.surfels.image_width);
     build.read("spacing_image_height", o.surfels.image_height);
     build.read("pixel_footprint", o.surfels.pixel_footprint);
+    build.read("glossy_roughness", o.surfels.glossy_roughness);
+    build.read("glossy_resolution", o.tree.glossy_resolution);
+    build.read("wavelet_threshold", o.tree.wavelet_threshold);
     build.read("target_surfels", o.surfels.target_surfels);
     build.read("light_samples", o.surfels.light_samples);
     build.read("seed", o.surfels.seed);
@@ -386,6 +389,9 @@ std::string to_toml(const DaemonOptions& o) {
   integer_value("spacing_image_width", b.surfels.image_width);
   integer_value("spacing_image_height", b.surfels.image_height);
   float32_value("pixel_footprint", b.surfels.pixel_footprint);
+  float32_value("glossy_roughness", b.surfels.glossy_roughness);
+  integer_value("glossy_resolution", b.tree.glossy_resolution);
+  float32_value("wavelet_threshold", b.tree.wavelet_threshold);
   integer_value("target_surfels", b.surfels.target_surfels);
   integer_value("light_samples", b.surfels.light_samples);
   integer_value("seed", b.surfels.seed);
@@ -475,6 +481,9 @@ bool operator==(const DaemonOptions& a, const DaemonOptions& b) {
          oa.surfels.camera == ob.surfels.camera && oa.surfels.image_width == ob.surfels.image_width &&
          oa.surfels.image_height == ob.surfels.image_height &&
          oa.surfels.pixel_footprint == ob.surfels.pixel_footprint &&
+         oa.surfels.glossy_roughness == ob.surfels.glossy_roughness &&
+         oa.tree.glossy_resolution == ob.tree.glossy_resolution &&
+         oa.tree.wavelet_threshold == ob.tree.wavelet_threshold &&
          oa.surfels.target_surfels == ob.surfels.target_surfels &&
          oa.surfels.light_samples == ob.surfels.light_samples &&
          oa.surfels.seed == ob.surfels.seed && oa.tree.page_size == ob.tree.page_size &&

@@ -20,6 +20,14 @@ std::string page_set_build_key(const std::string& scene_content_hash, const Open
   // Additions keep the text of the defaults unchanged, so that adding an
   // option does not rebuild every cached page set.
   if (s.sampler != SurfelSampler::kUniform) text += fmt::format("|sampler={}", int(s.sampler));
+  {
+    const SurfelOptions ds;
+    const tree::BuildOptions dt;
+    if (s.glossy_roughness != ds.glossy_roughness || o.tree.glossy_resolution != dt.glossy_resolution ||
+        o.tree.wavelet_threshold != dt.wavelet_threshold) {
+      text += fmt::format("|glossy={},{},{}", s.glossy_roughness, o.tree.glossy_resolution, o.tree.wavelet_threshold);
+    }
+  }
   // Stored payloads change the bytes; the LUT options only matter when a
   // LUT may be learned (kmeans-sh, auto).
   const tree::BuildOptions& t = o.tree;

@@ -5,6 +5,7 @@
 #include "server/gather/page_views.h"
 #include "server/scene/render_origin.h"
 #include "server/ingest/usd_ingest.h"
+#include "server/surfels/glossy_shading.h"
 #include "server/surfels/surfels.h"
 #include "storage/format/errors.h"
 
@@ -50,6 +51,12 @@ void log_build(const std::string& key, const SurfelGenerationStats& g, const sto
                n / std::max(1e-9, g.sample_seconds + g.shade_seconds), tree_seconds,
                n / std::max(1e-9, tree_seconds), r.runs, r.merges, s.page_count,
                double(s.file_bytes) / std::max(1.0, n));
+  if (r.glossy_pages > 0) {
+    spdlog::info("page set {}: {} glossy surfels, wavelet radiance in {} pages, {} bytes ({} face blocks kept, "
+                 "{} dropped), lobes lit in {:.1f} s",
+                 key, r.glossy_surfels, r.glossy_pages, r.glossy_bytes, r.glossy_kept_blocks,
+                 r.glossy_dropped_blocks, r.glossy_shade_seconds);
+  }
 }
 
 // Runs `build`, which publishes the page set `dir`, and opens it. If
@@ -82,6 +89,9 @@ std::unique_ptr<storage::PageSetReader> build_page_sets(
       // 4. Surfels, sampled and shaded batch by batch, streamed into the
       //    page-set build (external sort by Morton code, bounded memory).
       storage::PageSetBuilder builder(options.tree, dir.filename().string(), dir, scene.bounds());
+      // Glossy senders' lobes are lit while their pages are written.
+      const SceneGlossyShader glossy(*session.rays, options.surfels.light_samples, options.surfels.seed);
+      builder.set_glossy_shader(&glossy);
       const SurfelGenerationStats generated =
           generate_surfels(scene, *session.rays, options.surfels,
                            [&](std::span<const Surfel> batch) { builder.add(batch); },

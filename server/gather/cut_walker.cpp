@@ -224,6 +224,7 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
     shape.squash = Imath::V3f(h.ax, h.ay, h.az);
     shape.ratio = coverage;
     radiance = Imath::C3f(look.r, look.g, look.b);
+    if (h.glossy()) add_glossy(e, -dir, coverage, radiance);
   } else if (h.bipolar()) {
     // Both faces of a thin wall: only the one turned towards the receiver.
     const Bipolar& b = e.view->bipolar[e.view->bipolar_index[e.index]];
@@ -233,6 +234,7 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
     shape.omega = std::min(look.area * coverage, disk) / d2;
     shape.squash = b.axis;
     shape.ratio = std::min(1.f, std::abs(b.axis.dot(dir)));
+    if (h.glossy()) add_glossy(e, -dir, coverage, radiance);
   } else {
     // A wide cone with normals facing away from the receiver: the SH's
     // coverage from behind is ringing (several % of the node's radiance),
@@ -258,6 +260,7 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
     shape.squash = look.squash;
     shape.ratio = look.ratio;
     radiance = look.radiance;
+    if (h.glossy()) add_glossy(e, -dir, look.coverage, radiance);
   }
   shape.max_radius = h.radius * inv_d;
   // A node's splat keeps the depth of its center (depth_extent 0): its
@@ -283,7 +286,15 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
   return true;
 }
 
-void CutWalker::leaf_surfels(const tree::Page& page, const HotNode& h) {
+void CutWalker::add_glossy(const StackEntry& e, const Imath::V3f& w, float coverage, Imath::C3f& radiance) {
+  if (!(coverage > kMinCoverage)) return;
+  const Imath::C3f g = e.view->glossy->evaluate(e.index, w);
+  // Dropped wavelet details can leave small negative values.
+  const float inv = 1.f / coverage;
+  radiance += Imath::C3f(std::max(0.f, g.x) * inv, std::max(0.f, g.y) * inv, std::max(0.f, g.z) * inv);
+}
+
+void CutWalker::leaf_surfels(const StackEntry& e, const tree::Page& page, const HotNode& h) {
   const uint32_t end = h.first + h.size();  // checked against the page by the view
   for (uint32_t i = h.first; i < end; ++i) {
     const Surfel& s = page.surfels[i];
@@ -293,6 +304,18 @@ void CutWalker::leaf_surfels(const tree::Page& page, const HotNode& h) {
     if (!(facing < 0.f)) continue;         // also rejects NaN
     if (n_.dot(q) < -s.radius) continue;   // below the tangent plane
     const float d2 = q.length2();
+    Imath::C3f radiance = s.radiance;
+    if (h.glossy()) {
+      // The leaf stores its surfels' glossy radiance together: each shows
+      // the leaf's, over the leaf's projected fraction towards the receiver.
+      const Imath::V3f w = -q / std::sqrt(d2);
+      float projected = 0.f, area = 0.f;
+      for (uint32_t k = h.first; k < end; ++k) {
+        projected += page.surfels[k].area() * std::max(0.f, page.surfels[k].normal.dot(w));
+        area += page.surfels[k].area();
+      }
+      if (area > 0.f) add_glossy(e, w, projected / area, radiance);
+    }
     const float r2 = s.radius * s.radius;
     if (d2 > r2 && kPi * r2 <= surfel_splat_max_ * d2) {
       const float d = std::sqrt(d2);
@@ -307,10 +330,10 @@ void CutWalker::leaf_surfels(const tree::Page& page, const HotNode& h) {
       // occluding each other pixel by pixel (7% of the light of a wall
       // 1 cm away was lost).
       shape.depth_extent = s.radius * std::sqrt(std::max(0.f, 1.f - shape.ratio * shape.ratio));
-      raster_.splat(q / d, shape, d, s.radiance);
+      raster_.splat(q / d, shape, d, radiance);
       ++counters_.surfels_splatted;
     } else {
-      raster_.raycast(q, s.normal, s.radius * kRaycastRadiusScale, s.radiance);
+      raster_.raycast(q, s.normal, s.radius * kRaycastRadiusScale, radiance);
       ++counters_.surfels_raycast;
     }
   }
@@ -338,7 +361,7 @@ void CutWalker::walk_receiver() {
         if (!h.leaf()) {
           push_children(e, h);
         } else {
-          leaf_surfels(pins_.page(e.pin), h);
+          leaf_surfels(e, pins_.page(e.pin), h);
         }
       }
     }

@@ -20,7 +20,8 @@ std::string where(const tree::Page& page, size_t node) {
 
 }  // namespace
 
-PageView::PageView(const tree::Page& page) : id(page.id), surfel_count(page.surfels.size()) {
+PageView::PageView(const tree::Page& page)
+    : id(page.id), glossy(page.glossy), surfel_count(page.surfels.size()) {
   nodes.resize(page.nodes.size());
   looks.resize(page.nodes.size());
   for (size_t i = 0; i < page.nodes.size(); ++i) {
@@ -77,6 +78,7 @@ PageView::PageView(const tree::Page& page) : id(page.id), surfel_count(page.surf
         bipolar.push_back(b);
       }
     }
+    if (glossy && glossy->glossy(static_cast<uint32_t>(i))) flags |= HotNode::kGlossy;
     // Nothing to see: no area, or NaN/negative/infinite bounds.
     if (!(n.area > 0.f) || !(n.radius >= 0.f) || !std::isfinite(n.radius) || !finite(n.center)) {
       flags |= HotNode::kInvisible;

@@ -19,6 +19,7 @@
 
 #include "server/gather/gather.h"
 #include "server/gather/node_appearance.h"
+#include "storage/codecs/glossy_pages.h"
 #include "storage/tree/node.h"
 
 #include <cstdint>
@@ -45,7 +46,10 @@ struct alignas(16) HotNode {
   // faces of a thin wall, node_appearance.h); its appearance comes from
   // PageView::bipolar.
   static constexpr uint32_t kBipolar = 1u << 28;
-  static constexpr uint32_t kCountMask = kBipolar - 1;
+  // In `count`: the node may show glossy senders' radiance
+  // (PageView::glossy, storage/codecs/glossy_pages.h) besides its SH's.
+  static constexpr uint32_t kGlossy = 1u << 27;
+  static constexpr uint32_t kCountMask = kGlossy - 1;
 
   float cx, cy, cz, radius;  // bounding sphere
   float ax, ay, az;          // normal cone axis (unit)
@@ -61,6 +65,7 @@ struct alignas(16) HotNode {
   bool narrow() const { return count & kNarrow; }
   bool invisible() const { return count & kInvisible; }
   bool bipolar() const { return count & kBipolar; }
+  bool glossy() const { return count & kGlossy; }
   uint32_t size() const { return count & kCountMask; }
 };
 static_assert(sizeof(HotNode) == 48);
@@ -85,6 +90,8 @@ struct PageView {
   // any) is node i's entry.
   std::vector<Bipolar> bipolar;
   std::vector<uint32_t> bipolar_index;
+  // The page's glossy radiance (shared with the page), or null.
+  std::shared_ptr<const storage::GlossyNodes> glossy;
   size_t surfel_count = 0;
 
   // Builds the view; throws CorruptionError for a child count above

@@ -16,13 +16,16 @@ namespace pbgi {
 // p's coordinates so it stays tight far from the origin) and stop just short
 // of the light sample so that geometry modelled at the emitter's position (a
 // light's housing quad) does not shadow its own light.
-C3f direct_irradiance(const RayScene& rays, const V3f& p, const V3f& n, uint32_t samples,
-                      uint64_t seed) {
+namespace {
+// Calls add(direction, L cos / pdf) for every unshadowed sample of a light,
+// then end_light(sample count) once per light.
+template <class Add, class EndLight>
+void visit_light_samples(const RayScene& rays, const V3f& p, const V3f& n, uint32_t samples, uint64_t seed,
+                         Add&& add, EndLight&& end_light) {
   const std::vector<Light>& lights = rays.scene().lights;
   const V3f origin = rays.offset_ray_origin(p, n, n);
   const float eps = (origin - p).length();
   const uint32_t count = std::max(samples, 1u);
-  C3f e(0, 0, 0);
   for (size_t li = 0; li < lights.size(); ++li) {
     const Light& light = lights[li];
     // One stream per (point, light): adding a light does not change the
@@ -30,7 +33,6 @@ C3f direct_irradiance(const RayScene& rays, const V3f& p, const V3f& n, uint32_t
     Rng rng(seed, li);
     const bool delta = light.kind == LightKind::Distant;
     const uint32_t n_samples = delta ? 1u : count;
-    C3f sum(0, 0, 0);
     for (uint32_t k = 0; k < n_samples; ++k) {
       const Imath::V2f u = stratified_sample(k, n_samples, rng);
       const LightSample s = sample_light(light, p, u.x, u.y);
@@ -43,11 +45,35 @@ C3f direct_irradiance(const RayScene& rays, const V3f& p, const V3f& n, uint32_t
                              : s.distance * (1.f - 1e-4f) - 2.f * eps;
       if (!(tmax > 0.f)) continue;
       if (rays.occluded(origin, s.direction, 0.f, tmax)) continue;
-      sum += s.radiance * (cos_r / s.pdf);
+      add(s.direction, s.radiance * (cos_r / s.pdf));
     }
-    e += sum / static_cast<float>(n_samples);
+    end_light(n_samples);
   }
+}
+}  // namespace
+
+C3f direct_irradiance(const RayScene& rays, const V3f& p, const V3f& n, uint32_t samples,
+                      uint64_t seed) {
+  C3f e(0, 0, 0), sum(0, 0, 0);
+  visit_light_samples(
+      rays, p, n, samples, seed, [&](const V3f&, const C3f& c) { sum += c; },
+      [&](uint32_t n_samples) {
+        e += sum / static_cast<float>(n_samples);
+        sum = C3f(0, 0, 0);
+      });
   return e;
+}
+
+void incident_light(const RayScene& rays, const V3f& p, const V3f& n, uint32_t samples, uint64_t seed,
+                    std::vector<IncidentSample>& out) {
+  out.clear();
+  size_t first = 0;  // this light's first sample in `out`
+  visit_light_samples(
+      rays, p, n, samples, seed, [&](const V3f& w, const C3f& c) { out.push_back({w, c}); },
+      [&](uint32_t n_samples) {
+        for (size_t i = first; i < out.size(); ++i) out[i].irradiance /= static_cast<float>(n_samples);
+        first = out.size();
+      });
 }
 
 }  // namespace pbgi

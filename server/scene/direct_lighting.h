@@ -6,6 +6,7 @@
 #include "server/scene/ray_scene.h"
 
 #include <cstdint>
+#include <vector>
 
 namespace pbgi {
 
@@ -13,5 +14,16 @@ namespace pbgi {
 // `samples` stratified samples per area light; `seed` decorrelates points.
 C3f direct_irradiance(const RayScene& rays, const V3f& p, const V3f& n, uint32_t samples,
                       uint64_t seed);
+
+// The same light samples one by one, for lobes that are not Lambertian (a
+// glossy surfel's specular lobe): the direction towards the light and the
+// sample's share of the irradiance (they sum to direct_irradiance()).
+// Shadowed samples are left out. `out` is replaced.
+struct IncidentSample {
+  V3f direction;
+  C3f irradiance;
+};
+void incident_light(const RayScene& rays, const V3f& p, const V3f& n, uint32_t samples, uint64_t seed,
+                    std::vector<IncidentSample>& out);
 
 }  // namespace pbgi

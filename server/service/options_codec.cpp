@@ -71,6 +71,9 @@ OpenOptions decode_open_options(const v1::BuildOptions& proto, const OpenOptions
   out.surfels.image_width = or_default(proto.spacing_image_width(), defaults.surfels.image_width);
   out.surfels.image_height = or_default(proto.spacing_image_height(), defaults.surfels.image_height);
   out.surfels.pixel_footprint = or_default(proto.pixel_footprint(), defaults.surfels.pixel_footprint);
+  if (proto.has_glossy_roughness()) out.surfels.glossy_roughness = proto.glossy_roughness();
+  out.tree.glossy_resolution = or_default(proto.glossy_resolution(), defaults.tree.glossy_resolution);
+  if (proto.has_wavelet_threshold()) out.tree.wavelet_threshold = proto.wavelet_threshold();
   out.surfels.validate();
   out.tree.validate();
   out.bounce.validate();
@@ -135,6 +138,9 @@ v1::BuildOptions encode_open_options(const OpenOptions& options) {
   proto.set_spacing_image_width(options.surfels.image_width);
   proto.set_spacing_image_height(options.surfels.image_height);
   proto.set_pixel_footprint(options.surfels.pixel_footprint);
+  proto.set_glossy_roughness(options.surfels.glossy_roughness);
+  proto.set_glossy_resolution(options.tree.glossy_resolution);
+  proto.set_wavelet_threshold(options.tree.wavelet_threshold);
   return proto;
 }
 
@@ -143,11 +149,12 @@ std::string open_options_key(const OpenOptions& o) {
   // so distinct values never share a key.
   return fmt::format(
       "spacing={};target={};light={};seed={};leaf={};page={};payload={};lut={};lut_fraction={};"
-      "bounces={};sampler={};camera={};image={}x{};footprint={}",
+      "bounces={};sampler={};camera={};image={}x{};footprint={};glossy={},{},{}",
       o.surfels.spacing, o.surfels.target_surfels, o.surfels.light_samples, o.surfels.seed,
       o.tree.leaf_size, o.tree.page_size, tree::to_string(o.tree.payload_codec), o.tree.lut_entries,
       o.tree.lut_sample_fraction, o.bounce.bounces, to_string(o.surfels.sampler), o.surfels.camera,
-      o.surfels.image_width, o.surfels.image_height, o.surfels.pixel_footprint);
+      o.surfels.image_width, o.surfels.image_height, o.surfels.pixel_footprint, o.surfels.glossy_roughness,
+      o.tree.glossy_resolution, o.tree.wavelet_threshold);
 }
 
 v1::SceneInfo encode_scene_info(const SceneSession& session) {

@@ -49,6 +49,7 @@
 #include "server/surfels/coincident_surfaces.h"
 #include "server/surfels/progress_meter.h"
 #include "server/surfels/spacing_field.h"
+#include "server/surfels/surfel_material.h"
 #include "server/surfels/surfel_samplers.h"
 #include "storage/format/errors.h"
 
@@ -487,8 +488,7 @@ class PoissonSampler {
     out.normal = s.n;
     out.radius = std::sqrt(float(s.weight) * kInvPi);
     const SurfaceColors colors = surface_colors(scene_, s.tri, s.b1, s.b2, 2.f * out.radius);
-    out.albedo = colors.albedo;
-    out.emission = colors.emission;
+    set_surfel_material(scene_, s.tri, colors, options_.glossy_roughness, out);
     out.radiance = colors.emission;
     chunk_.push_back(out);
     if (twin(s.tri)) {

@@ -30,6 +30,9 @@ void SurfelOptions::validate() const {
     throw InvalidArgument(fmt::format(
         "surfels.target_surfels = {}: must be in [1, 2^31] when spacing is 0", target_surfels));
   }
+  if (!(glossy_roughness >= 0.f && glossy_roughness <= 1.f)) {
+    throw InvalidArgument(fmt::format("surfels.glossy_roughness = {}: must be in [0, 1]", glossy_roughness));
+  }
   if (light_samples == 0 || light_samples > 4096) {
     throw InvalidArgument(
         fmt::format("surfels.light_samples = {}: must be in [1, 4096]", light_samples));

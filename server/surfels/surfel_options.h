@@ -40,6 +40,12 @@ struct SurfelOptions {
   float offscreen_factor = 4.f;  // spacing multiplier outside the frustum (>= 1)
   float frustum_margin = 0.1f;   // frustum widened by this fraction per side
 
+  // Glossy senders: surfels of materials whose GGX lobe has a roughness
+  // below this keep the lobe (server/surfels/surfel_material.h), and the
+  // tree stores their outgoing radiance as wavelet cube maps; rougher
+  // materials reflect as Lambertian. 0 = no glossy senders.
+  float glossy_roughness = 0.3f;
+
   // Stratified shadow-ray samples per surfel and area light.
   uint32_t light_samples = 16;
   // Seed of all sampling, so that a build is reproducible.

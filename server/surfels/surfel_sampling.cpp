@@ -41,9 +41,9 @@
 #include "server/scene/sample_patterns.h"
 #include "server/scene/scene_validation.h"
 #include "server/scene/surface_colors.h"
-#include "server/scene/surface_colors.h"
 #include "server/surfels/coincident_surfaces.h"
 #include "server/surfels/progress_meter.h"
+#include "server/surfels/surfel_material.h"
 #include "server/surfels/surfel_samplers.h"
 #include "storage/format/errors.h"
 
@@ -236,8 +236,7 @@ void sample_uniform(const Scene& scene, const SurfelOptions& options, const Surf
         const float share = cover.any() ? p.share / float(cover.cover(uint32_t(i), s.position)) : p.share;
         s.radius = std::sqrt(share * kInvPi);
         const SurfaceColors colors = surface_colors(scene, static_cast<uint32_t>(i), b.x, b.y, 2.f * s.radius);
-        s.albedo = colors.albedo;
-        s.emission = colors.emission;
+        set_surfel_material(scene, static_cast<uint32_t>(i), colors, options.glossy_roughness, s);
         s.radiance = colors.emission;
       }
       meter.advance(r.size());

@@ -61,6 +61,15 @@ void CubeLayout::pixel(const Imath::V3f& w, uint32_t& face, uint32_t& x, uint32_
   y = to_pixel(v);
 }
 
+float CubeLayout::solid_angle(uint32_t x, uint32_t y) const {
+  // Solid angle of [u0,u1] x [v0,v1] on the face plane at distance 1:
+  // A(u1,v1) - A(u0,v1) - A(u1,v0) + A(u0,v0), A(a, b) = atan2(a b, sqrt(a^2 + b^2 + 1)).
+  auto A = [](double a, double b) { return std::atan2(a * b, std::sqrt(a * a + b * b + 1.0)); };
+  const double step = 2.0 / double(n);
+  const double u0 = -1.0 + step * x, u1 = u0 + step, v0 = -1.0 + step * y, v1 = v0 + step;
+  return float(A(u1, v1) - A(u0, v1) - A(u1, v0) + A(u0, v0));
+}
+
 std::vector<float> sample_cube(const CubeLayout& layout, const std::function<Imath::C3f(const Imath::V3f&)>& L) {
   layout.validate();
   std::vector<float> out(layout.floats());
@@ -105,6 +114,13 @@ Imath::C3f cube_evaluate(const CubeLayout& layout, std::span<const float> coeffs
   for (uint32_t c = 0; c < 3; ++c) {
     out[c] = haar2d_point(coeffs.subspan(layout.index(f, c, 0, 0), layout.image_floats()), layout.n, x, y);
   }
+  return out;
+}
+
+Imath::C3f face_evaluate(const CubeLayout& layout, const float* face_coeffs, uint32_t x, uint32_t y) {
+  const size_t img = layout.image_floats();
+  Imath::C3f out;
+  for (uint32_t c = 0; c < 3; ++c) out[c] = haar2d_point({face_coeffs + c * img, img}, layout.n, x, y);
   return out;
 }
 

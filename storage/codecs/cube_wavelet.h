@@ -48,6 +48,9 @@ struct CubeLayout {
   Imath::V3f direction(uint32_t face, uint32_t x, uint32_t y) const;
   // Face and pixel that direction `w` (any non-zero length) falls in.
   void pixel(const Imath::V3f& w, uint32_t& face, uint32_t& x, uint32_t& y) const;
+  // Exact solid angle of pixel (x, y) (the same on every face; they sum
+  // to 4 pi).
+  float solid_angle(uint32_t x, uint32_t y) const;
 };
 
 // Samples L at every pixel centre (spatial domain, layout above).
@@ -58,6 +61,9 @@ void cube_inverse(const CubeLayout& layout, std::span<float> coeffs);
 // The radiance in direction w from the coefficients (pixel lookup, no
 // interpolation), in O(log n) per channel.
 Imath::C3f cube_evaluate(const CubeLayout& layout, std::span<const float> coeffs, const Imath::V3f& w);
+// The same from one face's block (its 3 n^2 coefficients, r, g, b images)
+// at pixel (x, y) of that face.
+Imath::C3f face_evaluate(const CubeLayout& layout, const float* face_coeffs, uint32_t x, uint32_t y);
 
 // A test and example sender: diffuse colour `kd` plus a normalized Phong
 // lobe of colour `ks` around `mirror` whose width grows with `roughness`

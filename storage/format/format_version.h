@@ -36,8 +36,13 @@ inline constexpr uint32_t kPageFormatV3 = 3;
 inline constexpr uint32_t kPageFormatCurrent = kPageFormatV2;  // derived payloads
 inline constexpr uint32_t kPageFormatNodePayloads = kPageFormatV3;
 
-// Page header flags (V3; a V2 page has none).
+// Page header flags. kPageFlagNodePayloads: V3 pages, always. kPageFlagGlossy
+// (V2 or V3 pages of a V3 manifest that declares glossy radiance): the page
+// ends, before its trailer, with a glossy radiance section (a serialized
+// wavelet tree code, storage/codecs/glossy_pages.h, itself versioned and
+// checksummed) instead of ending at its surfel records.
 inline constexpr uint32_t kPageFlagNodePayloads = 1u << 0;
+inline constexpr uint32_t kPageFlagGlossy = 1u << 1;
 
 // Manifest layout versions.
 //   V1: 16-byte header, body (options, stats, root, codec, page table),
@@ -45,19 +50,29 @@ inline constexpr uint32_t kPageFlagNodePayloads = 1u << 0;
 //   V2: V1 + payload storage (derived / every node), the codec's state (the
 //       kmeans-sh LUT, itself versioned and checksummed) and the payload
 //       build options (payload_codec, lut_entries, lut_sample_fraction).
+//   V3: V2 + glossy radiance storage (cube_resolution, wavelet_threshold;
+//       cube_resolution 0 = none, and then pages never carry the glossy
+//       flag). Written only when the page set stores glossy radiance, so
+//       diffuse page sets stay V2 and readable by older builds.
 inline constexpr uint32_t kManifestFormatV1 = 1;
 inline constexpr uint32_t kManifestFormatV2 = 2;
-inline constexpr uint32_t kManifestFormatCurrent = kManifestFormatV2;
+inline constexpr uint32_t kManifestFormatV3 = 3;
+inline constexpr uint32_t kManifestFormatCurrent = kManifestFormatV2;  // diffuse page sets
+inline constexpr uint32_t kManifestFormatLatest = kManifestFormatV3;   // the newest this build reads
 
 // Version of a page set as a whole (manifest + pages + codec set). Build keys
 // hash it, so bumping it makes every daemon rebuild its cached page sets.
 //   1: V1 pages, trees split at the median of the largest axis.
 //   2: V2 pages, trees over Morton order (storage/tree/streaming_tree_builder.h).
-inline constexpr uint32_t kPageSetFormatVersion = 2;
+//   3: glossy senders: surfels of glossy materials carry a specular lobe
+//      and pages may carry glossy radiance (V3 manifest, kPageFlagGlossy).
+inline constexpr uint32_t kPageSetFormatVersion = 3;
 
 // V1 pages are no longer read: their page sets are rebuilt (the build key
 // changed with kPageSetFormatVersion), so a V1 page is a VersionError.
 constexpr bool is_known_page_format(uint32_t v) { return v == kPageFormatV2 || v == kPageFormatV3; }
-constexpr bool is_known_manifest_format(uint32_t v) { return v == kManifestFormatV1 || v == kManifestFormatV2; }
+constexpr bool is_known_manifest_format(uint32_t v) {
+  return v == kManifestFormatV1 || v == kManifestFormatV2 || v == kManifestFormatV3;
+}
 
 }  // namespace pbgi::storage

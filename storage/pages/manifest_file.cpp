@@ -44,7 +44,11 @@ std::vector<uint8_t> encode_manifest(const Manifest& m) {
     w.put<uint64_t>(e.offset);
     w.put<uint32_t>(e.bytes);
   }
-  return frame_manifest(body);
+  if (m.glossy_resolution == 0) return frame_manifest(body, kManifestFormatV2);
+  // V3: glossy radiance storage.
+  w.put<uint32_t>(m.glossy_resolution);
+  w.put<float>(m.options.wavelet_threshold);
+  return frame_manifest(body, kManifestFormatV3);
 }
 
 Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path) {
@@ -137,6 +141,12 @@ Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path)
                     " bytes) lies outside the " + std::to_string(m.stats.file_bytes) +
                     "-byte pages file");
     }
+  }
+  if (framed.version >= kManifestFormatV3) {
+    m.glossy_resolution = r.get<uint32_t>("glossy_resolution");
+    m.options.wavelet_threshold = r.get<float>("wavelet_threshold");
+    if (m.glossy_resolution == 0) throw corrupt("a V3 manifest without glossy radiance (resolution 0)");
+    m.options.glossy_resolution = m.glossy_resolution;
   }
   r.expect_end();
 

@@ -1,5 +1,6 @@
 #include "storage/pages/page_encoding.h"
 
+#include "storage/codecs/glossy_pages.h"
 #include "storage/format/errors.h"
 #include "storage/format/page_records.h"
 
@@ -13,7 +14,7 @@ size_t padded(size_t n) { return (n + 3) & ~size_t(3); }
 }  // namespace
 
 void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& codec,
-                 std::vector<uint8_t>& out) {
+                 std::vector<uint8_t>& out, std::span<const uint8_t> glossy) {
   const size_t n = t.shapes.size();
   const size_t leaves_at = padded(kPageHeaderBytes + n);
   out.assign(leaves_at, 0);
@@ -42,11 +43,12 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
   }
   const size_t payload_bytes = out.size() - payload_at;
   out.insert(out.end(), t.surfel_records.begin(), t.surfel_records.end());
+  out.insert(out.end(), glossy.begin(), glossy.end());
   out.resize(out.size() + kPageTrailerBytes);
 
   PageHeader h;
   h.format_version = static_cast<uint16_t>(node_payloads ? kPageFormatNodePayloads : kPageFormatCurrent);
-  h.flags = node_payloads ? kPageFlagNodePayloads : 0u;
+  h.flags = (node_payloads ? kPageFlagNodePayloads : 0u) | (glossy.empty() ? 0u : kPageFlagGlossy);
   h.codec = static_cast<uint16_t>(codec.id());
   h.page_id = page_id;
   h.node_count = static_cast<uint32_t>(n);
@@ -59,7 +61,7 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
 
 std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const PageLocation& where,
                           uint32_t expected_version, const PayloadCodec& codec,
-                          uint32_t page_count) {
+                          uint32_t page_count, bool glossy_allowed) {
   const PageHeader h = open_page(bytes, where, expected_version);
   const std::string at = where.describe();
   auto corrupt = [&](const std::string& msg) { return CorruptionError(at + ": " + msg); };
@@ -70,7 +72,8 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   }
   // V2 has no flags; V3 always stores node payloads (format_version.h).
   const uint32_t want_flags = h.format_version == kPageFormatV3 ? kPageFlagNodePayloads : 0u;
-  if (h.flags != want_flags) {
+  const bool glossy = glossy_allowed && (h.flags & kPageFlagGlossy) != 0;
+  if ((h.flags & ~(glossy ? kPageFlagGlossy : 0u)) != want_flags) {
     throw corrupt("header flags are " + std::to_string(h.flags) + ", page format " +
                   std::to_string(h.format_version) + " needs " + std::to_string(want_flags));
   }
@@ -92,8 +95,10 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   const uint64_t links_at = leaves_at + leaves * kLeafRecordBytes;
   const uint64_t payload_at = links_at + links * kLinkRecordBytes;
   const uint64_t surfels_at = payload_at + h.payload_bytes;
-  const uint64_t need = surfels_at + uint64_t(h.surfel_count) * kSurfelRecordBytes + kPageTrailerBytes;
-  if (need != bytes.size()) {
+  const uint64_t glossy_at = surfels_at + uint64_t(h.surfel_count) * kSurfelRecordBytes;
+  const uint64_t need = glossy_at + kPageTrailerBytes;
+  // A glossy section fills what lies between the surfels and the trailer.
+  if (glossy ? need >= bytes.size() : need != bytes.size()) {
     throw corrupt("header and shapes (" + std::to_string(h.node_count) + " nodes, " + std::to_string(leaves) +
                   " leaves, " + std::to_string(links) + " links, " + std::to_string(h.payload_bytes) +
                   " payload bytes, " + std::to_string(h.surfel_count) + " surfels) need " +
@@ -129,6 +134,13 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   view.payloads = stored;
   auto page = std::make_shared<tree::Page>();
   tree::expand_treelet(view, h.page_id, at, *page);
+  if (glossy) {
+    std::vector<float> link_areas(links);
+    for (uint64_t i = 0; i < links; ++i) link_areas[i] = link[i].summary.area;
+    const auto section = bytes.subspan(glossy_at, bytes.size() - need);
+    page->glossy = GlossyNodes::decode(section, *page, link_areas, at);
+    page->glossy_bytes = page->glossy->memory_bytes();
+  }
   return page;
 }
 

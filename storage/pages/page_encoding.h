@@ -20,16 +20,19 @@
 namespace pbgi::storage {
 
 // Serializes `t` as page `page_id` into `out` (replaced), sealed with its
-// checksum.
+// checksum. A non-empty `glossy` (storage/codecs/glossy_pages.h) is
+// appended as the page's glossy radiance section (kPageFlagGlossy).
 void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& codec,
-                 std::vector<uint8_t>& out);
+                 std::vector<uint8_t>& out, std::span<const uint8_t> glossy = {});
 
 // Verifies (checksum, header, sizes, shapes, links) and decodes the page at
 // `where`, deriving every node's summary. Links must point to pages with a
-// smaller id (written before). Throws CorruptionError naming the page,
-// VersionError for an unknown page format.
+// smaller id (written before). A glossy section is accepted only when
+// `glossy_allowed` (the manifest declares glossy radiance) and decoded into
+// Page::glossy. Throws CorruptionError naming the page, VersionError for an
+// unknown page format.
 std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const PageLocation& where,
                           uint32_t expected_version, const PayloadCodec& codec,
-                          uint32_t page_count);
+                          uint32_t page_count, bool glossy_allowed = false);
 
 }  // namespace pbgi::storage

@@ -25,6 +25,8 @@
 
 namespace pbgi::storage {
 
+class GlossyShader;  // storage/codecs/glossy_pages.h
+
 class PageCache;
 
 struct PageSetStats {
@@ -58,6 +60,10 @@ struct Manifest {
   std::vector<uint8_t> codec_state;
   uint32_t page_format = kPageFormatCurrent;  // format version of every page
   std::vector<PageExtent> pages;              // page table, indexed by page id
+  // Glossy radiance (storage/codecs/glossy_pages.h): cube map resolution,
+  // 0 when no page stores any (V2 manifest). Pages that do carry
+  // kPageFlagGlossy.
+  uint32_t glossy_resolution = 0;
 };
 
 // What a build measured (not stored; for logs and benchmarks).
@@ -74,6 +80,13 @@ struct BuildReport {
   uint32_t lut_entries = 0;           // kmeans-sh: entries learned (<= lut_entries asked)
   double lut_seconds = 0;             // kmeans-sh: sample tree + k-means (inside finish)
   double finish_seconds = 0;          // merge, tree, pages, manifest, publish
+  // Glossy radiance (with a GlossyShader and glossy surfels).
+  uint64_t glossy_surfels = 0;
+  uint64_t glossy_pages = 0;          // pages that store a glossy section
+  uint64_t glossy_nodes = 0;          // nodes coded in them (page nodes and link leaves)
+  uint64_t glossy_bytes = 0;          // their sections' bytes
+  uint64_t glossy_kept_blocks = 0, glossy_dropped_blocks = 0;
+  double glossy_shade_seconds = 0;    // computing lobes (inside finish)
 };
 
 // A streaming build of one page set: surfels arrive in batches in any
@@ -116,6 +129,11 @@ class PageSetBuilder {
   // Appends surfels in arrival order (copied). Throws InvalidArgument for
   // an invalid surfel, naming its arrival index (storage/tree/surfel_checks.h).
   void add(std::span<const Surfel> surfels);
+  // Codes glossy senders' outgoing radiance into the pages, lit by
+  // `shader` (storage/codecs/glossy_pages.h; null, the default: glossy
+  // surfels keep only their diffuse radiance). Call before finish(); the
+  // shader must outlive it.
+  void set_glossy_shader(const GlossyShader* shader);
 
   // Merges, builds the tree, writes pages and manifest, fsyncs and
   // publishes. `progress` gets increasing fractions in [0, 1] on this
@@ -139,7 +157,7 @@ class PageSetBuilder {
 Manifest build_page_set(std::vector<Surfel> surfels, const tree::BuildOptions& options,
                         const std::string& build_key, const std::filesystem::path& dir,
                         const std::function<void(float)>& progress = {},
-                        BuildReport* report = nullptr);
+                        BuildReport* report = nullptr, const GlossyShader* glossy = nullptr);
 
 // Called on each page a PageSetReader loads, after decoding and before the
 // page is cached or shared, to attach what the caller derives from it

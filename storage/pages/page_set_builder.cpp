@@ -1,6 +1,7 @@
 // PageSetBuilder: surfels -> external sort -> streaming tree -> pages ->
 // manifest -> atomic publish.
 #include "storage/codecs/codec_selection.h"
+#include "storage/codecs/glossy_pages.h"
 #include "storage/codecs/payload_codec.h"
 #include "storage/codecs/quantized_sh_codec.h"
 #include "storage/codecs/sh_lut.h"
@@ -18,6 +19,7 @@
 #include "storage/tree/surfel_checks.h"
 #include "storage/tree/tree_builder.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <limits>
@@ -46,8 +48,9 @@ double seconds_since(Clock::time_point t0) { return std::chrono::duration<double
 // write buffer; keeps the page table.
 class PageWriter final : public tree::TreeletSink {
  public:
-  PageWriter(const fs::path& path, std::shared_ptr<const PayloadCodec> codec)
-      : file_(File::create_new(path)), codec_(std::move(codec)) {
+  // `glossy`: glossy senders' radiance is coded into the pages (null: none).
+  PageWriter(const fs::path& path, std::shared_ptr<const PayloadCodec> codec, GlossyPageEncoder* glossy)
+      : file_(File::create_new(path)), codec_(std::move(codec)), glossy_(glossy) {
     buffer_.reserve(kWriteBufferBytes + 2 * kPageAlignment);
   }
 
@@ -56,7 +59,7 @@ class PageWriter final : public tree::TreeletSink {
     if (table_.size() >= std::numeric_limits<uint32_t>::max() - 1) {
       throw InvalidArgument("tree needs more than 2^32 pages; raise tree.page_size");
     }
-    encode_page(t, id, *codec_, encoded_);
+    encode_page(t, id, *codec_, encoded_, glossy_section(t, id));
     const uint64_t aligned = (offset_ + kPageAlignment - 1) / kPageAlignment * kPageAlignment;
     buffer_.resize(buffer_.size() + (aligned - offset_), 0);
     buffer_.insert(buffer_.end(), encoded_.begin(), encoded_.end());
@@ -81,8 +84,24 @@ class PageWriter final : public tree::TreeletSink {
     buffer_.clear();
   }
 
+  // The page's glossy radiance: its own glossy surfels and its linked
+  // children's root averages, coded over the page as a reader decodes it.
+  std::vector<uint8_t> glossy_section(const tree::Treelet& t, uint32_t id) {
+    if (!glossy_) return {};
+    const bool linked = std::any_of(t.links.begin(), t.links.end(),
+                                    [&](const tree::TreeletLink& l) { return glossy_->has_root(l.page); });
+    if (t.gloss.empty() && !linked) return {};
+    tree::expand_treelet(t.view(), id, "page " + std::to_string(id) + " (being written)", page_);
+    link_areas_.clear();
+    for (const tree::TreeletLink& l : t.links) link_areas_.push_back(l.summary.area);
+    return glossy_->encode(page_, t.gloss, link_areas_);
+  }
+
   File file_;
   std::shared_ptr<const PayloadCodec> codec_;
+  GlossyPageEncoder* glossy_;
+  tree::Page page_;
+  std::vector<float> link_areas_;
   std::vector<PageExtent> table_;
   std::vector<uint8_t> buffer_, encoded_;
   uint64_t offset_ = 0;
@@ -120,6 +139,8 @@ struct PageSetBuilder::Impl {
   bool finished = false;
   std::vector<Surfel> batch;  // checked copies on their way to the sorter
   std::optional<LutSampleCollector> lut_sample;  // kmeans-sh / auto: the LUT's sample
+  const GlossyShader* glossy_shader = nullptr;   // glossy senders' lobes (null: none coded)
+  uint64_t glossy_surfels = 0;                   // added surfels with a specular lobe
 
   Impl(const tree::BuildOptions& o, std::string key, const fs::path& dir, const Imath::Box3f& bounds)
       : options(o), build_key(std::move(key)), frame(bounds), staging(checked(o, build_key, dir)) {
@@ -175,6 +196,7 @@ struct PageSetBuilder::Impl {
       for (size_t i = 0; i < n; ++i) {
         batch[i] = surfels[at + i];
         tree::check_surfel(batch[i], report.surfels + i);
+        if (batch[i].gloss.glossy()) ++glossy_surfels;
       }
       sorter->add({batch.data(), n});
       if (lut_sample) lut_sample->add({batch.data(), n});
@@ -200,7 +222,13 @@ struct PageSetBuilder::Impl {
 
     // 2. The sorted stream into the tree builder; pages are written as the
     //    tree completes them (stored payloads: quantized by the page writer).
-    PageWriter pages(staging.path() / kPagesFileName, codec);
+    // Glossy radiance only when some surfel has a lobe and the server said
+    // how to light it: diffuse scenes never pay for it.
+    std::optional<GlossyPageEncoder> glossy;
+    if (glossy_shader && glossy_surfels > 0) {
+      glossy.emplace(*glossy_shader, GlossyPageOptions{options.glossy_resolution, options.wavelet_threshold});
+    }
+    PageWriter pages(staging.path() / kPagesFileName, codec, glossy ? &*glossy : nullptr);
     tree::StreamingTreeBuilder tree(options, options.page_size, node_payloads ? 0 : codec->bytes_per_node(), pages,
                                     node_payloads ? &sizer : nullptr);
     sorter->drain([&](const Surfel& s, uint64_t code) { tree.add(s, code); },
@@ -223,6 +251,17 @@ struct PageSetBuilder::Impl {
     m.codec_state = codec->state();
     m.page_format = node_payloads ? kPageFormatNodePayloads : kPageFormatCurrent;
     m.root = stats.root;
+    if (glossy && glossy->stats().pages > 0) {
+      m.glossy_resolution = options.glossy_resolution;
+      const GlossyPageStats& g = glossy->stats();
+      report.glossy_surfels = g.glossy_surfels;
+      report.glossy_pages = g.pages;
+      report.glossy_nodes = g.nodes;
+      report.glossy_bytes = g.bytes;
+      report.glossy_kept_blocks = g.kept_blocks;
+      report.glossy_dropped_blocks = g.dropped_blocks;
+      report.glossy_shade_seconds = g.shade_seconds;
+    }
     m.stats.file_bytes = pages.file_bytes();
     m.pages = pages.close();
     m.stats.surfel_count = stats.surfel_count;
@@ -254,14 +293,18 @@ PageSetBuilder::~PageSetBuilder() = default;
 
 void PageSetBuilder::add(std::span<const Surfel> surfels) { impl_->add(surfels); }
 
+void PageSetBuilder::set_glossy_shader(const GlossyShader* shader) { impl_->glossy_shader = shader; }
+
 Manifest PageSetBuilder::finish(const std::function<void(float)>& progress) { return impl_->finish(progress); }
 
 const BuildReport& PageSetBuilder::report() const { return impl_->report; }
 
 Manifest build_page_set(std::vector<Surfel> surfels, const tree::BuildOptions& options,
                         const std::string& build_key, const fs::path& dir,
-                        const std::function<void(float)>& progress, BuildReport* report) {
+                        const std::function<void(float)>& progress, BuildReport* report,
+                        const GlossyShader* glossy) {
   PageSetBuilder builder(options, build_key, dir, tree::surfel_bounds(surfels));
+  builder.set_glossy_shader(glossy);
   builder.add(surfels);
   std::vector<Surfel>().swap(surfels);
   const Manifest m = builder.finish(progress);

@@ -38,7 +38,8 @@ struct PageSetReader::Impl {
     pages.pread_exact(bytes, e.offset);
     if (cache) cache->note_bytes_read(bytes.size());
     std::shared_ptr<tree::Page> page = decode_page(bytes, {pages.path(), id, e.offset},
-                                                   manifest.page_format, *codec, manifest.stats.page_count);
+                                                   manifest.page_format, *codec, manifest.stats.page_count,
+                                                   manifest.glossy_resolution != 0);
     if (decorate) decorate(*page);
     return page;
   }

@@ -25,7 +25,7 @@ namespace {
 struct Record {
   uint64_t code;
   uint64_t index;  // arrival order: breaks ties, so the order is total
-  float f[16];     // position, normal, radius, albedo, emission, radiance
+  float f[20];     // position, normal, radius, albedo, emission, radiance, gloss
 
   bool operator<(const Record& o) const { return code != o.code ? code < o.code : index < o.index; }
 
@@ -33,7 +33,7 @@ struct Record {
     return {code, index,
             {s.position.x, s.position.y, s.position.z, s.normal.x, s.normal.y, s.normal.z, s.radius,
              s.albedo.x, s.albedo.y, s.albedo.z, s.emission.x, s.emission.y, s.emission.z, s.radiance.x,
-             s.radiance.y, s.radiance.z}};
+             s.radiance.y, s.radiance.z, s.gloss.alpha, s.gloss.f0.x, s.gloss.f0.y, s.gloss.f0.z}};
   }
   Surfel surfel() const {
     Surfel s;
@@ -43,10 +43,12 @@ struct Record {
     s.albedo = {f[7], f[8], f[9]};
     s.emission = {f[10], f[11], f[12]};
     s.radiance = {f[13], f[14], f[15]};
+    s.gloss.alpha = f[16];
+    s.gloss.f0 = {f[17], f[18], f[19]};
     return s;
   }
 };
-static_assert(std::is_trivially_copyable_v<Record> && sizeof(Record) == 80);
+static_assert(std::is_trivially_copyable_v<Record> && sizeof(Record) == 96);
 
 // A run file is a sequence of blocks: u64 record count, u64 XXH3-64 of the
 // records, then the records as they lie in memory.

@@ -3,6 +3,7 @@
 #include "storage/format/errors.h"
 #include "storage/format/page_records.h"
 
+#include <cmath>
 #include <string>
 
 namespace pbgi::tree {
@@ -46,6 +47,13 @@ void BuildOptions::validate() const {
   if (sort_memory_bytes < kMinSortMemory) {
     throw InvalidArgument("tree.sort_memory_bytes = " + std::to_string(sort_memory_bytes) +
                           ": must be at least " + std::to_string(kMinSortMemory));
+  }
+  if (glossy_resolution != 8 && glossy_resolution != 16 && glossy_resolution != 32) {
+    throw InvalidArgument("tree.glossy_resolution = " + std::to_string(glossy_resolution) +
+                          ": must be 8, 16 or 32 (cube map pixels per face side)");
+  }
+  if (!(wavelet_threshold >= 0.f) || !std::isfinite(wavelet_threshold)) {
+    throw InvalidArgument("tree.wavelet_threshold = " + std::to_string(wavelet_threshold) + ": must be finite and >= 0");
   }
   if (static_cast<uint8_t>(payload_codec) > static_cast<uint8_t>(PayloadCodecOption::kAuto)) {
     throw InvalidArgument("tree.payload_codec = " + to_string(payload_codec) + ": unknown");

@@ -41,6 +41,14 @@ struct BuildOptions {
   // arrival index) over which the sample tree that trains the LUT is built,
   // in (0, 1]; at least 20000 surfels and 16 per LUT entry are taken.
   double lut_sample_fraction = 0.02;
+  // Glossy senders (surfels with a specular lobe, storage/tree/surfel.h):
+  // their outgoing radiance is stored as Haar-wavelet cube maps of
+  // glossy_resolution^2 pixels per face (8, 16 or 32), coded down each
+  // page (storage/codecs/glossy_pages.h); detail blocks (one face) whose
+  // L2 norm is below wavelet_threshold are dropped (0 keeps every non-zero
+  // block: exact). Scenes without glossy surfels never pay for them.
+  uint32_t glossy_resolution = 16;
+  float wavelet_threshold = 0.f;
 
   void validate() const;  // throws pbgi::InvalidArgument
 };

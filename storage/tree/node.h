@@ -17,6 +17,10 @@
 #include <memory>
 #include <vector>
 
+namespace pbgi::storage {
+class GlossyNodes;  // storage/codecs/glossy_pages.h
+}
+
 namespace pbgi::tree {
 
 // A link to a node: the page that holds it and its index in that page.
@@ -60,10 +64,14 @@ struct Page {
   // Set by the page's loader before the page is shared (PageDecorator in
   // storage/pages/page_set.h), never after: readers need no lock.
   std::shared_ptr<const PageAttachment> attachment;
+  // Glossy senders' outgoing radiance (wavelet cube maps) of the page's
+  // nodes, or null when the page shows none; glossy_bytes is its memory.
+  std::shared_ptr<const storage::GlossyNodes> glossy;
+  size_t glossy_bytes = 0;
 
   size_t memory_bytes() const {
     return sizeof(Page) + nodes.capacity() * sizeof(Node) + surfels.capacity() * sizeof(Surfel) +
-           (attachment ? attachment->memory_bytes() : 0);
+           (attachment ? attachment->memory_bytes() : 0) + glossy_bytes;
   }
 };
 

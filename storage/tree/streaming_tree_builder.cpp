@@ -38,6 +38,7 @@ struct Pending {
   std::vector<Surfel> raw;      // candidate surfels (capacity kept across reuse)
   storage::LeafFrame frame;     // closed leaf
   std::vector<uint8_t> records; // closed leaf: its surfel records
+  std::vector<SurfelGloss> gloss;  // closed leaf with a glossy surfel: each surfel's lobe
 
   bool written() const { return page != kNone; }
 };
@@ -119,6 +120,7 @@ struct StreamingTreeBuilder::Impl {
     p.candidate = false;
     p.raw.clear();
     p.records.clear();
+    p.gloss.clear();
     free_nodes.push_back(i);
   }
 
@@ -154,6 +156,12 @@ struct StreamingTreeBuilder::Impl {
     p.records.resize(n * kSurfelRecordBytes);
     decoded.resize(n);
     p.frame = quantize_leaf(p.raw, p.records.data(), decoded);
+    for (const Surfel& s : p.raw) {
+      if (!s.gloss.glossy()) continue;
+      p.gloss.resize(n);
+      for (size_t k = 0; k < n; ++k) p.gloss[k] = p.raw[k].gloss;
+      break;
+    }
     summarize_leaf(decoded, p.frame, p.node);
     p.bytes = kShapeBytes + kLeafRecordBytes + n * kSurfelRecordBytes;
     p.payload_bits = 0;
@@ -245,7 +253,13 @@ struct StreamingTreeBuilder::Impl {
         const size_t at = treelet.leaf_records.size();
         treelet.leaf_records.resize(at + kLeafRecordBytes);
         storage::write_leaf_record(p.frame, p.node.surfel_count, treelet.leaf_records.data() + at);
+        const size_t before = treelet.surfel_records.size() / kSurfelRecordBytes;
         treelet.surfel_records.insert(treelet.surfel_records.end(), p.records.begin(), p.records.end());
+        if (!p.gloss.empty()) {
+          // Lobes are listed per surfel of the page once one leaf has any.
+          treelet.gloss.resize(before);
+          treelet.gloss.insert(treelet.gloss.end(), p.gloss.begin(), p.gloss.end());
+        }
       } else {
         stack_frames.push_back({i, 0});
       }
@@ -267,6 +281,7 @@ struct StreamingTreeBuilder::Impl {
         emit(c);  // may grow stack_frames: `f` is not used after this
       }
     }
+    if (!treelet.gloss.empty()) treelet.gloss.resize(treelet.surfel_records.size() / kSurfelRecordBytes);
     const uint32_t id = sink.write(treelet);
     if (id != stats.page_count) {
       throw Error("internal: page sink returned id " + std::to_string(id) + ", expected " +
@@ -288,6 +303,7 @@ struct StreamingTreeBuilder::Impl {
     r.levels = 0;
     r.child[0] = r.child[1] = kNone;
     r.records.clear();
+    r.gloss.clear();
     return id;
   }
 

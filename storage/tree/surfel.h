@@ -1,11 +1,22 @@
 // A surfel: a small oriented disk sampled from a surface, carrying the
-// outgoing diffuse radiance computed by direct lighting (and bounces).
+// outgoing diffuse radiance computed by direct lighting (and bounces), and
+// for a glossy surface its GGX lobe (the tree build turns the lobe into a
+// wavelet cube map of outgoing radiance: storage/codecs/glossy_pages.h).
 #pragma once
 
 #include <Imath/ImathColor.h>
 #include <Imath/ImathVec.h>
 
 namespace pbgi {
+
+// A glossy sender's specular lobe (server/surfels/surfel_material.h): GGX
+// alpha and reflectance at normal incidence. f0 = 0: none, the surfel is
+// diffuse only.
+struct SurfelGloss {
+  float alpha = 0.f;
+  Imath::C3f f0{0, 0, 0};
+  bool glossy() const { return alpha > 0.f && (f0.x > 0.f || f0.y > 0.f || f0.z > 0.f); }
+};
 
 struct Surfel {
   Imath::V3f position;
@@ -14,6 +25,9 @@ struct Surfel {
   Imath::C3f albedo{0, 0, 0};
   Imath::C3f emission{0, 0, 0};
   Imath::C3f radiance{0, 0, 0};  // outgoing diffuse radiance (emission + reflected)
+  // Carried through the build's sort, not stored in page records: pages
+  // keep the lobe's outgoing radiance (wavelet cube maps) instead.
+  SurfelGloss gloss;
 
   float area() const { return 3.14159265358979f * radius * radius; }
 };

@@ -16,7 +16,9 @@ void check_surfel(Surfel& s, uint64_t index) {
   const float len = s.normal.length();
   const bool ok = finite(s.position) && finite(s.normal) && std::isfinite(s.radius) && s.radius >= 0 &&
                   len > 1e-6f && finite(s.radiance) && finite(s.albedo) && finite(s.emission) &&
-                  non_negative(s.radiance) && non_negative(s.albedo) && non_negative(s.emission);
+                  non_negative(s.radiance) && non_negative(s.albedo) && non_negative(s.emission) &&
+                  std::isfinite(s.gloss.alpha) && s.gloss.alpha >= 0.f && s.gloss.alpha <= 1.f &&
+                  finite(s.gloss.f0) && non_negative(s.gloss.f0);
   if (!ok) {
     throw InvalidArgument("surfel " + std::to_string(index) +
                           " is invalid (non-finite field, negative radius or colour, or zero normal): "

@@ -23,6 +23,7 @@ void Treelet::clear() {
   links.clear();
   surfel_records.clear();
   nodes.clear();
+  gloss.clear();
 }
 
 void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& what, Page& out) {

@@ -46,6 +46,9 @@ struct Treelet {
   // summary with its exact payload, in pre-order, for the page's codec.
   // Empty otherwise.
   std::vector<Node> nodes;
+  // Pages with a glossy surfel: every surfel's lobe, in surfel order (the
+  // page writer turns them into the page's wavelet radiance); else empty.
+  std::vector<SurfelGloss> gloss;
 
   TreeletView view() const { return {shapes, leaf_records, links, surfel_records, {}}; }
   size_t node_count() const { return shapes.size(); }

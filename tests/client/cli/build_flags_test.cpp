@@ -40,5 +40,20 @@ TEST(BuildFlags, SamplerAndSpacingCamera) {
   EXPECT_THROW(parse({"--sampler", "grid"}), CLI::ValidationError);
 }
 
+TEST(BuildFlags, GlossySenderFlagsAreSentOnlyWhenGiven) {
+  const v1::BuildOptions none = parse({}).to_proto();
+  EXPECT_FALSE(none.has_glossy_roughness());
+  EXPECT_FALSE(none.has_wavelet_threshold());
+  EXPECT_EQ(none.glossy_resolution(), 0u);
+  const v1::BuildOptions set =
+      parse({"--glossy-roughness", "0", "--glossy-resolution", "32", "--wavelet-threshold", "0.05"}).to_proto();
+  ASSERT_TRUE(set.has_glossy_roughness());
+  EXPECT_EQ(set.glossy_roughness(), 0.f);  // glossy senders off, not "the default"
+  EXPECT_EQ(set.glossy_resolution(), 32u);
+  EXPECT_FLOAT_EQ(set.wavelet_threshold(), 0.05f);
+  EXPECT_THROW(parse({"--glossy-resolution", "12"}), CLI::ValidationError);
+  EXPECT_THROW(parse({"--glossy-roughness", "2"}), CLI::ValidationError);
+}
+
 }  // namespace
 }  // namespace pbgi::cli

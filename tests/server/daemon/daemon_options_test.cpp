@@ -61,6 +61,9 @@ DaemonOptions non_default_options() {
   o.service.defaults.open.surfels.image_width = 640;
   o.service.defaults.open.surfels.image_height = 360;
   o.service.defaults.open.surfels.pixel_footprint = 1.5f;
+  o.service.defaults.open.surfels.glossy_roughness = 0.2f;
+  o.service.defaults.open.tree.glossy_resolution = 32;
+  o.service.defaults.open.tree.wavelet_threshold = 0.05f;
   o.service.defaults.open.surfels.target_surfels = 12345;
   o.service.defaults.open.surfels.light_samples = 9;
   o.service.defaults.open.surfels.seed = 42;

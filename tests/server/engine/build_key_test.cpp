@@ -45,5 +45,19 @@ TEST(BuildKey, BounceCountAndBounceGatherChangeTheKey) {
   EXPECT_EQ(page_set_build_key("h", a), page_set_build_key("h", d));
 }
 
+TEST(BuildKey, GlossySenderOptionsChangeTheKeyButTheirDefaultsDoNot) {
+  const OpenOptions a;
+  const std::string k = page_set_build_key("h", a);
+  OpenOptions b = a;
+  b.surfels.glossy_roughness = 0.f;
+  EXPECT_NE(page_set_build_key("h", b), k);
+  OpenOptions c = a;
+  c.tree.glossy_resolution = 8;
+  EXPECT_NE(page_set_build_key("h", c), k);
+  OpenOptions d = a;
+  d.tree.wavelet_threshold = 0.01f;
+  EXPECT_NE(page_set_build_key("h", d), k);
+}
+
 }  // namespace
 }  // namespace pbgi

@@ -179,5 +179,34 @@ TEST(OptionsCodec, SamplerAndAdaptiveSpacingAreBuildOptionsWithTheirOwnKey) {
   }
 }
 
+TEST(OptionsCodec, GlossySenderOptionsAreBuildOptionsWithTheirOwnKey) {
+  const OpenOptions defaults;
+  v1::BuildOptions proto;
+  const OpenOptions unset = decode_open_options(proto, defaults);
+  EXPECT_EQ(unset.surfels.glossy_roughness, defaults.surfels.glossy_roughness);
+  EXPECT_EQ(unset.tree.glossy_resolution, defaults.tree.glossy_resolution);
+  EXPECT_EQ(unset.tree.wavelet_threshold, defaults.tree.wavelet_threshold);
+
+  proto.set_glossy_roughness(0.f);  // explicitly off, not "the default"
+  const OpenOptions off = decode_open_options(proto, defaults);
+  EXPECT_EQ(off.surfels.glossy_roughness, 0.f);
+  EXPECT_NE(open_options_key(off), open_options_key(unset));
+
+  proto.set_glossy_roughness(0.5f);
+  proto.set_glossy_resolution(32);
+  proto.set_wavelet_threshold(0.1f);
+  const OpenOptions set = decode_open_options(proto, defaults);
+  EXPECT_EQ(set.surfels.glossy_roughness, 0.5f);
+  EXPECT_EQ(set.tree.glossy_resolution, 32u);
+  EXPECT_EQ(set.tree.wavelet_threshold, 0.1f);
+  EXPECT_EQ(open_options_key(decode_open_options(encode_open_options(set), defaults)), open_options_key(set));
+
+  proto.set_glossy_resolution(12);
+  EXPECT_THROW(decode_open_options(proto, defaults), InvalidArgument);
+  proto.set_glossy_resolution(16);
+  proto.set_wavelet_threshold(-1.f);
+  EXPECT_THROW(decode_open_options(proto, defaults), InvalidArgument);
+}
+
 }  // namespace
 }  // namespace pbgi::service

@@ -14,9 +14,16 @@
 //    rendered again from disk.
 // 4. The table: page-set bytes, payload bytes, ratios, LUT and build times,
 //    PSNR of the images against the reference.
+// Glossy senders (a scene with glossy materials, e.g. scenes/cornell_glossy.usda)
+// get wavelet radiance in every variant (exact, threshold 0); each
+// --wavelet-threshold adds a variant with derived SH payloads and that
+// threshold, and a second table compares glossy bytes and PSNR:
+//   bench_codecs --scene scenes/cornell_glossy.usda --surfels 5000000 --lut 1000 \
+//       --wavelet-threshold 0.01 --wavelet-threshold 0.1
 #include "server/ingest/usd_ingest.h"
 #include "server/render/tile_renderer.h"
 #include "server/scene/ray_scene.h"
+#include "server/surfels/glossy_shading.h"
 #include "server/surfels/surfels.h"
 #include "storage/cache/page_cache.h"
 #include "storage/format/errors.h"
@@ -58,11 +65,17 @@ struct Args {
   std::string camera = "/Camera";
   bool render = true;
   uint32_t threads = 0;  // 0: all cores
+  // Glossy senders: wavelet thresholds to measure (each a variant with
+  // derived SH payloads); the reference and the SH variants store exact
+  // (threshold 0) glossy radiance.
+  std::vector<float> wavelet_thresholds;
+  uint32_t glossy_resolution = 16;
 };
 
 // 1. Surfels of the scene, from the cache when present.
 std::vector<Surfel> scene_surfels(const Args& a, const Scene& scene, const RayScene& rays) {
-  const fs::path file = a.cache / fmt::format("surfels_{}_{}.bin", a.scene.stem().string(), a.surfels);
+  // v2: surfels carry their glossy lobe (storage/tree/surfel.h).
+  const fs::path file = a.cache / fmt::format("surfels_v2_{}_{}.bin", a.scene.stem().string(), a.surfels);
   if (fs::exists(file)) {
     std::ifstream in(file, std::ios::binary);
     uint64_t n = 0;
@@ -116,6 +129,10 @@ struct Row {
   uint64_t lut_sample = 0;
   uint32_t lut_entries = 0;
   double psnr_indirect = INFINITY, psnr_beauty = INFINITY;
+  // Glossy radiance: stored bytes, and what the coded nodes' cube maps
+  // take as dense float32 (every node's whole vector, no coding).
+  uint64_t glossy_bytes = 0, glossy_dense_bytes = 0, glossy_surfels = 0;
+  double glossy_shade_seconds = 0;
 };
 
 // Sum of the payload arrays of every page, from the page headers.
@@ -134,18 +151,25 @@ uint64_t payload_bytes(const fs::path& dir, const storage::Manifest& m) {
 
 // Builds one variant's page set from `surfels` and measures it.
 Row build_variant(const Args& a, const std::vector<Surfel>& surfels, const std::string& name,
-                  tree::PayloadCodecOption codec, uint32_t lut, const fs::path& dir) {
+                  tree::PayloadCodecOption codec, uint32_t lut, const fs::path& dir,
+                  const storage::GlossyShader& glossy, float wavelet_threshold = 0.f) {
   tree::BuildOptions o;
   o.leaf_size = a.leaf_size;
   o.payload_codec = codec;
   o.lut_entries = lut;
   o.lut_sample_fraction = a.fraction;
+  o.glossy_resolution = a.glossy_resolution;
+  o.wavelet_threshold = wavelet_threshold;
   fs::remove_all(dir);
   Row r{name};
   storage::BuildReport report;
   const auto t0 = Clock::now();
-  const storage::Manifest m = storage::build_page_set(surfels, o, "bench-" + name, dir, {}, &report);
+  const storage::Manifest m = storage::build_page_set(surfels, o, "bench-" + name, dir, {}, &report, &glossy);
   r.build_seconds = since(t0);
+  r.glossy_bytes = report.glossy_bytes;
+  r.glossy_dense_bytes = report.glossy_nodes * storage::CubeLayout{a.glossy_resolution}.floats() * sizeof(float);
+  r.glossy_surfels = report.glossy_surfels;
+  r.glossy_shade_seconds = report.glossy_shade_seconds;
   r.file_bytes = m.stats.file_bytes + fs::file_size(dir / storage::kManifestFileName);
   r.payload_bytes = payload_bytes(dir, m) + m.codec_state.size();  // the LUT counts as payload
   r.pages = m.stats.page_count;
@@ -161,9 +185,13 @@ Row build_variant(const Args& a, const std::vector<Surfel>& surfels, const std::
     r.load_seconds = since(t1);
   }
   std::cerr << fmt::format("  {}: {} nodes, {} pages, {:.1f} MB, build {:.1f} s (LUT {:.1f} s: {} entries from {} "
-                           "surfels), load {:.2f} s\n",
+                           "surfels; glossy: {} surfels, {:.2f} MB in {} pages, {}/{} face blocks kept, lobes "
+                           "{:.1f} s), load {:.2f} s\n",
                            name, m.stats.node_count, r.pages, double(r.file_bytes) / 1e6, r.build_seconds,
-                           r.lut_seconds, r.lut_entries, r.lut_sample, r.load_seconds);
+                           r.lut_seconds, r.lut_entries, r.lut_sample, r.glossy_surfels, double(r.glossy_bytes) / 1e6,
+                           report.glossy_pages, report.glossy_kept_blocks,
+                           report.glossy_kept_blocks + report.glossy_dropped_blocks, r.glossy_shade_seconds,
+                           r.load_seconds);
   return r;
 }
 
@@ -175,6 +203,8 @@ int run(const Args& a) {
   const Camera* cam = scene.find_camera(a.camera);
   if (!cam) throw NotFound("camera " + a.camera);
   const std::vector<Surfel> surfels = scene_surfels(a, scene, rays);
+  const SurfelOptions surfel_defaults;
+  const SceneGlossyShader glossy(rays, surfel_defaults.light_samples, surfel_defaults.seed);
   std::cerr << fmt::format("scene + surfels: {:.1f} s, {} surfels\n", since(t0), surfels.size());
   fs::create_directories(a.sets);
   auto render_set = [&](const fs::path& dir) {
@@ -185,7 +215,8 @@ int run(const Args& a) {
 
   // 2. Reference: derived (exact) payloads.
   std::vector<Row> rows;
-  rows.push_back(build_variant(a, surfels, "derived", tree::PayloadCodecOption::kDerived, 4096, a.sets / "derived"));
+  rows.push_back(
+      build_variant(a, surfels, "derived", tree::PayloadCodecOption::kDerived, 4096, a.sets / "derived", glossy));
   t0 = Clock::now();
   const Image ref_img = render_set(a.sets / "derived");
   std::cerr << fmt::format("reference render: {:.1f} s\n", since(t0));
@@ -196,9 +227,9 @@ int run(const Args& a) {
   }
 
   // 3. Stored variants.
-  auto add_variant = [&](const std::string& name, tree::PayloadCodecOption codec, uint32_t lut) {
+  auto add_variant = [&](const std::string& name, tree::PayloadCodecOption codec, uint32_t lut, float threshold) {
     const fs::path dir = a.sets / name;
-    Row r = build_variant(a, surfels, name, codec, lut, dir);
+    Row r = build_variant(a, surfels, name, codec, lut, dir, glossy, threshold);
     const Image img = render_set(dir);
     if (a.render) {
       r.psnr_indirect = psnr(ref_img.indirect, img.indirect);
@@ -207,8 +238,13 @@ int run(const Args& a) {
     rows.push_back(r);
     fs::remove_all(dir);
   };
-  add_variant("float32-sh", tree::PayloadCodecOption::kFloatSh, 4096);
-  for (uint32_t l : a.luts) add_variant(fmt::format("kmeans-sh-l{}", l), tree::PayloadCodecOption::kQuantizedSh, l);
+  add_variant("float32-sh", tree::PayloadCodecOption::kFloatSh, 4096, 0.f);
+  for (uint32_t l : a.luts) {
+    add_variant(fmt::format("kmeans-sh-l{}", l), tree::PayloadCodecOption::kQuantizedSh, l, 0.f);
+  }
+  for (float t : a.wavelet_thresholds) {
+    add_variant(fmt::format("wavelet-t{}", t), tree::PayloadCodecOption::kDerived, 4096, t);
+  }
 
   // 4. Report. Ratios are against the float32-sh page set (every node's
   //    payload stored as 144 bytes), the paper's uncompressed tree.
@@ -234,6 +270,21 @@ int run(const Args& a) {
         r.psnr_beauty);
   }
   std::cout << "\nPSNR against the derived (exact) page set; inf = identical images.\n";
+  if (rows[0].glossy_surfels > 0) {
+    std::cout << fmt::format("\nGlossy senders: {} surfels, cube maps {}^2 per face. Stored glossy radiance "
+                             "against dense float32 cube maps for every coded node:\n\n",
+                             rows[0].glossy_surfels, a.glossy_resolution);
+    std::cout << "| variant | glossy MB | dense MB | glossy ratio | lobes s | PSNR indirect dB | PSNR beauty dB |\n";
+    std::cout << "|---|---|---|---|---|---|---|\n";
+    for (const Row& r : rows) {
+      if (r.name != "derived" && r.name.rfind("wavelet", 0) != 0) continue;
+      std::cout << fmt::format("| {} | {:.2f} | {:.2f} | {:.1f}x | {:.1f} | {:.1f} | {:.1f} |\n", r.name,
+                               double(r.glossy_bytes) / 1e6, double(r.glossy_dense_bytes) / 1e6,
+                               double(r.glossy_dense_bytes) / std::max(1.0, double(r.glossy_bytes)),
+                               r.glossy_shade_seconds, r.psnr_indirect, r.psnr_beauty);
+    }
+    std::cout << "\n(derived: threshold 0, the reference of every PSNR.)\n";
+  }
   return 0;
 }
 
@@ -253,6 +304,9 @@ int main(int argc, char** argv) {
   app.add_option("--sets", a.sets, "directory for the page sets (variants are deleted after measuring)");
   app.add_option("--camera", a.camera, "camera prim");
   app.add_flag("!--no-render", a.render, "skip the images (sizes and times only)");
+  app.add_option("--wavelet-threshold", a.wavelet_thresholds,
+                 "glossy senders: wavelet thresholds to measure (a variant each)");
+  app.add_option("--glossy-resolution", a.glossy_resolution, "glossy senders: cube map pixels per face side");
   app.add_option("--threads", a.threads, "worker threads (0: all cores; 1: the paper's single-threaded build)");
   CLI11_PARSE(app, argc, argv);
   std::optional<tbb::global_control> threads;

@@ -156,7 +156,7 @@ TEST(ManifestFrame, RoundTripAndDamage) {
     }
   }
   // A correctly checksummed manifest of an unknown version.
-  EXPECT_THROW(unframe_manifest(frame_manifest(body, kManifestFormatCurrent + 1), "m.pbgm"), VersionError);
+  EXPECT_THROW(unframe_manifest(frame_manifest(body, kManifestFormatLatest + 1), "m.pbgm"), VersionError);
   // Truncated.
   EXPECT_THROW(unframe_manifest(std::span(file).first(file.size() - 1), "m.pbgm"), CorruptionError);
   EXPECT_THROW(unframe_manifest(std::span(file).first(10), "m.pbgm"), CorruptionError);

@@ -197,7 +197,7 @@ TEST_F(PageSetTest, UnknownVersionsAreVersionErrors) {
 
   // A whole manifest of a newer format, correctly checksummed.
   const ManifestBody body = unframe_manifest(good, "m");
-  write_file(path, frame_manifest(body.body, kManifestFormatCurrent + 1));
+  write_file(path, frame_manifest(body.body, kManifestFormatLatest + 1));
   EXPECT_THROW(PageSetReader(dir_, nullptr), VersionError);
 
   // A current manifest that declares pages of a newer format.

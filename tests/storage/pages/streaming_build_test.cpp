@@ -111,6 +111,8 @@ TEST(SurfelSorter, SortsByCodeThenArrivalWithinItsMemory) {
   std::vector<Surfel> surfels = test::random_surfels(9000, 6);
   // Duplicated positions: ties must keep arrival order.
   for (size_t i = 0; i < surfels.size(); i += 7) surfels[i].position = surfels[0].position;
+  // Glossy lobes travel with their surfels through the runs.
+  for (size_t i = 0; i < surfels.size(); i += 3) surfels[i].gloss = {0.01f * float(i % 50 + 1), {0.9f, 0.5f, 0.1f}};
   const tree::MortonFrame frame(tree::surfel_bounds(surfels));
   constexpr uint64_t kMemory = 64 * 1024;
   SurfelSorter sorter(frame, kMemory, tmp.path(), /*max_fan_in=*/2);
@@ -132,8 +134,8 @@ TEST(SurfelSorter, SortsByCodeThenArrivalWithinItsMemory) {
       [&](float f) { progress.push_back(f); });
   EXPECT_EQ(k, surfels.size());
   const SortStats& st = sorter.stats();
-  EXPECT_EQ(st.runs, 11u);      // 9000 surfels, 819 per run
-  EXPECT_EQ(st.merges, 10u);    // pairwise: 11 runs -> 1
+  EXPECT_EQ(st.runs, 14u);      // 9000 surfels, 682 96-byte records per run
+  EXPECT_EQ(st.merges, 13u);    // pairwise: 14 runs -> 1
   EXPECT_LE(st.peak_bytes, kMemory);
   EXPECT_TRUE(fs::is_empty(tmp.path()));  // every run file deleted
   ASSERT_FALSE(progress.empty());

@@ -35,7 +35,8 @@ inline std::vector<Surfel> random_surfels(size_t n, uint32_t seed = 1) {
 
 inline bool same_surfel(const Surfel& a, const Surfel& b) {
   return a.position == b.position && a.normal == b.normal && a.radius == b.radius &&
-         a.albedo == b.albedo && a.emission == b.emission && a.radiance == b.radiance;
+         a.albedo == b.albedo && a.emission == b.emission && a.radiance == b.radiance &&
+         a.gloss.alpha == b.gloss.alpha && a.gloss.f0 == b.gloss.f0;
 }
 
 }  // namespace pbgi::test
