@@ -129,7 +129,7 @@ def main(out_path, glossy=False):
     white = define_material(stage, "/World/Materials/White", WHITE)
     red = define_material(stage, "/World/Materials/Red", RED)
     green = define_material(stage, "/World/Materials/Green", GREEN)
-    # The glossy variant (cornell_glossy.usda): a gold-like metal tall box,
+    # The glossy variant (cornell_gold.usda): a gold-like metal tall box,
     # a glossy sender that reflects the light onto the walls and floor.
     tall = define_material(stage, "/World/Materials/Gold", (0.95, 0.8, 0.45), roughness=0.15,
                            metallic=1.0) if glossy else white
@@ -181,5 +181,5 @@ if __name__ == "__main__":
     here = os.path.dirname(os.path.abspath(__file__))
     glossy = "--glossy" in sys.argv[1:]
     args = [a for a in sys.argv[1:] if a != "--glossy"]
-    default = "cornell_glossy.usda" if glossy else "cornell.usda"
+    default = "cornell_gold.usda" if glossy else "cornell.usda"
     main(args[0] if args else os.path.join(here, default), glossy)

@@ -41,13 +41,21 @@ std::string json_number(double v) { return std::isfinite(v) ? fmt::format("{:.6g
 
 double per(uint64_t a, uint64_t b) { return b ? double(a) / double(b) : 0.0; }
 
+// The manifest version the writer used: V3 exactly when it declares glossy
+// radiance (storage/format/format_version.h).
+uint32_t manifest_version(const storage::Manifest& m) {
+  return m.glossy_resolution ? storage::kManifestFormatV3 : storage::kManifestFormatCurrent;
+}
+
 void print_json(const std::string& dir, const storage::Manifest& m,
                 const storage::PageSetInspection& r, const storage::CacheCounters& c) {
   const auto& s = m.stats;
   std::string out = "{\n";
   out += fmt::format("  \"dir\": {},\n  \"build_key\": {},\n", json_string(dir), json_string(m.build_key));
   out += fmt::format("  \"format\": {{\"manifest\": {}, \"page\": {}, \"page_set\": {}}},\n",
-                     storage::kManifestFormatCurrent, m.page_format, storage::kPageSetFormatVersion);
+                     manifest_version(m), m.page_format, storage::kPageSetFormatVersion);
+  out += fmt::format("  \"glossy\": {{\"resolution\": {}, \"wavelet_threshold\": {}}},\n", m.glossy_resolution,
+                     json_number(m.options.wavelet_threshold));
   out += fmt::format("  \"codec\": {{\"id\": {}, \"name\": {}}},\n", m.codec, json_string(r.codec_name));
   out += fmt::format(
       "  \"options\": {{\"leaf_size\": {}, \"page_size\": {}, \"payload_codec\": {}, \"lut_entries\": {}, "
@@ -87,12 +95,18 @@ void print_text(const std::string& dir, const storage::Manifest& m, const storag
   const auto& s = m.stats;
   fmt::print("page set      {}\n", dir);
   fmt::print("build key     {}\n", m.build_key);
-  fmt::print("format        manifest v{}, pages v{}, codec {} ({})\n", storage::kManifestFormatCurrent,
+  fmt::print("format        manifest v{}, pages v{}, codec {} ({})\n", manifest_version(m),
              m.page_format, m.codec, r.codec_name);
   fmt::print("options       leaf_size {}, page_size {}, payload_codec {} (lut {} entries, sample {})\n",
              m.options.leaf_size, m.options.page_size, tree::to_string(m.options.payload_codec),
              m.options.lut_entries, m.options.lut_sample_fraction);
   fmt::print("payloads      {}\n", m.node_payloads ? "stored for every node" : "derived when a page loads");
+  if (m.glossy_resolution) {
+    fmt::print("glossy        wavelet cube maps {}^2 per face, threshold {} (storage/codecs/glossy_pages.h)\n",
+               m.glossy_resolution, m.options.wavelet_threshold);
+  } else {
+    fmt::print("glossy        none\n");
+  }
   fmt::print("surfels       {}\n", s.surfel_count);
   fmt::print("nodes         {} ({} leaves, {} internal)\n", s.node_count, s.leaf_count,
              s.node_count - s.leaf_count);

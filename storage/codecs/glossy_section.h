@@ -12,7 +12,7 @@
 // blocks keep their relative accuracy and never overflow half's range).
 //
 // Layout (little-endian), FORMAT.md "Glossy radiance section":
-//   u32 magic 'PBGL', u32 version (1), u32 resolution n (8, 16, 32),
+//   u32 magic 'PBGR', u32 version (1), u32 resolution n (8, 16, 32),
 //   u32 node_count, f32 threshold,
 //   u8 per node: bits 0-5 the faces whose detail block is kept, bit 7 the
 //     node has a detail slot (two children),
@@ -34,7 +34,7 @@
 
 namespace pbgi::storage {
 
-inline constexpr uint32_t kGlossySectionMagic = fourcc("PBGL");
+inline constexpr uint32_t kGlossySectionMagic = fourcc("PBGR");
 inline constexpr uint32_t kGlossySectionV1 = 1;
 
 // `code` must have average_levels 0 and one block per cube face of

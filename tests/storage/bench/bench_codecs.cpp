@@ -14,11 +14,11 @@
 //    rendered again from disk.
 // 4. The table: page-set bytes, payload bytes, ratios, LUT and build times,
 //    PSNR of the images against the reference.
-// Glossy senders (a scene with glossy materials, e.g. scenes/cornell_glossy.usda)
+// Glossy senders (a scene with glossy materials, e.g. scenes/cornell_gold.usda)
 // get wavelet radiance in every variant (exact, threshold 0); each
 // --wavelet-threshold adds a variant with derived SH payloads and that
 // threshold, and a second table compares glossy bytes and PSNR:
-//   bench_codecs --scene scenes/cornell_glossy.usda --surfels 5000000 --lut 1000 \
+//   bench_codecs --scene scenes/cornell_gold.usda --surfels 5000000 --lut 1000 \
 //       --wavelet-threshold 0.01 --wavelet-threshold 0.1
 #include "server/ingest/usd_ingest.h"
 #include "server/render/tile_renderer.h"
