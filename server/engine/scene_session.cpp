@@ -51,6 +51,7 @@ void log_build(const std::string& key, const SurfelGenerationStats& g, const sto
                n / std::max(1e-9, g.sample_seconds + g.shade_seconds), tree_seconds,
                n / std::max(1e-9, tree_seconds), r.runs, r.merges, s.page_count,
                double(s.file_bytes) / std::max(1.0, n));
+  spdlog::info("page set {}: payloads {}", key, r.codec_reason);
   if (r.glossy_pages > 0) {
     spdlog::info("page set {}: {} glossy surfels, wavelet radiance in {} pages, {} bytes ({} face blocks kept, "
                  "{} dropped), lobes lit in {:.1f} s",

@@ -130,6 +130,7 @@ std::vector<uint8_t> GlossyPageEncoder::encode(const tree::Page& page, std::span
     return leaf;
   };
   const WaveletTreeCode code = encode_wavelet_tree(topo.tree, dims, coefficients, coding_options(layout_, options_.threshold));
+  stats_.glossy_surfels += glossy_surfels;  // lit, whether or not they show
   std::vector<float> root(code.averages.begin() + code.average_at[0], code.averages.begin() + code.average_at[0] + dims);
   const bool root_dark = std::all_of(root.begin(), root.end(), [](float x) { return x == 0.f; });
   if (root_dark && code.kept_blocks == 0) return {};
@@ -137,7 +138,6 @@ std::vector<uint8_t> GlossyPageEncoder::encode(const tree::Page& page, std::span
   std::vector<uint8_t> bytes = write_glossy_section(code, layout_.n);
   ++stats_.pages;
   stats_.nodes += topo.tree.nodes.size();
-  stats_.glossy_surfels += glossy_surfels;
   stats_.bytes += bytes.size();
   stats_.kept_blocks += code.kept_blocks;
   stats_.dropped_blocks += code.dropped_blocks;

@@ -76,6 +76,7 @@ struct BuildReport {
   uint64_t tree_peak_pending_bytes = 0;  // largest size of nodes waiting for their page
   double add_seconds = 0;             // inside add(): copying, sorting and spilling runs
   std::string payload_codec;          // what was stored: "derived", "float32-sh", "kmeans-sh"
+  std::string codec_reason;           // why (storage/codecs/codec_selection.h), for logs
   uint64_t lut_sample_surfels = 0;    // kmeans-sh: surfels of the LUT's sample tree
   uint32_t lut_entries = 0;           // kmeans-sh: entries learned (<= lut_entries asked)
   double lut_seconds = 0;             // kmeans-sh: sample tree + k-means (inside finish)

@@ -154,9 +154,15 @@ struct PageSetBuilder::Impl {
 
   // The codec of this build: resolves `auto` (codec_selection.h), and for
   // kmeans-sh learns the LUT on a tree over the sample.
-  std::shared_ptr<const PayloadCodec> choose_codec(bool& node_payloads) {
-    const CodecSelection sel = select_payload_codecs({report.surfels, 0}, options.payload_codec, {});
+  std::shared_ptr<const PayloadCodec> choose_codec(bool& node_payloads, bool& glossy_wavelets) {
+    CodecSelectionOptions so;
+    so.cube_resolution = options.glossy_resolution;
+    // Lobes count only when the server can light them.
+    const CodecSelection sel =
+        select_payload_codecs({report.surfels, glossy_shader ? glossy_surfels : 0}, options.payload_codec, so);
     node_payloads = sel.node_payloads;
+    glossy_wavelets = sel.glossy_wavelets;
+    report.codec_reason = sel.reason;
     report.payload_codec = node_payloads ? "" : "derived";
     if (sel.diffuse != CodecId::kQuantizedSh) {
       if (node_payloads) report.payload_codec = "float32-sh";
@@ -216,8 +222,8 @@ struct PageSetBuilder::Impl {
     if (report.surfels == 0) throw InvalidArgument("cannot build a tree over 0 surfels");
 
     // 1. The payload codec (kmeans-sh: its LUT, from the sample tree).
-    bool node_payloads = false;
-    const auto codec = choose_codec(node_payloads);
+    bool node_payloads = false, glossy_wavelets = false;
+    const auto codec = choose_codec(node_payloads, glossy_wavelets);
     const CodecSizer sizer(*codec);
 
     // 2. The sorted stream into the tree builder; pages are written as the
@@ -225,7 +231,7 @@ struct PageSetBuilder::Impl {
     // Glossy radiance only when some surfel has a lobe and the server said
     // how to light it: diffuse scenes never pay for it.
     std::optional<GlossyPageEncoder> glossy;
-    if (glossy_shader && glossy_surfels > 0) {
+    if (glossy_wavelets) {
       glossy.emplace(*glossy_shader, GlossyPageOptions{options.glossy_resolution, options.wavelet_threshold});
     }
     PageWriter pages(staging.path() / kPagesFileName, codec, glossy ? &*glossy : nullptr);
