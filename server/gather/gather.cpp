@@ -8,8 +8,10 @@
 
 #include "server/gather/cut_walker.h"
 #include "server/gather/factorized_gather.h"
+#include "server/gather/lobe_refinement.h"
 #include "storage/format/errors.h"
 
+#include <cstdint>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -22,14 +24,41 @@ bool finite(const Imath::V3f& v) {
   return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
 
-// The receiver with a unit normal; throws InvalidArgument if unusable.
-Receiver checked(const Receiver& r) {
+// How far a glossy view direction's length may be from 1.
+constexpr float kUnitTolerance = 1e-3f;
+
+// Names receiver `index` of a batch (or, without one, just "Receiver").
+std::string receiver_name(size_t index) {
+  return index == SIZE_MAX ? std::string("Receiver") : "receiver " + std::to_string(index);
+}
+
+// The receiver with a unit normal; throws InvalidArgument if unusable,
+// naming `index` (SIZE_MAX: a single receiver).
+Receiver checked(const Receiver& r, size_t index = SIZE_MAX) {
   if (!finite(r.position) || !finite(r.normal)) {
-    throw InvalidArgument("Receiver: non-finite position or normal");
+    throw InvalidArgument(receiver_name(index) + ": non-finite position or normal");
   }
   const float len = r.normal.length();
-  if (!(len > 1e-12f)) throw InvalidArgument("Receiver.normal: zero length");
-  return {r.position, r.normal / len};
+  if (!(len > 1e-12f)) throw InvalidArgument(receiver_name(index) + ".normal: zero length");
+  const GlossyLobe& g = r.glossy;
+  const bool colour_ok = std::isfinite(g.specular.x) && std::isfinite(g.specular.y) &&
+                         std::isfinite(g.specular.z) && g.specular.x >= 0.f &&
+                         g.specular.y >= 0.f && g.specular.z >= 0.f;
+  if (!colour_ok) {
+    throw InvalidArgument(receiver_name(index) + ".glossy.specular: not a finite colour >= 0");
+  }
+  if (g.active()) {
+    if (!finite(g.view) || !(std::abs(g.view.length() - 1.f) <= kUnitTolerance)) {
+      throw InvalidArgument(receiver_name(index) + ".glossy.view = (" + std::to_string(g.view.x) +
+                            ", " + std::to_string(g.view.y) + ", " + std::to_string(g.view.z) +
+                            "): not a unit vector");
+    }
+    if (!(g.roughness >= 0.f && g.roughness <= 1.f)) {
+      throw InvalidArgument(receiver_name(index) + ".glossy.roughness = " +
+                            std::to_string(g.roughness) + ": not in [0, 1]");
+    }
+  }
+  return {r.position, r.normal / len, g};
 }
 
 }  // namespace
@@ -37,12 +66,36 @@ Receiver checked(const Receiver& r) {
 struct Gatherer::Impl {
   Impl(const tree::TreeSource& tree, const GatherOptions& options, GatherCounters& counters,
        std::shared_ptr<GatherCache> c)
-      : cache(std::move(c)), walker(tree, options, counters, cache ? &cache->impl() : nullptr) {}
+      : cache(std::move(c)),
+        walker_tree(tree),
+        walker(tree, options, counters, cache ? &cache->impl() : nullptr) {}
+
+  // The glossy receivers' lobe quadtree and fine walker, made on first use
+  // (diffuse-only gathers never build them).
+  gather::LobeRefinement& lobe(const GatherOptions& o) {
+    if (!lobe_) {
+      const uint32_t fine_res = o.effective_glossy_resolution();
+      lobe_ = std::make_unique<gather::LobeRefinement>(
+          gather::CubeLayout::get(o.microbuffer_resolution), gather::CubeLayout::get(fine_res),
+          o.glossy_importance, o.max_solid_angle);
+      if (fine_res > o.microbuffer_resolution) {
+        GatherOptions fine_options = o;
+        fine_options.microbuffer_resolution = fine_res;
+        fine_walker = std::make_unique<gather::CutWalker>(walker_tree, fine_options, fine_counters,
+                                                          cache ? &cache->impl() : nullptr);
+      }
+    }
+    return *lobe_;
+  }
 
   std::shared_ptr<GatherCache> cache;  // kept alive while views point into it
+  const tree::TreeSource& walker_tree;
   gather::CutWalker walker;
   std::unique_ptr<gather::FactorizedGather> factorized;  // made on first use
   std::vector<Receiver> batch;                           // checked receivers
+  std::unique_ptr<gather::LobeRefinement> lobe_;
+  std::unique_ptr<gather::CutWalker> fine_walker;  // null: no refinement
+  GatherCounters fine_counters;                    // the fine walker's
 };
 
 Gatherer::Gatherer(const tree::TreeSource& tree, const GatherOptions& options,
@@ -59,15 +112,14 @@ GatherResult Gatherer::gather(const Receiver& receiver) {
     gather::PagePins& pins;
     ~Unpin() { pins.clear(); }
   } unpin{impl_->walker.pins()};
-  const GatherResult out = gather_pinned(receiver);
+  const GatherResult out = gather_pinned(checked(receiver));
   counters_.pages_fetched += impl_->walker.pins().take_fetches();
   return out;
 }
 
-GatherResult Gatherer::gather_pinned(const Receiver& receiver) {
+GatherResult Gatherer::gather_pinned(const Receiver& r) {
   gather::CutWalker& w = impl_->walker;
   // 1. The receiver and its hemisphere.
-  const Receiver r = checked(receiver);
   if (w.pins().pinned() == 0) w.views().trim();  // no view is in use
   w.begin_receiver(r.position, r.normal);
 
@@ -76,12 +128,65 @@ GatherResult Gatherer::gather_pinned(const Receiver& receiver) {
   w.walk_receiver();
   ++counters_.receivers;
 
-  // 3. Visibility and convolution.
-  const gather::Resolved res = w.resolve(nullptr);
+  // 3. Visibility and convolution; a glossy receiver also convolves its
+  //    unrefined pixels with the lobe here.
+  if (!r.glossy.active()) {
+    const gather::Resolved res = w.resolve(nullptr);
+    GatherResult out;
+    out.irradiance = res.irradiance;
+    out.ao = res.ao;
+    return out;
+  }
+  gather::LobeRefinement& lobe = impl_->lobe(w.options());
+  lobe.begin(r.normal, r.glossy);
+  const gather::Resolved res = w.resolve(nullptr, lobe.coarse_gain(w.buffer()));
   GatherResult out;
   out.irradiance = res.irradiance;
   out.ao = res.ao;
+  out.glossy = res.reflected + refined_glossy(r);
+  ++counters_.glossy_receivers;
   return out;
+}
+
+Imath::C3f Gatherer::refined_glossy(const Receiver& r) {
+  // 4. The refined pixels of the lobe's quadtree, in the fine buffer.
+  gather::LobeRefinement& lobe = impl_->lobe(impl_->walker.options());
+  gather::CutWalker* fine = impl_->fine_walker.get();
+  if (!fine || !lobe.refined()) return Imath::C3f(0, 0, 0);
+  struct Unpin {
+    gather::PagePins& pins;
+    ~Unpin() { pins.clear(); }
+  } unpin{fine->pins()};
+  if (fine->pins().pinned() == 0) fine->views().trim();
+  fine->begin_receiver(r.position, r.normal);
+  fine->push_root();
+  const uint64_t visited = impl_->fine_counters.nodes_visited;
+  fine->walk_lobe(lobe);
+  counters_.glossy_nodes_visited += impl_->fine_counters.nodes_visited - visited;
+  counters_.pages_fetched += fine->pins().take_fetches();
+  return fine->resolve(nullptr, lobe.fine_gain(fine->buffer())).reflected;
+}
+
+Imath::C3f Gatherer::gather_glossy(const Receiver& r) {
+  // The coarse walk again, on its own: the factorized gather shares the
+  // far field between receivers and keeps no per-receiver coarse buffer.
+  gather::CutWalker& w = impl_->walker;
+  struct Unpin {
+    gather::PagePins& pins;
+    ~Unpin() { pins.clear(); }
+  } unpin{w.pins()};
+  const uint64_t visited = counters_.nodes_visited;
+  w.begin_receiver(r.position, r.normal);
+  w.push_root();
+  w.walk_receiver();
+  counters_.glossy_nodes_visited += counters_.nodes_visited - visited;
+  counters_.nodes_visited = visited;
+  counters_.pages_fetched += w.pins().take_fetches();
+  gather::LobeRefinement& lobe = impl_->lobe(w.options());
+  lobe.begin(r.normal, r.glossy);
+  const Imath::C3f coarse = w.resolve(nullptr, lobe.coarse_gain(w.buffer())).reflected;
+  ++counters_.glossy_receivers;
+  return coarse + refined_glossy(r);
 }
 
 void Gatherer::gather_tile(std::span<const Receiver> receivers, std::span<GatherResult> results) {
@@ -105,7 +210,7 @@ void Gatherer::gather_tile(std::span<const Receiver> receivers, std::span<Gather
     } release{w.pins()};
     w.pins().set_hold(true);
     for (size_t i = 0; i < receivers.size(); ++i) {
-      results[i] = gather_pinned(receivers[i]);
+      results[i] = gather_pinned(checked(receivers[i], i));
       if ((i + 1) % kPinRun == 0) {
         counters_.pages_fetched += w.pins().take_fetches();
         w.pins().clear();
@@ -117,10 +222,14 @@ void Gatherer::gather_tile(std::span<const Receiver> receivers, std::span<Gather
   // Factorized: all receivers checked first, then clustered.
   std::vector<Receiver>& batch = impl_->batch;
   batch.clear();
-  for (const Receiver& r : receivers) batch.push_back(checked(r));
+  for (size_t i = 0; i < receivers.size(); ++i) batch.push_back(checked(receivers[i], i));
   impl_->walker.views().trim();
   if (!impl_->factorized) impl_->factorized = std::make_unique<gather::FactorizedGather>(impl_->walker);
   impl_->factorized->gather(batch, results, counters_);
+  // Glossy receivers: their lobes are gathered one by one (not shared).
+  for (size_t i = 0; i < batch.size(); ++i) {
+    if (batch[i].glossy.active()) results[i].glossy = gather_glossy(batch[i]);
+  }
 }
 
 }  // namespace pbgi

@@ -105,8 +105,10 @@ inline FarShare far_share(const FarLayer& f, const Imath::V3f& n, float cos_k, f
 
 }  // namespace
 
-Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far) {
+Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
+                              const Imath::C3f* gain) {
   double er = 0, eg = 0, eb = 0, occlusion = 0;
+  double gr = 0, gg = 0, gb = 0;  // reflected (with gain)
   const float* margin = layout_.horizon_margins();
   const float* omega = layout_.solid_angles();
   if (far) {
@@ -202,8 +204,14 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far) {
     eg += g;
     eb += b;
     occlusion += ao_cover;
+    if (gain) {
+      gr += double(r * gain[k].x);
+      gg += double(g * gain[k].y);
+      gb += double(b * gain[k].z);
+    }
   }
   Resolved out;
+  out.reflected = Imath::C3f(float(gr), float(gg), float(gb));
   out.irradiance = Imath::C3f(float(er), float(eg), float(eb));
   out.ao = std::clamp(1.f - float(occlusion / kPi), 0.f, 1.f);
   return out;
