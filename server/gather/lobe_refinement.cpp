@@ -36,8 +36,8 @@ LobeRefinement::LobeRefinement(const CubeLayout& coarse, const CubeLayout& fine,
       levels_(log2_ratio(fine.resolution(), coarse.resolution())),
       importance_(importance),
       level_(coarse.pixel_count(), 0),
-      coarse_mass_(coarse.pixel_count()),
-      coarse_gain_(coarse.pixel_count()),
+      coarse_mass_(coarse.pixel_count(), Imath::C3f(0, 0, 0)),
+      coarse_gain_(coarse.pixel_count(), Imath::C3f(0, 0, 0)),
       fine_gain_(levels_ > 0 ? fine.pixel_count() : 0, Imath::C3f(0, 0, 0)) {
   // A cell of level l is a pixel of the cube of N 2^l per side: the walk
   // cuts at that cube's mean pixel solid angle (as the diffuse cut does at
