@@ -48,6 +48,9 @@ LobeRefinement::LobeRefinement(const CubeLayout& coarse, const CubeLayout& fine,
   }
   samples_.reserve(kLobeSamples);
   scratch_.reserve(kLobeSamples);
+  // A pixel's center-to-corner angle is largest at a face's center,
+  // atan(pixel width / sqrt 2).
+  pixel_half_diagonal_ = std::atan(coarse.pixel_width() * 0.70710678f);
 }
 
 uint64_t LobeRefinement::cell_key(uint32_t fine, uint32_t level) const {
@@ -118,17 +121,14 @@ void LobeRefinement::begin(const Imath::V3f& n, const GlossyLobe& lobe) {
   }
   refined_count_ = uint32_t(refined_list_.size());
 
-  // 3. A cone around the refined pixels, for cut()'s quick rejection. A
-  //    pixel's center-to-corner angle is largest at a face's center,
-  //    atan(pixel width / sqrt 2).
+  // 3. A cone around the refined pixels, for cut()'s quick rejection.
   Imath::V3f axis(0, 0, 0);
   for (const uint32_t k : refined_list_) axis += coarse_.direction(k);
   region_axis_ = axis.length() > 1e-6f ? axis.normalized() : n;
-  const float half = std::atan(coarse_.pixel_width() * 0.70710678f);
   float widest = 0.f;
   for (const uint32_t k : refined_list_) {
     const float c = std::clamp(region_axis_.dot(coarse_.direction(k)), -1.f, 1.f);
-    widest = std::max(widest, std::acos(c) + half);
+    widest = std::max(widest, std::acos(c) + pixel_half_diagonal_);
   }
   region_angle_ = widest;
 }
@@ -169,9 +169,12 @@ float LobeRefinement::cut(const Imath::V3f& v, float d2, float r) const {
   const float reach = kFootprintWidening * gamma + fine_.pixel_width();
   const float to_region = std::acos(std::clamp(dir.dot(region_axis_), -1.f, 1.f));
   if (to_region > reach + region_angle_) return -1.f;
-  if (reach >= 0.5f * kPiF) return finest;
+  // cone_pixels() finds pixels whose centers lie in a cone: widened by a
+  // pixel's center-to-corner angle, every pixel the cone overlaps.
+  const float overlap = reach + pixel_half_diagonal_;
+  if (overlap >= 0.5f * kPiF) return finest;
   // The deepest level of the coarse pixels the widened cone reaches.
-  const float sin_a = std::sin(reach), cos_a = std::cos(reach);
+  const float sin_a = std::sin(overlap), cos_a = std::cos(overlap);
   uint32_t level = 0;
   for (int face = 0; face < CubeLayout::kFaces && level < max_level_; ++face) {
     PixelRect rect;

@@ -88,6 +88,7 @@ class LobeRefinement {
   const uint32_t levels_;  // L: fine = coarse x 2^L
   const float importance_;
   std::vector<float> level_cut_;  // per level: cut solid angle
+  float pixel_half_diagonal_;     // largest center-to-corner angle of a coarse pixel
 
   std::vector<Sample> samples_;
   Imath::C3f total_{0, 0, 0};
