@@ -53,6 +53,14 @@ LobeRefinement::LobeRefinement(const CubeLayout& coarse, const CubeLayout& fine,
   pixel_half_diagonal_ = std::atan(coarse.pixel_width() * 0.70710678f);
 }
 
+uint32_t LobeRefinement::coarse_of(uint32_t fine) const {
+  // Derived from the fine pixel (not looked up again) so that a fine pixel
+  // always lies in its coarse pixel, whatever the rounding.
+  const uint32_t nf = fine_.resolution();
+  const uint32_t i = fine % nf, j = (fine / nf) % nf, face = fine / (nf * nf);
+  return coarse_.index(int(face), i >> levels_, j >> levels_);
+}
+
 uint64_t LobeRefinement::cell_key(uint32_t fine, uint32_t level) const {
   // Fine index = (face N' + j) N' + i with N' = N 2^L.
   const uint32_t nf = fine_.resolution();
@@ -86,7 +94,7 @@ void LobeRefinement::begin(const Imath::V3f& n, const GlossyLobe& lobe) {
       const Imath::C3f w = s.weight * kInvSamples;
       if (!(mean(w) > 0.f) || !std::isfinite(mean(w))) continue;
       const uint32_t fine = fine_.pixel_of(s.wi);
-      const uint32_t coarse = levels_ > 0 ? coarse_.pixel_of(s.wi) : fine;
+      const uint32_t coarse = coarse_of(fine);
       samples_.push_back({fine, coarse, w});
       coarse_mass_[coarse] += w;
       total_ += w;

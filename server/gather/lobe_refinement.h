@@ -80,6 +80,8 @@ class LobeRefinement {
     uint32_t coarse;  // coarse pixel index
     Imath::C3f weight;
   };
+  // The coarse pixel holding a fine one.
+  uint32_t coarse_of(uint32_t fine) const;
   // The quadtree cell of a fine pixel at `level` (0 = coarse pixel).
   uint64_t cell_key(uint32_t fine, uint32_t level) const;
 
