@@ -1,6 +1,8 @@
 // Per-receiver PBGI gather: walk the tree, stop at the cut, rasterize into a
 // cube microbuffer with depth test, ray-cast near surfels as disks, then
-// convolve with the cosine lobe to get irradiance and ambient occlusion.
+// convolve with the cosine lobe to get irradiance and ambient occlusion;
+// for a glossy receiver also with its GGX lobe, refined where the lobe
+// needs it (lobe_refinement.h).
 #pragma once
 
 #include "server/gather/gather_options.h"
