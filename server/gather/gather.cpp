@@ -24,6 +24,12 @@ bool finite(const Imath::V3f& v) {
   return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
 
+// Unpins a walker's pages when the scope ends (also on errors).
+struct ClearPinsOnExit {
+  gather::PagePins& pins;
+  ~ClearPinsOnExit() { pins.clear(); }
+};
+
 // How far a glossy view direction's length may be from 1.
 constexpr float kUnitTolerance = 1e-3f;
 
@@ -108,10 +114,7 @@ Gatherer::~Gatherer() = default;
 
 GatherResult Gatherer::gather(const Receiver& receiver) {
   // Pages stay pinned until the receiver is done.
-  struct Unpin {
-    gather::PagePins& pins;
-    ~Unpin() { pins.clear(); }
-  } unpin{impl_->walker.pins()};
+  const ClearPinsOnExit unpin{impl_->walker.pins()};
   const GatherResult out = gather_pinned(checked(receiver));
   counters_.pages_fetched += impl_->walker.pins().take_fetches();
   return out;
@@ -153,10 +156,7 @@ Imath::C3f Gatherer::refined_glossy(const Receiver& r) {
   gather::LobeRefinement& lobe = impl_->lobe(impl_->walker.options());
   gather::CutWalker* fine = impl_->fine_walker.get();
   if (!fine || !lobe.refined()) return Imath::C3f(0, 0, 0);
-  struct Unpin {
-    gather::PagePins& pins;
-    ~Unpin() { pins.clear(); }
-  } unpin{fine->pins()};
+  const ClearPinsOnExit unpin{fine->pins()};
   if (fine->pins().pinned() == 0) fine->views().trim();
   fine->begin_receiver(r.position, r.normal);
   fine->push_root();
@@ -171,10 +171,7 @@ Imath::C3f Gatherer::gather_glossy(const Receiver& r) {
   // The coarse walk again, on its own: the factorized gather shares the
   // far field between receivers and keeps no per-receiver coarse buffer.
   gather::CutWalker& w = impl_->walker;
-  struct Unpin {
-    gather::PagePins& pins;
-    ~Unpin() { pins.clear(); }
-  } unpin{w.pins()};
+  const ClearPinsOnExit unpin{w.pins()};
   const uint64_t visited = counters_.nodes_visited;
   w.begin_receiver(r.position, r.normal);
   w.push_root();
