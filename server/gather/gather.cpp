@@ -8,11 +8,12 @@
 
 #include "server/gather/cut_walker.h"
 #include "server/gather/factorized_gather.h"
-#include "server/gather/lobe_refinement.h"
+#include "server/gather/glossy_gather.h"
 #include "storage/format/errors.h"
 
-#include <cstdint>
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -23,12 +24,6 @@ namespace {
 bool finite(const Imath::V3f& v) {
   return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
-
-// Unpins a walker's pages when the scope ends (also on errors).
-struct ClearPinsOnExit {
-  gather::PagePins& pins;
-  ~ClearPinsOnExit() { pins.clear(); }
-};
 
 // How far a glossy view direction's length may be from 1.
 constexpr float kUnitTolerance = 1e-3f;
@@ -73,35 +68,25 @@ struct Gatherer::Impl {
   Impl(const tree::TreeSource& tree, const GatherOptions& options, GatherCounters& counters,
        std::shared_ptr<GatherCache> c)
       : cache(std::move(c)),
-        walker_tree(tree),
+        tree(tree),
         walker(tree, options, counters, cache ? &cache->impl() : nullptr) {}
 
-  // The glossy receivers' lobe quadtree and fine walker, made on first use
+  // The glossy receivers' lobes and fine walker, made on first use
   // (diffuse-only gathers never build them).
-  gather::LobeRefinement& lobe(const GatherOptions& o) {
-    if (!lobe_) {
-      const uint32_t fine_res = o.effective_glossy_resolution();
-      lobe_ = std::make_unique<gather::LobeRefinement>(
-          gather::CubeLayout::get(o.microbuffer_resolution), gather::CubeLayout::get(fine_res),
-          o.glossy_importance, o.max_solid_angle);
-      if (fine_res > o.microbuffer_resolution) {
-        GatherOptions fine_options = o;
-        fine_options.microbuffer_resolution = fine_res;
-        fine_walker = std::make_unique<gather::CutWalker>(walker_tree, fine_options, fine_counters,
-                                                          cache ? &cache->impl() : nullptr);
-      }
+  gather::GlossyGather& glossy() {
+    if (!glossy_) {
+      glossy_ = std::make_unique<gather::GlossyGather>(tree, walker.options(),
+                                                       cache ? &cache->impl() : nullptr);
     }
-    return *lobe_;
+    return *glossy_;
   }
 
   std::shared_ptr<GatherCache> cache;  // kept alive while views point into it
-  const tree::TreeSource& walker_tree;
+  const tree::TreeSource& tree;
   gather::CutWalker walker;
   std::unique_ptr<gather::FactorizedGather> factorized;  // made on first use
   std::vector<Receiver> batch;                           // checked receivers
-  std::unique_ptr<gather::LobeRefinement> lobe_;
-  std::unique_ptr<gather::CutWalker> fine_walker;  // null: no refinement
-  GatherCounters fine_counters;                    // the fine walker's
+  std::unique_ptr<gather::GlossyGather> glossy_;
 };
 
 Gatherer::Gatherer(const tree::TreeSource& tree, const GatherOptions& options,
@@ -114,7 +99,7 @@ Gatherer::~Gatherer() = default;
 
 GatherResult Gatherer::gather(const Receiver& receiver) {
   // Pages stay pinned until the receiver is done.
-  const ClearPinsOnExit unpin{impl_->walker.pins()};
+  const gather::ClearPinsOnExit unpin{impl_->walker.pins()};
   const GatherResult out = gather_pinned(checked(receiver));
   counters_.pages_fetched += impl_->walker.pins().take_fetches();
   return out;
@@ -140,50 +125,14 @@ GatherResult Gatherer::gather_pinned(const Receiver& r) {
     out.ao = res.ao;
     return out;
   }
-  gather::LobeRefinement& lobe = impl_->lobe(w.options());
-  lobe.begin(r.normal, r.glossy);
-  const gather::Resolved res = w.resolve(nullptr, lobe.coarse_gain(w.buffer()));
+  gather::GlossyGather& glossy = impl_->glossy();
+  const gather::Resolved res = w.resolve(nullptr, glossy.begin(r, w.buffer()));
   GatherResult out;
   out.irradiance = res.irradiance;
   out.ao = res.ao;
-  out.glossy = res.reflected + refined_glossy(r);
+  out.glossy = res.reflected + glossy.refined(r, counters_);
   ++counters_.glossy_receivers;
   return out;
-}
-
-Imath::C3f Gatherer::refined_glossy(const Receiver& r) {
-  // 4. The refined pixels of the lobe's quadtree, in the fine buffer.
-  gather::LobeRefinement& lobe = impl_->lobe(impl_->walker.options());
-  gather::CutWalker* fine = impl_->fine_walker.get();
-  if (!fine || !lobe.refined()) return Imath::C3f(0, 0, 0);
-  const ClearPinsOnExit unpin{fine->pins()};
-  if (fine->pins().pinned() == 0) fine->views().trim();
-  fine->begin_receiver(r.position, r.normal);
-  fine->push_root();
-  const uint64_t visited = impl_->fine_counters.nodes_visited;
-  fine->walk_lobe(lobe);
-  counters_.glossy_nodes_visited += impl_->fine_counters.nodes_visited - visited;
-  counters_.pages_fetched += fine->pins().take_fetches();
-  return fine->resolve(nullptr, lobe.fine_gain(fine->buffer())).reflected;
-}
-
-Imath::C3f Gatherer::gather_glossy(const Receiver& r) {
-  // The coarse walk again, on its own: the factorized gather shares the
-  // far field between receivers and keeps no per-receiver coarse buffer.
-  gather::CutWalker& w = impl_->walker;
-  const ClearPinsOnExit unpin{w.pins()};
-  const uint64_t visited = counters_.nodes_visited;
-  w.begin_receiver(r.position, r.normal);
-  w.push_root();
-  w.walk_receiver();
-  counters_.glossy_nodes_visited += counters_.nodes_visited - visited;
-  counters_.nodes_visited = visited;
-  counters_.pages_fetched += w.pins().take_fetches();
-  gather::LobeRefinement& lobe = impl_->lobe(w.options());
-  lobe.begin(r.normal, r.glossy);
-  const Imath::C3f coarse = w.resolve(nullptr, lobe.coarse_gain(w.buffer())).reflected;
-  ++counters_.glossy_receivers;
-  return coarse + refined_glossy(r);
 }
 
 void Gatherer::gather_tile(std::span<const Receiver> receivers, std::span<GatherResult> results) {
@@ -222,11 +171,9 @@ void Gatherer::gather_tile(std::span<const Receiver> receivers, std::span<Gather
   for (size_t i = 0; i < receivers.size(); ++i) batch.push_back(checked(receivers[i], i));
   impl_->walker.views().trim();
   if (!impl_->factorized) impl_->factorized = std::make_unique<gather::FactorizedGather>(impl_->walker);
-  impl_->factorized->gather(batch, results, counters_);
-  // Glossy receivers: their lobes are gathered one by one (not shared).
-  for (size_t i = 0; i < batch.size(); ++i) {
-    if (batch[i].glossy.active()) results[i].glossy = gather_glossy(batch[i]);
-  }
+  const bool any_glossy = std::any_of(batch.begin(), batch.end(),
+                                      [](const Receiver& r) { return r.glossy.active(); });
+  impl_->factorized->gather(batch, results, counters_, any_glossy ? &impl_->glossy() : nullptr);
 }
 
 }  // namespace pbgi

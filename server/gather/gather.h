@@ -118,12 +118,6 @@ class Gatherer {
  private:
   // gather() without unpinning the receiver's pages afterwards; `r` checked.
   GatherResult gather_pinned(const Receiver& r);
-  // The glossy reflection of a checked receiver with an active lobe, walked
-  // on its own (the factorized gather's glossy receivers).
-  Imath::C3f gather_glossy(const Receiver& r);
-  // The part of a glossy receiver's reflection from its refined pixels
-  // (after the lobe was begun for it).
-  Imath::C3f refined_glossy(const Receiver& r);
 
   struct Impl;
   std::unique_ptr<Impl> impl_;

@@ -123,12 +123,19 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
       eb += f.b;
       occlusion += f.occ;
       const float t = std::max(0.f, 1.f - fp.front_alpha);
-      if (fp.rest_alpha > 0.f && t > kOpaque) {
-        const FarShare r = far_share(fp.rest, normal_, cos_[k], margin[k], weight_[k], omega[k]);
+      const bool rest = fp.rest_alpha > 0.f && t > kOpaque;
+      FarShare r{0.f, 0.f, 0.f, 0.f};
+      if (rest) {
+        r = far_share(fp.rest, normal_, cos_[k], margin[k], weight_[k], omega[k]);
         er += t * r.r;
         eg += t * r.g;
         eb += t * r.b;
         if (!(ao_max_distance > 0.f) || fp.rest_z < ao_max_distance) occlusion += t * r.occ;
+      }
+      if (gain) {
+        gr += double(gain[k].x * (f.r + t * r.r));
+        gg += double(gain[k].y * (f.g + t * r.g));
+        gb += double(gain[k].z * (f.b + t * r.b));
       }
     }
   }

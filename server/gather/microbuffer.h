@@ -138,8 +138,8 @@ class Microbuffer {
   // Resolves visibility (rule above) and convolves with the cosine lobe,
   // with the resolved far content of `far` if given. With `gain` (one
   // colour per pixel, e.g. the BRDF towards a view at the pixel's
-  // direction), also sums each pixel's cosine-weighted light times its gain
-  // into `reflected` (near fragments only: not with `far`).
+  // direction), also sums each pixel's cosine-weighted light (near and
+  // far) times its gain into `reflected`.
   Resolved resolve(float ao_max_distance, const FarBuffer* far = nullptr,
                    const Imath::C3f* gain = nullptr);
 
