@@ -154,6 +154,7 @@ void PbgiSweep::validate() const {
   f.method = GatherMethod::kFpbgi;
   f.clusters = fpbgi_clusters;
   f.epsilon = fpbgi_epsilon;
+  f.glossy_max_resolution = glossy_max_resolution;
   f.validate();
   if (!contains(methods, default_method))
     throw InvalidArgument("bench: the default gather method " + gather_method_name(default_method) +
@@ -194,6 +195,7 @@ MethodConfig pbgi_config(const PbgiSweep& sweep, const std::string& build, const
   options.gather.max_solid_angle = k.sa;
   options.gather.clusters = sweep.fpbgi_clusters;
   options.gather.epsilon = sweep.fpbgi_epsilon;
+  options.gather.glossy_max_resolution = sweep.glossy_max_resolution;
   options.pixel_samples = k.pixel_samples;
   options.light_samples = sweep.light_samples;
   options.seed = sweep.seed;
@@ -219,7 +221,8 @@ MethodConfig pbgi_config(const PbgiSweep& sweep, const std::string& build, const
               {"microbuffer_resolution", std::to_string(k.mb)},
               {"max_solid_angle", fmt::format("{:g}", k.sa)},
               {"pixel_samples", std::to_string(k.pixel_samples)},
-              {"light_samples", std::to_string(sweep.light_samples)}};
+              {"light_samples", std::to_string(sweep.light_samples)},
+              {"glossy_max_resolution", std::to_string(sweep.glossy_max_resolution)}};
   if (k.method == GatherMethod::kFpbgi) {
     c.params.push_back({"clusters", std::to_string(options.gather.clusters)});
     c.params.push_back({"epsilon", fmt::format("{:g}", options.gather.effective_epsilon())});

@@ -34,6 +34,9 @@ struct PbgiSweep {
   // GatherOptions' defaults.
   uint32_t fpbgi_clusters = GatherOptions{}.clusters;
   float fpbgi_epsilon = GatherOptions{}.epsilon;
+  // Glossy receivers' finest lobe microbuffer (GatherOptions'; at or below
+  // the microbuffer resolution: the fixed buffer), for every render.
+  uint32_t glossy_max_resolution = GatherOptions{}.glossy_max_resolution;
   // Payload codecs. The first gets the full sweep above (the default
   // configuration is one of its); every other one is one more page set at
   // default_target_surfels, rendered by each method at each microbuffer

@@ -30,6 +30,7 @@ struct BenchArgs {
   std::vector<std::string> payloads;
   std::optional<uint32_t> clusters;
   std::optional<float> epsilon;
+  std::optional<uint32_t> glossy_max_resolution;
   bool quick = false;
   bool images = false;
   bool no_plot = false;
@@ -65,6 +66,7 @@ int run(const BenchArgs& args) {
   }
   if (args.clusters) o.pbgi.fpbgi_clusters = *args.clusters;
   if (args.epsilon) o.pbgi.fpbgi_epsilon = *args.epsilon;
+  if (args.glossy_max_resolution) o.pbgi.glossy_max_resolution = *args.glossy_max_resolution;
   pick_default(o.pbgi.methods, &o.pbgi.default_method);
   pick_default(o.pbgi.target_surfels, &o.pbgi.default_target_surfels);
   pick_default(o.pbgi.microbuffer_resolutions, &o.pbgi.default_microbuffer_resolution);
@@ -130,6 +132,9 @@ const CommandRegistrar kRegistrar("bench", [](CLI::App& app, int* exit_code) {
   cmd->add_option("--clusters", args->clusters, "FPBGI clusters per 1024 receivers (default 100)");
   cmd->add_option("--epsilon", args->epsilon,
                   "FPBGI far/near split (default 0 = auto, 0.4 / microbuffer resolution)");
+  cmd->add_option("--glossy-max-res", args->glossy_max_resolution,
+                  "Glossy receivers' finest lobe microbuffer, 4..64 (default 32; at or below the "
+                  "microbuffer resolution: the fixed buffer)");
   cmd->add_flag("--quick", args->quick, "Small sweep for CI (64x64, 20k surfels, 4 settings per gather method)");
   cmd->add_flag("--images", args->images, "Also write <out-dir>/images/<config>.exr");
   cmd->add_flag("--no-plot", args->no_plot, "Do not run scripts/plot_bench.py");

@@ -4,12 +4,15 @@
 #include "client/cli/command.h"
 #include "client/image/exr_image.h"
 #include "client/metrics/image_comparison.h"
+#include "client/metrics/pixel_mask.h"
+#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <vector>
 
 namespace pbgi::cli {
 namespace {
@@ -20,6 +23,12 @@ struct CompareArgs {
   std::string reference_aov;  // layer of the reference to compare --aov with
   bool json = false;
   bool no_perceptual = false;
+  // Only the pixels where this image's mask_aov equals mask_value
+  // (client/metrics/pixel_mask.h); "" = every pixel.
+  std::string mask;
+  std::string mask_aov = "albedo";
+  float mask_value = 0.f;
+  float mask_tolerance = 1e-3f;
   metrics::ComparisonOptions options;
 };
 
@@ -97,9 +106,23 @@ void print_table(const CompareArgs& args, const std::vector<metrics::AovMetrics>
 }
 
 int run(CompareArgs args) {
-  const image::ExrImage test = image::read_exr(args.test);
-  const image::ExrImage reference = image::read_exr(args.reference);
+  image::ExrImage test = image::read_exr(args.test);
+  image::ExrImage reference = image::read_exr(args.reference);
   args.options.perceptual = !args.no_perceptual;
+  if (!args.mask.empty()) {
+    const std::vector<uint32_t> pixels =
+        metrics::pixels_where(image::read_exr(args.mask), layer_from_flag(args.mask_aov),
+                              args.mask_value, args.mask_tolerance);
+    if (pixels.empty()) {
+      throw InvalidArgument(fmt::format("--mask {}: no pixel has {} = {}", args.mask,
+                                        args.mask_aov, args.mask_value));
+    }
+    std::printf("%zu pixels where %s of %s is %g\n", pixels.size(), args.mask_aov.c_str(),
+                args.mask.c_str(), args.mask_value);
+    test = metrics::select_pixels(test, pixels);
+    reference = metrics::select_pixels(reference, pixels);
+    args.options.perceptual = false;  // needs the 2D layout
+  }
   std::vector<metrics::AovMetrics> all;
   if (args.aov.empty()) {
     all = metrics::compare_images(test, reference, args.options);
@@ -125,6 +148,12 @@ const CommandRegistrar kRegistrar("compare", [](CLI::App& app, int* exit_code) {
   cmd->add_option("--aov", args->aov, "Only this AOV (layer; 'beauty' = the unnamed layer)");
   cmd->add_option("--ref-aov", args->reference_aov,
                   "Reference layer to compare --aov with (default: the same name)");
+  cmd->add_option("--mask", args->mask,
+                  "Only the pixels where this EXR's --mask-aov equals --mask-value (e.g. a "
+                  "reference's albedo: one material's pixels); no perceptual metric");
+  cmd->add_option("--mask-aov", args->mask_aov, "Layer of --mask to test (default albedo)");
+  cmd->add_option("--mask-value", args->mask_value, "Value every channel must have");
+  cmd->add_option("--mask-tolerance", args->mask_tolerance, "Allowed difference (default 1e-3)");
   cmd->add_flag("--json", args->json, "Machine-readable output");
   cmd->add_flag("--no-perceptual", args->no_perceptual, "Skip the perceptual metric");
   cmd->add_option("--rel-eps", args->options.error.rel_mse_epsilon, "eps of relMSE")

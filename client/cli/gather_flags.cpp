@@ -13,6 +13,10 @@ void GatherArgs::add_to(CLI::App* cmd) {
   cmd->add_option("--clusters", clusters, "FPBGI clusters per 1024 receivers [100]");
   cmd->add_option("--epsilon", epsilon, "FPBGI far/near split, radians [0.4 / mb-res]");
   cmd->add_option("--hdr-refine", hdr_refine, "HDR-aware cut refinement, 0 = off");
+  cmd->add_option("--glossy-max-res", glossy_max_resolution,
+                  "glossy lobes: finest microbuffer resolution, 4..64 [32]");
+  cmd->add_option("--glossy-importance", glossy_importance,
+                  "glossy lobes: lobe share that splits a cell, (0, 1] [0.01]");
 }
 
 v1::GatherOptions GatherArgs::to_proto() const {
@@ -27,6 +31,8 @@ v1::GatherOptions GatherArgs::to_proto() const {
   o.set_clusters(clusters);
   o.set_epsilon(epsilon);
   o.set_hdr_refine(hdr_refine);
+  o.set_glossy_max_resolution(glossy_max_resolution);
+  o.set_glossy_importance(glossy_importance);
   return o;
 }
 

@@ -23,9 +23,12 @@ struct GatherArgs {
   uint32_t clusters = 0;
   float epsilon = 0.f;
   float hdr_refine = 0.f;
+  uint32_t glossy_max_resolution = 0;
+  float glossy_importance = 0.f;
 
   // Adds --mb-res, --max-solid-angle, --ao-max-distance, --light-samples,
-  // --pixel-samples, --method, --clusters, --epsilon, --hdr-refine.
+  // --pixel-samples, --method, --clusters, --epsilon, --hdr-refine,
+  // --glossy-max-res, --glossy-importance.
   void add_to(CLI::App* cmd);
 
   // The request message; the daemon validates the values and names the

@@ -36,6 +36,14 @@ def main() -> int:
         out = client.gather(info.scene_id, positions, normals, light_samples=4)
         for p, e, ao in zip(positions, out["irradiance"], out["ao"]):
             print(f"irradiance at {p}: {e[0]:.4f} {e[1]:.4f} {e[2]:.4f}  ao {ao:.3f}")
+        # A glossy receiver (roughness 0.1, white F0) on the floor in front
+        # of the tall box, whose mirror direction points at the red left wall.
+        mirror = (-0.958, 0.287, 0.0)  # unit, 17 degrees above the floor
+        view = (-mirror[0], mirror[1], -mirror[2])  # reflected about the normal (0, 1, 0)
+        glossy = client.gather(info.scene_id, [(-0.3, 0.001, 0.5)], [(0, 1, 0)],
+                               view_directions=[view], roughness=[0.1],
+                               specular_color=[(1, 1, 1)], light_samples=4)["glossy"][0]
+        print(f"glossy towards {view}: {glossy[0]:.4f} {glossy[1]:.4f} {glossy[2]:.4f}")
         if info.cameras:
             tile = client.render_tile(info.scene_id, info.cameras[0], 64, 64, (24, 48, 40, 64),
                                       light_samples=4)

@@ -40,6 +40,14 @@ def _pack(vectors: Iterable[Sequence[float]]) -> bytes:
     return values.tobytes()
 
 
+def _pack_scalars(values: Iterable[float]) -> bytes:
+    """Packed little-endian float32, one per receiver."""
+    packed = array.array("f", (float(v) for v in values))
+    if sys.byteorder != "little":
+        packed.byteswap()
+    return packed.tobytes()
+
+
 def _unpack(data: bytes, width: int) -> list:
     values = array.array("f")
     values.frombytes(data)
@@ -133,14 +141,27 @@ class PbgiClient:
     def status(self):
         return self._call("GetStatus", self.pb.GetStatusRequest(), self.pb.GetStatusResponse)
 
-    def gather(self, scene_id: str, positions, normals, **options) -> dict:
-        """Irradiance (rgb tuples) and AO per receiver; options: GatherOptions fields."""
+    def gather(self, scene_id: str, positions, normals, view_directions=None, roughness=None,
+               specular_color=None, **options) -> dict:
+        """Irradiance (rgb tuples) and AO per receiver; options: GatherOptions fields.
+
+        Glossy receivers (docs/protocol.md): give specular_color (rgb F0 per
+        receiver, black = diffuse) with unit view_directions (towards the eye)
+        and roughness (one float each); the result then has "glossy" (rgb).
+        """
         request = self.pb.GatherRequest(scene_id=scene_id, positions=_pack(positions),
                                         normals=_pack(normals),
                                         options=self.pb.GatherOptions(**options))
+        if specular_color is not None:
+            request.view_directions = _pack(view_directions or [])
+            request.roughness = _pack_scalars(roughness or [])
+            request.specular_color = _pack(specular_color)
         response = self._call("Gather", request, self.pb.GatherResponse)
-        return {"irradiance": _unpack(response.irradiance, 3), "ao": _unpack(response.ao, 1),
-                "stats": response.stats}
+        out = {"irradiance": _unpack(response.irradiance, 3), "ao": _unpack(response.ao, 1),
+               "stats": response.stats}
+        if response.glossy:
+            out["glossy"] = _unpack(response.glossy, 3)
+        return out
 
     def render_tile(self, scene_id: str, camera: str, width: int, height: int,
                     tile: Sequence[int], **options) -> dict:

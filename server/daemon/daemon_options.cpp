@@ -281,6 +281,8 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
     gather.read("clusters", r.gather.clusters);
     gather.read("epsilon", r.gather.epsilon);
     gather.read("hdr_refine", r.gather.hdr_refine);
+    gather.read("glossy_max_resolution", r.gather.glossy_max_resolution);
+    gather.read("glossy_importance", r.gather.glossy_importance);
     gather.reject_unknown();
   }
   if (const toml::table* table = top.table("build")) {
@@ -380,6 +382,8 @@ std::string to_toml(const DaemonOptions& o) {
   integer_value("clusters", r.gather.clusters);
   float32_value("epsilon", r.gather.epsilon);
   float32_value("hdr_refine", r.gather.hdr_refine);
+  integer_value("glossy_max_resolution", r.gather.glossy_max_resolution);
+  float32_value("glossy_importance", r.gather.glossy_importance);
 
   const OpenOptions& b = o.service.defaults.open;
   out << "\n[build]\n";
@@ -477,6 +481,8 @@ bool operator==(const DaemonOptions& a, const DaemonOptions& b) {
          ra.light_samples == rb.light_samples && ra.pixel_samples == rb.pixel_samples &&
          ra.gather.method == rb.gather.method && ra.gather.clusters == rb.gather.clusters &&
          ra.gather.epsilon == rb.gather.epsilon && ra.gather.hdr_refine == rb.gather.hdr_refine &&
+         ra.gather.glossy_max_resolution == rb.gather.glossy_max_resolution &&
+         ra.gather.glossy_importance == rb.gather.glossy_importance &&
          oa.surfels.spacing == ob.surfels.spacing && oa.surfels.sampler == ob.surfels.sampler &&
          oa.surfels.camera == ob.surfels.camera && oa.surfels.image_width == ob.surfels.image_width &&
          oa.surfels.image_height == ob.surfels.image_height &&

@@ -24,11 +24,23 @@ double CubeLayout::rect_solid_angle(double u0, double v0, double u1, double v1) 
   return corner_term(u1, v1) - corner_term(u0, v1) - corner_term(u1, v0) + corner_term(u0, v0);
 }
 
+uint32_t CubeLayout::pixel_of(const Imath::V3f& d) const {
+  const float ax = std::abs(d.x), ay = std::abs(d.y), az = std::abs(d.z);
+  const int k = ax >= ay && ax >= az ? 0 : (ay >= az ? 1 : 2);
+  const int face = 2 * k + (d[k] < 0.f ? 1 : 0);
+  float u, v, w;
+  face_coords(face, d, u, v, w);
+  const float last = float(n_ - 1);
+  const uint32_t i = uint32_t(std::clamp(std::floor((u / w + 1.f) * 0.5f * float(n_)), 0.f, last));
+  const uint32_t j = uint32_t(std::clamp(std::floor((v / w + 1.f) * 0.5f * float(n_)), 0.f, last));
+  return index(face, i, j);
+}
+
 const CubeLayout& CubeLayout::get(uint32_t resolution) {
   constexpr uint32_t kMin = 4, kMax = kMaxResolution;
   if (resolution < kMin || resolution > kMax) {
     throw InvalidArgument("microbuffer resolution " + std::to_string(resolution) +
-                          ": must be in [4, 32]");
+                          ": must be in [4, " + std::to_string(kMax) + "]");
   }
   static std::array<std::once_flag, kMax + 1> once;
   static std::array<std::unique_ptr<CubeLayout>, kMax + 1> layouts;

@@ -26,10 +26,11 @@ struct PixelRect {
 class CubeLayout {
  public:
   static constexpr int kFaces = 6;
-  static constexpr uint32_t kMaxResolution = 32;
+  // 32 for the diffuse microbuffer; the glossy refinement goes to 64.
+  static constexpr uint32_t kMaxResolution = 64;
 
   explicit CubeLayout(uint32_t resolution);
-  // The shared layout of a resolution in [4, 32], built once per process
+  // The shared layout of a resolution in [4, 64], built once per process
   // (thread-safe). Throws InvalidArgument outside that range.
   static const CubeLayout& get(uint32_t resolution);
 
@@ -68,6 +69,9 @@ class CubeLayout {
     u = d[(k + 1) % 3];
     v = d[(k + 2) % 3];
   }
+
+  // The pixel a (non-zero) direction d falls in.
+  uint32_t pixel_of(const Imath::V3f& d) const;
 
   // Solid angle of the face-plane rectangle [u0,u1] x [v0,v1] seen from the
   // cube center (exact: Manne's formula via the arctangent of corners).

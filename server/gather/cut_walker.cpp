@@ -339,8 +339,8 @@ void CutWalker::leaf_surfels(const StackEntry& e, const tree::Page& page, const 
   }
 }
 
-void CutWalker::walk_receiver() {
-  const float omega_max = cut_;
+template <class CutOf>
+void CutWalker::walk(const CutOf& cut_of) {
   uint64_t visited = 0;
   while (!stack_.empty()) {
     const StackEntry e = stack_.back();
@@ -352,22 +352,34 @@ void CutWalker::walk_receiver() {
     const float d2 = v.length2();
     // Nothing to see (also NaN), below the tangent plane or facing away.
     if (!h.invisible() && std::isfinite(d2) && !culled(h, v, d2)) {
-      const float r2 = h.radius * h.radius;
-      bool done = false;
-      if (d2 > r2 && kPi * r2 <= omega_max * d2) {
-        done = splat_node(e, h, v, d2, nullptr);
-      }
-      if (!done) {
-        if (!h.leaf()) {
-          push_children(e, h);
-        } else {
-          leaf_surfels(e, pins_.page(e.pin), h);
+      const float omega_max = cut_of(v, d2, h.radius);
+      if (omega_max >= 0.f) {
+        const float r2 = h.radius * h.radius;
+        bool done = false;
+        if (d2 > r2 && kPi * r2 <= omega_max * d2) {
+          done = splat_node(e, h, v, d2, nullptr);
+        }
+        if (!done) {
+          if (!h.leaf()) {
+            push_children(e, h);
+          } else {
+            leaf_surfels(e, pins_.page(e.pin), h);
+          }
         }
       }
     }
     pins_.release(e.pin);
   }
   counters_.nodes_visited += visited;
+}
+
+void CutWalker::walk_receiver() {
+  const float omega_max = cut_;
+  walk([omega_max](const Imath::V3f&, float, float) { return omega_max; });
+}
+
+void CutWalker::walk_lobe(const LobeRefinement& lobe) {
+  walk([&lobe](const Imath::V3f& v, float d2, float r) { return lobe.cut(v, d2, r); });
 }
 
 void CutWalker::walk_cluster(const ClusterFrame& c, FarBuffer& far,

@@ -17,6 +17,7 @@
 #include "server/gather/cube_layout.h"
 #include "server/gather/far_field.h"
 #include "server/gather/gather.h"
+#include "server/gather/lobe_refinement.h"
 #include "server/gather/microbuffer.h"
 #include "server/gather/page_pins.h"
 #include "server/gather/page_views.h"
@@ -68,8 +69,15 @@ class CutWalker {
   }
   // Walks the receiver's cut until the stack is empty.
   void walk_receiver();
-  // Resolves the receiver's microbuffer, with a cluster's far content.
-  Resolved resolve(const FarBuffer* far) { return buffer_.resolve(options_.ao_max_distance, far); }
+  // The glossy receiver's fine walk (lobe_refinement.h): only nodes whose
+  // cone reaches a refined pixel of `lobe`, cut at the finest cell there.
+  void walk_lobe(const LobeRefinement& lobe);
+  // Resolves the receiver's microbuffer, with a cluster's far content and
+  // a per-pixel gain (Microbuffer::resolve).
+  Resolved resolve(const FarBuffer* far, const Imath::C3f* gain = nullptr) {
+    return buffer_.resolve(options_.ao_max_distance, far, gain);
+  }
+  const Microbuffer& buffer() const { return buffer_; }
 
   // Walks a cluster's coarse cut from the root: far nodes go into `far`
   // (begun by the caller), near nodes are appended to `near` (each holding
@@ -77,6 +85,10 @@ class CutWalker {
   void walk_cluster(const ClusterFrame& c, FarBuffer& far, std::vector<StackEntry>& near);
 
  private:
+  // The receiver walk with a cut per node, cut_of(v, d2, radius): the
+  // solid angle below which the node is splatted, < 0 to skip it.
+  template <class CutOf>
+  void walk(const CutOf& cut_of);
   bool culled(const HotNode& h, const Imath::V3f& v, float d2) const;
   bool culled_for_cluster(const HotNode& h, const Imath::V3f& v, float d2,
                           const ClusterFrame& c) const;

@@ -17,7 +17,7 @@ FactorizedGather::FactorizedGather(CutWalker& walker)
 }
 
 void FactorizedGather::gather(std::span<const Receiver> rs, std::span<GatherResult> results,
-                              GatherCounters& counters) {
+                              GatherCounters& counters, GlossyGather* glossy) {
   const GatherOptions& o = walker_.options();
   clusters_.build(rs, cluster_count(o.clusters, rs.size()));
 
@@ -47,9 +47,15 @@ void FactorizedGather::gather(std::span<const Receiver> rs, std::span<GatherResu
       // Pushed last to first: popped in the cut's pre-order.
       for (size_t j = near_.size(); j-- > 0;) walker_.push(near_[j]);
       walker_.walk_receiver();
-      const Resolved r = walker_.resolve(&far_);
+      const bool lobe = glossy && rs[i].glossy.active();
+      const Resolved r =
+          walker_.resolve(&far_, lobe ? glossy->begin(rs[i], walker_.buffer()) : nullptr);
       results[i].irradiance = r.irradiance;
       results[i].ao = r.ao;
+      if (lobe) {
+        results[i].glossy = r.reflected + glossy->refined(rs[i], counters);
+        ++counters.glossy_receivers;
+      }
       ++counters.receivers;
     }
     for (const StackEntry& e : near_) pins.release(e.pin);

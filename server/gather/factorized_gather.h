@@ -8,7 +8,9 @@
 //  2. the FarBuffer is resolved once;
 //  3. each member walks the PBGI cut from the near nodes only, into its
 //     own (sparse) microbuffer, which is composited by depth with the far
-//     content and convolved with the member's cosine lobe.
+//     content and convolved with the member's cosine lobe; a glossy member
+//     also with its GGX lobe (the coarse pixels, far content included),
+//     and its refined pixels are gathered on their own (glossy_gather.h).
 // The cluster's pages stay pinned while its members are gathered.
 //
 // Thread-safety: none; one per Gatherer.
@@ -16,6 +18,7 @@
 
 #include "server/gather/cut_walker.h"
 #include "server/gather/far_field.h"
+#include "server/gather/glossy_gather.h"
 #include "server/gather/receiver_clusters.h"
 
 #include <span>
@@ -28,8 +31,9 @@ class FactorizedGather {
   explicit FactorizedGather(CutWalker& walker);
 
   // `receivers` are validated (finite, unit normals); results in order.
+  // `glossy` serves the members with an active lobe (null: none has one).
   void gather(std::span<const Receiver> receivers, std::span<GatherResult> results,
-              GatherCounters& counters);
+              GatherCounters& counters, GlossyGather* glossy = nullptr);
 
  private:
   CutWalker& walker_;

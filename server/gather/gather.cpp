@@ -8,9 +8,12 @@
 
 #include "server/gather/cut_walker.h"
 #include "server/gather/factorized_gather.h"
+#include "server/gather/glossy_gather.h"
 #include "storage/format/errors.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -22,14 +25,41 @@ bool finite(const Imath::V3f& v) {
   return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
 
-// The receiver with a unit normal; throws InvalidArgument if unusable.
-Receiver checked(const Receiver& r) {
+// How far a glossy view direction's length may be from 1.
+constexpr float kUnitTolerance = 1e-3f;
+
+// Names receiver `index` of a batch (or, without one, just "Receiver").
+std::string receiver_name(size_t index) {
+  return index == SIZE_MAX ? std::string("Receiver") : "receiver " + std::to_string(index);
+}
+
+// The receiver with a unit normal; throws InvalidArgument if unusable,
+// naming `index` (SIZE_MAX: a single receiver).
+Receiver checked(const Receiver& r, size_t index = SIZE_MAX) {
   if (!finite(r.position) || !finite(r.normal)) {
-    throw InvalidArgument("Receiver: non-finite position or normal");
+    throw InvalidArgument(receiver_name(index) + ": non-finite position or normal");
   }
   const float len = r.normal.length();
-  if (!(len > 1e-12f)) throw InvalidArgument("Receiver.normal: zero length");
-  return {r.position, r.normal / len};
+  if (!(len > 1e-12f)) throw InvalidArgument(receiver_name(index) + ".normal: zero length");
+  const GlossyLobe& g = r.glossy;
+  const bool colour_ok = std::isfinite(g.specular.x) && std::isfinite(g.specular.y) &&
+                         std::isfinite(g.specular.z) && g.specular.x >= 0.f &&
+                         g.specular.y >= 0.f && g.specular.z >= 0.f;
+  if (!colour_ok) {
+    throw InvalidArgument(receiver_name(index) + ".glossy.specular: not a finite colour >= 0");
+  }
+  if (g.active()) {
+    if (!finite(g.view) || !(std::abs(g.view.length() - 1.f) <= kUnitTolerance)) {
+      throw InvalidArgument(receiver_name(index) + ".glossy.view = (" + std::to_string(g.view.x) +
+                            ", " + std::to_string(g.view.y) + ", " + std::to_string(g.view.z) +
+                            "): not a unit vector");
+    }
+    if (!(g.roughness >= 0.f && g.roughness <= 1.f)) {
+      throw InvalidArgument(receiver_name(index) + ".glossy.roughness = " +
+                            std::to_string(g.roughness) + ": not in [0, 1]");
+    }
+  }
+  return {r.position, r.normal / len, g};
 }
 
 }  // namespace
@@ -37,12 +67,26 @@ Receiver checked(const Receiver& r) {
 struct Gatherer::Impl {
   Impl(const tree::TreeSource& tree, const GatherOptions& options, GatherCounters& counters,
        std::shared_ptr<GatherCache> c)
-      : cache(std::move(c)), walker(tree, options, counters, cache ? &cache->impl() : nullptr) {}
+      : cache(std::move(c)),
+        tree(tree),
+        walker(tree, options, counters, cache ? &cache->impl() : nullptr) {}
+
+  // The glossy receivers' lobes and fine walker, made on first use
+  // (diffuse-only gathers never build them).
+  gather::GlossyGather& glossy() {
+    if (!glossy_) {
+      glossy_ = std::make_unique<gather::GlossyGather>(tree, walker.options(),
+                                                       cache ? &cache->impl() : nullptr);
+    }
+    return *glossy_;
+  }
 
   std::shared_ptr<GatherCache> cache;  // kept alive while views point into it
+  const tree::TreeSource& tree;
   gather::CutWalker walker;
   std::unique_ptr<gather::FactorizedGather> factorized;  // made on first use
   std::vector<Receiver> batch;                           // checked receivers
+  std::unique_ptr<gather::GlossyGather> glossy_;
 };
 
 Gatherer::Gatherer(const tree::TreeSource& tree, const GatherOptions& options,
@@ -55,19 +99,15 @@ Gatherer::~Gatherer() = default;
 
 GatherResult Gatherer::gather(const Receiver& receiver) {
   // Pages stay pinned until the receiver is done.
-  struct Unpin {
-    gather::PagePins& pins;
-    ~Unpin() { pins.clear(); }
-  } unpin{impl_->walker.pins()};
-  const GatherResult out = gather_pinned(receiver);
+  const gather::ClearPinsOnExit unpin{impl_->walker.pins()};
+  const GatherResult out = gather_pinned(checked(receiver));
   counters_.pages_fetched += impl_->walker.pins().take_fetches();
   return out;
 }
 
-GatherResult Gatherer::gather_pinned(const Receiver& receiver) {
+GatherResult Gatherer::gather_pinned(const Receiver& r) {
   gather::CutWalker& w = impl_->walker;
   // 1. The receiver and its hemisphere.
-  const Receiver r = checked(receiver);
   if (w.pins().pinned() == 0) w.views().trim();  // no view is in use
   w.begin_receiver(r.position, r.normal);
 
@@ -76,11 +116,22 @@ GatherResult Gatherer::gather_pinned(const Receiver& receiver) {
   w.walk_receiver();
   ++counters_.receivers;
 
-  // 3. Visibility and convolution.
-  const gather::Resolved res = w.resolve(nullptr);
+  // 3. Visibility and convolution; a glossy receiver also convolves its
+  //    unrefined pixels with the lobe here.
+  if (!r.glossy.active()) {
+    const gather::Resolved res = w.resolve(nullptr);
+    GatherResult out;
+    out.irradiance = res.irradiance;
+    out.ao = res.ao;
+    return out;
+  }
+  gather::GlossyGather& glossy = impl_->glossy();
+  const gather::Resolved res = w.resolve(nullptr, glossy.begin(r, w.buffer()));
   GatherResult out;
   out.irradiance = res.irradiance;
   out.ao = res.ao;
+  out.glossy = res.reflected + glossy.refined(r, counters_);
+  ++counters_.glossy_receivers;
   return out;
 }
 
@@ -105,7 +156,7 @@ void Gatherer::gather_tile(std::span<const Receiver> receivers, std::span<Gather
     } release{w.pins()};
     w.pins().set_hold(true);
     for (size_t i = 0; i < receivers.size(); ++i) {
-      results[i] = gather_pinned(receivers[i]);
+      results[i] = gather_pinned(checked(receivers[i], i));
       if ((i + 1) % kPinRun == 0) {
         counters_.pages_fetched += w.pins().take_fetches();
         w.pins().clear();
@@ -117,10 +168,12 @@ void Gatherer::gather_tile(std::span<const Receiver> receivers, std::span<Gather
   // Factorized: all receivers checked first, then clustered.
   std::vector<Receiver>& batch = impl_->batch;
   batch.clear();
-  for (const Receiver& r : receivers) batch.push_back(checked(r));
+  for (size_t i = 0; i < receivers.size(); ++i) batch.push_back(checked(receivers[i], i));
   impl_->walker.views().trim();
   if (!impl_->factorized) impl_->factorized = std::make_unique<gather::FactorizedGather>(impl_->walker);
-  impl_->factorized->gather(batch, results, counters_);
+  const bool any_glossy = std::any_of(batch.begin(), batch.end(),
+                                      [](const Receiver& r) { return r.glossy.active(); });
+  impl_->factorized->gather(batch, results, counters_, any_glossy ? &impl_->glossy() : nullptr);
 }
 
 }  // namespace pbgi

@@ -1,6 +1,8 @@
 // Per-receiver PBGI gather: walk the tree, stop at the cut, rasterize into a
 // cube microbuffer with depth test, ray-cast near surfels as disks, then
-// convolve with the cosine lobe to get irradiance and ambient occlusion.
+// convolve with the cosine lobe to get irradiance and ambient occlusion;
+// for a glossy receiver also with its GGX lobe, refined where the lobe
+// needs it (lobe_refinement.h).
 #pragma once
 
 #include "server/gather/gather_options.h"
@@ -15,14 +17,28 @@
 
 namespace pbgi {
 
+// The specular part of a glossy receiver: a GGX lobe (server/scene/brdf.h,
+// specular lobe only) seen from `view`. A zero (or absent) specular colour
+// means a diffuse-only receiver, gathered exactly as before.
+struct GlossyLobe {
+  Imath::V3f view{0, 0, 0};            // unit, from the receiver towards the eye
+  float roughness = 1.f;               // [0, 1]; GGX alpha = roughness^2 (brdf.h)
+  Imath::C3f specular{0, 0, 0};        // F0 (Schlick), >= 0
+  bool active() const { return specular.x > 0.f || specular.y > 0.f || specular.z > 0.f; }
+};
+
 struct Receiver {
   Imath::V3f position;
   Imath::V3f normal;   // unit
+  GlossyLobe glossy{};
 };
 
 struct GatherResult {
   Imath::C3f irradiance{0, 0, 0};  // W/m^2, incident from the tree's surfels
   float ao = 1.f;                  // accessibility: 1 = nothing in the hemisphere
+  // Radiance reflected towards glossy.view by the specular lobe,
+  // integral of L_i(w) f_spec(w, view) cos dw (0 for diffuse receivers).
+  Imath::C3f glossy{0, 0, 0};
 };
 
 struct GatherCounters {
@@ -32,10 +48,15 @@ struct GatherCounters {
   uint64_t surfels_raycast = 0;
   uint64_t surfels_splatted = 0;   // surfels of too-large leaves drawn as splats
   uint64_t pages_fetched = 0;      // TreeSource::page calls (one per page and receiver)
+  // Glossy receivers and the nodes their refined (lobe) walks visited, on
+  // top of nodes_visited (docs/gather.md, "Glossy receivers").
+  uint64_t glossy_receivers = 0;
+  uint64_t glossy_nodes_visited = 0;
   void add(const GatherCounters& o) {
     receivers += o.receivers; nodes_visited += o.nodes_visited;
     nodes_rasterized += o.nodes_rasterized; surfels_raycast += o.surfels_raycast;
     surfels_splatted += o.surfels_splatted; pages_fetched += o.pages_fetched;
+    glossy_receivers += o.glossy_receivers; glossy_nodes_visited += o.glossy_nodes_visited;
   }
 };
 
@@ -69,7 +90,10 @@ class GatherCache {
 // Pages are pinned only while one receiver is gathered. Errors: the
 // constructor throws InvalidArgument for invalid options; gather() throws
 // InvalidArgument for a receiver with a non-finite position or a zero or
-// non-finite normal (a non-unit normal is normalized), CorruptionError for
+// non-finite normal (a non-unit normal is normalized), or with an active
+// glossy lobe whose view is not a unit vector (|1 - |v|| > 1e-3), whose
+// roughness is outside [0, 1] or whose specular colour is not finite and
+// >= 0 (gather_tile() names the receiver's index), CorruptionError for
 // a node or surfel link outside its page, and whatever the TreeSource
 // throws when loading a page.
 class Gatherer {
@@ -92,7 +116,7 @@ class Gatherer {
   const GatherCounters& counters() const { return counters_; }
 
  private:
-  // gather() without unpinning the receiver's pages afterwards.
+  // gather() without unpinning the receiver's pages afterwards; `r` checked.
   GatherResult gather_pinned(const Receiver& r);
 
   struct Impl;

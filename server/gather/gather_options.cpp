@@ -40,6 +40,17 @@ void GatherOptions::validate() const {
     throw InvalidArgument("GatherOptions.hdr_refine = " + std::to_string(hdr_refine) +
                           ": must be finite and >= 0 (0 = off)");
   }
+  if (glossy_max_resolution < kMinMicrobufferResolution ||
+      glossy_max_resolution > kMaxGlossyResolution) {
+    throw InvalidArgument(
+        "GatherOptions.glossy_max_resolution = " + std::to_string(glossy_max_resolution) +
+        ": must be in [" + std::to_string(kMinMicrobufferResolution) + ", " +
+        std::to_string(kMaxGlossyResolution) + "]");
+  }
+  if (!(std::isfinite(glossy_importance) && glossy_importance > 0.f && glossy_importance <= 1.f)) {
+    throw InvalidArgument("GatherOptions.glossy_importance = " +
+                          std::to_string(glossy_importance) + ": must be in (0, 1]");
+  }
 }
 
 }  // namespace pbgi

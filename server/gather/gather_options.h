@@ -25,6 +25,7 @@ struct GatherOptions {
   static constexpr float kMaxMaxSolidAngle = 1.f;
   static constexpr uint32_t kMaxClusters = 1024;
   static constexpr float kMaxEpsilon = 0.5f;
+  static constexpr uint32_t kMaxGlossyResolution = 64;
 
   GatherMethod method = GatherMethod::kPbgi;
   // Pixels per side of each cube face of the microbuffer (4..32).
@@ -58,11 +59,30 @@ struct GatherOptions {
   // emitters are resolved rather than smeared. 0 disables. >= 0.
   float hdr_refine = 0.f;
 
+  // Glossy receivers (docs/gather.md, "Glossy receivers"): each coarse
+  // microbuffer pixel is the root of a quadtree, split while one of its
+  // cells holds more than glossy_importance of the specular lobe's weight
+  // (f_spec cos x solid angle), down to cells of a cube of
+  // glossy_max_resolution pixels per side (rounded down to
+  // microbuffer_resolution x 2^k; at or below microbuffer_resolution the
+  // lobe is convolved with the fixed microbuffer, unrefined). [4, 64].
+  uint32_t glossy_max_resolution = 32;
+  // (0, 1]: smaller refines more of the lobe's tails.
+  float glossy_importance = 0.01f;
+
   // Throws pbgi::InvalidArgument naming the field when out of range.
   void validate() const;
   // epsilon, with 0 resolved to its automatic value.
   float effective_epsilon() const {
     return epsilon > 0.f ? epsilon : 0.4f / float(microbuffer_resolution);
+  }
+  // The finest glossy resolution actually used: microbuffer_resolution
+  // times the largest power of two that keeps it <= glossy_max_resolution
+  // (microbuffer_resolution itself when none does: no refinement).
+  uint32_t effective_glossy_resolution() const {
+    uint32_t r = microbuffer_resolution;
+    while (2 * r <= glossy_max_resolution) r *= 2;
+    return r;
   }
 };
 

@@ -105,8 +105,10 @@ inline FarShare far_share(const FarLayer& f, const Imath::V3f& n, float cos_k, f
 
 }  // namespace
 
-Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far) {
+Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
+                              const Imath::C3f* gain) {
   double er = 0, eg = 0, eb = 0, occlusion = 0;
+  double gr = 0, gg = 0, gb = 0;  // reflected (with gain)
   const float* margin = layout_.horizon_margins();
   const float* omega = layout_.solid_angles();
   if (far) {
@@ -121,12 +123,19 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far) {
       eb += f.b;
       occlusion += f.occ;
       const float t = std::max(0.f, 1.f - fp.front_alpha);
-      if (fp.rest_alpha > 0.f && t > kOpaque) {
-        const FarShare r = far_share(fp.rest, normal_, cos_[k], margin[k], weight_[k], omega[k]);
+      const bool rest = fp.rest_alpha > 0.f && t > kOpaque;
+      FarShare r{0.f, 0.f, 0.f, 0.f};
+      if (rest) {
+        r = far_share(fp.rest, normal_, cos_[k], margin[k], weight_[k], omega[k]);
         er += t * r.r;
         eg += t * r.g;
         eb += t * r.b;
         if (!(ao_max_distance > 0.f) || fp.rest_z < ao_max_distance) occlusion += t * r.occ;
+      }
+      if (gain) {
+        gr += double(gain[k].x * (f.r + t * r.r));
+        gg += double(gain[k].y * (f.g + t * r.g));
+        gb += double(gain[k].z * (f.b + t * r.b));
       }
     }
   }
@@ -202,8 +211,14 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far) {
     eg += g;
     eb += b;
     occlusion += ao_cover;
+    if (gain) {
+      gr += double(r * gain[k].x);
+      gg += double(g * gain[k].y);
+      gb += double(b * gain[k].z);
+    }
   }
   Resolved out;
+  out.reflected = Imath::C3f(float(gr), float(gg), float(gb));
   out.irradiance = Imath::C3f(float(er), float(eg), float(eb));
   out.ao = std::clamp(1.f - float(occlusion / kPi), 0.f, 1.f);
   return out;

@@ -64,6 +64,9 @@ class FarBuffer;
 struct Resolved {
   Imath::C3f irradiance{0, 0, 0};
   float ao = 1.f;
+  // With a per-pixel gain: sum over pixels of gain x the pixel's part of
+  // the irradiance (the glossy lobe's convolution, lobe_refinement.h).
+  Imath::C3f reflected{0, 0, 0};
 };
 
 class Microbuffer {
@@ -133,8 +136,12 @@ class Microbuffer {
   }
 
   // Resolves visibility (rule above) and convolves with the cosine lobe,
-  // with the resolved far content of `far` if given.
-  Resolved resolve(float ao_max_distance, const FarBuffer* far = nullptr);
+  // with the resolved far content of `far` if given. With `gain` (one
+  // colour per pixel, e.g. the BRDF towards a view at the pixel's
+  // direction), also sums each pixel's cosine-weighted light (near and
+  // far) times its gain into `reflected`.
+  Resolved resolve(float ao_max_distance, const FarBuffer* far = nullptr,
+                   const Imath::C3f* gain = nullptr);
 
   size_t fragment_count() const { return fragments_.size(); }
   size_t touched_pixel_count() const { return touched_.size(); }

@@ -146,4 +146,11 @@ class PagePins {
   bool hold_ = false;
 };
 
+// Clears a PagePins when the scope ends (also on errors): a receiver's
+// pages stay pinned only while it is gathered.
+struct ClearPinsOnExit {
+  PagePins& pins;
+  ~ClearPinsOnExit() { pins.clear(); }
+};
+
 }  // namespace pbgi::gather

@@ -52,9 +52,11 @@
 //             where x2 is the surface seen from x1 in that direction, Le its
 //             emission and Ld its direct lighting from UsdLux lights
 //             (reflected by x2's BRDF toward x1: a glossy caustic is here).
-//             For Lambert surfaces (f = albedo / pi) this is what a
-//             single-bounce PBGI gather of surfels shaded with emission +
-//             direct light estimates; glossy x1 or x2 are not in PBGI yet.
+//             This is what a single-bounce PBGI gather of surfels shaded
+//             with emission + direct light estimates, with x1's diffuse
+//             lobe times the irradiance plus its GGX lobe convolved by the
+//             glossy gather (docs/gather.md, "Glossy receivers"); glossy
+//             x2 (senders) are not in PBGI yet: surfels are Lambertian.
 //   indirect  s >= 1: all interreflections (includes indirect1).
 //   beauty    direct + indirect.
 //   albedo    albedo of x1's material (0 where the camera ray misses).

@@ -1,5 +1,6 @@
 #include "server/render/tile_renderer.h"
 
+#include "server/scene/brdf.h"
 #include "server/scene/camera_rays.h"
 #include "server/scene/direct_lighting.h"
 #include "server/scene/light_sampling.h"
@@ -50,8 +51,9 @@ bool nearest_light(const std::vector<Light>& lights, const Ray& ray, float tmax,
 struct SurfaceSample {
   PixelValue value;
   bool gathers = false;
-  Receiver receiver;
-  C3f brdf{0, 0, 0};
+  Receiver receiver;         // glossy lobe set for materials with a specular lobe
+  C3f brdf{0, 0, 0};         // Lambert albedo / pi (direct light)
+  C3f indirect_brdf{0, 0, 0};  // the diffuse lobe / pi (indirect light)
 };
 
 SurfaceSample trace_sample(const RayScene& rays, const Ray& ray, const RenderOptions& options,
@@ -91,6 +93,13 @@ SurfaceSample trace_sample(const RayScene& rays, const Ray& ray, const RenderOpt
   if (ns.dot(ng) <= 0.f) ns = ng;
   const SurfaceColors mat = surface_colors(scene, hit.triangle, hit.u, hit.v);  // textures applied
   out.brdf = mat.albedo * kInvPi;
+  // Indirect light is reflected by the material's BRDF (brdf.h), as in the
+  // reference's "indirect" AOV (path_tracer.h): its diffuse lobe times the
+  // gathered irradiance plus its GGX lobe, which the gather convolves
+  // towards the camera (the receiver's glossy part, set below).
+  const Material& material = scene.materials[t.material[hit.triangle]];
+  const BrdfLobes lobes = brdf_lobes(material, mat.albedo);
+  out.indirect_brdf = lobes.diffuse * kInvPi;
 
   const C3f e_direct = direct_irradiance(rays, p, ns, options.light_samples, light_seed);
   v.albedo = mat.albedo;
@@ -99,6 +108,11 @@ SurfaceSample trace_sample(const RayScene& rays, const Ray& ray, const RenderOpt
   // Off the surface by the hit point's own rounding bound (not a scene-wide
   // epsilon), so receivers far from the origin keep their precision.
   out.receiver = {RayScene::offset_ray_origin(rays.hit_point(hit), ng, ng), ns};
+  if (lobes.specular) {
+    out.receiver.glossy.view = -ray.direction.normalized();
+    out.receiver.glossy.roughness = std::clamp(material.roughness, 0.f, 1.f);
+    out.receiver.glossy.specular = lobes.f0;
+  }
   return out;
 }
 
@@ -106,7 +120,7 @@ SurfaceSample trace_sample(const RayScene& rays, const Ray& ray, const RenderOpt
 PixelValue finish_sample(const SurfaceSample& s, const GatherResult& g) {
   PixelValue v = s.value;
   if (!s.gathers) return v;
-  v.indirect = s.brdf * g.irradiance;
+  v.indirect = s.indirect_brdf * g.irradiance + g.glossy;
   v.ao = g.ao;
   v.beauty = v.direct + v.indirect;
   return v;

@@ -27,6 +27,12 @@ struct RenderOptions {
 };
 
 // Row-major AOVs of a tile: rgb layers have 3 floats per pixel, ao has 1.
+// "indirect" is the gathered light reflected by the hit's BRDF
+// (server/scene/brdf.h): its diffuse lobe times the irradiance, plus, for
+// materials with a GGX lobe, the glossy gather towards the camera; the
+// same quantity as the reference's "indirect" (path_tracer.h) with one
+// bounce in the surfels. "direct" still treats every surface as Lambert
+// (albedo / pi): a glossy material's direct highlight is not rendered.
 struct TileAovs {
   TileRect rect;
   std::vector<float> beauty, direct, indirect, albedo, ao;

@@ -35,6 +35,9 @@ GatherOptions decode_gather_options(const v1::GatherOptions& proto,
   out.clusters = or_default(proto.clusters(), defaults.clusters);
   out.epsilon = or_default(proto.epsilon(), defaults.epsilon);
   out.hdr_refine = or_default(proto.hdr_refine(), defaults.hdr_refine);
+  out.glossy_max_resolution =
+      or_default(proto.glossy_max_resolution(), defaults.glossy_max_resolution);
+  out.glossy_importance = or_default(proto.glossy_importance(), defaults.glossy_importance);
   out.validate();
   return out;
 }
@@ -117,6 +120,8 @@ v1::GatherOptions encode_render_options(const RenderOptions& options) {
   proto.set_clusters(options.gather.clusters);
   proto.set_epsilon(options.gather.epsilon);
   proto.set_hdr_refine(options.gather.hdr_refine);
+  proto.set_glossy_max_resolution(options.gather.glossy_max_resolution);
+  proto.set_glossy_importance(options.gather.glossy_importance);
   proto.set_light_samples(options.light_samples);
   proto.set_pixel_samples(options.pixel_samples);
   return proto;

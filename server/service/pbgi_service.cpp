@@ -42,6 +42,8 @@ void set_stats(const GatherCounters& counters, double seconds, v1::GatherStats* 
   stats->set_nodes_rasterized(counters.nodes_rasterized);
   stats->set_surfels_raycast(counters.surfels_raycast);
   stats->set_seconds(seconds);
+  stats->set_glossy_receivers(counters.glossy_receivers);
+  stats->set_glossy_nodes_visited(counters.glossy_nodes_visited);
 }
 
 // A packed AOV after checking that the renderer produced the expected size.
@@ -283,8 +285,8 @@ grpc::Status PbgiService::Gather(grpc::ServerContext* context, const v1::GatherR
     if (receivers.empty()) {
       throw InvalidArgument("GatherRequest.positions is empty: no receivers to gather");
     }
-    check_glossy_receivers(request->view_directions(), request->roughness(),
-                           request->specular_color(), receivers.size());
+    decode_glossy_receivers(request->view_directions(), request->roughness(),
+                            request->specular_color(), receivers);
     const GatherOptions options =
         decode_gather_options(request->options(), options_.defaults.render.gather);
     const std::shared_ptr<SceneSession> session = find_session(request->scene_id());
@@ -313,6 +315,17 @@ grpc::Status PbgiService::Gather(grpc::ServerContext* context, const v1::GatherR
     }
     response->set_irradiance(pack_floats(irradiance.data(), irradiance.size()));
     response->set_ao(pack_floats(ao.data(), ao.size()));
+    if (!request->specular_color().empty()) {
+      // Glossy radiance towards each receiver's view (0 for diffuse ones).
+      std::vector<float> glossy(3 * receivers.size());
+      for (size_t i = 0; i < receivers.size(); ++i) {
+        const Imath::C3f& g = batch.results[i].glossy;
+        glossy[3 * i + 0] = g.x;
+        glossy[3 * i + 1] = g.y;
+        glossy[3 * i + 2] = g.z;
+      }
+      response->set_glossy(pack_floats(glossy.data(), glossy.size()));
+    }
     set_stats(batch.counters, batch.seconds, response->mutable_stats());
     return grpc::Status::OK;
   });

@@ -68,25 +68,31 @@ std::vector<Receiver> decode_receivers(const std::string& positions, const std::
   return receivers;
 }
 
-void check_glossy_receivers(const std::string& view_directions, const std::string& roughness,
-                            const std::string& specular_color, size_t count) {
+void decode_glossy_receivers(const std::string& view_directions, const std::string& roughness,
+                             const std::string& specular_color, std::vector<Receiver>& receivers) {
+  const size_t count = receivers.size();
   auto check_size = [&](const std::string& bytes, size_t per_receiver, const char* field) {
     if (bytes.empty() || bytes.size() == count * per_receiver) return !bytes.empty();
     throw InvalidArgument(fmt::format(
         "GatherRequest.{} has {} bytes; expected 0 or {} ({} float32 for each of {} receivers)",
         field, bytes.size(), count * per_receiver, per_receiver / sizeof(float), count));
   };
-  if (check_size(view_directions, kVec3Bytes, "view_directions")) {
+  // A view direction further than this from unit length is refused (the
+  // gather's own bound, server/gather/gather.h).
+  constexpr float kUnitTolerance = 1e-3f;
+  const bool has_view = check_size(view_directions, kVec3Bytes, "view_directions");
+  if (has_view) {
     for (size_t i = 0; i < count; ++i) {
       const Imath::V3f v = read_vec3(view_directions, i);
-      if (!finite(v) || !(v.length() > 1e-12f)) {
+      if (!finite(v) || !(std::abs(v.length() - 1.f) <= kUnitTolerance)) {
         throw InvalidArgument(fmt::format(
-            "GatherRequest.view_directions[{}] = ({}, {}, {}) is not a direction", i, v.x, v.y,
-            v.z));
+            "GatherRequest.view_directions[{}] = ({}, {}, {}) is not a unit direction", i, v.x,
+            v.y, v.z));
       }
     }
   }
-  if (check_size(roughness, sizeof(float), "roughness")) {
+  const bool has_roughness = check_size(roughness, sizeof(float), "roughness");
+  if (has_roughness) {
     for (size_t i = 0; i < count; ++i) {
       float r;
       std::memcpy(&r, roughness.data() + i * sizeof(float), sizeof(float));
@@ -96,15 +102,26 @@ void check_glossy_receivers(const std::string& view_directions, const std::strin
       }
     }
   }
-  if (check_size(specular_color, kVec3Bytes, "specular_color")) {
-    for (size_t i = 0; i < count; ++i) {
-      const Imath::V3f c = read_vec3(specular_color, i);
-      if (!finite(c) || c.x < 0.f || c.y < 0.f || c.z < 0.f) {
-        throw InvalidArgument(fmt::format(
-            "GatherRequest.specular_color[{}] = ({}, {}, {}) is not a finite colour >= 0", i,
-            c.x, c.y, c.z));
-      }
+  if (!check_size(specular_color, kVec3Bytes, "specular_color")) return;
+  for (size_t i = 0; i < count; ++i) {
+    const Imath::V3f c = read_vec3(specular_color, i);
+    if (!finite(c) || c.x < 0.f || c.y < 0.f || c.z < 0.f) {
+      throw InvalidArgument(fmt::format(
+          "GatherRequest.specular_color[{}] = ({}, {}, {}) is not a finite colour >= 0", i, c.x,
+          c.y, c.z));
     }
+  }
+  if (!has_view || !has_roughness) {
+    throw InvalidArgument(fmt::format("GatherRequest.specular_color is set but GatherRequest.{} "
+                                      "is empty: glossy receivers need both",
+                                      has_view ? "roughness" : "view_directions"));
+  }
+  for (size_t i = 0; i < count; ++i) {
+    GlossyLobe& g = receivers[i].glossy;
+    g.view = read_vec3(view_directions, i);
+    std::memcpy(&g.roughness, roughness.data() + i * sizeof(float), sizeof(float));
+    const Imath::V3f c = read_vec3(specular_color, i);
+    g.specular = Imath::C3f(c.x, c.y, c.z);
   }
 }
 

@@ -17,13 +17,15 @@ namespace pbgi::service {
 std::vector<Receiver> decode_receivers(const std::string& positions, const std::string& normals,
                                        uint64_t max_receivers);
 
-// Checks GatherRequest's optional glossy arrays against `count` receivers:
-// each is empty or has one entry per receiver; view directions finite and
-// non-zero, roughness in [0, 1], specular colours finite and >= 0. Throws
-// InvalidArgument naming the field and the first receiver at fault. (The
-// v1 gather is diffuse and does not use them: see docs/protocol.md.)
-void check_glossy_receivers(const std::string& view_directions, const std::string& roughness,
-                            const std::string& specular_color, size_t count);
+// Decodes GatherRequest's optional glossy arrays into `receivers`' lobes
+// (docs/protocol.md): each is empty or has one entry per receiver; view
+// directions unit (within 1e-3), roughness in [0, 1], specular colours
+// finite and >= 0; specular_color makes receivers glossy and then needs
+// view_directions and roughness too. A receiver with a black specular
+// colour stays diffuse. Throws InvalidArgument naming the field and the
+// first receiver at fault.
+void decode_glossy_receivers(const std::string& view_directions, const std::string& roughness,
+                             const std::string& specular_color, std::vector<Receiver>& receivers);
 
 // The bytes of `count` floats.
 std::string pack_floats(const float* data, size_t count);

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """The Python client's example against a real pbgid on a temporary unix
 socket: it must open the Cornell box, see colour bleeding in the gathered
-irradiance, render a lit tile and get INVALID_ARGUMENT for a NaN receiver.
+irradiance, a glossy receiver mirror the red wall, render a lit tile and
+get INVALID_ARGUMENT for a NaN receiver.
 Exits 77 (ctest: skipped) if grpcio is not installed.
 
     python_client_test.py PBGID SOURCE_DIR PROTO_PATH
@@ -51,11 +52,15 @@ def main() -> int:
             out = result.stdout
             values = [tuple(map(float, m)) for m in
                       re.findall(r"irradiance at .*?: ([\d.e+-]+) ([\d.e+-]+) ([\d.e+-]+)", out)]
+            glossy = [tuple(map(float, m)) for m in
+                      re.findall(r"glossy towards .*?: ([\d.e+-]+) ([\d.e+-]+) ([\d.e+-]+)", out)]
             checks = {
                 "three receivers": len(values) == 3,
                 "red wall bleeds red": len(values) == 3 and values[0][0] > 1.3 * values[0][1],
                 "green wall bleeds green": len(values) == 3 and values[1][1] > 1.3 * values[1][0],
                 "tile is lit": bool(re.search(r"mean beauty (0\.0*[1-9]|[1-9])", out)),
+                "glossy mirror reflects the red wall": len(glossy) == 1 and glossy[0][0] > 0.0
+                and glossy[0][0] > 3.0 * glossy[0][1],
                 "NaN refused": "refused as expected: INVALID_ARGUMENT" in out,
                 "status": "status: 1 scenes" in out,
             }

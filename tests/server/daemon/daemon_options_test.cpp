@@ -55,6 +55,8 @@ DaemonOptions non_default_options() {
   o.service.defaults.render.gather.clusters = 64;
   o.service.defaults.render.gather.epsilon = 0.02f;
   o.service.defaults.render.gather.hdr_refine = 0.5f;
+  o.service.defaults.render.gather.glossy_max_resolution = 64;
+  o.service.defaults.render.gather.glossy_importance = 0.03f;
   o.service.defaults.open.surfels.spacing = 0.013f;
   o.service.defaults.open.surfels.sampler = SurfelSampler::kPoisson;
   o.service.defaults.open.surfels.camera = "/World/Camera";

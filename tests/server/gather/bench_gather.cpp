@@ -24,9 +24,15 @@
 // Usage:
 //   bench_gather [--configs LIST] [--width 512] [--tile 32] [--tiles 8]
 //                [--surfels 200000] [--repeat 3] [--ref-res 32] [--ref-angle 0.002]
-//                [--ref-stride 2] [--no-error] [--page-set]
-// LIST is comma separated; each entry method:N:angle[:k=K][:eps=E][:hdr=H],
+//                [--ref-stride 2] [--no-error] [--page-set] [--glossy ROUGHNESS]
+// LIST is comma separated; each entry
+// method:N:angle[:k=K][:eps=E][:hdr=H][:gres=N][:gimp=X] (gres, gimp: the
+// glossy options glossy_max_resolution and glossy_importance),
 // method pbgi or fpbgi, e.g. "pbgi:8:0.03,fpbgi:8:0.03:k=100:eps=0.01".
+// --glossy R makes every receiver glossy (roughness R, F0 1, seen from the
+// camera): the reference uses glossy_max_resolution 64 and importance
+// 1e-3, errors and vs_pbgi are those of the glossy radiance, nodes count
+// the glossy walks too.
 // For profiling: valgrind --tool=callgrind --toggle-collect='*gather_tile*'
 //   bench_gather --configs pbgi:8:0.03 --tiles 1 --repeat 1 --no-error
 #include "server/gather/gather.h"
@@ -69,6 +75,9 @@ struct Args {
   uint32_t ref_res = 32, ref_stride = 2;
   float ref_angle = 0.002f;
   bool error = true, page_set = false;
+  // >= 0: every receiver is glossy (this GGX roughness, white F0, viewed
+  // from the camera) and the error is that of the glossy radiance.
+  float glossy = -1.f;
 };
 
 // ---------------------------------------------------------------- scene
@@ -169,6 +178,12 @@ std::vector<Tile> make_tiles(const Args& a) {
         V3f p, n;
         if (!trace(eye, d, p, n)) throw std::runtime_error("camera ray escaped the room");
         tile.receivers.push_back({p + n * 1e-3f, n});
+        if (a.glossy >= 0.f) {
+          GlossyLobe& g = tile.receivers.back().glossy;
+          g.view = -d;
+          g.roughness = a.glossy;
+          g.specular = C3f(1.f);
+        }
       }
     }
     tiles.push_back(std::move(tile));
@@ -216,6 +231,8 @@ std::vector<Config> parse_configs(const std::string& list) {
       if (p.rfind("k=", 0) == 0) c.options.clusters = uint32_t(std::stoul(p.substr(2)));
       else if (p.rfind("eps=", 0) == 0) c.options.epsilon = std::stof(p.substr(4));
       else if (p.rfind("hdr=", 0) == 0) c.options.hdr_refine = std::stof(p.substr(4));
+      else if (p.rfind("gres=", 0) == 0) c.options.glossy_max_resolution = uint32_t(std::stoul(p.substr(5)));
+      else if (p.rfind("gimp=", 0) == 0) c.options.glossy_importance = std::stof(p.substr(5));
       else throw std::runtime_error("unknown parameter '" + p + "' in '" + item + "'");
     }
     c.options.validate();
@@ -264,6 +281,10 @@ std::vector<GatherResult> reference(const tree::TreeSource& tree, const std::vec
   GatherOptions o;
   o.microbuffer_resolution = a.ref_res;
   o.max_solid_angle = a.ref_angle;
+  // Glossy receivers: the finest lobe buffer, splitting cells down to 0.1%
+  // of the lobe.
+  o.glossy_max_resolution = GatherOptions::kMaxGlossyResolution;
+  o.glossy_importance = 1e-3f;
   const unsigned threads = std::max(1u, std::thread::hardware_concurrency());
   std::vector<std::thread> pool;
   for (unsigned t = 0; t < threads; ++t) {
@@ -291,14 +312,16 @@ struct Errors {
   double rel_rmse = 0, mean_rel = 0, ao_rmse = 0;
 };
 
-Errors compare(const std::vector<GatherResult>& got, const std::vector<GatherResult>& ref) {
+// Irradiance errors, or with `glossy` those of the glossy radiance.
+Errors compare(const std::vector<GatherResult>& got, const std::vector<GatherResult>& ref,
+               bool glossy = false) {
   double se = 0, ae = 0, norm = 0, ao = 0;
   for (size_t i = 0; i < got.size(); ++i) {
-    const C3f d = got[i].irradiance - ref[i].irradiance;
+    const C3f d = glossy ? got[i].glossy - ref[i].glossy : got[i].irradiance - ref[i].irradiance;
     const double e2 = double(d.x) * d.x + double(d.y) * d.y + double(d.z) * d.z;
     se += e2;
     ae += std::sqrt(e2);
-    norm += ref[i].irradiance.length();
+    norm += glossy ? ref[i].glossy.length() : ref[i].irradiance.length();
     const double da = got[i].ao - ref[i].ao;
     ao += da * da;
   }
@@ -314,7 +337,7 @@ void usage() {
   std::fprintf(stderr,
                "bench_gather [--configs LIST] [--width W] [--tile T] [--tiles N] [--surfels S]\n"
                "             [--repeat R] [--ref-res N] [--ref-angle SR] [--ref-stride S]\n"
-               "             [--no-error] [--page-set]\n");
+               "             [--no-error] [--page-set] [--glossy ROUGHNESS]\n");
 }
 
 Args parse_args(int argc, char** argv) {
@@ -336,6 +359,7 @@ Args parse_args(int argc, char** argv) {
     else if (k == "--ref-stride") a.ref_stride = uint32_t(std::stoul(next()));
     else if (k == "--no-error") a.error = false;
     else if (k == "--page-set") a.page_set = true;
+    else if (k == "--glossy") a.glossy = std::stof(next());
     else {
       usage();
       throw std::runtime_error("unknown argument " + k);
@@ -451,7 +475,7 @@ int run(int argc, char** argv) {
     }
     char err[128] = "";
     if (a.error) {
-      const Errors e = compare(got, ref);
+      const Errors e = compare(got, ref, a.glossy >= 0.f);
       std::snprintf(err, sizeof err, "%8.4f %8.4f %8.4f", e.rel_rmse, e.mean_rel, e.ao_rmse);
     }
     const std::string key = std::to_string(c.options.microbuffer_resolution) + ":" +
@@ -461,12 +485,15 @@ int run(int argc, char** argv) {
       pbgi_results.emplace_back(key, all);
     } else {
       for (const auto& [k2, r] : pbgi_results) {
-        if (k2 == key) std::snprintf(vs, sizeof vs, "%8.4f", compare(all, r).rel_rmse);
+        if (k2 == key) {
+          std::snprintf(vs, sizeof vs, "%8.4f", compare(all, r, a.glossy >= 0.f).rel_rmse);
+        }
       }
     }
     std::printf("%-34s %10.0f %9.1f %8.0f %7.0f %8.2f %s %s\n", c.text.c_str(),
                 double(receiver_count) / best, 1e6 * best / double(receiver_count),
-                double(k.nodes_visited) / n, double(k.nodes_rasterized + k.surfels_splatted) / n,
+                double(k.nodes_visited + k.glossy_nodes_visited) / n,
+                double(k.nodes_rasterized + k.surfels_splatted) / n,
                 double(k.surfels_raycast) / n, err, vs);
     std::fflush(stdout);
   }

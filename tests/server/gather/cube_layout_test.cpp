@@ -85,8 +85,18 @@ TEST(CubeLayout, ConePixelsHoldEveryPixelCenterInTheCone) {
 
 TEST(CubeLayout, ResolutionOutOfRangeThrows) {
   EXPECT_THROW(CubeLayout::get(3), InvalidArgument);
-  EXPECT_THROW(CubeLayout::get(33), InvalidArgument);
+  EXPECT_THROW(CubeLayout::get(65), InvalidArgument);  // 33..64: glossy refinement
   EXPECT_EQ(&CubeLayout::get(8), &CubeLayout::get(8));
+}
+
+TEST(CubeLayout, PixelOfAPixelsDirectionIsThatPixel) {
+  for (const uint32_t n : {4u, 8u, 13u, 64u}) {
+    const CubeLayout& c = CubeLayout::get(n);
+    for (uint32_t k = 0; k < c.pixel_count(); ++k) {
+      ASSERT_EQ(c.pixel_of(c.direction(k)), k) << "N = " << n;
+      ASSERT_EQ(c.pixel_of(3.f * c.direction(k)), k) << "N = " << n << ", not unit";
+    }
+  }
 }
 
 }  // namespace

@@ -180,30 +180,66 @@ TEST(RenderTile, CancelledThrows) {
                Cancelled);
 }
 
-TEST(RenderTile, IndirectLightFromSurfels) {
-  // The floor next to a red-lit wall: the floor receives red indirect light.
+// floor_scene() with a red wall at x = -1 facing +X, lit by a light facing
+// it, and the surfel tree of its direct light.
+Scene red_wall_scene() {
   Scene s = floor_scene();
   const uint32_t red = test::add_material(s, {0.9f, 0.1f, 0.1f});
-  // Wall at x = -1 facing +X, lit by a light facing it.
   test::add_quad(s, V3f(-1, -2, 0), V3f(-1, 2, 0), V3f(-1, 2, 2), V3f(-1, -2, 2), red, "/wall");
   Light l = test::rect_light(0, 0, 0, 1.f, 1.f, {20, 20, 20});
   // local -Z -> world -X: rows X->(0,1,0)... use Y->Z, Z->X.
   l.local_to_world = M44f(0, 1, 0, 0, 0, 0, 1, 0, 1, 0, 0, 0, 0.5f, 0, 1.5f, 1);
   s.lights = {l};
+  return s;
+}
+
+tree::MemoryTree direct_light_tree(const Scene& s) {
   const RayScene rays(s);
   SurfelOptions so;
   so.target_surfels = 4000;
   auto surfels = sample_surfels(s, so);
   shade_direct(rays, so, surfels);
-  tree::BuildOptions bo;
-  const tree::MemoryTree tree(tree::build_tree(std::move(surfels), bo));
-  const uint32_t c = kSize / 2;
-  // The pixel at x ~ -0.6 on the floor, looking down.
+  return tree::MemoryTree(tree::build_tree(std::move(surfels), tree::BuildOptions{}));
+}
+
+// The pixel at x ~ -0.6 on the floor, looking down.
+constexpr uint32_t kRedSideRow = kSize / 2;
+constexpr TileRect kRedSidePixel{4, kRedSideRow, 5, kRedSideRow + 1};
+
+TEST(RenderTile, IndirectLightFromSurfels) {
+  // The floor next to a red-lit wall: the floor receives red indirect light.
+  const Scene s = red_wall_scene();
+  const RayScene rays(s);
+  const tree::MemoryTree tree = direct_light_tree(s);
   const TileAovs out = render_tile(rays, tree, *s.find_camera("/cam"), kSize, kSize,
-                                   {4, c, 5, c + 1}, RenderOptions());
+                                   kRedSidePixel, RenderOptions());
   EXPECT_GT(out.indirect[0], 0.f);
   EXPECT_GT(out.indirect[0], 3.f * out.indirect[1]);  // red dominates
   EXPECT_LT(out.ao[0], 1.f);
+}
+
+// A metal floor (no diffuse lobe) next to the red-lit wall: all its
+// indirect light is the glossy gather towards the camera, folded into the
+// indirect AOV as the reference defines it (full BRDF at the hit).
+TEST(RenderTile, GlossyMaterialsReflectIndirectLightTowardsTheCamera) {
+  Scene s = red_wall_scene();
+  const tree::MemoryTree tree = direct_light_tree(s);
+  const RayScene matte_rays(s);
+  const TileAovs matte = render_tile(matte_rays, tree, *s.find_camera("/cam"), kSize, kSize,
+                                     kRedSidePixel, RenderOptions());
+  // The floor turned into a rough metal: diffuse lobe 0, F0 = albedo.
+  Material& floor = s.materials[0];  // floor_scene's first material
+  ASSERT_EQ(floor.albedo.x, kAlbedo);
+  floor.metallic = 1.f;
+  floor.roughness = 0.5f;
+  const RayScene metal_rays(s);
+  GatherCounters counters;
+  const TileAovs metal = render_tile(metal_rays, tree, *s.find_camera("/cam"), kSize, kSize,
+                                     kRedSidePixel, RenderOptions(), &counters);
+  EXPECT_EQ(counters.glossy_receivers, 1u);
+  EXPECT_GT(metal.indirect[0], 0.01f * matte.indirect[0]);
+  EXPECT_GT(metal.indirect[0], 3.f * metal.indirect[1]);  // it reflects the red wall
+  EXPECT_EQ(metal.ao[0], matte.ao[0]);                    // the diffuse gather is unchanged
 }
 
 }  // namespace

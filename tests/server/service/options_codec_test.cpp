@@ -14,6 +14,8 @@ RenderOptions custom_render_defaults() {
   d.gather.microbuffer_resolution = 12;
   d.gather.max_solid_angle = 0.05f;
   d.gather.ao_max_distance = 3.f;
+  d.gather.glossy_max_resolution = 48;
+  d.gather.glossy_importance = 0.02f;
   d.light_samples = 7;
   d.pixel_samples = 2;
   return d;
@@ -35,12 +37,25 @@ TEST(OptionsCodec, SetGatherFieldsOverrideDefaults) {
   proto.set_microbuffer_resolution(16);
   proto.set_max_solid_angle(0.01f);
   proto.set_light_samples(4);
+  proto.set_glossy_max_resolution(64);
+  proto.set_glossy_importance(0.05f);
   const RenderOptions r = decode_render_options(proto, custom_render_defaults());
+  EXPECT_EQ(r.gather.glossy_max_resolution, 64u);
+  EXPECT_FLOAT_EQ(r.gather.glossy_importance, 0.05f);
   EXPECT_EQ(r.gather.microbuffer_resolution, 16u);
   EXPECT_FLOAT_EQ(r.gather.max_solid_angle, 0.01f);
   EXPECT_FLOAT_EQ(r.gather.ao_max_distance, 3.f);  // still the default
   EXPECT_EQ(r.light_samples, 4u);
   EXPECT_EQ(r.pixel_samples, 2u);
+}
+
+TEST(OptionsCodec, GlossyOptionsAreValidated) {
+  v1::GatherOptions proto;
+  proto.set_glossy_max_resolution(128);
+  EXPECT_THROW(decode_gather_options(proto, GatherOptions{}), InvalidArgument);
+  proto.set_glossy_max_resolution(0);
+  proto.set_glossy_importance(2.f);
+  EXPECT_THROW(decode_gather_options(proto, GatherOptions{}), InvalidArgument);
 }
 
 TEST(OptionsCodec, EncodeDecodeRoundTrip) {
@@ -51,6 +66,8 @@ TEST(OptionsCodec, EncodeDecodeRoundTrip) {
   EXPECT_EQ(back.gather.ao_max_distance, original.gather.ao_max_distance);
   EXPECT_EQ(back.light_samples, original.light_samples);
   EXPECT_EQ(back.pixel_samples, original.pixel_samples);
+  EXPECT_EQ(back.gather.glossy_max_resolution, original.gather.glossy_max_resolution);
+  EXPECT_EQ(back.gather.glossy_importance, original.gather.glossy_importance);
 
   OpenOptions open;
   open.surfels.spacing = 0.02f;

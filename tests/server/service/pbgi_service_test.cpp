@@ -10,6 +10,7 @@
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <fstream>
 #include <limits>
 #include <mutex>
@@ -26,6 +27,7 @@ class PbgiServiceTest : public ::testing::Test {
     fs::create_directories(root);
     std::ofstream(root / "a.usda") << "#usda 1.0\n";
     std::ofstream(root / "bad.usda") << "not usd\n";
+    std::ofstream(root / "lit.usda") << "#usda 1.0\n";
     auto registry = std::make_shared<SceneRegistry>(
         [this](const fs::path& path, const OpenOptions& options, const StageSelection& selection,
                const StageProgress& progress) -> std::shared_ptr<SceneSession> {
@@ -45,6 +47,10 @@ class PbgiServiceTest : public ::testing::Test {
           progress("ingest", 0.f);
           progress("ingest", 1.f);
           progress("tree", 1.f);
+          if (path.filename() == "lit.usda") {
+            return testing::lit_session(path.string(), "scene-" + std::to_string(n),
+                                        tmp.path() / ("pages-" + std::to_string(n)));
+          }
           return testing::fake_session(path.string(), "scene-" + std::to_string(n));
         });
     ServiceOptions options;
@@ -339,6 +345,64 @@ TEST_F(PbgiServiceTest, GatherRejectsEmptyAndBadGlossyArrays) {
   s = gather(request);
   EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_TRUE(mentions(s, "specular_color[0]")) << s.error_message();
+
+  // A glossy request needs unit view directions and a roughness.
+  const float white[3] = {1, 1, 1};
+  request.set_specular_color(std::string(reinterpret_cast<const char*>(white), sizeof(white)));
+  s = gather(request);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_TRUE(mentions(s, "roughness")) << s.error_message();
+  const float longer[3] = {0, 2, 0};
+  request.set_view_directions(std::string(reinterpret_cast<const char*>(longer), sizeof(longer)));
+  s = gather(request);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_TRUE(mentions(s, "view_directions[0]")) << s.error_message();
+}
+
+TEST_F(PbgiServiceTest, GatherReturnsGlossyRadianceForGlossyReceivers) {
+  std::vector<v1::OpenSceneEvent> events;
+  ASSERT_TRUE(open("lit.usda", &events).ok());
+  const std::string id = events.back().ready().scene_id();
+  // Two receivers under the lit ceiling: a glossy one (roughness 0.3,
+  // looking straight up) and a diffuse one (black specular colour).
+  const float positions[6] = {0, 0, 0, 0.2f, 0, 0};
+  const float normals[6] = {0, 0, 1, 0, 0, 1};
+  const float views[6] = {0, 0, 1, 0, 0, 1};
+  const float roughness[2] = {0.3f, 0.3f};
+  const float specular[6] = {1, 1, 1, 0, 0, 0};
+  auto bytes = [](const float* f, size_t n) {
+    return std::string(reinterpret_cast<const char*>(f), n * sizeof(float));
+  };
+  v1::GatherRequest request;
+  request.set_scene_id(id);
+  request.set_positions(bytes(positions, 6));
+  request.set_normals(bytes(normals, 6));
+  {
+    grpc::ClientContext context;
+    v1::GatherResponse response;
+    ASSERT_TRUE(stub->Gather(&context, request, &response).ok());
+    EXPECT_TRUE(response.glossy().empty()) << "no glossy arrays, no glossy field";
+    EXPECT_EQ(response.stats().glossy_receivers(), 0u);
+  }
+  request.set_view_directions(bytes(views, 6));
+  request.set_roughness(bytes(roughness, 2));
+  request.set_specular_color(bytes(specular, 6));
+  grpc::ClientContext context;
+  v1::GatherResponse response;
+  const grpc::Status s = stub->Gather(&context, request, &response);
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  ASSERT_EQ(response.glossy().size(), 6 * sizeof(float));
+  float glossy[6], irradiance[6];
+  std::memcpy(glossy, response.glossy().data(), sizeof(glossy));
+  std::memcpy(irradiance, response.irradiance().data(), sizeof(irradiance));
+  // The ceiling (radiance 1) fills most of a roughness-0.3 lobe aimed at
+  // it: the glossy receiver reflects most of the lobe's albedo (< 1).
+  EXPECT_GT(glossy[0], 0.5f);
+  EXPECT_LT(glossy[0], 1.f);
+  EXPECT_EQ(glossy[3], 0.f);
+  EXPECT_GT(irradiance[0], 1.f);
+  EXPECT_EQ(response.stats().glossy_receivers(), 1u);
+  EXPECT_GT(response.stats().glossy_nodes_visited(), 0u);
 }
 
 TEST_F(PbgiServiceTest, UnloadSceneAndStatus) {
