@@ -392,8 +392,11 @@ def main():
     cam.CreateHorizontalApertureAttr(36.0)
     cam.CreateVerticalApertureAttr(20.25)
     xf = UsdGeom.Xformable(cam)
-    xf.AddTranslateOp().Set(Gf.Vec3d(CELL * 0.5, 1.7, size - CELL * 0.5))
-    xf.AddRotateYOp().Set(-30.0)  # looking into the scene along -z, a little to +x
+    # In the street between the first two columns of cells, just outside the
+    # last row (every cell holds a building; inside one, a renderer sees
+    # only the building's back faces), looking into the street along -z.
+    xf.AddTranslateOp().Set(Gf.Vec3d(CELL, 1.7, size + 0.25 * CELL))
+    xf.AddRotateYOp().Set(-10.0)  # a little to +x, so the street's right side fills half the view
 
     stage.GetRootLayer().Save()
     print(f"{a.out}: {a.kind}, {summary} over {size:.0f} m, about {area:.4g} m^2 of surface: "
