@@ -181,7 +181,7 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
 
   session->info.scene_id = key;
   session->info.scene_path = session->scene->source_path;
-  session->info.triangle_count = session->scene->triangles.triangle_count();
+  session->info.triangle_count = session->scene->triangle_count();  // instances expanded
   session->info.tree = session->tree->manifest().stats;
   session->info.open_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   report("ready", 1.f);

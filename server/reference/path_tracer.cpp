@@ -87,7 +87,6 @@ class PathTracer {
 };
 
 Vertex PathTracer::make_vertex(const Hit& hit, const V3f& ray_dir) const {
-  const TriangleSoup& t = scene_.triangles;
   Vertex v;
   const SurfacePoint sp = rays_.hit_point(hit);
   v.p = sp.p;
@@ -103,7 +102,7 @@ Vertex PathTracer::make_vertex(const Hit& hit, const V3f& ray_dir) const {
     v.ns = -v.ns;
   }
   if (v.ns.dot(v.ng) <= 0.f) v.ns = v.ng;
-  v.material = &scene_.materials[t.material[hit.triangle]];
+  v.material = &scene_.materials[scene_.triangle(hit.triangle).material()];
   const SurfaceColors colors = surface_colors(scene_, hit.triangle, hit.u, hit.v);
   v.albedo = colors.albedo;
   v.emission = colors.emission;

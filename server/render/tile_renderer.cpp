@@ -78,10 +78,8 @@ SurfaceSample trace_sample(const RayScene& rays, const Ray& ray, const RenderOpt
   // 3. Surface: the receiver faces the camera (surfaces seen from behind
   // are lit on the side the camera sees); the shading normal is flipped with
   // it and falls back to the geometric one if it points below the surface.
-  const TriangleSoup& t = scene.triangles;
-  const uint32_t* idx = &t.indices[3 * hit.triangle];
-  const V3f p = (1.f - hit.u - hit.v) * t.positions[idx[0]] + hit.u * t.positions[idx[1]] +
-                hit.v * t.positions[idx[2]];
+  const TriangleRef tri = scene.triangle(hit.triangle);
+  const V3f p = (1.f - hit.u - hit.v) * tri.position(0) + hit.u * tri.position(1) + hit.v * tri.position(2);
   V3f ng = hit.geometric_normal;
   V3f ns = rays.shading_normal(hit);
   if (ng.dot(-ray.direction) < 0.f) {

@@ -1,4 +1,5 @@
-// Embree acceleration structure over a Scene's triangles: closest hits for
+// Embree acceleration structure over a Scene's triangles (instances as
+// Embree instances of one BVH per prototype): closest hits for
 // camera and path rays, occlusion for shadow rays. Thread-safe after build.
 #pragma once
 
@@ -11,7 +12,7 @@ namespace pbgi {
 
 struct Hit {
   float t = std::numeric_limits<float>::infinity();
-  uint32_t triangle = ~0u;
+  uint32_t triangle = ~0u;        // a Scene::triangle() id (instances included)
   float u = 0, v = 0;             // barycentrics of vertices 1 and 2
   V3f geometric_normal;           // unit, from the winding (v1-v0)x(v2-v0)
   bool valid() const { return triangle != ~0u; }
