@@ -169,6 +169,11 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
 
   // 2. Ray-tracing structure: needed for surfel shading and primary hits.
   session->rays = std::make_unique<RayScene>(*session->scene);
+  // The point where scene + BVH memory is complete (scripts/scale_build.sh
+  // reads the daemon's peak RSS here): instancing keeps it to the prototypes.
+  spdlog::info("ray scene of '{}' built: {} triangles ({} prototypes, {} instances), scene geometry {} bytes",
+               session->scene->source_path, session->scene->triangle_count(), session->scene->prototypes.size(),
+               session->scene->instances.size(), session->scene->geometry_bytes());
 
   // 3. Reuse the page set if this scene + options was built before.
   const std::string key = page_set_build_key(session->scene->content_hash, options);
