@@ -15,7 +15,8 @@ namespace pbgi {
 // point itself lies on a surface; RayScene::offset_ray_origin, relative to
 // p's coordinates so it stays tight far from the origin) and stop just short
 // of the light sample so that geometry modelled at the emitter's position (a
-// light's housing quad) does not shadow its own light.
+// light's housing quad) does not shadow its own light. Unoccluded shadow
+// rays are attenuated by the scene's fog (RayScene::transmittance).
 C3f direct_irradiance(const RayScene& rays, const V3f& p, const V3f& n, uint32_t samples,
                       uint64_t seed) {
   const std::vector<Light>& lights = rays.scene().lights;
@@ -43,7 +44,9 @@ C3f direct_irradiance(const RayScene& rays, const V3f& p, const V3f& n, uint32_t
                              : s.distance * (1.f - 1e-4f) - 2.f * eps;
       if (!(tmax > 0.f)) continue;
       if (rays.occluded(origin, s.direction, 0.f, tmax)) continue;
-      sum += s.radiance * (cos_r / s.pdf);
+      // Fog between the point and the light (participating_medium.h).
+      const float tr = rays.transmittance(origin, s.direction, 0.f, tmax);
+      sum += s.radiance * (tr * cos_r / s.pdf);
     }
     e += sum / static_cast<float>(n_samples);
   }
