@@ -78,8 +78,14 @@ done
 end=$(date +%s.%N)
 kb=$(awk '/^VmHWM/ {print $2}' "/proc/$daemon/status" 2>/dev/null || echo 0)
 ((kb > daemon_peak_kb)) && daemon_peak_kb=$kb
-kill -TERM "$daemon" 2>/dev/null || true
-wait "$daemon" || true
+# A daemon stopped at the ray scene is in the middle of a build, which
+# SIGTERM lets finish (drain): kill it outright then.
+if [ "${STOP_AFTER_RAY_SCENE:-0}" = 1 ]; then
+  kill -KILL "$daemon" 2>/dev/null || true
+else
+  kill -TERM "$daemon" 2>/dev/null || true
+fi
+wait "$daemon" 2>/dev/null || true
 
 grep "\] read '\|ray scene of\|built page set\|preloaded" "$LOG" || true
 awk -v s="$start" -v e="$end" -v i="${ingest_end:-0}" -v ip="$ingest_peak_kb" -v d="$daemon_peak_kb" \

@@ -8,6 +8,7 @@
 
 #include "server/gather/cut_walker.h"
 #include "server/gather/factorized_gather.h"
+#include "server/gather/volume_points.h"
 #include "storage/format/errors.h"
 
 #include <cmath>
@@ -43,6 +44,7 @@ struct Gatherer::Impl {
   gather::CutWalker walker;
   std::unique_ptr<gather::FactorizedGather> factorized;  // made on first use
   std::vector<Receiver> batch;                           // checked receivers
+  std::shared_ptr<const VolumePoints> fog;               // set_volume_points
 };
 
 Gatherer::Gatherer(const tree::TreeSource& tree, const GatherOptions& options,
@@ -52,6 +54,10 @@ Gatherer::Gatherer(const tree::TreeSource& tree, const GatherOptions& options,
 }
 
 Gatherer::~Gatherer() = default;
+
+void Gatherer::set_volume_points(std::shared_ptr<const VolumePoints> fog) {
+  impl_->fog = fog && !fog->empty() ? std::move(fog) : nullptr;
+}
 
 GatherResult Gatherer::gather(const Receiver& receiver) {
   // Pages stay pinned until the receiver is done.
@@ -76,7 +82,10 @@ GatherResult Gatherer::gather_pinned(const Receiver& receiver) {
   w.walk_receiver();
   ++counters_.receivers;
 
-  // 3. Visibility and convolution.
+  // 3. Fog in front of (and behind) the surfaces: volume_points.h.
+  if (impl_->fog) gather::add_volume_fragments(*impl_->fog, r.position, w.microbuffer());
+
+  // 4. Visibility and convolution.
   const gather::Resolved res = w.resolve(nullptr);
   GatherResult out;
   out.irradiance = res.irradiance;

@@ -15,6 +15,8 @@
 
 namespace pbgi {
 
+class VolumePoints;  // server/gather/volume_points.h
+
 struct Receiver {
   Imath::V3f position;
   Imath::V3f normal;   // unit
@@ -81,6 +83,11 @@ class Gatherer {
   Gatherer& operator=(const Gatherer&) = delete;
 
   GatherResult gather(const Receiver& r);
+
+  // Fog of the scene (volume_points.h), added to every receiver's
+  // microbuffer as an attenuating, emitting layer; null = none. PBGI
+  // method only (the factorized gather does not see fog yet).
+  void set_volume_points(std::shared_ptr<const VolumePoints> fog);
 
   // Gathers a batch of receivers, typically one image tile in scan order,
   // with options.method: PBGI gathers each receiver alone (as gather());
