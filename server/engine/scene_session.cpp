@@ -1,5 +1,8 @@
 #include "server/engine/scene_session.h"
 
+#include "server/engine/scene_fog.h"
+#include "server/surfels/surfel_samplers.h"
+
 #include "server/engine/bounce_pages.h"
 #include "server/engine/build_key.h"
 #include "server/gather/page_views.h"
@@ -174,6 +177,15 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
   spdlog::info("ray scene of '{}' built: {} triangles ({} prototypes, {} instances), scene geometry {} bytes",
                session->scene->source_path, session->scene->triangle_count(), session->scene->prototypes.size(),
                session->scene->instances.size(), session->scene->geometry_bytes());
+
+  // 2b. Fog: the rays' medium and the gather's volume points (scene_fog.h),
+  // before surfels are shaded through it.
+  if (!session->scene->volumes.empty()) {
+    const float spacing = options.surfels.spacing > 0.f
+                              ? options.surfels.spacing
+                              : absolute_spacing(*session->scene, options.surfels, scene_area(*session->scene).total);
+    prepare_fog(*session, spacing);
+  }
 
   // 3. Reuse the page set if this scene + options was built before.
   const std::string key = page_set_build_key(session->scene->content_hash, options);

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "server/gather/surfel_bounce.h"
+#include "server/gather/volume_points.h"
 #include "server/ingest/chunk_store.h"
 #include "server/ingest/usd_ingest.h"
 #include "server/scene/ray_scene.h"
@@ -38,6 +39,9 @@ struct SceneSessionInfo {
 struct SceneSession {
   std::unique_ptr<Scene> scene;
   std::unique_ptr<RayScene> rays;
+  // Fog volume points for every Gatherer (Gatherer::set_volume_points);
+  // null without fog. See scene_fog.h.
+  std::shared_ptr<const VolumePoints> fog;
   std::unique_ptr<storage::PageSetReader> tree;
   SceneSessionInfo info;
 };
