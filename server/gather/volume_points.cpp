@@ -35,10 +35,8 @@ size_t VolumePoints::memory_bytes() const {
 }
 
 namespace gather {
-namespace {
 
-// The part [t0, t1] of p + t d inside `box`; false if none.
-bool clip(const Imath::Box3f& box, const Imath::V3f& p, const Imath::V3f& d, float& t0, float& t1) {
+bool clip_to_box(const Imath::Box3f& box, const Imath::V3f& p, const Imath::V3f& d, float& t0, float& t1) {
   for (int a = 0; a < 3; ++a) {
     if (d[a] == 0.f) {
       if (p[a] < box.min[a] || p[a] > box.max[a]) return false;
@@ -51,8 +49,6 @@ bool clip(const Imath::Box3f& box, const Imath::V3f& p, const Imath::V3f& d, flo
   }
   return t0 < t1;
 }
-
-}  // namespace
 
 uint64_t add_volume_fragments(const VolumePoints& fog, const Imath::V3f& p, Microbuffer& buffer, float max_distance) {
   if (fog.empty()) return 0;
@@ -67,7 +63,7 @@ uint64_t add_volume_fragments(const VolumePoints& fog, const Imath::V3f& p, Micr
     if (!buffer.in_hemisphere(k)) continue;
     const Imath::V3f d = layout.direction(k);
     float t0 = 0.f, t1 = max_distance > 0.f ? max_distance : 1e30f;
-    if (!clip(fog.bounds(), p, d, t0, t1)) continue;
+    if (!clip_to_box(fog.bounds(), p, d, t0, t1)) continue;
     const int steps = std::max(1, int(std::ceil((t1 - t0) / step)));
     const float dt = (t1 - t0) / float(steps);
     // One slice: optical depth, and in-scattered light reaching its near

@@ -68,6 +68,10 @@ class VolumePoints {
 
 namespace gather {
 
+// Narrows [t0, t1] to the part of p + t d inside `box` (slab test); false
+// if none is left. Shared with server/volumes/fog_field.cpp.
+bool clip_to_box(const Imath::Box3f& box, const Imath::V3f& p, const Imath::V3f& d, float& t0, float& t1);
+
 // Adds the fog fragments of the receiver at p to `buffer` (begun for its
 // normal), out to `max_distance` (<= 0: the whole fog). Returns the number
 // of fragments added.
