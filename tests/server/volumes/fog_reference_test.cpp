@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <iostream>
 #include <numeric>
 
 namespace pbgi {
@@ -93,6 +94,9 @@ TEST(FogReference, DirectLightAndAmbientOcclusionUnderAFogSlab) {
   g.set_volume_points(points);
   const GatherResult r = g.gather(Receiver{V3f(0, 0, 0.001f), V3f(0, 0, 1)});
   EXPECT_NEAR(r.ao, ref_ao, 0.03f);
+  std::cout << "fog slab tau " << kDensity << ": direct expected " << expected << ", daemon "
+            << 0.5f / float(M_PI) * e.x << ", reference " << mean(ref.direct) << "; AO reference " << ref_ao
+            << ", PBGI " << r.ao << "\n";
   EXPECT_EQ(r.irradiance, C3f(0.f));  // absorbing fog sends no light
 }
 

@@ -17,6 +17,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <iostream>
 #include <memory>
 
 namespace pbgi {
@@ -185,6 +186,8 @@ TEST(FogGather, IrradianceThroughAnAbsorbingSlabIsReducedByExpMinusTau) {
   const GatherResult foggy = gather_with(tree, fog);
   // Near-vertical paths (the disk spans 7.6 degrees): tau = 0.8 / cos.
   EXPECT_NEAR(foggy.irradiance.x / clear.irradiance.x, std::exp(-0.8f), 0.05f);
+  std::cout << "gather through a slab of tau 0.8: E ratio " << foggy.irradiance.x / clear.irradiance.x
+            << " (exp(-tau) = " << std::exp(-0.8f) << ")\n";
   // An empty fog changes nothing.
   EXPECT_EQ(gather_with(tree, std::make_shared<VolumePoints>()).irradiance, clear.irradiance);
 }
@@ -197,6 +200,7 @@ TEST(FogGather, AmbientOcclusionBehindADenseFogCubeIsBelowOne) {
   const auto fog = std::make_shared<VolumePoints>(bake_fog_points(s, kVoxel, FogOptions{}));
   const GatherResult r = gather_with(empty_tree, fog);
   // Opaque: it hides about the cosine-weighted solid angle it subtends.
+  std::cout << "AO under a dense fog cube: " << r.ao << "\n";
   EXPECT_LT(r.ao, 0.8f);
   EXPECT_GT(r.ao, 0.1f);
   EXPECT_EQ(r.irradiance, C3f(0.f));  // unlit fog emits nothing
