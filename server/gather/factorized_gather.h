@@ -21,6 +21,10 @@
 #include <span>
 #include <vector>
 
+namespace pbgi {
+class VolumePoints;  // volume_points.h
+}  // namespace pbgi
+
 namespace pbgi::gather {
 
 class FactorizedGather {
@@ -28,8 +32,10 @@ class FactorizedGather {
   explicit FactorizedGather(CutWalker& walker);
 
   // `receivers` are validated (finite, unit normals); results in order.
+  // `fog`: the scene's volume points (volume_points.h), added to each
+  // receiver's microbuffer, or null.
   void gather(std::span<const Receiver> receivers, std::span<GatherResult> results,
-              GatherCounters& counters);
+              GatherCounters& counters, const VolumePoints* fog = nullptr);
 
  private:
   CutWalker& walker_;

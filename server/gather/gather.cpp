@@ -129,7 +129,7 @@ void Gatherer::gather_tile(std::span<const Receiver> receivers, std::span<Gather
   for (const Receiver& r : receivers) batch.push_back(checked(r));
   impl_->walker.views().trim();
   if (!impl_->factorized) impl_->factorized = std::make_unique<gather::FactorizedGather>(impl_->walker);
-  impl_->factorized->gather(batch, results, counters_);
+  impl_->factorized->gather(batch, results, counters_, impl_->fog.get());
 }
 
 }  // namespace pbgi

@@ -85,8 +85,9 @@ class Gatherer {
   GatherResult gather(const Receiver& r);
 
   // Fog of the scene (volume_points.h), added to every receiver's
-  // microbuffer as an attenuating, emitting layer; null = none. PBGI
-  // method only (the factorized gather does not see fog yet).
+  // microbuffer as an attenuating, emitting layer (both methods: the
+  // factorized gather composites the cluster's far content behind it);
+  // null = none.
   void set_volume_points(std::shared_ptr<const VolumePoints> fog);
 
   // Gathers a batch of receivers, typically one image tile in scan order,

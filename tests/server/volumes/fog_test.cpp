@@ -200,6 +200,28 @@ TEST(FogGather, IrradianceThroughAnAbsorbingSlabIsReducedByExpMinusTau) {
   EXPECT_EQ(gather_with(tree, std::make_shared<VolumePoints>()).irradiance, clear.irradiance);
 }
 
+TEST(FogGather, TheFactorizedGatherSeesTheFogToo) {
+  std::vector<Surfel> surfels;
+  test::add_disk(surfels, V3f(0, 0, 3), V3f(0, 0, -1), 0.4f, 400, C3f(1.f));
+  const test::SurfelTree tree(surfels);
+  Scene s;
+  s.volumes.push_back(slab(0.8f));
+  const auto fog = std::make_shared<VolumePoints>(bake_fog_points(s, kVoxel, FogOptions{}));
+  GatherOptions o;
+  o.method = GatherMethod::kFpbgi;
+  std::vector<Receiver> receivers;
+  for (int i = 0; i < 16; ++i) receivers.push_back({V3f(0.01f * float(i % 4), 0.01f * float(i / 4), 0.f), V3f(0, 0, 1)});
+  std::vector<GatherResult> clear(receivers.size()), foggy(receivers.size());
+  Gatherer a(tree, o), b(tree, o);
+  b.set_volume_points(fog);
+  a.gather_tile(receivers, clear);
+  b.gather_tile(receivers, foggy);
+  for (size_t i = 0; i < receivers.size(); ++i) {
+    ASSERT_GT(clear[i].irradiance.x, 0.01f);
+    EXPECT_NEAR(foggy[i].irradiance.x / clear[i].irradiance.x, std::exp(-0.8f), 0.05f) << i;
+  }
+}
+
 TEST(FogGather, AmbientOcclusionBehindADenseFogCubeIsBelowOne) {
   const test::SurfelTree empty_tree(std::vector<Surfel>{});
   EXPECT_EQ(gather_with(empty_tree, nullptr).ao, 1.f);
