@@ -8,13 +8,14 @@
 
 namespace pbgi {
 
-void prepare_fog(SceneSession& session, float spacing) {
-  const FogOptions options;  // the documented defaults (fog_options.h)
+void prepare_fog(SceneSession& session, float spacing, const FogOptions& options) {
   auto field = std::make_shared<FogField>(*session.scene, options);
   if (field->empty()) return;
   // The page set depends on the fog (surfels are shaded through it).
-  session.scene->content_hash += fmt::format("+fog/1(sigma={},albedo={},{},{})", options.extinction_per_density,
-                                             options.albedo.x, options.albedo.y, options.albedo.z);
+  session.scene->content_hash += fmt::format("+fog/1(sigma={},albedo={},{},{},step={},samples={},block={})",
+                                             options.extinction_per_density, options.albedo.x, options.albedo.y,
+                                             options.albedo.z, options.step_voxels, options.light_samples,
+                                             options.max_block_voxels);
   session.rays->set_medium(field);
   FogPointStats stats;
   auto points = std::make_shared<VolumePoints>(bake_fog_points(*session.scene, spacing, options, &stats));

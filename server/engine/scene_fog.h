@@ -5,9 +5,9 @@
 // baked at the surfel spacing's level of detail and lit by single
 // scattering (server/volumes/fog_points.h) go to every Gatherer
 // (SceneSession::fog), where they attenuate and add light to the
-// microbuffer. FogOptions are the documented defaults (not configurable
-// yet); they are folded into the content hash so page sets built with fog
-// are not reused without it.
+// microbuffer. The FogOptions (OpenOptions::fog: the daemon's [fog]
+// config table) are folded into the content hash so page sets built with
+// fog are not reused without it or with other fog options.
 #pragma once
 
 #include "server/engine/scene_session.h"
@@ -16,6 +16,6 @@ namespace pbgi {
 
 // Does nothing for a scene without fog (no loaded fog grid with active
 // voxels). `spacing` is the surfel spacing in world units (> 0).
-void prepare_fog(SceneSession& session, float spacing);
+void prepare_fog(SceneSession& session, float spacing, const FogOptions& options);
 
 }  // namespace pbgi

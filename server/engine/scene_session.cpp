@@ -162,6 +162,7 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
   options.surfels.validate();
   options.tree.validate();
   options.bounce.validate();
+  options.fog.validate();
   auto session = std::make_shared<SceneSession>();
   session->scene = std::move(scene);
 
@@ -184,7 +185,7 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
     const float spacing = options.surfels.spacing > 0.f
                               ? options.surfels.spacing
                               : absolute_spacing(*session->scene, options.surfels, scene_area(*session->scene).total);
-    prepare_fog(*session, spacing);
+    prepare_fog(*session, spacing, options.fog);
   }
 
   // 3. Reuse the page set if this scene + options was built before.

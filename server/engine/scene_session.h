@@ -8,6 +8,7 @@
 #include "server/ingest/chunk_store.h"
 #include "server/ingest/usd_ingest.h"
 #include "server/scene/ray_scene.h"
+#include "server/volumes/fog_options.h"
 #include "server/surfels/surfel_options.h"
 #include "storage/cache/page_cache.h"
 #include "storage/pages/page_set.h"
@@ -24,6 +25,7 @@ struct OpenOptions {
   SurfelOptions surfels;
   tree::BuildOptions tree;
   BounceOptions bounce;  // light bounces carried by the surfels (default 1: direct only)
+  FogOptions fog;        // fog grids in light transport (server/volumes/fog_options.h)
 };
 
 struct SceneSessionInfo {
