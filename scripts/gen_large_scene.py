@@ -24,6 +24,20 @@ totalling 20M triangles"), has no instancing at all:
     .venv/bin/python scripts/gen_large_scene.py --kind assets --assets 200 \
         --triangles 20e6 --out /work/tmp/assets200/assets.usda
 
+A fourth kind, for instancing memory (issue 3: "memory reflects the number
+of prototypes, not instances"):
+
+  instances  --instances N references to ONE asset layer (the displaced
+             torus of --kind assets, --proto-triangles triangles), each an
+             `instanceable` Xform /World/Instances/I<i> on a grid with a
+             seeded rotation and scale: native USD instances of one
+             prototype. --flatten writes the same prims without
+             `instanceable` (the flattened equivalent: the reader then
+             expands every copy into world-space triangles).
+
+    .venv/bin/python scripts/gen_large_scene.py --kind instances --instances 10000 \
+        --proto-triangles 20000 --out /work/tmp/inst10k/instances.usda
+
 Size: --surfels N picks the number of cells so that the scene's surface area
 holds N surfels at --spacing metres (area / spacing^2 >= N); --blocks sets it
 directly. The defaults reach 100M surfels at the default spacing (5 cm):
@@ -307,6 +321,29 @@ def write_assets_scene(a, stage, out_dir, stem, colors):
     return area, triangles
 
 
+INSTANCE_PITCH = 3.0  # metres between instance centres (the torus is ~2.7 m across)
+
+
+def write_instances_scene(a, stage, out_dir, stem, colors):
+    """--kind instances: one prototype layer, --instances references to it.
+    Returns (area in m^2, triangles with instances expanded)."""
+    layer = f"{stem}_prototype.usdc"
+    per, proto_area = write_asset(os.path.join(out_dir, layer), a.proto_triangles, a.seed, colors[1])
+    per_side = math.ceil(math.sqrt(a.instances))
+    rng = random.Random(a.seed)
+    UsdGeom.Scope.Define(stage, "/World/Instances")
+    for k in range(a.instances):
+        prim = stage.DefinePrim(f"/World/Instances/I{k:05d}", "Xform")
+        prim.GetReferences().AddReference(f"./{layer}")
+        prim.SetInstanceable(not a.flatten)
+        xf = UsdGeom.Xformable(prim)
+        xf.AddTranslateOp().Set(Gf.Vec3d((k % per_side + 0.5) * INSTANCE_PITCH, 0.0,
+                                         (k // per_side + 0.5) * INSTANCE_PITCH))
+        xf.AddRotateYOp().Set(rng.uniform(0.0, 360.0))
+        xf.AddScaleOp().Set(Gf.Vec3f(rng.uniform(0.8, 1.1)))
+    return proto_area * a.instances, per * a.instances
+
+
 def cells_for(kind, surfels, spacing, seed):
     """Cells per side so that the expected area holds `surfels` at `spacing`."""
     rng = random.Random(seed + 99)
@@ -319,7 +356,13 @@ def cells_for(kind, surfels, spacing, seed):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--kind", choices=["city", "forest", "assets"], default="city")
+    ap.add_argument("--kind", choices=["city", "forest", "assets", "instances"], default="city")
+    ap.add_argument("--instances", type=int, default=10000,
+                    help="instances of the one prototype, --kind instances (default 10000)")
+    ap.add_argument("--proto-triangles", type=int, default=20000,
+                    help="triangles of the prototype, --kind instances (default 20000)")
+    ap.add_argument("--flatten", action="store_true",
+                    help="--kind instances: the same prims without instanceable (flattened)")
     ap.add_argument("--assets", type=int, default=200, help="assets of --kind assets (default 200)")
     ap.add_argument("--triangles", type=float, default=20e6,
                     help="triangles of all assets together, --kind assets (default 2e7)")
@@ -335,7 +378,9 @@ def main():
     a = ap.parse_args()
     if a.kind == "assets" and (a.assets < 1 or a.triangles < 2 * a.assets):
         ap.error("--assets must be >= 1 and --triangles >= 2 per asset")
-    blocks = 0 if a.kind == "assets" else a.blocks or cells_for(a.kind, a.surfels, a.spacing, a.seed)
+    if a.kind == "instances" and (a.instances < 1 or a.proto_triangles < 2):
+        ap.error("--instances must be >= 1 and --proto-triangles >= 2")
+    blocks = 0 if a.kind in ("assets", "instances") else a.blocks or cells_for(a.kind, a.surfels, a.spacing, a.seed)
     out_dir = os.path.dirname(os.path.abspath(a.out))
     os.makedirs(out_dir, exist_ok=True)
     stem = os.path.splitext(os.path.basename(a.out))[0]
@@ -348,7 +393,12 @@ def main():
     colors = [(0.55, 0.52, 0.48), (0.7, 0.35, 0.25), (0.3, 0.45, 0.6), (0.2, 0.5, 0.2), (0.4, 0.4, 0.42)]
     ground_mat = material(stage, "/World/Looks/Ground", colors[4])
 
-    size = assets_ground_size(a.assets) if a.kind == "assets" else blocks * CELL
+    if a.kind == "assets":
+        size = assets_ground_size(a.assets)
+    elif a.kind == "instances":
+        size = math.ceil(math.sqrt(a.instances)) * INSTANCE_PITCH
+    else:
+        size = blocks * CELL
     p, c, i = [], [], []
     grid_quad((0, 0, size), (size, 0, 0), (0, 0, -size), a.ground_tiles, p, c, i)  # +y
     mesh(stage, "/World/Ground", p, c, i, ground_mat)
@@ -358,6 +408,11 @@ def main():
         a_area, triangles = write_assets_scene(a, stage, out_dir, stem, colors)
         area += a_area
         summary = f"{a.assets} payload assets, {triangles} triangles"
+    elif a.kind == "instances":
+        i_area, triangles = write_instances_scene(a, stage, out_dir, stem, colors)
+        area += i_area
+        summary = (f"{a.instances} {'flattened' if a.flatten else 'instanceable'} references to one "
+                   f"prototype of {triangles // a.instances} triangles ({triangles} expanded)")
     else:
 
         # Districts: one layer each, payloaded under /World/Districts.

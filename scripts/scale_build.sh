@@ -8,7 +8,10 @@
 # ingest: the stream is decoded, surfel sampling not started), which gives
 # the ingest peak to within one sampling period, next to the largest frame
 # (chunk) the reader sent; scripts/ingest_memory.sh checks it against the
-# bound of issue 3.
+# bound of issue 3. Likewise at the "ray scene of ... built" line (scene +
+# Embree BVH complete, before surfels); with STOP_AFTER_RAY_SCENE=1 the
+# daemon is stopped there (instancing measurements: memory of scene + BVH
+# without waiting for a surfel build).
 #
 #   scripts/scale_build.sh SCENE.usda CACHE_DIR SPACING [MEMORY_BUDGET] [SAMPLER]
 #
@@ -47,10 +50,15 @@ child_peak_kb=0
 daemon_peak_kb=0
 ingest_peak_kb=0
 ingest_end=""
+rays_peak_kb=0
 while kill -0 "$daemon" 2>/dev/null; do
   if [ -z "$ingest_end" ] && grep -q "\] read '" "$LOG"; then
     ingest_end=$(date +%s.%N)
     ingest_peak_kb=$(awk '/^VmHWM/ {print $2}' "/proc/$daemon/status" 2>/dev/null || echo 0)
+  fi
+  if [ "$rays_peak_kb" = 0 ] && grep -q "ray scene of '" "$LOG"; then
+    rays_peak_kb=$(awk '/^VmHWM/ {print $2}' "/proc/$daemon/status" 2>/dev/null || echo 0)
+    if [ "${STOP_AFTER_RAY_SCENE:-0}" = 1 ]; then break; fi
   fi
   if grep -q "preloaded '" "$LOG"; then break; fi
   if grep -q "\[error\]\|\[critical\]" "$LOG"; then
@@ -70,12 +78,19 @@ done
 end=$(date +%s.%N)
 kb=$(awk '/^VmHWM/ {print $2}' "/proc/$daemon/status" 2>/dev/null || echo 0)
 ((kb > daemon_peak_kb)) && daemon_peak_kb=$kb
-kill -TERM "$daemon" 2>/dev/null || true
-wait "$daemon" || true
+# A daemon stopped at the ray scene is in the middle of a build, which
+# SIGTERM lets finish (drain): kill it outright then.
+if [ "${STOP_AFTER_RAY_SCENE:-0}" = 1 ]; then
+  kill -KILL "$daemon" 2>/dev/null || true
+else
+  kill -TERM "$daemon" 2>/dev/null || true
+fi
+wait "$daemon" 2>/dev/null || true
 
-grep "\] read '\|built page set\|preloaded" "$LOG" || true
+grep "\] read '\|ray scene of\|built page set\|preloaded" "$LOG" || true
 awk -v s="$start" -v e="$end" -v i="${ingest_end:-0}" -v ip="$ingest_peak_kb" -v d="$daemon_peak_kb" \
-    -v c="$child_peak_kb" 'BEGIN {
+    -v c="$child_peak_kb" -v r="$rays_peak_kb" 'BEGIN {
+  if (r > 0) printf "ray scene      pbgid VmHWM when the BVH was built %.3f GiB\n", r / 1048576
   if (i > 0) printf "ingest         %.1f s (start to the read line), pbgid VmHWM then %.3f GiB\n", i - s, ip / 1048576
   printf "wall           %.1f s (start to preloaded)\n", e - s
   printf "peak RSS       pbgid %.3f GiB (VmHWM), USD reader child %.3f GiB (sampled)\n", d / 1048576, c / 1048576

@@ -56,6 +56,21 @@ std::string scene_model_hash(const Scene& scene) {
   h.array(t.material);
   h.array(t.mesh);
   h.array(t.double_sided);
+  // Instanced geometry: each prototype once, then the placements.
+  h.value(scene.prototypes.size());
+  for (const Prototype& p : scene.prototypes) {
+    h.array(p.triangles.positions);
+    h.array(p.triangles.normals);
+    h.array(p.triangles.indices);
+    h.array(p.triangles.material);
+    h.array(p.triangles.mesh);
+    h.array(p.triangles.double_sided);
+  }
+  h.value(scene.instances.size());
+  for (const Instance& i : scene.instances) {
+    h.value(i.prototype);
+    h.value(i.local_to_world);
+  }
   h.value(scene.materials.size());
   for (const Material& m : scene.materials) {
     h.value(m.albedo);

@@ -312,6 +312,19 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
     build.read("bounces", o.bounce.bounces);
     build.reject_unknown();
   }
+  if (const toml::table* table = top.table("fog")) {
+    TableReader fog(*table, "fog", source);
+    FogOptions& f = out.service.defaults.open.fog;
+    fog.read("extinction_per_density", f.extinction_per_density);
+    float albedo = f.albedo.x;  // grey: one value for r, g, b
+    fog.read("albedo", albedo);
+    f.albedo = Imath::C3f(albedo);
+    fog.read("step_voxels", f.step_voxels);
+    fog.read("light_samples", f.light_samples);
+    fog.read("max_block_voxels", f.max_block_voxels);
+    fog.reject_unknown();
+    f.validate();
+  }
   if (const toml::table* table = top.table("limits")) {
     TableReader limits(*table, "limits", source);
     service::RequestLimits& l = out.service.limits;
@@ -406,6 +419,13 @@ std::string to_toml(const DaemonOptions& o) {
   float_value("lut_sample_fraction", b.tree.lut_sample_fraction);
   integer_value("bounces", b.bounce.bounces);
 
+  out << "\n[fog]\n";
+  float32_value("extinction_per_density", b.fog.extinction_per_density);
+  float32_value("albedo", b.fog.albedo.x);
+  float32_value("step_voxels", b.fog.step_voxels);
+  integer_value("light_samples", b.fog.light_samples);
+  integer_value("max_block_voxels", b.fog.max_block_voxels);
+
   const service::RequestLimits& l = o.service.limits;
   out << "\n[limits]\n";
   integer_value("max_receivers", l.max_receivers);
@@ -496,7 +516,10 @@ bool operator==(const DaemonOptions& a, const DaemonOptions& b) {
          oa.tree.leaf_size == ob.tree.leaf_size && oa.tree.payload_codec == ob.tree.payload_codec &&
          oa.tree.lut_entries == ob.tree.lut_entries &&
          oa.tree.lut_sample_fraction == ob.tree.lut_sample_fraction &&
-         oa.bounce.bounces == ob.bounce.bounces && la.max_receivers == lb.max_receivers &&
+         oa.bounce.bounces == ob.bounce.bounces && oa.fog.extinction_per_density == ob.fog.extinction_per_density &&
+         oa.fog.albedo == ob.fog.albedo && oa.fog.step_voxels == ob.fog.step_voxels &&
+         oa.fog.light_samples == ob.fog.light_samples && oa.fog.max_block_voxels == ob.fog.max_block_voxels &&
+         la.max_receivers == lb.max_receivers &&
          la.max_image_side == lb.max_image_side && la.max_tile_pixels == lb.max_tile_pixels;
 }
 

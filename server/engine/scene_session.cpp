@@ -1,5 +1,8 @@
 #include "server/engine/scene_session.h"
 
+#include "server/engine/scene_fog.h"
+#include "server/surfels/surfel_samplers.h"
+
 #include "server/engine/bounce_pages.h"
 #include "server/engine/build_key.h"
 #include "server/gather/page_views.h"
@@ -170,6 +173,7 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
   options.surfels.validate();
   options.tree.validate();
   options.bounce.validate();
+  options.fog.validate();
   auto session = std::make_shared<SceneSession>();
   session->scene = std::move(scene);
 
@@ -180,6 +184,20 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
 
   // 2. Ray-tracing structure: needed for surfel shading and primary hits.
   session->rays = std::make_unique<RayScene>(*session->scene);
+  // The point where scene + BVH memory is complete (scripts/scale_build.sh
+  // reads the daemon's peak RSS here): instancing keeps it to the prototypes.
+  spdlog::info("ray scene of '{}' built: {} triangles ({} prototypes, {} instances), scene geometry {} bytes",
+               session->scene->source_path, session->scene->triangle_count(), session->scene->prototypes.size(),
+               session->scene->instances.size(), session->scene->geometry_bytes());
+
+  // 2b. Fog: the rays' medium and the gather's volume points (scene_fog.h),
+  // before surfels are shaded through it.
+  if (!session->scene->volumes.empty()) {
+    const float spacing = options.surfels.spacing > 0.f
+                              ? options.surfels.spacing
+                              : absolute_spacing(*session->scene, options.surfels, scene_area(*session->scene).total);
+    prepare_fog(*session, spacing, options.fog);
+  }
 
   // 3. Reuse the page set if this scene + options was built before.
   const std::string key = page_set_build_key(session->scene->content_hash, options);
@@ -192,7 +210,7 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
 
   session->info.scene_id = key;
   session->info.scene_path = session->scene->source_path;
-  session->info.triangle_count = session->scene->triangles.triangle_count();
+  session->info.triangle_count = session->scene->triangle_count();  // instances expanded
   session->info.tree = session->tree->manifest().stats;
   session->info.open_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   report("ready", 1.f);

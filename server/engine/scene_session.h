@@ -4,9 +4,11 @@
 #pragma once
 
 #include "server/gather/surfel_bounce.h"
+#include "server/gather/volume_points.h"
 #include "server/ingest/chunk_store.h"
 #include "server/ingest/usd_ingest.h"
 #include "server/scene/ray_scene.h"
+#include "server/volumes/fog_options.h"
 #include "server/surfels/surfel_options.h"
 #include "storage/cache/page_cache.h"
 #include "storage/pages/page_set.h"
@@ -23,6 +25,7 @@ struct OpenOptions {
   SurfelOptions surfels;
   tree::BuildOptions tree;
   BounceOptions bounce;  // light bounces carried by the surfels (default 1: direct only)
+  FogOptions fog;        // fog grids in light transport (server/volumes/fog_options.h)
 };
 
 struct SceneSessionInfo {
@@ -38,6 +41,9 @@ struct SceneSessionInfo {
 struct SceneSession {
   std::unique_ptr<Scene> scene;
   std::unique_ptr<RayScene> rays;
+  // Fog volume points for every Gatherer (Gatherer::set_volume_points);
+  // null without fog. See scene_fog.h.
+  std::shared_ptr<const VolumePoints> fog;
   std::unique_ptr<storage::PageSetReader> tree;
   SceneSessionInfo info;
 };

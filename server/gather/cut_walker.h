@@ -56,6 +56,8 @@ class CutWalker {
 
   const GatherOptions& options() const { return options_; }
   PagePins& pins() { return pins_; }
+  // The receiver's microbuffer (fog fragments are added to it: volume_points.h).
+  Microbuffer& microbuffer() { return buffer_; }
   PageViews& views() { return views_; }
 
   // Starts a receiver: empty microbuffer for its hemisphere.

@@ -1,5 +1,7 @@
 #include "server/gather/factorized_gather.h"
 
+#include "server/gather/volume_points.h"
+
 #include <algorithm>
 
 namespace pbgi::gather {
@@ -17,7 +19,7 @@ FactorizedGather::FactorizedGather(CutWalker& walker)
 }
 
 void FactorizedGather::gather(std::span<const Receiver> rs, std::span<GatherResult> results,
-                              GatherCounters& counters, GlossyGather* glossy) {
+                              GatherCounters& counters, GlossyGather* glossy, const VolumePoints* fog) {
   const GatherOptions& o = walker_.options();
   clusters_.build(rs, cluster_count(o.clusters, rs.size()));
 
@@ -47,6 +49,7 @@ void FactorizedGather::gather(std::span<const Receiver> rs, std::span<GatherResu
       // Pushed last to first: popped in the cut's pre-order.
       for (size_t j = near_.size(); j-- > 0;) walker_.push(near_[j]);
       walker_.walk_receiver();
+      if (fog) add_volume_fragments(*fog, rs[i].position, walker_.microbuffer());
       const bool lobe = glossy && rs[i].glossy.active();
       const Resolved r =
           walker_.resolve(&far_, lobe ? glossy->begin(rs[i], walker_.buffer()) : nullptr);

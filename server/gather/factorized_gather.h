@@ -24,6 +24,10 @@
 #include <span>
 #include <vector>
 
+namespace pbgi {
+class VolumePoints;  // volume_points.h
+}  // namespace pbgi
+
 namespace pbgi::gather {
 
 class FactorizedGather {
@@ -31,9 +35,11 @@ class FactorizedGather {
   explicit FactorizedGather(CutWalker& walker);
 
   // `receivers` are validated (finite, unit normals); results in order.
-  // `glossy` serves the members with an active lobe (null: none has one).
+  // `glossy` serves the members with an active lobe (null: none has one);
+  // `fog`: the scene's volume points (volume_points.h), added to each
+  // receiver's microbuffer, or null.
   void gather(std::span<const Receiver> receivers, std::span<GatherResult> results,
-              GatherCounters& counters, GlossyGather* glossy = nullptr);
+              GatherCounters& counters, GlossyGather* glossy = nullptr, const VolumePoints* fog = nullptr);
 
  private:
   CutWalker& walker_;

@@ -9,6 +9,7 @@
 #include "server/gather/cut_walker.h"
 #include "server/gather/factorized_gather.h"
 #include "server/gather/glossy_gather.h"
+#include "server/gather/volume_points.h"
 #include "storage/format/errors.h"
 
 #include <algorithm>
@@ -87,6 +88,7 @@ struct Gatherer::Impl {
   std::unique_ptr<gather::FactorizedGather> factorized;  // made on first use
   std::vector<Receiver> batch;                           // checked receivers
   std::unique_ptr<gather::GlossyGather> glossy_;
+  std::shared_ptr<const VolumePoints> fog;               // set_volume_points
 };
 
 Gatherer::Gatherer(const tree::TreeSource& tree, const GatherOptions& options,
@@ -96,6 +98,10 @@ Gatherer::Gatherer(const tree::TreeSource& tree, const GatherOptions& options,
 }
 
 Gatherer::~Gatherer() = default;
+
+void Gatherer::set_volume_points(std::shared_ptr<const VolumePoints> fog) {
+  impl_->fog = fog && !fog->empty() ? std::move(fog) : nullptr;
+}
 
 GatherResult Gatherer::gather(const Receiver& receiver) {
   // Pages stay pinned until the receiver is done.
@@ -116,7 +122,10 @@ GatherResult Gatherer::gather_pinned(const Receiver& r) {
   w.walk_receiver();
   ++counters_.receivers;
 
-  // 3. Visibility and convolution; a glossy receiver also convolves its
+  // 3. Fog in front of (and behind) the surfaces: volume_points.h.
+  if (impl_->fog) gather::add_volume_fragments(*impl_->fog, r.position, w.microbuffer());
+
+  // 4. Visibility and convolution; a glossy receiver also convolves its
   //    unrefined pixels with the lobe here.
   if (!r.glossy.active()) {
     const gather::Resolved res = w.resolve(nullptr);
@@ -173,7 +182,8 @@ void Gatherer::gather_tile(std::span<const Receiver> receivers, std::span<Gather
   if (!impl_->factorized) impl_->factorized = std::make_unique<gather::FactorizedGather>(impl_->walker);
   const bool any_glossy = std::any_of(batch.begin(), batch.end(),
                                       [](const Receiver& r) { return r.glossy.active(); });
-  impl_->factorized->gather(batch, results, counters_, any_glossy ? &impl_->glossy() : nullptr);
+  impl_->factorized->gather(batch, results, counters_, any_glossy ? &impl_->glossy() : nullptr,
+                            impl_->fog.get());
 }
 
 }  // namespace pbgi

@@ -17,6 +17,8 @@
 
 namespace pbgi {
 
+class VolumePoints;  // server/gather/volume_points.h
+
 // The specular part of a glossy receiver: a GGX lobe (server/scene/brdf.h,
 // specular lobe only) seen from `view`. A zero (or absent) specular colour
 // means a diffuse-only receiver, gathered exactly as before.
@@ -105,6 +107,12 @@ class Gatherer {
   Gatherer& operator=(const Gatherer&) = delete;
 
   GatherResult gather(const Receiver& r);
+
+  // Fog of the scene (volume_points.h), added to every receiver's
+  // microbuffer as an attenuating, emitting layer (both methods: the
+  // factorized gather composites the cluster's far content behind it);
+  // null = none.
+  void set_volume_points(std::shared_ptr<const VolumePoints> fog);
 
   // Gathers a batch of receivers, typically one image tile in scan order,
   // with options.method: PBGI gathers each receiver alone (as gather());

@@ -24,7 +24,8 @@ namespace fs = std::filesystem;
 
 // Bumped whenever the entry layout or what is stored changes.
 // 2: materials carry specularColor, useSpecularWorkflow and ior.
-constexpr int kStoreFormatVersion = 2;
+// 3: instanced geometry as prototypes + InstanceBatches (not flattened).
+constexpr int kStoreFormatVersion = 3;
 constexpr const char* kEntryExtension = ".pbgiscene";
 constexpr const char* kDepsExtension = ".deps";
 
@@ -137,10 +138,11 @@ bool all_finite(const std::vector<T>& values, const std::vector<uint32_t>& used)
   return true;
 }
 
-// The soup's triangles as Draco MeshChunks: runs of one mesh and material,
-// at most `max` triangles each; returns the triangle count written.
-uint64_t write_meshes(const Scene& scene, const ChunkStoreOptions& options, FrameWriter& writer) {
-  const TriangleSoup& soup = scene.triangles;
+// A soup's triangles as Draco MeshChunks: runs of one mesh and material,
+// at most `max` triangles each, tagged with `prototype_id` (0 = world);
+// returns the triangle count written.
+uint64_t write_meshes(const TriangleSoup& soup, uint32_t prototype_id, const ChunkStoreOptions& options,
+                      FrameWriter& writer) {
   const size_t triangles = soup.triangle_count();
   std::vector<int64_t> local(soup.positions.size(), -1);
   uint64_t written = 0;
@@ -176,6 +178,7 @@ uint64_t write_meshes(const Scene& scene, const ChunkStoreOptions& options, Fram
     mesh->set_material_id(soup.material[begin]);
     mesh->set_double_sided(soup.double_sided[soup.mesh[begin]] != 0);
     mesh->set_draco(encode_draco_mesh(m, options.draco));
+    mesh->set_prototype_id(prototype_id);
     writer.write(chunk);
     written += end - begin;
     begin = end;
@@ -211,7 +214,31 @@ void write_scene(const Scene& scene, const ChunkStoreOptions& options, std::ofst
     d->set_diffuse_from_vertex_colors(m.albedo_from_vertex_colors);
     writer.write(chunk);
   }
-  const uint64_t triangles = write_meshes(scene, options, writer);
+  uint64_t triangles = write_meshes(scene.triangles, 0, options, writer);
+  // Instancing survives the store: each prototype once, then its
+  // placements, in the scene's instance order (which fixes the triangle
+  // numbering): consecutive instances of one prototype share a batch.
+  for (size_t p = 0; p < scene.prototypes.size(); ++p) {
+    chunk.Clear();
+    chunk.mutable_prototype()->set_id(uint32_t(p + 1));
+    chunk.mutable_prototype()->set_prim_path(scene.prototypes[p].prim_path);
+    writer.write(chunk);
+    triangles += write_meshes(scene.prototypes[p].triangles, uint32_t(p + 1), options, writer);
+  }
+  constexpr size_t kInstancesPerBatch = 65536;
+  for (size_t k = 0; k < scene.instances.size();) {
+    chunk.Clear();
+    pbgi::v1::InstanceBatch* batch = chunk.mutable_instances();
+    const uint32_t proto = scene.instances[k].prototype;
+    batch->set_prototype_id(proto + 1);
+    batch->set_prim_path(scene.prototypes[proto].prim_path);
+    std::string bytes;
+    for (size_t n = 0; k < scene.instances.size() && scene.instances[k].prototype == proto && n < kInstancesPerBatch;
+         ++k, ++n)
+      bytes.append(reinterpret_cast<const char*>(&scene.instances[k].local_to_world[0][0]), 16 * sizeof(float));
+    batch->set_transforms(std::move(bytes));
+    writer.write(chunk);
+  }
 
   for (const Light& l : scene.lights) {
     chunk.Clear();

@@ -33,8 +33,13 @@ class ChunkStream:
         # Set once the stage is open: diagnostics then name the file that
         # defines their prim (bad input must be traceable to its layer).
         self.stage = None
+        # Nonzero while a prototype's geometry is written (prototypes.py):
+        # mesh and cage chunks are then tagged with it.
+        self.prototype_id = 0
 
     def write(self, chunk):
+        if self.prototype_id and chunk.WhichOneof("body") in ("mesh", "subdiv_cage"):
+            getattr(chunk, chunk.WhichOneof("body")).prototype_id = self.prototype_id
         data = chunk.SerializeToString()
         self._out.write(_LENGTH.pack(len(data)))
         self._out.write(data)

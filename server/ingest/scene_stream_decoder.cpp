@@ -127,6 +127,16 @@ TextureBinding binding_from(const pbgi::v1::TextureRef& r) {
   return b;
 }
 
+// What the assembler tracks per soup it appends to (the world's, or one
+// prototype's): chunk ranges for expand_flat_chunks and the mesh paths.
+struct SoupBuild {
+  std::vector<ChunkRange> chunks;
+  bool any_normals = false;
+  bool any_without_normals = false;
+  bool sealed = false;  // a prototype with instances: no more geometry
+  std::unordered_map<std::string, uint32_t> mesh_index;
+};
+
 // Version of the refinement algorithm, folded into the content hash of
 // scenes with subdivision surfaces; bump when refined triangles change.
 constexpr int kSubdivisionAlgorithmVersion = 1;
@@ -151,6 +161,8 @@ class SceneAssembler {
       case Chunk::kLight: light(chunk.light(), at); break;
       case Chunk::kCamera: camera(chunk.camera(), at); break;
       case Chunk::kVolume: volume(chunk.volume(), at); break;
+      case Chunk::kPrototype: prototype(chunk.prototype(), at); break;
+      case Chunk::kInstances: instances(chunk.instances(), at); break;
       case Chunk::kDiagnostic: diagnostic(chunk.diagnostic()); break;
       case Chunk::kProgress: break;  // handled by the decoder
       case Chunk::kEnd: break;       // checked by the decoder
@@ -170,7 +182,8 @@ class SceneAssembler {
 
   Scene finish(const FramePosition& at) {
     remap_materials(at);
-    if (any_normals_ && any_without_normals_) expand_flat_chunks();
+    for (size_t i = 0; i < builds_.size(); ++i)
+      if (builds_[i].any_normals && builds_[i].any_without_normals) expand_flat_chunks(i);
     // The triangles of a subdivision surface depend on the refinement
     // options too: two reads with different targets must not share caches.
     if (cage_count_ > 0)
@@ -196,6 +209,8 @@ class SceneAssembler {
       case Chunk::kLight: return "LightDef";
       case Chunk::kCamera: return "CameraDef";
       case Chunk::kVolume: return "VolumeDef";
+      case Chunk::kPrototype: return "PrototypeDef";
+      case Chunk::kInstances: return "InstanceBatch";
       case Chunk::kDiagnostic: return "Diagnostic";
       case Chunk::kProgress: return "Progress";
       case Chunk::kEnd: return "SceneEnd";
@@ -236,7 +251,9 @@ class SceneAssembler {
     if (!m.colors().empty() && m.colors().size() != pos.size())
       fail(at, fmt::format("mesh {}: {} bytes of colors for {} bytes of positions", prim, m.colors().size(), pos.size()));
 
-    TriangleSoup& soup = scene_.triangles;
+    const size_t target = soup_for(m.prototype_id(), prim, at);
+    TriangleSoup& soup = soup_at(target);
+    SoupBuild& build = builds_[target];
     const size_t vertex_count = pos.size() / sizeof(V3f);
     const size_t base = soup.positions.size();
     if (base + vertex_count > std::numeric_limits<uint32_t>::max())
@@ -256,9 +273,9 @@ class SceneAssembler {
       // Zero-fills the vertices of earlier chunks without normals, if any.
       soup.normals.resize(base + vertex_count);
       copy_bytes(soup.normals.data() + base, nrm);
-      any_normals_ = true;
+      build.any_normals = true;
     } else {
-      any_without_normals_ = true;
+      build.any_without_normals = true;
       // Placeholders keep normals aligned with positions; expand_flat_chunks
       // replaces them if any chunk has normals, else they are dropped.
       if (!soup.normals.empty()) soup.normals.resize(base + vertex_count);
@@ -278,10 +295,10 @@ class SceneAssembler {
     }
 
     const size_t triangles = index_count / 3;
-    soup.mesh.insert(soup.mesh.end(), triangles, mesh_index(prim, m.double_sided()));
+    soup.mesh.insert(soup.mesh.end(), triangles, mesh_index(target, prim, m.double_sided()));
     // Stream ids for now; remap_materials turns them into indices.
     soup.material.insert(soup.material.end(), triangles, m.material_id());
-    chunks_.push_back({static_cast<uint32_t>(base), static_cast<uint32_t>(vertex_count), first_index, index_count,
+    build.chunks.push_back({static_cast<uint32_t>(base), static_cast<uint32_t>(vertex_count), first_index, index_count,
                        has_normals});
     // SceneEnd counts what the writer could count: packed arrays, not the
     // triangles inside Draco blobs.
@@ -323,6 +340,7 @@ class SceneAssembler {
     m.set_prim_path(chunk.prim_path());
     m.set_material_id(chunk.material_id());
     m.set_double_sided(chunk.double_sided());
+    m.set_prototype_id(chunk.prototype_id());
     auto bytes = [](const auto& v) {
       return std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(v[0]));
     };
@@ -351,9 +369,65 @@ class SceneAssembler {
     copy_bytes(values.data() + base, bytes);
   }
 
-  uint32_t mesh_index(const std::string& prim, bool double_sided) {
-    TriangleSoup& soup = scene_.triangles;
-    auto [it, inserted] = mesh_index_.try_emplace(prim, static_cast<uint32_t>(soup.mesh_paths.size()));
+  // builds_[0] and the world soup; builds_[k] and prototypes[k - 1].
+  TriangleSoup& soup_at(size_t target) {
+    return target == 0 ? scene_.triangles : scene_.prototypes[target - 1].triangles;
+  }
+
+  // The soup a chunk of `prototype_id` (0 = world) appends to.
+  size_t soup_for(uint32_t prototype_id, const std::string& prim, const FramePosition& at) {
+    if (prototype_id == 0) return 0;
+    const auto it = prototype_index_.find(prototype_id);
+    if (it == prototype_index_.end())
+      fail(at, fmt::format("mesh {}: prototype id {} was never defined", prim, prototype_id));
+    const size_t target = it->second + 1;
+    if (builds_[target].sealed)
+      fail(at, fmt::format("mesh {}: geometry for prototype {} after its instances", prim,
+                           scene_.prototypes[it->second].prim_path));
+    return target;
+  }
+
+  void prototype(const pbgi::v1::PrototypeDef& d, const FramePosition& at) {
+    if (d.id() == 0) fail(at, fmt::format("prototype {}: id 0 is reserved for world geometry", d.prim_path()));
+    if (!prototype_index_.try_emplace(d.id(), static_cast<uint32_t>(scene_.prototypes.size())).second)
+      fail(at, fmt::format("prototype id {} ({}) defined twice", d.id(), d.prim_path()));
+    Prototype p;
+    p.prim_path = d.prim_path();
+    scene_.prototypes.push_back(std::move(p));
+    builds_.emplace_back();
+  }
+
+  void instances(const pbgi::v1::InstanceBatch& b, const FramePosition& at) {
+    const auto it = prototype_index_.find(b.prototype_id());
+    if (it == prototype_index_.end())
+      fail(at, fmt::format("instances {}: prototype id {} was never defined", b.prim_path(), b.prototype_id()));
+    const std::string& bytes = b.transforms();
+    constexpr size_t kMatrixBytes = 16 * sizeof(float);
+    if (bytes.size() % kMatrixBytes != 0)
+      fail(at, fmt::format("instances {}: {} bytes of transforms, not a multiple of 64", b.prim_path(), bytes.size()));
+    // The prototype's triangle count is now part of the numbering.
+    if (builds_[it->second + 1].any_normals && builds_[it->second + 1].any_without_normals)
+      expand_flat_chunks(it->second + 1);
+    builds_[it->second + 1].sealed = true;
+    for (size_t off = 0; off < bytes.size(); off += kMatrixBytes) {
+      float v[16];
+      std::memcpy(v, bytes.data() + off, kMatrixBytes);
+      for (float x : v)
+        if (!std::isfinite(x)) fail(at, fmt::format("instances {}: non-finite transform", b.prim_path()));
+      const M44f m(v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], v[10], v[11], v[12], v[13], v[14], v[15]);
+      try {
+        scene_.add_instance(it->second, m);
+      } catch (const SceneError& e) {
+        // One degenerate placement (a zero scale) must not lose the scene.
+        scene_.warnings.push_back(fmt::format("{}: {} (instance skipped)", b.prim_path(), e.what()));
+      }
+    }
+  }
+
+  uint32_t mesh_index(size_t target, const std::string& prim, bool double_sided) {
+    TriangleSoup& soup = soup_at(target);
+    auto& index = builds_[target].mesh_index;
+    auto [it, inserted] = index.try_emplace(prim, static_cast<uint32_t>(soup.mesh_paths.size()));
     if (inserted) {
       soup.mesh_paths.push_back(prim);
       soup.double_sided.push_back(0);
@@ -385,7 +459,9 @@ class SceneAssembler {
     for (std::string& w : refined.warnings) scene_.warnings.push_back(std::move(w));
     if (refined.triangle_count() == 0) return;  // every face a hole
 
-    TriangleSoup& soup = scene_.triangles;
+    const size_t target = soup_for(m.prototype_id(), prim, at);
+    TriangleSoup& soup = soup_at(target);
+    SoupBuild& build = builds_[target];
     const size_t base = soup.positions.size();
     if (base + refined.positions.size() > std::numeric_limits<uint32_t>::max())
       fail(at, fmt::format("mesh {}: the scene exceeds 2^32 vertices", prim));
@@ -393,7 +469,7 @@ class SceneAssembler {
     // Zero-fills the vertices of earlier chunks without normals, if any.
     soup.normals.resize(base);
     soup.normals.insert(soup.normals.end(), refined.normals.begin(), refined.normals.end());
-    any_normals_ = true;
+    build.any_normals = true;
     // Face-varying and vertex primvars are not refined yet: the refined
     // vertices have no uvs or colours (NaN, as TriangleSoup documents).
     const float nan = std::numeric_limits<float>::quiet_NaN();
@@ -402,11 +478,11 @@ class SceneAssembler {
     const size_t first_index = soup.indices.size();
     for (const uint32_t i : refined.indices) soup.indices.push_back(i + static_cast<uint32_t>(base));
     const size_t triangles = refined.triangle_count();
-    soup.mesh.insert(soup.mesh.end(), triangles, mesh_index(prim, m.double_sided()));
+    soup.mesh.insert(soup.mesh.end(), triangles, mesh_index(target, prim, m.double_sided()));
     for (size_t t = 0; t < triangles; ++t)
       soup.material.push_back(decoded.face_material_ids.empty() ? m.material_id()
                                                                  : decoded.face_material_ids[refined.triangle_faces[t]]);
-    chunks_.push_back({static_cast<uint32_t>(base), static_cast<uint32_t>(refined.positions.size()), first_index,
+    build.chunks.push_back({static_cast<uint32_t>(base), static_cast<uint32_t>(refined.positions.size()), first_index,
                        refined.indices.size(), true});
   }
 
@@ -519,13 +595,15 @@ class SceneAssembler {
   }
 
   void remap_materials(const FramePosition& at) {
-    TriangleSoup& soup = scene_.triangles;
-    for (size_t t = 0; t < soup.material.size(); ++t) {
-      const auto it = material_index_.find(soup.material[t]);
-      if (it == material_index_.end())
-        fail(at, fmt::format("mesh {} uses material id {}, which the stream never defined",
-                             soup.mesh_paths[soup.mesh[t]], soup.material[t]));
-      soup.material[t] = it->second;
+    for (size_t target = 0; target < builds_.size(); ++target) {
+      TriangleSoup& soup = soup_at(target);
+      for (size_t t = 0; t < soup.material.size(); ++t) {
+        const auto it = material_index_.find(soup.material[t]);
+        if (it == material_index_.end())
+          fail(at, fmt::format("mesh {} uses material id {}, which the stream never defined",
+                               soup.mesh_paths[soup.mesh[t]], soup.material[t]));
+        soup.material[t] = it->second;
+      }
     }
     for (Volume& v : scene_.volumes) {
       const auto it = material_index_.find(v.material);
@@ -538,8 +616,12 @@ class SceneAssembler {
   // Some chunks carry normals and some do not: give the flat ones their own
   // vertices per triangle with the geometric normal, so that one per-vertex
   // normal array describes the whole soup exactly.
-  void expand_flat_chunks() {
-    TriangleSoup& soup = scene_.triangles;
+  // Once per soup; a prototype's at its first InstanceBatch (the vertex
+  // count changes, the triangle count does not), the rest at the end.
+  void expand_flat_chunks(size_t target) {
+    SoupBuild& build = builds_[target];
+    if (build.sealed) return;
+    TriangleSoup& soup = soup_at(target);
     std::vector<V3f> positions, normals;
     std::vector<uint32_t> indices;
     std::vector<V2f> uvs;
@@ -553,7 +635,7 @@ class SceneAssembler {
     positions.reserve(soup.positions.size());
     normals.reserve(soup.positions.size());
     indices.reserve(soup.indices.size());
-    for (const ChunkRange& c : chunks_) {
+    for (const ChunkRange& c : build.chunks) {
       const uint32_t base = static_cast<uint32_t>(positions.size());
       if (c.has_normals) {
         positions.insert(positions.end(), soup.positions.begin() + c.first_vertex,
@@ -595,11 +677,9 @@ class SceneAssembler {
   uint64_t cage_count_ = 0;
   bool have_header_ = false;
   bool unknown_reported_ = false;
-  bool any_normals_ = false;
-  bool any_without_normals_ = false;
   std::unordered_map<uint32_t, uint32_t> material_index_;
-  std::unordered_map<std::string, uint32_t> mesh_index_;
-  std::vector<ChunkRange> chunks_;
+  std::unordered_map<uint32_t, uint32_t> prototype_index_;  // stream id -> Scene::prototypes index
+  std::vector<SoupBuild> builds_ = std::vector<SoupBuild>(1);  // [0] world, [k] prototypes[k - 1]
 };
 
 }  // namespace

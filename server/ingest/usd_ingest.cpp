@@ -128,6 +128,7 @@ Scene run_usd_reader(const std::filesystem::path& path, const IngestOptions& opt
       throw InvalidArgument(fmt::format("variant selection key '{}' is not '<prim path>:<variant set>'", target));
     argv.push_back(fmt::format("--variant={}={}", target, selection));
   }
+  if (options.flatten_instances) argv.push_back("--flatten-instances");  // also for the hash: another stream
   if (hash_only) argv.push_back("--hash-only");
   ReaderProcess reader(argv, reader_environment());
 
@@ -163,8 +164,15 @@ Scene run_usd_reader(const std::filesystem::path& path, const IngestOptions& opt
   // of docs/scaling.md is stated in it.
   const SceneStreamStats& stats = decoder.stats();
   if (!hash_only)
-    spdlog::info("read '{}': {} frames, {} bytes streamed, largest frame {} bytes; {} triangles", path.string(),
-                 stats.frames, stats.bytes, stats.largest_frame_bytes, scene->triangles.triangle_count());
+    spdlog::info("read '{}': {} frames, {} bytes streamed, largest frame {} bytes; {} triangles ({} in {} "
+                 "prototypes placed by {} instances)",
+                 path.string(), stats.frames, stats.bytes, stats.largest_frame_bytes, scene->triangle_count(),
+                 [&] {
+                   size_t n = 0;
+                   for (const Prototype& p : scene->prototypes) n += p.triangles.triangle_count();
+                   return n;
+                 }(),
+                 scene->prototypes.size(), scene->instances.size());
   return std::move(*scene);
 }
 

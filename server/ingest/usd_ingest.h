@@ -28,6 +28,12 @@ struct IngestOptions {
   // prim. The selections are part of Scene::content_hash.
   std::map<std::string, std::string> variant_selections;
   uint32_t max_triangles_per_chunk = 65536;
+  // Native instances and PointInstancers arrive as prototypes (geometry
+  // once) + instance transforms (Scene::prototypes/instances), so memory
+  // follows the prototypes. true: the reader expands them into world-space
+  // triangles instead, as before instancing was modelled -- for comparisons
+  // and measurements; part of the content hash. Not a daemon option.
+  bool flatten_instances = false;
   // Subdivision surfaces (subdivisionScheme catmullClark -- USD's default --
   // loop, bilinear) are refined in the daemon until their edges are at most
   // this long, in world units (level = ceil(log2(longest cage edge /

@@ -2,7 +2,7 @@
 """pbgi's USD reader process.
 
     usd_reader.py SCENE [--time CODE] [--max-triangles-per-chunk N]
-                  [--variant /PRIM:SET=SELECTION ...] [--hash-only]
+                  [--variant /PRIM:SET=SELECTION ...] [--hash-only] [--flatten-instances]
 
 Opens SCENE with Pixar's USD (pxr) and writes the scene as framed SceneChunk
 messages (proto/pbgi/v1/scene.proto; 4-byte little-endian length + bytes)
@@ -43,6 +43,7 @@ try:
     from pbgi.v1 import scene_pb2
     from point_instancers import read_point_instancer
     from preview_materials import MaterialTable
+    from prototypes import PrototypeTable
     from triangle_chunks import GeometryError, TriangleEmitter
     from volume_defs import volume_def
     _IMPORT_ERROR = None
@@ -51,7 +52,7 @@ except ImportError as e:  # reported by main() with a clear message
 
 # Bumped whenever the reader's output for the same input changes, so that
 # caches keyed by the content hash are invalidated.
-READER_VERSION = "pbgi-usd-reader/3"  # 3: mesh repairs, volumes, aperture offsets, variants
+READER_VERSION = "pbgi-usd-reader/4"  # 4: instances as prototypes + InstanceBatches
 _HASH_BLOCK = 1 << 20
 
 
@@ -94,6 +95,9 @@ def _parse_args(argv):
     parser.add_argument("--variant", action="append", default=[], metavar="/PRIM:SET=SELECTION",
                         help="variant selection authored in the session layer before the stage "
                              "is composed (repeatable; wins over the file's selections)")
+    parser.add_argument("--flatten-instances", action="store_true",
+                        help="expand native instances and PointInstancers into world-space "
+                             "triangles instead of prototypes + InstanceBatches")
     args = parser.parse_args(argv)
     if args.max_triangles_per_chunk < 1:
         parser.error("--max-triangles-per-chunk must be >= 1")
@@ -114,9 +118,10 @@ def parse_variant(text):
     return path, variant_set, selection
 
 
-def content_hash(stage, time_code):
+def content_hash(stage, time_code, flatten_instances=False):
     """sha256 over every layer the stage used (file bytes; exported text for
-    anonymous layers), order- and location-independent, plus the time code."""
+    anonymous layers), order- and location-independent, plus the time code
+    (and whether instances are flattened: a different stream)."""
     digests = []
     for layer in stage.GetUsedLayers():
         h = hashlib.sha256()
@@ -132,6 +137,8 @@ def content_hash(stage, time_code):
     for d in sorted(digests):
         total.update(d.encode())
     total.update(repr(float(time_code)).encode())
+    if flatten_instances:
+        total.update(b"+flatten-instances")
     return total.hexdigest()
 
 
@@ -192,7 +199,8 @@ def open_stage(path, variants=()):
 class SceneReader:
     """One traversal of a stage, writing chunks to a ChunkStream."""
 
-    def __init__(self, stage, time, stream, max_triangles_per_chunk, draco_prims=None):
+    def __init__(self, stage, time, stream, max_triangles_per_chunk, draco_prims=None,
+                 flatten_instances=False):
         self.draco_prims = draco_prims or {}  # prim path -> .drc files it references
         self.stage = stage
         self.time = time
@@ -200,6 +208,9 @@ class SceneReader:
         self.xforms = UsdGeom.XformCache(time)
         self.materials = MaterialTable(stream, time)
         self.emitter = TriangleEmitter(stream, max_triangles_per_chunk)
+        # None: instances are expanded through instance proxies (flattened).
+        self.prototypes = None if flatten_instances else \
+            PrototypeTable(stream, time, self.xforms, self.materials, self.emitter)
 
     def run(self):
         predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
@@ -214,7 +225,22 @@ class SceneReader:
                     prims.PruneChildren()
             except Exception as e:  # one bad prim must not lose the scene
                 self._prim_failed(prim, e)
+        if self.prototypes is not None:
+            self.prototypes.flush()
         self.stream.progress("done", 1.0, force=True)
+
+    def _read_instance_others(self, instance):
+        """Lights, cameras, volumes and PointInstancers below a native
+        instance, per instance (its gprims are the prototype's)."""
+        predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+        prims = iter(Usd.PrimRange(instance, predicate))
+        next(prims)  # the instance itself
+        for prim in prims:
+            try:
+                if self._read_prim(prim, geometry=False) == "prune":
+                    prims.PruneChildren()
+            except Exception as e:
+                self._prim_failed(prim, e)
 
     def _read_draco(self, prim, path, matrix):
         """The .drc files the prim references, as Draco MeshChunks."""
@@ -236,8 +262,10 @@ class SceneReader:
                                f"skipped: {type(error).__name__}: {_one_line(error)}",
                                kind="prim-failed")
 
-    def _read_prim(self, prim):
-        """Reads one prim; returns "prune" to skip its descendants."""
+    def _read_prim(self, prim, geometry=True):
+        """Reads one prim; returns "prune" to skip its descendants.
+        geometry=False: below a native instance, whose gprims (nested
+        instances included) are its prototype's: only the rest is read."""
         if prim.IsA(UsdShade.Material) or prim.IsA(UsdShade.NodeGraph) or \
                 prim.IsA(UsdShade.Shader):
             return "prune"
@@ -257,6 +285,14 @@ class SceneReader:
         matrix = None
         if prim.IsA(UsdGeom.Xformable):
             matrix = self.xforms.GetLocalToWorldTransform(prim)
+        if geometry and self.prototypes is not None and prim.IsInstance() and \
+                not prim.IsA(UsdGeom.Gprim):
+            # Native instance: its prototype's geometry once, this placement.
+            if self.prototypes.place_native(prim, matrix):
+                self._read_instance_others(prim)
+            return "prune"
+        if not geometry and (prim.IsA(UsdGeom.Gprim) or path in self.draco_prims):
+            return None
         if path in self.draco_prims:
             self._read_draco(prim, path, matrix)
         if is_light(prim) and not prim.IsA(UsdGeom.Gprim):
@@ -280,7 +316,7 @@ class SceneReader:
             # Its prototypes are read per instance (point_instancers.py),
             # never as plain prims.
             read_point_instancer(prim, matrix, self.time, self.xforms, self.materials,
-                                 self.emitter, self.stream)
+                                 self.emitter, self.stream, self.prototypes)
             return "prune"
         if prim.IsA(UsdVol.Volume):
             chunk = volume_def(prim, matrix, self.time, self.xforms, self.materials, self.stream)
@@ -317,11 +353,11 @@ def render_purpose(imageable, stream):
     return computed in _RENDERED_PURPOSES
 
 
-def _write_header(stage, path, time, stream):
+def _write_header(stage, path, time, stream, flatten_instances):
     chunk = scene_pb2.SceneChunk()
     header = chunk.header
     header.source_path = stage.GetRootLayer().realPath or os.path.abspath(path)
-    header.content_hash = content_hash(stage, time.GetValue())
+    header.content_hash = content_hash(stage, time.GetValue(), flatten_instances)
     header.meters_per_unit = UsdGeom.GetStageMetersPerUnit(stage)
     header.up_axis = str(UsdGeom.GetStageUpAxis(stage))
     header.time_code = time.GetValue()
@@ -366,14 +402,15 @@ def main(argv):
     stream = ChunkStream(out)
     stream.stage = stage
     try:
-        _write_header(stage, args.scene, time, stream)
+        _write_header(stage, args.scene, time, stream, args.flatten_instances)
         if args.hash_only:
             stream.end()
             out.close()
             return 0
         draco_prims = _report_composition_errors(stage, stream)
         report_variants(stage, args.variants, stream)
-        SceneReader(stage, time, stream, args.max_triangles_per_chunk, draco_prims).run()
+        SceneReader(stage, time, stream, args.max_triangles_per_chunk, draco_prims,
+                    args.flatten_instances).run()
         stream.end()
         out.close()
         done = clock.monotonic()

@@ -24,14 +24,14 @@ float emission_weight(const Material& m) {
 }  // namespace
 
 EmissiveTriangles::EmissiveTriangles(const Scene& scene) : scene_(scene) {
-  const TriangleSoup& t = scene.triangles;
   std::vector<double> weights, areas;
-  for (uint32_t i = 0; i < t.triangle_count(); ++i) {
-    const float w = emission_weight(scene.materials[t.material[i]]);
+  const uint64_t count = scene.triangle_count();
+  for (uint64_t id = 0; id < count; ++id) {
+    const uint32_t i = uint32_t(id);
+    const TriangleRef r = scene.triangle(i);
+    const float w = emission_weight(scene.materials[r.material()]);
     if (!(w > 0.f)) continue;
-    const V3f& p0 = t.positions[t.indices[3 * size_t(i) + 0]];
-    const V3f& p1 = t.positions[t.indices[3 * size_t(i) + 1]];
-    const V3f& p2 = t.positions[t.indices[3 * size_t(i) + 2]];
+    const V3f p0 = r.position(0), p1 = r.position(1), p2 = r.position(2);
     const double area = 0.5 * double((p1 - p0).cross(p2 - p0).length());
     if (!(area > 0.0) || !std::isfinite(area)) continue;
     triangles_.push_back(i);
@@ -42,18 +42,19 @@ EmissiveTriangles::EmissiveTriangles(const Scene& scene) : scene_(scene) {
   double total = 0;
   for (double w : weights) total += w;
   cdf_.resize(weights.size());
-  pdf_area_.assign(t.triangle_count(), 0.f);
+  pdf_area_.resize(weights.size());
   double run = 0;
   for (size_t k = 0; k < weights.size(); ++k) {
     run += weights[k];
     cdf_[k] = run / total;
-    pdf_area_[triangles_[k]] = float(weights[k] / total / areas[k]);
+    pdf_area_[k] = float(weights[k] / total / areas[k]);
   }
   cdf_.back() = 1.0;
 }
 
 float EmissiveTriangles::pdf_area(uint32_t triangle) const {
-  return triangle < pdf_area_.size() ? pdf_area_[triangle] : 0.f;
+  const auto it = std::lower_bound(triangles_.begin(), triangles_.end(), triangle);
+  return it != triangles_.end() && *it == triangle ? pdf_area_[size_t(it - triangles_.begin())] : 0.f;
 }
 
 EmitterSample EmissiveTriangles::sample(float u0, float u1, float u2) const {
@@ -62,10 +63,8 @@ EmitterSample EmissiveTriangles::sample(float u0, float u1, float u2) const {
   const size_t k = std::min<size_t>(
       size_t(std::upper_bound(cdf_.begin(), cdf_.end(), double(u0)) - cdf_.begin()), cdf_.size() - 1);
   const uint32_t tri = triangles_[k];
-  const TriangleSoup& t = scene_.triangles;
-  const V3f& p0 = t.positions[t.indices[3 * size_t(tri) + 0]];
-  const V3f& p1 = t.positions[t.indices[3 * size_t(tri) + 1]];
-  const V3f& p2 = t.positions[t.indices[3 * size_t(tri) + 2]];
+  const TriangleRef r = scene_.triangle(tri);
+  const V3f p0 = r.position(0), p1 = r.position(1), p2 = r.position(2);
   // Uniform on the triangle (pbrt's square-root map).
   const float su = std::sqrt(u1);
   s.triangle = tri;
@@ -73,7 +72,7 @@ EmitterSample EmissiveTriangles::sample(float u0, float u1, float u2) const {
   s.b2 = 1.f - su;
   s.point = RayScene::triangle_point(p0, p1, p2, s.b1, s.b2);
   s.normal = (p1 - p0).cross(p2 - p0).normalized();
-  s.pdf_area = pdf_area_[tri];
+  s.pdf_area = pdf_area_[k];
   return s;
 }
 

@@ -40,7 +40,8 @@ class EmissiveTriangles {
   const Scene& scene_;
   std::vector<uint32_t> triangles_;  // emissive, non-degenerate
   std::vector<double> cdf_;          // over triangles_, last = 1
-  std::vector<float> pdf_area_;      // per scene triangle; empty if none emit
+  std::vector<float> pdf_area_;      // per entry of triangles_ (ascending ids): a
+                                     // dense per-triangle array would grow with instances
 };
 
 }  // namespace pbgi

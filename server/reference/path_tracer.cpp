@@ -87,7 +87,6 @@ class PathTracer {
 };
 
 Vertex PathTracer::make_vertex(const Hit& hit, const V3f& ray_dir) const {
-  const TriangleSoup& t = scene_.triangles;
   Vertex v;
   const SurfacePoint sp = rays_.hit_point(hit);
   v.p = sp.p;
@@ -103,7 +102,7 @@ Vertex PathTracer::make_vertex(const Hit& hit, const V3f& ray_dir) const {
     v.ns = -v.ns;
   }
   if (v.ns.dot(v.ng) <= 0.f) v.ns = v.ng;
-  v.material = &scene_.materials[t.material[hit.triangle]];
+  v.material = &scene_.materials[scene_.triangle(hit.triangle).material()];
   const SurfaceColors colors = surface_colors(scene_, hit.triangle, hit.u, hit.v);
   v.albedo = colors.albedo;
   v.emission = colors.emission;
@@ -142,8 +141,10 @@ PathSample PathTracer::trace(const Ray& camera_ray, Rng& rng, uint64_t* ray_coun
     const float u1 = rng.uniform(), u2 = rng.uniform();
     const V3f d = cosine_hemisphere(v.ns, u1, u2);
     const float tmax = options_.ao_max_distance > 0.f ? options_.ao_max_distance : kInf;
-    // A direction under the geometric surface is blocked by the surface itself.
-    out.ao = d.dot(v.ng) > 0.f && !rays_.occluded(offset_origin(v, d), d, 0.f, tmax) ? 1.f : 0.f;
+    // A direction under the geometric surface is blocked by the surface
+    // itself; fog lets through its transmittance (the expected accessibility).
+    const V3f o = offset_origin(v, d);
+    out.ao = d.dot(v.ng) > 0.f && !rays_.occluded(o, d, 0.f, tmax) ? rays_.transmittance(o, d, 0.f, tmax) : 0.f;
     ++*ray_count;
   }
 
@@ -180,7 +181,8 @@ PathSample PathTracer::trace(const Ray& camera_ray, Rng& rng, uint64_t* ray_coun
         ++*ray_count;
         if (tmax <= 0.f || rays_.occluded(origin, ls.direction, 0.f, tmax)) continue;
         const float w = ls.delta ? 1.f : power_heuristic(ls.pdf, brdf.pdf(wo, ls.direction));
-        add(k - 1, beta * f * ls.radiance * (cos_s * w / ls.pdf));
+        const float tr = rays_.transmittance(origin, ls.direction, 0.f, tmax);  // fog
+        add(k - 1, beta * f * ls.radiance * (tr * cos_s * w / ls.pdf));
       }
     }
 
@@ -206,7 +208,9 @@ PathSample PathTracer::trace(const Ray& camera_ray, Rng& rng, uint64_t* ray_coun
           if (!rays_.occluded(from, target - from, 0.f, 1.f - 1e-4f)) {
             const float pdf_light = es.pdf_area * dist2 / cos_l;
             const float wgt = power_heuristic(pdf_light, brdf.pdf(wo, w));
-            add(k, beta * brdf.eval(wo, w) * le * (cos_s * wgt / pdf_light));
+            const float span = (target - from).length();
+            const float tr = rays_.transmittance(from, (target - from) / span, 0.f, span);  // fog
+            add(k, beta * brdf.eval(wo, w) * le * (tr * cos_s * wgt / pdf_light));
           }
         }
       }
@@ -225,15 +229,19 @@ PathSample PathTracer::trace(const Ray& camera_ray, Rng& rng, uint64_t* ray_coun
     const Hit next = rays_.intersect(origin, d);
     ++*ray_count;
 
-    // UsdLux lights along the BSDF-sampled ray, MIS-weighted against 3a.
+    // UsdLux lights along the BSDF-sampled ray, MIS-weighted against 3a,
+    // seen through the fog in front of them.
     for (const Light& light : lights) {
       C3f le;
       float t = 0.f, pdf_light = 0.f;
       if (!intersect_light(light, origin, d, next.t, &le, &t, &pdf_light)) continue;
       if (!(pdf_light > 0.f)) continue;
-      add(k - 1, beta * le * power_heuristic(pdf_bsdf, pdf_light));
+      add(k - 1, beta * le * (rays_.transmittance(origin, d, 0.f, t) * power_heuristic(pdf_bsdf, pdf_light)));
     }
     if (!next.valid()) break;
+    // Fog along the segment to the next surface: extinction only (the
+    // reference does not scatter in the medium; see path_tracer.h).
+    beta *= rays_.transmittance(origin, d, 0.f, next.t);
     v = make_vertex(next, d);
     wo = -d;
     // Emission of x_{k+1}: it left a surface, so one more than above.

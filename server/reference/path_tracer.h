@@ -31,6 +31,10 @@
 //  * Secondary rays start off the surface by the bound on the hit point's
 //    own rounding error (RayScene::offset_ray_origin), so a scene far from
 //    the world origin renders as it does near it.
+//  * Fog (RayScene::medium(), server/volumes/fog_field.h) attenuates every
+//    shadow ray, every path segment and the AO ray by its ray-marched
+//    transmittance: the reference models extinction, not scattering inside
+//    the medium (compare PBGI against it with an absorbing fog, albedo 0).
 //  * Russian roulette once a path has ReferenceOptions::rr_start_depth
 //    reflections, with continuation probability min(1, max component of the
 //    throughput); ReferenceOptions::max_depth caps the reflections.

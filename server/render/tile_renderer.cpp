@@ -80,10 +80,8 @@ SurfaceSample trace_sample(const RayScene& rays, const Ray& ray, const RenderOpt
   // 3. Surface: the receiver faces the camera (surfaces seen from behind
   // are lit on the side the camera sees); the shading normal is flipped with
   // it and falls back to the geometric one if it points below the surface.
-  const TriangleSoup& t = scene.triangles;
-  const uint32_t* idx = &t.indices[3 * hit.triangle];
-  const V3f p = (1.f - hit.u - hit.v) * t.positions[idx[0]] + hit.u * t.positions[idx[1]] +
-                hit.v * t.positions[idx[2]];
+  const TriangleRef tri = scene.triangle(hit.triangle);
+  const V3f p = (1.f - hit.u - hit.v) * tri.position(0) + hit.u * tri.position(1) + hit.v * tri.position(2);
   V3f ng = hit.geometric_normal;
   V3f ns = rays.shading_normal(hit);
   if (ng.dot(-ray.direction) < 0.f) {
@@ -157,7 +155,7 @@ void store_rgb(std::vector<float>& layer, size_t pixel, const C3f& c) {
 TileAovs render_tile(const RayScene& rays, const tree::TreeSource& tree, const Camera& camera,
                      uint32_t image_width, uint32_t image_height, const TileRect& rect,
                      const RenderOptions& options, GatherCounters* counters,
-                     const std::function<bool()>& cancelled) {
+                     const std::function<bool()>& cancelled, std::shared_ptr<const VolumePoints> fog) {
   // 1. Validate the request.
   options.validate();
   if (rect.x1 <= rect.x0 || rect.y1 <= rect.y0 || rect.x1 > image_width ||
@@ -244,6 +242,7 @@ TileAovs render_tile(const RayScene& rays, const tree::TreeSource& tree, const C
     const size_t batches = (receivers.size() + kBatch - 1) / kBatch;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, batches, 1), [&](const auto& range) {
       Gatherer gatherer(tree, options.gather, cache);
+      gatherer.set_volume_points(fog);
       for (size_t b = range.begin(); b != range.end(); ++b) {
         if (is_cancelled()) throw cancel_error();
         const size_t begin = b * kBatch, end = std::min(receivers.size(), begin + kBatch);
@@ -275,6 +274,7 @@ TileAovs render_tile(const RayScene& rays, const tree::TreeSource& tree, const C
   // pixels identically however the image is split into tiles.
   tbb::parallel_for(tbb::blocked_range<uint32_t>(rect.y0, rect.y1, 1), [&](const auto& rows) {
     Gatherer gatherer(tree, options.gather, cache);
+      gatherer.set_volume_points(fog);
     for (uint32_t y = rows.begin(); y != rows.end(); ++y) {
       if (is_cancelled()) throw cancel_error();
       for (uint32_t x = rect.x0; x < rect.x1; ++x) {

@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <vector>
 
 namespace pbgi {
@@ -43,11 +44,14 @@ struct TileAovs {
 // the whole tile first, then gathers its receivers in batches of 1024 (in
 // scan order) so that nearby receivers share their far light. The tile's
 // gatherers share one GatherCache.
+// `fog`: the scene's fog volume points (SceneSession::fog) for the
+// gathers; the rays' medium attenuates direct light.
 // Throws InvalidArgument if the tile is empty or outside the image,
 // Cancelled if `cancelled` returns true while rendering.
 TileAovs render_tile(const RayScene& rays, const tree::TreeSource& tree, const Camera& camera,
                      uint32_t image_width, uint32_t image_height, const TileRect& rect,
                      const RenderOptions& options, GatherCounters* counters = nullptr,
-                     const std::function<bool()>& cancelled = {});
+                     const std::function<bool()>& cancelled = {},
+                     std::shared_ptr<const VolumePoints> fog = nullptr);
 
 }  // namespace pbgi

@@ -15,7 +15,8 @@ namespace pbgi {
 // point itself lies on a surface; RayScene::offset_ray_origin, relative to
 // p's coordinates so it stays tight far from the origin) and stop just short
 // of the light sample so that geometry modelled at the emitter's position (a
-// light's housing quad) does not shadow its own light.
+// light's housing quad) does not shadow its own light. Unoccluded shadow
+// rays are attenuated by the scene's fog (RayScene::transmittance).
 namespace {
 // Calls add(direction, L cos / pdf) for every unshadowed sample of a light,
 // then end_light(sample count) once per light.
@@ -45,7 +46,9 @@ void visit_light_samples(const RayScene& rays, const V3f& p, const V3f& n, uint3
                              : s.distance * (1.f - 1e-4f) - 2.f * eps;
       if (!(tmax > 0.f)) continue;
       if (rays.occluded(origin, s.direction, 0.f, tmax)) continue;
-      add(s.direction, s.radiance * (cos_r / s.pdf));
+      // Fog between the point and the light (participating_medium.h).
+      const float tr = rays.transmittance(origin, s.direction, 0.f, tmax);
+      add(s.direction, s.radiance * (tr * cos_r / s.pdf));
     }
     end_light(n_samples);
   }

@@ -12,6 +12,8 @@
 #include <limits>
 #include <mutex>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace pbgi {
 namespace {
@@ -56,12 +58,15 @@ void on_embree_error(void* user, RTCError code, const char* message) {
 struct RayScene::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
+  std::vector<RTCScene> prototypes;  // one BVH per prototype, shared by its instances
   float extent = 0.f;     // largest side of the scene's bounds
   float epsilon = 1e-7f;  // ray_epsilon()
   ErrorSink errors;
 
   ~Impl() {
     if (scene) rtcReleaseScene(scene);
+    for (RTCScene p : prototypes)
+      if (p) rtcReleaseScene(p);
     if (device) rtcReleaseDevice(device);
   }
 
@@ -72,6 +77,40 @@ struct RayScene::Impl {
     std::lock_guard<std::mutex> lock(errors.mutex);
     throw Error(fmt::format("{}: Embree failed to {}: {}", s.source_path, what,
                             errors.last.empty() ? error_name(e) : errors.last));
+  }
+
+  // Attaches one triangle geometry holding `t` to `target` as geometry
+  // `id`. Buffers are copied into Embree-allocated storage: Embree reads
+  // vertices with 16-byte loads, so the vertex buffer needs padding past its
+  // end that a std::vector<V3f> does not have.
+  void attach_triangles(const Scene& s, RTCScene target, const TriangleSoup& t, unsigned id) {
+    const size_t tris = t.triangle_count();
+    RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
+        geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), t.positions.size()));
+    auto* indices = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
+        geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), tris));
+    if (!vertices || !indices) {
+      rtcReleaseGeometry(geom);
+      check(s, "allocate geometry buffers");
+      throw Error(fmt::format("{}: Embree could not allocate buffers for {} triangles", s.source_path, tris));
+    }
+    for (size_t i = 0; i < t.positions.size(); ++i) {
+      vertices[3 * i + 0] = t.positions[i].x;
+      vertices[3 * i + 1] = t.positions[i].y;
+      vertices[3 * i + 2] = t.positions[i].z;
+    }
+    std::memcpy(indices, t.indices.data(), t.indices.size() * sizeof(uint32_t));
+    rtcCommitGeometry(geom);
+    rtcAttachGeometryByID(target, geom, id);
+    rtcReleaseGeometry(geom);  // the scene holds a reference
+  }
+
+  RTCScene new_scene() const {
+    RTCScene s = rtcNewScene(device);
+    rtcSetSceneFlags(s, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneBuildQuality(s, RTC_BUILD_QUALITY_MEDIUM);
+    return s;
   }
 };
 
@@ -87,40 +126,39 @@ RayScene::RayScene(const Scene& scene) : scene_(scene), impl_(std::make_unique<I
   }
   rtcSetDeviceErrorFunction(impl_->device, on_embree_error, &impl_->errors);
 
-  // 3. One triangle geometry. Buffers are copied into Embree-allocated
-  // storage: Embree reads vertices with 16-byte loads, so the vertex buffer
-  // needs padding past its end that a std::vector<V3f> does not have.
-  impl_->scene = rtcNewScene(impl_->device);
-  rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
-  rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_MEDIUM);
-  const TriangleSoup& t = scene.triangles;
-  const size_t tris = t.triangle_count();
-  if (tris > 0) {
-    RTCGeometry geom = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
-        geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), t.positions.size()));
-    auto* indices = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
-        geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), tris));
-    if (!vertices || !indices) {
-      rtcReleaseGeometry(geom);
-      impl_->check(scene, "allocate geometry buffers");
-      throw Error(fmt::format("{}: Embree could not allocate buffers for {} triangles",
-                              scene.source_path, tris));
-    }
-    for (size_t i = 0; i < t.positions.size(); ++i) {
-      vertices[3 * i + 0] = t.positions[i].x;
-      vertices[3 * i + 1] = t.positions[i].y;
-      vertices[3 * i + 2] = t.positions[i].z;
-    }
-    std::memcpy(indices, t.indices.data(), t.indices.size() * sizeof(uint32_t));
+  // 3. The world soup as geometry 0 of the top-level scene.
+  impl_->scene = impl_->new_scene();
+  if (scene.triangles.triangle_count() > 0) impl_->attach_triangles(scene, impl_->scene, scene.triangles, 0);
+
+  // 4. Instancing: one BVH per prototype, and per instance an instance
+  // geometry (id k + 1) pointing at it with its transform, so the
+  // acceleration structure's size follows the prototypes, not the instances.
+  // Imath's row-major row-vector matrix is, byte for byte, the column-major
+  // column-vector matrix Embree's FLOAT4X4_COLUMN_MAJOR expects.
+  impl_->prototypes.assign(scene.prototypes.size(), nullptr);
+  for (size_t p = 0; p < scene.prototypes.size(); ++p) {
+    if (scene.prototypes[p].triangles.triangle_count() == 0) continue;
+    impl_->prototypes[p] = impl_->new_scene();
+    impl_->attach_triangles(scene, impl_->prototypes[p], scene.prototypes[p].triangles, 0);
+    rtcCommitScene(impl_->prototypes[p]);
+    impl_->check(scene, "build a prototype's BVH");
+  }
+  for (size_t k = 0; k < scene.instances.size(); ++k) {
+    const Instance& inst = scene.instances[k];
+    RTCScene proto = impl_->prototypes[inst.prototype];
+    if (!proto) continue;  // an empty prototype
+    RTCGeometry geom = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_INSTANCE);
+    rtcSetGeometryInstancedScene(geom, proto);
+    rtcSetGeometryTimeStepCount(geom, 1);
+    rtcSetGeometryTransform(geom, 0, RTC_FORMAT_FLOAT4X4_COLUMN_MAJOR, &inst.local_to_world[0][0]);
     rtcCommitGeometry(geom);
-    rtcAttachGeometryByID(impl_->scene, geom, 0);
-    rtcReleaseGeometry(geom);  // the scene holds a reference
+    rtcAttachGeometryByID(impl_->scene, geom, unsigned(k + 1));
+    rtcReleaseGeometry(geom);
   }
   rtcCommitScene(impl_->scene);
   impl_->check(scene, "build the BVH");
 
-  // 4. The scene's extent for point_error(), and the worst offset for
+  // 5. The scene's extent for point_error(), and the worst offset for
   // ray_epsilon().
   const Box3f b = scene.bounds();
   if (!b.isEmpty()) {
@@ -143,11 +181,15 @@ V3f RayScene::point_error(const V3f& p) const {
 }
 
 SurfacePoint RayScene::hit_point(const Hit& hit) const {
-  const TriangleSoup& t = scene_.triangles;
-  const V3f& p0 = t.positions[t.indices[3 * size_t(hit.triangle) + 0]];
-  const V3f& p1 = t.positions[t.indices[3 * size_t(hit.triangle) + 1]];
-  const V3f& p2 = t.positions[t.indices[3 * size_t(hit.triangle) + 2]];
-  return triangle_point(p0, p1, p2, hit.u, hit.v);
+  const TriangleRef r = scene_.triangle(hit.triangle);
+  SurfacePoint sp = triangle_point(r.position(0), r.position(1), r.position(2), hit.u, hit.v);
+  // An instance's vertices are transformed here in float, while Embree
+  // intersected the exact prototype triangle in its own space: the world
+  // vertices are each off by a few ulps of the transformed coordinates
+  // (three products and three sums, plus the translation).
+  if (r.instance) sp.error += gamma_bound(7) * (abs(sp.p) + V3f(std::max({std::fabs(sp.p.x), std::fabs(sp.p.y),
+                                                                            std::fabs(sp.p.z)})));
+  return sp;
 }
 
 SurfacePoint RayScene::triangle_point(const V3f& p0, const V3f& p1, const V3f& p2, float b1,
@@ -208,15 +250,21 @@ Hit RayScene::intersect(const V3f& origin, const V3f& dir, float tmin, float tma
   Hit hit;
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hit;
   hit.t = rh.ray.tfar;
-  hit.triangle = rh.hit.primID;
+  // Scene triangle ids: the world soup's first, then the instances' (Scene::triangle).
+  const unsigned instance = rh.hit.instID[0];
+  hit.triangle = instance == RTC_INVALID_GEOMETRY_ID
+                     ? rh.hit.primID
+                     : uint32_t(scene_.triangles.triangle_count() + scene_.instances[instance - 1].first_triangle +
+                                rh.hit.primID);
   hit.u = rh.hit.u;
   hit.v = rh.hit.v;
+  // A mirroring instance's corners 1 and 2 are swapped (TriangleRef::corners).
+  if (instance != RTC_INVALID_GEOMETRY_ID && scene_.instances[instance - 1].mirrored) std::swap(hit.u, hit.v);
   // The normal from the winding, not Embree's Ng, so that it matches the
   // convention of Hit (and of the surfels) whatever Embree's sign is.
-  const TriangleSoup& t = scene_.triangles;
-  const V3f& p0 = t.positions[t.indices[3 * hit.triangle + 0]];
-  const V3f& p1 = t.positions[t.indices[3 * hit.triangle + 1]];
-  const V3f& p2 = t.positions[t.indices[3 * hit.triangle + 2]];
+  // Instances' barycentrics are those of the world-space triangle (affine maps keep them).
+  const TriangleRef r = scene_.triangle(hit.triangle);
+  const V3f p0 = r.position(0), p1 = r.position(1), p2 = r.position(2);
   V3f n = (p1 - p0).cross(p2 - p0);
   const float len = n.length();
   // Embree does not report hits on degenerate triangles; the fallback only
@@ -247,11 +295,10 @@ bool RayScene::occluded(const V3f& origin, const V3f& dir, float tmin, float tma
 }
 
 V3f RayScene::shading_normal(const Hit& hit) const {
-  const TriangleSoup& t = scene_.triangles;
-  if (t.normals.empty() || !hit.valid()) return hit.geometric_normal;
-  const V3f& n0 = t.normals[t.indices[3 * hit.triangle + 0]];
-  const V3f& n1 = t.normals[t.indices[3 * hit.triangle + 1]];
-  const V3f& n2 = t.normals[t.indices[3 * hit.triangle + 2]];
+  if (!hit.valid()) return hit.geometric_normal;
+  const TriangleRef r = scene_.triangle(hit.triangle);
+  if (!r.has_normals()) return hit.geometric_normal;
+  const V3f n0 = r.normal(0), n1 = r.normal(1), n2 = r.normal(2);
   const V3f n = (1.f - hit.u - hit.v) * n0 + hit.u * n1 + hit.v * n2;
   const float len = n.length();
   // Opposite vertex normals can cancel; the geometric normal is the only

@@ -1,17 +1,20 @@
-// Embree acceleration structure over a Scene's triangles: closest hits for
+// Embree acceleration structure over a Scene's triangles (instances as
+// Embree instances of one BVH per prototype): closest hits for
 // camera and path rays, occlusion for shadow rays. Thread-safe after build.
 #pragma once
 
+#include "server/scene/participating_medium.h"
 #include "server/scene/scene.h"
 
 #include <limits>
 #include <memory>
+#include <utility>
 
 namespace pbgi {
 
 struct Hit {
   float t = std::numeric_limits<float>::infinity();
-  uint32_t triangle = ~0u;
+  uint32_t triangle = ~0u;        // a Scene::triangle() id (instances included)
   float u = 0, v = 0;             // barycentrics of vertices 1 and 2
   V3f geometric_normal;           // unit, from the winding (v1-v0)x(v2-v0)
   bool valid() const { return triangle != ~0u; }
@@ -37,6 +40,17 @@ class RayScene {
   Hit intersect(const V3f& origin, const V3f& dir, float tmin = 0.f,
                 float tmax = std::numeric_limits<float>::infinity()) const;
   bool occluded(const V3f& origin, const V3f& dir, float tmin, float tmax) const;
+
+  // Fog and other media (participating_medium.h): set once after the
+  // build, before any query from other threads; null = none. The medium
+  // must outlive the RayScene's use of it.
+  void set_medium(std::shared_ptr<const ParticipatingMedium> medium) { medium_ = std::move(medium); }
+  const ParticipatingMedium* medium() const { return medium_ && !medium_->empty() ? medium_.get() : nullptr; }
+  // Transmittance of the medium along the segment (1 without a medium).
+  float transmittance(const V3f& origin, const V3f& dir, float tmin, float tmax) const {
+    const ParticipatingMedium* m = medium();
+    return m ? m->transmittance(origin, dir, tmin, tmax) : 1.f;
+  }
 
   // Shading normal at a hit (interpolated if the mesh has normals), unit.
   V3f shading_normal(const Hit& hit) const;
@@ -80,6 +94,7 @@ class RayScene {
   struct Impl;
   const Scene& scene_;
   std::unique_ptr<Impl> impl_;
+  std::shared_ptr<const ParticipatingMedium> medium_;
 };
 
 }  // namespace pbgi

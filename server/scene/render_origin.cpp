@@ -37,6 +37,8 @@ void rebase_scene(Scene& scene, const V3d& origin) {
   const V3d shift = scene.render_origin - origin;
   if (shift == V3d(0.0)) return;
   for (V3f& p : scene.triangles.positions) p = moved(p, shift);
+  // Instances move with their transforms; prototypes stay in their own space.
+  for (Instance& i : scene.instances) move_translation(i.local_to_world, shift);
   for (Light& l : scene.lights) move_translation(l.local_to_world, shift);
   for (auto& [path, camera] : scene.cameras) move_translation(camera.local_to_world, shift);
   for (Volume& v : scene.volumes) {

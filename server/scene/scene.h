@@ -13,6 +13,7 @@
 #include <Imath/ImathMatrix.h>
 #include <Imath/ImathVec.h>
 
+#include <array>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -93,6 +94,51 @@ struct TriangleSoup {
   size_t triangle_count() const { return indices.size() / 3; }
 };
 
+// Geometry held once and placed many times (native USD instances,
+// UsdGeom.PointInstancer prototypes): its triangles are in the prototype's
+// own space. Scene and BVH memory scale with prototypes, not instances.
+struct Prototype {
+  std::string prim_path;  // the prototype root (e.g. /__Prototype_1, or an instancer's target)
+  TriangleSoup triangles;
+};
+
+// One placement of a prototype. Every instance is its own surface for the
+// surfels (each is lit differently); only the geometry is shared.
+struct Instance {
+  uint32_t prototype = 0;       // index into Scene::prototypes
+  M44f local_to_world;          // prototype space -> scene (row vectors, p' = p * M)
+  M44f normal_to_world;         // (M^-1)^T: n' = n * normal_to_world, then normalize
+  uint64_t first_triangle = 0;  // its first triangle among the instanced ones (Scene::triangle)
+  uint32_t first_mesh = 0;      // its first mesh among the instanced ones (Scene::mesh_ordinal)
+  bool mirrored = false;        // det < 0: TriangleRef swaps corners 1 and 2 to keep the winding
+};
+
+// Where one triangle of the scene lives: the world soup, or an instance of a
+// prototype (then `instance` is set and the soup is the prototype's). The
+// accessors return world-space values either way.
+struct TriangleRef {
+  const TriangleSoup* soup = nullptr;
+  uint32_t index = 0;                 // triangle within *soup
+  const Instance* instance = nullptr;  // null: *soup is in world space
+
+  // Vertex ids in *soup, in world winding order (counter-clockwise around
+  // the outward normal): a mirroring instance swaps corners 1 and 2, and
+  // barycentrics (b1, b2) refer to this order.
+  std::array<uint32_t, 3> corners() const {
+    const uint32_t* c = &soup->indices[3 * size_t(index)];
+    if (instance && instance->mirrored) return {c[0], c[2], c[1]};
+    return {c[0], c[1], c[2]};
+  }
+  V3f position(int k) const;          // world space
+  bool has_normals() const { return !soup->normals.empty(); }
+  V3f normal(int k) const;            // world space, not normalized; needs has_normals()
+  uint32_t material() const { return soup->material[index]; }
+  bool double_sided() const {
+    return !soup->double_sided.empty() && !soup->mesh.empty() && soup->double_sided[soup->mesh[index]] != 0;
+  }
+  const std::string& mesh_path() const;
+};
+
 enum class LightKind : uint8_t { Rect, Sphere, Distant, Disk, Dome, Cylinder };
 
 // UsdLuxShapingAPI, evaluated by server/scene/light_shaping.h.
@@ -171,15 +217,45 @@ struct Scene {
   std::string content_hash;   // from the reader: hash of the layers it used
   double meters_per_unit = 0.01;
   std::string up_axis = "Y";  // stage upAxis, recorded only: geometry is as authored
-  TriangleSoup triangles;
+  TriangleSoup triangles;      // world-space geometry (not instanced)
+  // Instanced geometry: each prototype's triangles once, plus one transform
+  // per instance. Add instances with add_instance() once their prototype is
+  // complete (the numbering below depends on its triangle count).
+  std::vector<Prototype> prototypes;
+  std::vector<Instance> instances;
+  uint64_t instanced_triangle_count = 0;  // sum over instances of their prototype's triangles
+  uint32_t instanced_mesh_count = 0;      // sum over instances of their prototype's meshes
   std::vector<Material> materials;
   std::vector<Light> lights;
   std::map<std::string, Camera> cameras;
   std::vector<Volume> volumes;
   std::vector<std::string> warnings;
 
+  // World bounds of all geometry, instances included.
   Box3f bounds() const;
   const Camera* find_camera(const std::string& path) const;
+
+  // Triangle ids number the world soup's triangles first, then every
+  // instance's in instance order: [0, triangles.triangle_count()) are
+  // triangles[id]; the rest belong to instance k from
+  // triangles.triangle_count() + instances[k].first_triangle on. Every
+  // stage that walks "all triangles" (surfels, emitters, hits) uses these.
+  uint64_t triangle_count() const { return triangles.triangle_count() + instanced_triangle_count; }
+  TriangleRef triangle(uint32_t id) const;  // id < triangle_count(); not checked
+  // A scene-wide mesh number: world meshes first, then per instance its
+  // prototype's meshes (each instance's copy is a mesh of its own).
+  uint32_t mesh_count() const { return uint32_t(triangles.mesh_paths.size()) + instanced_mesh_count; }
+  uint32_t mesh_ordinal(uint32_t triangle_id) const;
+
+  // Appends an instance of prototypes[prototype] (which must be complete:
+  // its triangle count is frozen into the numbering). Throws SceneError for
+  // an unknown prototype or a singular transform.
+  void add_instance(uint32_t prototype, const M44f& local_to_world);
+
+  // Bytes held by the geometry (soups, prototypes, instance transforms;
+  // vector capacities): what instancing is meant to keep small. Materials,
+  // lights, textures and volumes are not counted.
+  size_t geometry_bytes() const;
 };
 
 }  // namespace pbgi

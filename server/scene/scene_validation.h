@@ -1,4 +1,4 @@
-// Structural checks of a Scene's triangle soup, run once before anything
+// Structural checks of a Scene's triangle soups (world and prototypes) and instances, run once before anything
 // indexes into it (RayScene, surfel sampling) so later stages can index
 // without bounds checks.
 #pragma once

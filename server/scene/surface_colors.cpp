@@ -12,10 +12,11 @@ bool finite(const C3f& c) { return std::isfinite(c.x) && std::isfinite(c.y) && s
 
 // The footprint in st units: world width times the square root of the
 // triangle's st-area per world-area (its mean texture stretch).
-float st_footprint(const TriangleSoup& t, const uint32_t* idx, float footprint) {
+float st_footprint(const TriangleRef& r, const std::array<uint32_t, 3>& idx, float footprint) {
   if (!(footprint > 0.f)) return 0.f;
-  const V3f& p0 = t.positions[idx[0]];
-  const float world = (t.positions[idx[1]] - p0).cross(t.positions[idx[2]] - p0).length();
+  const TriangleSoup& t = *r.soup;
+  const V3f p0 = r.position(0);
+  const float world = (r.position(1) - p0).cross(r.position(2) - p0).length();
   const V2f e1 = t.uvs[idx[1]] - t.uvs[idx[0]], e2 = t.uvs[idx[2]] - t.uvs[idx[0]];
   const float st = std::fabs(e1.x * e2.y - e1.y * e2.x);
   if (!(world > 0.f)) return 0.f;
@@ -37,12 +38,13 @@ bool has_varying_colors(const Material& m) {
 
 SurfaceColors surface_colors(const Scene& scene, uint32_t triangle, float b1, float b2,
                              float footprint) {
-  const Material& m = scene.materials[scene.triangles.material[triangle]];
+  const TriangleRef r = scene.triangle(triangle);
+  const Material& m = scene.materials[r.material()];
   SurfaceColors out{m.albedo, m.emission};
   if (!has_varying_colors(m)) return out;
 
-  const TriangleSoup& t = scene.triangles;
-  const uint32_t* idx = &t.indices[size_t(triangle) * 3];
+  const TriangleSoup& t = *r.soup;
+  const std::array<uint32_t, 3> idx = r.corners();
   const float b0 = 1.f - b1 - b2;
 
   if (m.albedo_from_vertex_colors && !t.colors.empty()) {
@@ -57,7 +59,7 @@ SurfaceColors surface_colors(const Scene& scene, uint32_t triangle, float b1, fl
   if (!t.uvs.empty()) {
     st = b0 * t.uvs[idx[0]] + b1 * t.uvs[idx[1]] + b2 * t.uvs[idx[2]];
     have_st = finite(st);
-    if (have_st) st_width = st_footprint(t, idx, footprint);
+    if (have_st) st_width = st_footprint(r, idx, footprint);
   }
   // A bias or a filtered HDR texel may go below zero: no negative light.
   if (m.albedo_texture.bound())

@@ -16,7 +16,8 @@ namespace pbgi::service {
 
 GatherBatch gather_receivers(const tree::TreeSource& tree, const std::vector<Receiver>& receivers,
                              const GatherOptions& options,
-                             const std::function<bool()>& cancelled) {
+                             const std::function<bool()>& cancelled,
+                             std::shared_ptr<const VolumePoints> fog) {
   const auto start = std::chrono::steady_clock::now();
   GatherBatch batch;
   batch.results.resize(receivers.size());
@@ -40,7 +41,10 @@ GatherBatch gather_receivers(const tree::TreeSource& tree, const std::vector<Rec
           return;
         }
         std::unique_ptr<Gatherer>& gatherer = gatherers.local();
-        if (!gatherer) gatherer = std::make_unique<Gatherer>(tree, options);
+        if (!gatherer) {
+          gatherer = std::make_unique<Gatherer>(tree, options);
+          gatherer->set_volume_points(fog);  // the scene's fog, if any
+        }
         for (size_t i = range.begin(); i != range.end(); ++i) {
           batch.results[i] = gatherer->gather(receivers[i]);
         }

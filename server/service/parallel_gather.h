@@ -5,6 +5,7 @@
 #include "server/gather/gather.h"
 
 #include <functional>
+#include <memory>
 #include <vector>
 
 namespace pbgi::service {
@@ -21,6 +22,7 @@ struct GatherBatch {
 // CorruptionError) propagate.
 GatherBatch gather_receivers(const tree::TreeSource& tree, const std::vector<Receiver>& receivers,
                              const GatherOptions& options,
-                             const std::function<bool()>& cancelled = {});
+                             const std::function<bool()>& cancelled = {},
+                             std::shared_ptr<const VolumePoints> fog = nullptr);
 
 }  // namespace pbgi::service

@@ -302,7 +302,7 @@ grpc::Status PbgiService::Gather(grpc::ServerContext* context, const v1::GatherR
     //    the client leaves or the deadline passes.
     auto cancelled = [context] { return context->IsCancelled() || past_deadline(*context); };
     const AdmissionGate::Ticket slot = gate_.enter(context->deadline(), cancelled);
-    GatherBatch batch = gather_receivers(*session->tree, receivers, options, cancelled);
+    GatherBatch batch = gather_receivers(*session->tree, receivers, options, cancelled, session->fog);
 
     // 3. Packed results.
     std::vector<float> irradiance(3 * receivers.size()), ao(receivers.size());
@@ -392,7 +392,7 @@ void PbgiService::render_one(grpc::ServerContext* context, const TileJob& job,
   GatherCounters counters;
   const TileAovs aovs = render_tile(*job.session->rays, *job.session->tree, *job.camera,
                                     job.width, job.height, rect, job.options, &counters,
-                                    cancelled);
+                                    cancelled, job.session->fog);
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
 
   *response->mutable_tile() = tile;

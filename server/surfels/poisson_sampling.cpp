@@ -192,7 +192,7 @@ class PoissonSampler {
  public:
   PoissonSampler(const Scene& scene, const SurfelOptions& options, const SpacingField& field,
                  const SurfelChunkSink& sink, ProgressMeter& meter, uint64_t meter_total)
-      : scene_(scene), t_(scene.triangles), options_(options), field_(field), sink_(sink), meter_(meter),
+      : scene_(scene), options_(options), field_(field), sink_(sink), meter_(meter),
         meter_total_(meter_total) {}
 
   // Samples everything inside `cube` (which encloses the scene).
@@ -220,10 +220,9 @@ class PoissonSampler {
   }
 
  private:
-  const V3f& vertex(uint32_t tri, int k) const { return t_.positions[t_.indices[3 * size_t(tri) + k]]; }
-  bool twin(uint32_t tri) const {
-    return !t_.double_sided.empty() && !t_.mesh.empty() && t_.double_sided[t_.mesh[tri]] != 0;
-  }
+  // Scene triangle ids: instances' triangles are transformed on the fly.
+  V3f vertex(uint32_t tri, int k) const { return scene_.triangle(tri).position(k); }
+  bool twin(uint32_t tri) const { return scene_.triangle(tri).double_sided(); }
   float radius_at(const V3f& p) const { return kRadiusFactor * field_.at(p); }
 
   void process(const Box3f& box, std::vector<uint32_t>& tris, int depth) {
@@ -505,7 +504,6 @@ class PoissonSampler {
   }
 
   const Scene& scene_;
-  const TriangleSoup& t_;
   const SurfelOptions& options_;
   const SpacingField& field_;
   const SurfelChunkSink& sink_;
@@ -535,7 +533,6 @@ class PoissonSampler {
 
 void sample_poisson(const Scene& scene, const SurfelOptions& options, const SurfelChunkSink& sink,
                     const ProgressFn& progress) {
-  const TriangleSoup& t = scene.triangles;
   const SceneArea area = scene_area(scene);
   if (!(area.total > 0.0)) return;
   const SpacingField field = options.adaptive() ? SpacingField(scene, options)
@@ -549,8 +546,8 @@ void sample_poisson(const Scene& scene, const SurfelOptions& options, const Surf
   const Box3f cube(lo, lo + V3f(side));
 
   std::vector<uint32_t> tris;
-  tris.reserve(t.triangle_count());
-  for (uint32_t i = 0; i < t.triangle_count(); ++i) tris.push_back(i);
+  tris.reserve(size_t(scene.triangle_count()));
+  for (uint64_t i = 0; i < scene.triangle_count(); ++i) tris.push_back(uint32_t(i));
 
   constexpr uint64_t kMeterSteps = 1000;
   ProgressMeter meter(progress, "sample_surfels", kMeterSteps);

@@ -10,7 +10,7 @@ void set_surfel_material(const Scene& scene, uint32_t triangle, const SurfaceCol
   s.emission = colors.emission;
   s.gloss = {};
   if (!(glossy_roughness > 0.f)) return;
-  const Material& m = scene.materials[scene.triangles.material[triangle]];
+  const Material& m = scene.materials[scene.triangle(triangle).material()];
   if (!(m.roughness < glossy_roughness)) return;
   const BrdfLobes lobes = brdf_lobes(m, colors.albedo);
   if (!lobes.specular) return;

@@ -73,22 +73,22 @@ struct TrianglePlan {
   uint64_t first = 0;     // index of its first surfel
 };
 
-bool is_double_sided(const Scene& scene, uint32_t tri) {
-  const TriangleSoup& t = scene.triangles;
-  if (t.double_sided.empty() || t.mesh.empty()) return false;
-  return t.double_sided[t.mesh[tri]] != 0;
+bool is_double_sided(const Scene& scene, uint32_t tri) { return scene.triangle(tri).double_sided(); }
+
+// World-space area of one face of a scene triangle (instances transformed).
+float triangle_area(const Scene& scene, uint32_t tri) {
+  const TriangleRef r = scene.triangle(tri);
+  const V3f p0 = r.position(0), p1 = r.position(1), p2 = r.position(2);
+  return 0.5f * (p1 - p0).cross(p2 - p0).length();
 }
 
 }  // namespace
 
 SceneArea scene_area(const Scene& scene) {
-  const TriangleSoup& t = scene.triangles;
   SceneArea out;
-  for (size_t i = 0; i < t.triangle_count(); ++i) {
-    const V3f& p0 = t.positions[t.indices[3 * i + 0]];
-    const V3f& p1 = t.positions[t.indices[3 * i + 1]];
-    const V3f& p2 = t.positions[t.indices[3 * i + 2]];
-    const float a = 0.5f * (p1 - p0).cross(p2 - p0).length();
+  const uint64_t tris = scene.triangle_count();
+  for (uint64_t i = 0; i < tris; ++i) {
+    const float a = triangle_area(scene, uint32_t(i));
     if (!(std::isfinite(a) && a > 0.f)) {
       ++out.skipped;
       continue;
@@ -114,17 +114,15 @@ float absolute_spacing(const Scene& scene, const SurfelOptions& options, double 
 
 void sample_uniform(const Scene& scene, const SurfelOptions& options, const SurfelChunkSink& sink,
                     const ProgressFn& progress) {
-  const TriangleSoup& t = scene.triangles;
-  const size_t tris = t.triangle_count();
+  // Scene triangle ids (Scene::triangle): instances are sampled as their
+  // own surfaces, their prototype's triangles transformed on the fly.
+  const size_t tris = size_t(scene.triangle_count());
   std::vector<TrianglePlan> plan(tris);
 
   // 1. Areas, in parallel; degenerate and non-finite triangles get area 0.
   tbb::parallel_for(tbb::blocked_range<size_t>(0, tris, 4096), [&](const auto& r) {
     for (size_t i = r.begin(); i != r.end(); ++i) {
-      const V3f& p0 = t.positions[t.indices[3 * i + 0]];
-      const V3f& p1 = t.positions[t.indices[3 * i + 1]];
-      const V3f& p2 = t.positions[t.indices[3 * i + 2]];
-      const float a = 0.5f * (p1 - p0).cross(p2 - p0).length();
+      const float a = triangle_area(scene, uint32_t(i));
       plan[i].area = std::isfinite(a) && a > 0.f ? a : 0.f;
     }
   });
@@ -150,10 +148,10 @@ void sample_uniform(const Scene& scene, const SurfelOptions& options, const Surf
 
   // 4. Area shares, serially per mesh (see the top of this file), then the
   // output layout.
-  const size_t meshes = std::max<size_t>(t.mesh_paths.size(), 1);
+  const size_t meshes = std::max<size_t>(scene.mesh_count(), 1);
   std::vector<double> pending(meshes, 0.0);
   std::vector<int64_t> last(meshes, -1), largest(meshes, -1);
-  auto mesh_of = [&](size_t i) -> size_t { return t.mesh.empty() ? 0 : t.mesh[i]; };
+  auto mesh_of = [&](size_t i) -> size_t { return scene.mesh_ordinal(uint32_t(i)); };
   for (size_t i = 0; i < tris; ++i) {
     const size_t m = mesh_of(i);
     TrianglePlan& p = plan[i];
@@ -193,10 +191,9 @@ void sample_uniform(const Scene& scene, const SurfelOptions& options, const Surf
   // Every triangle with area covers points, also those that draw no
   // surfel; degenerate ones are left out.
   auto piece = [&](uint32_t i, PlanarPiece* out) {
-    return plan[i].area > 0.f &&
-           PlanarPiece::of_triangle(t.positions[t.indices[3 * size_t(i) + 0]],
-                                    t.positions[t.indices[3 * size_t(i) + 1]],
-                                    t.positions[t.indices[3 * size_t(i) + 2]], out);
+    if (!(plan[i].area > 0.f)) return false;
+    const TriangleRef r = scene.triangle(i);
+    return PlanarPiece::of_triangle(r.position(0), r.position(1), r.position(2), out);
   };
   const Box3f bounds = scene.bounds();
   const CoincidentCover cover(uint32_t(tris), piece, bounds.isEmpty() ? V3f(0.f) : bounds.center(),
@@ -223,9 +220,8 @@ void sample_uniform(const Scene& scene, const SurfelOptions& options, const Surf
         const bool twin = is_double_sided(scene, static_cast<uint32_t>(i));
         const uint64_t local = g - p.first;
         const uint32_t k = static_cast<uint32_t>(twin ? local / 2 : local);
-        const V3f& p0 = t.positions[t.indices[3 * i + 0]];
-        const V3f& p1 = t.positions[t.indices[3 * i + 1]];
-        const V3f& p2 = t.positions[t.indices[3 * i + 2]];
+        const TriangleRef r = scene.triangle(uint32_t(i));
+        const V3f p0 = r.position(0), p1 = r.position(1), p2 = r.position(2);
         const V3f n = (p1 - p0).cross(p2 - p0).normalized();
         Rng rng(hash_ids(options.seed, kPlaceDomain, i));
         const Imath::V2f shift(rng.uniform(), rng.uniform());

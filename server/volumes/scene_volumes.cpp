@@ -153,7 +153,6 @@ void load_scene_volumes(Scene& scene, const VolumeOptions& options) {
 
   std::map<std::string, std::unique_ptr<VdbFile>> files;
   std::map<std::string, std::string> digests;
-  bool reported_fog = !options.mesh_level_sets;  // a reload: said when first read
   for (Volume& v : scene.volumes) {
     auto& file = files[v.file];
     if (!file) {
@@ -199,12 +198,8 @@ void load_scene_volumes(Scene& scene, const VolumeOptions& options) {
       v.triangle_count = mesh.triangle_count();
     } else {
       v.kind = VolumeKind::Fog;
-      if (!reported_fog) {
-        scene.warnings.push_back(fmt::format("{}: fog volume kept as extinction data (Scene::volumes); the gather "
-                                             "does not occlude or scatter with it yet",
-                                             where(v)));
-        reported_fog = true;
-      }
+      // Fog takes part in light transport once the scene is opened
+      // (server/engine/scene_fog.h): no warning any more.
     }
   }
   if (!options.mesh_level_sets) return;

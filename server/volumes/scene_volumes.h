@@ -6,8 +6,9 @@
 //   (mesh path = the volume prim, the volume's material; see
 //   level_set_mesh.h for density, normals and winding);
 // - fog/density and other float grids -> kept in Scene::volumes with the
-//   grid, its world voxel size and bounds, as occluding volume data. The
-//   gather does not read them yet: each is reported once.
+//   grid, its world voxel size and bounds; opening the scene makes them a
+//   participating medium and volume points (server/engine/scene_fog.h,
+//   fog_field.h, fog_points.h).
 //
 // Each distinct .vdb file is opened once and its bytes hashed (xxh64) into
 // Scene::content_hash together with the meshing options, so caches keyed by

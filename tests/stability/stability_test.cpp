@@ -365,7 +365,7 @@ CausticMeasure measure_caustic(const Scene& scene, const Aovs& aovs, const Rende
     for (uint32_t x = 0; x < W; ++x) {
       const Ray r = camera_ray(cam, W, H, x + 0.5f, y + 0.5f);
       const Hit hit = rays.intersect(r.origin, r.direction, r.tmin, r.tmax);
-      if (!hit.valid() || scene.triangles.material[hit.triangle] != 0) continue;
+      if (!hit.valid() || scene.triangle(hit.triangle).material() != 0) continue;
       ++m.floor_pixels;
       const size_t i = 3 * (size_t(y) * W + x);
       const double beauty = (aovs.beauty[i] + aovs.beauty[i + 1] + aovs.beauty[i + 2]) / 3.0;

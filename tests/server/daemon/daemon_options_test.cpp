@@ -75,6 +75,11 @@ DaemonOptions non_default_options() {
   o.service.defaults.open.tree.lut_entries = 1000;
   o.service.defaults.open.tree.lut_sample_fraction = 0.05;
   o.service.defaults.open.bounce.bounces = 2;
+  o.service.defaults.open.fog.extinction_per_density = 2.5f;
+  o.service.defaults.open.fog.albedo = Imath::C3f(0.3f);
+  o.service.defaults.open.fog.step_voxels = 0.25f;
+  o.service.defaults.open.fog.light_samples = 2;
+  o.service.defaults.open.fog.max_block_voxels = 8;
   o.service.limits.max_receivers = 1000;
   o.service.limits.max_image_side = 4096;
   o.service.limits.max_tile_pixels = 4096;
@@ -151,6 +156,9 @@ TEST(DaemonOptions, WrongTypesAndRangesAreRefusedByName) {
   EXPECT_NE(error_of("[gather]\nmethod = \"fast\"\n").find("gather.method"), std::string::npos);
   EXPECT_NE(error_of("[build]\npayload_codec = \"zip\"\n").find("payload_codec"), std::string::npos);
   EXPECT_NE(error_of("[build]\nsampler = \"blue\"\n").find("build.sampler"), std::string::npos);
+  EXPECT_NE(error_of("[fog]\nalbedo = 2.0\n").find("fog.albedo"), std::string::npos);
+  EXPECT_NE(error_of("[fog]\nmax_block_voxels = 6\n").find("fog.max_block_voxels"), std::string::npos);
+  EXPECT_NE(error_of("[fog]\ndensity = 1.0\n").find("'fog.density'"), std::string::npos);
 }
 
 TEST(DaemonOptions, ValidateChecksValuesByName) {

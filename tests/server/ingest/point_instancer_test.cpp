@@ -77,24 +77,24 @@ class PointInstancerIngest : public ::testing::Test {
     delete scene_;
     scene_ = nullptr;
   }
-  static std::vector<size_t> triangles_of(const std::string& prim) {
-    std::vector<size_t> out;
-    const TriangleSoup& t = scene_->triangles;
-    for (size_t i = 0; i < t.triangle_count(); ++i)
-      if (t.mesh_paths[t.mesh[i]] == prim) out.push_back(i);
+  // Scene triangle ids (instances expanded) of the prototype gprim `prim`.
+  static std::vector<uint32_t> triangles_of(const std::string& prim) {
+    std::vector<uint32_t> out;
+    for (uint32_t i = 0; i < scene_->triangle_count(); ++i)
+      if (scene_->triangle(i).mesh_path() == prim) out.push_back(i);
     return out;
   }
+  static V3f first_vertex(uint32_t id) { return scene_->triangle(id).position(0); }
   static Scene* scene_;
 };
 Scene* PointInstancerIngest::scene_ = nullptr;
 
 TEST_F(PointInstancerIngest, VisibleInstancesArePlaced) {
-  const TriangleSoup& t = scene_->triangles;
   const auto tris = triangles_of("/World/Forest/Protos/A/Tri");
   // Instances 0 and 2 of prototype A (3 is invisible).
   ASSERT_EQ(tris.size(), 2u);
   std::vector<V3f> first;  // the first vertex, (1, 0, 0) in the mesh, of each
-  for (size_t i : tris) first.push_back(t.positions[t.indices[3 * i]]);
+  for (uint32_t i : tris) first.push_back(first_vertex(i));
   std::sort(first.begin(), first.end(), [](const V3f& a, const V3f& b) { return a.x < b.x; });
   // Instance 0: mesh (1,0,0) + (0,0,1) + root (0,5,0) + position (0,0,-3) + world (100,0,0).
   EXPECT_NEAR(first[0].x, 101.f, 1e-4f);
@@ -108,11 +108,10 @@ TEST_F(PointInstancerIngest, VisibleInstancesArePlaced) {
 }
 
 TEST_F(PointInstancerIngest, ImplicitPrototypesAndHiddenGprims) {
-  const TriangleSoup& t = scene_->triangles;
   const auto ball = triangles_of("/World/Forest/Protos/Ball");
   ASSERT_GT(ball.size(), 100u);
-  for (size_t i : ball) {
-    const V3f p = t.positions[t.indices[3 * i]];
+  for (uint32_t i : ball) {
+    const V3f p = first_vertex(i);
     EXPECT_NEAR((p - V3f(110, 0, 0)).length(), 0.5f, 1e-4f);
   }
   EXPECT_TRUE(triangles_of("/World/Forest/Protos/A/Hidden").empty());

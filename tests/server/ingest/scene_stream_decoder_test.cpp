@@ -294,3 +294,69 @@ TEST(SceneStreamDecoder, StructuralErrorsNameTheFrameAndPrim) {
 
 }  // namespace
 }  // namespace pbgi
+
+namespace pbgi {
+namespace {
+
+SceneChunk prototype_chunk(uint32_t id, const std::string& path) {
+  SceneChunk c;
+  c.mutable_prototype()->set_id(id);
+  c.mutable_prototype()->set_prim_path(path);
+  return c;
+}
+
+SceneChunk instances_chunk(uint32_t prototype, const std::vector<float>& matrices) {
+  SceneChunk c;
+  c.mutable_instances()->set_prototype_id(prototype);
+  c.mutable_instances()->set_prim_path("/Instancer");
+  c.mutable_instances()->set_transforms(bytes(matrices));
+  return c;
+}
+
+std::vector<float> translations(const std::vector<float>& xs) {
+  std::vector<float> out;
+  for (float x : xs) out.insert(out.end(), {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, x, 0, 0, 1});
+  return out;
+}
+
+TEST(SceneStreamDecoder, PrototypeGeometryOnceAndItsInstances) {
+  SceneChunk proto_mesh = triangle_chunk("/Proto/Tri", 0, true);
+  proto_mesh.mutable_mesh()->set_prototype_id(5);
+  const std::string data = frame(header_chunk()) + frame(material_chunk(0, 1, 1, 1)) +
+                           frame(triangle_chunk("/World", 0, true)) + frame(prototype_chunk(5, "/Proto")) +
+                           frame(proto_mesh) + frame(instances_chunk(5, translations({10, 20, 30}))) +
+                           frame(end_chunk(6, 2));
+  const Scene s = decode(data);
+  EXPECT_EQ(s.triangles.triangle_count(), 1u);
+  ASSERT_EQ(s.prototypes.size(), 1u);
+  EXPECT_EQ(s.prototypes[0].prim_path, "/Proto");
+  EXPECT_EQ(s.prototypes[0].triangles.mesh_paths, std::vector<std::string>{"/Proto/Tri"});
+  ASSERT_EQ(s.instances.size(), 3u);
+  EXPECT_EQ(s.triangle_count(), 4u);
+  EXPECT_EQ(s.triangle(3).position(1), V3f(31, 0, 0));  // vertex (1, 0, 0) of the third instance
+}
+
+TEST(SceneStreamDecoder, InstancingErrorsNameTheFrame) {
+  const std::string head = frame(header_chunk()) + frame(material_chunk(0, 1, 1, 1));
+  SceneChunk orphan = triangle_chunk("/Proto/Tri", 0, false);
+  orphan.mutable_mesh()->set_prototype_id(9);
+  expect_scene_error(head + frame(orphan) + frame(end_chunk(3, 1)), {"frame 2", "prototype id 9"});
+  expect_scene_error(head + frame(instances_chunk(4, translations({1}))) + frame(end_chunk(3, 0)),
+                     {"frame 2", "prototype id 4"});
+  expect_scene_error(head + frame(prototype_chunk(0, "/P")) + frame(end_chunk(3, 0)), {"id 0"});
+  expect_scene_error(head + frame(prototype_chunk(1, "/P")) + frame(prototype_chunk(1, "/Q")) + frame(end_chunk(4, 0)),
+                     {"defined twice"});
+  // Geometry after the prototype's instances would renumber every later triangle.
+  SceneChunk late = triangle_chunk("/P/Tri", 0, false);
+  late.mutable_mesh()->set_prototype_id(1);
+  expect_scene_error(head + frame(prototype_chunk(1, "/P")) + frame(late) + frame(instances_chunk(1, translations({1}))) +
+                         frame(late) + frame(end_chunk(6, 2)),
+                     {"frame 5", "after its instances"});
+  std::vector<float> torn = translations({1});
+  torn.pop_back();
+  expect_scene_error(head + frame(prototype_chunk(1, "/P")) + frame(instances_chunk(1, torn)) + frame(end_chunk(4, 0)),
+                     {"not a multiple of 64"});
+}
+
+}  // namespace
+}  // namespace pbgi

@@ -311,20 +311,24 @@ TEST(UsdWgSubdivision, SpinningPyramidsReadWithCreasesAndCorners) {
   if (!fs::is_directory(kSubdivDir)) GTEST_SKIP() << kSubdivDir << " is absent";
   const Scene scene = read_usd_scene(kSubdivDir / "Creases_SpinningPyramids.usda", IngestOptions{});
   expect_no_subdivision_warnings(scene);
-  ASSERT_EQ(scene.triangles.mesh_paths.size(), 3u);
+  // The pyramids are native instances: each its own prototype (cage
+  // refined in prototype space), placed by an instance; walked in world
+  // space through Scene::triangle().
+  ASSERT_EQ(scene.mesh_count(), 3u);
   // The three pyramids differ only by their tags: their surfaces must differ.
   std::vector<double> extent(3, 0.0);
   std::vector<V3f> centre(3, V3f(0.f));
   std::vector<size_t> count(3, 0);
-  for (size_t v = 0; v < scene.triangles.indices.size(); ++v) {
-    const uint32_t m = scene.triangles.mesh[v / 3];
-    centre[m] += scene.triangles.positions[scene.triangles.indices[v]];
-    ++count[m];
+  for (uint32_t t = 0; t < scene.triangle_count(); ++t) {
+    const uint32_t m = scene.mesh_ordinal(t);
+    for (int k = 0; k < 3; ++k) centre[m] += scene.triangle(t).position(k);
+    count[m] += 3;
   }
   for (size_t m = 0; m < 3; ++m) centre[m] /= float(count[m]);
-  for (size_t v = 0; v < scene.triangles.indices.size(); ++v) {
-    const uint32_t m = scene.triangles.mesh[v / 3];
-    extent[m] = std::max(extent[m], double((scene.triangles.positions[scene.triangles.indices[v]] - centre[m]).length()));
+  for (uint32_t t = 0; t < scene.triangle_count(); ++t) {
+    const uint32_t m = scene.mesh_ordinal(t);
+    for (int k = 0; k < 3; ++k)
+      extent[m] = std::max(extent[m], double((scene.triangle(t).position(k) - centre[m]).length()));
   }
   EXPECT_GT(std::abs(extent[0] - extent[1]) + std::abs(extent[1] - extent[2]), 1e-3) << extent[0] << " " << extent[1];
 }

@@ -258,12 +258,22 @@ TEST_F(UsdReader, InvisibleAndGuidePrimsAreSkipped) {
   EXPECT_TRUE(triangles_of(scene(), "/W/Guides/Guide").empty());
 }
 
-TEST_F(UsdReader, InstancesAreReadThroughInstanceProxiesInPlace) {
-  for (const auto& [prim, z] : {std::pair{"/Inst1/Tri", 10.f}, std::pair{"/Inst2/Tri", 20.f}}) {
-    const auto tris = triangles_of(scene(), prim);
-    ASSERT_EQ(tris.size(), 1u) << prim;
-    EXPECT_FLOAT_EQ(scene().triangles.positions[scene().triangles.indices[3 * tris[0]]].z, z) << prim;
+TEST_F(UsdReader, NativeInstancesShareOnePrototypePlacedInPlace) {
+  // One prototype (read through the first instance's proxies, so its mesh
+  // is named by that path), two placements; nothing in the world soup.
+  ASSERT_EQ(scene().prototypes.size(), 1u);
+  ASSERT_EQ(scene().prototypes[0].triangles.triangle_count(), 1u);
+  EXPECT_EQ(scene().prototypes[0].triangles.mesh_paths[0], "/Inst1/Tri");
+  ASSERT_EQ(scene().instances.size(), 2u);
+  std::vector<float> z;
+  for (const Instance& i : scene().instances) {
+    TriangleRef r{&scene().prototypes[i.prototype].triangles, 0, &i};
+    z.push_back(r.position(0).z);
   }
+  std::sort(z.begin(), z.end());
+  EXPECT_FLOAT_EQ(z[0], 10.f);
+  EXPECT_FLOAT_EQ(z[1], 20.f);
+  EXPECT_TRUE(triangles_of(scene(), "/Inst1/Tri").empty());  // world soup
   EXPECT_TRUE(triangles_of(scene(), "/Proto/Tri").empty());  // class prims are abstract
 }
 

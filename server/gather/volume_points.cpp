@@ -1,0 +1,106 @@
+#include "server/gather/volume_points.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace pbgi {
+
+VolumePoints::VolumePoints(float block_size, const Imath::V3f& origin, std::vector<VolumePoint> points)
+    : block_(block_size), inv_block_(1.f / block_size), origin_(origin), points_(std::move(points)) {
+  index_.reserve(points_.size());
+  for (uint32_t i = 0; i < points_.size(); ++i) {
+    const Imath::V3f c = (points_[i].position - origin_) * inv_block_;
+    index_[key(int64_t(std::floor(c.x)), int64_t(std::floor(c.y)), int64_t(std::floor(c.z)))] = i;
+    const Imath::V3f h(0.5f * block_);
+    bounds_.extendBy(points_[i].position - h);
+    bounds_.extendBy(points_[i].position + h);
+  }
+}
+
+uint64_t VolumePoints::key(int64_t x, int64_t y, int64_t z) {
+  // 21 bits per axis (two's complement, wrapped): 2M blocks per side.
+  constexpr uint64_t m = (1u << 21) - 1;
+  return (uint64_t(x) & m) | (uint64_t(y) & m) << 21 | (uint64_t(z) & m) << 42;
+}
+
+const VolumePoint* VolumePoints::at(const Imath::V3f& p) const {
+  if (!bounds_.intersects(p)) return nullptr;
+  const Imath::V3f c = (p - origin_) * inv_block_;
+  const auto it = index_.find(key(int64_t(std::floor(c.x)), int64_t(std::floor(c.y)), int64_t(std::floor(c.z))));
+  return it == index_.end() ? nullptr : &points_[it->second];
+}
+
+size_t VolumePoints::memory_bytes() const {
+  return points_.capacity() * sizeof(VolumePoint) + index_.size() * (sizeof(uint64_t) + sizeof(uint32_t) + 16);
+}
+
+namespace gather {
+
+bool clip_to_box(const Imath::Box3f& box, const Imath::V3f& p, const Imath::V3f& d, float& t0, float& t1) {
+  for (int a = 0; a < 3; ++a) {
+    if (d[a] == 0.f) {
+      if (p[a] < box.min[a] || p[a] > box.max[a]) return false;
+      continue;
+    }
+    float n = (box.min[a] - p[a]) / d[a], f = (box.max[a] - p[a]) / d[a];
+    if (n > f) std::swap(n, f);
+    t0 = std::max(t0, n);
+    t1 = std::min(t1, f);
+  }
+  return t0 < t1;
+}
+
+uint64_t add_volume_fragments(const VolumePoints& fog, const Imath::V3f& p, Microbuffer& buffer, float max_distance) {
+  if (fog.empty()) return 0;
+  const CubeLayout& layout = buffer.layout();
+  // Slices never share a depth band with each other (see the header).
+  const float ratio = 1.f + 2.f * buffer.depth_band();
+  const float step = 0.5f * fog.block_size();
+  // The first slice ends one step out: depths below it are one band anyway.
+  const float first_end = step;
+  uint64_t added = 0;
+  for (uint32_t k = 0; k < layout.pixel_count(); ++k) {
+    if (!buffer.in_hemisphere(k)) continue;
+    const Imath::V3f d = layout.direction(k);
+    float t0 = 0.f, t1 = max_distance > 0.f ? max_distance : 1e30f;
+    if (!clip_to_box(fog.bounds(), p, d, t0, t1)) continue;
+    const int steps = std::max(1, int(std::ceil((t1 - t0) / step)));
+    const float dt = (t1 - t0) / float(steps);
+    // One slice: optical depth, and in-scattered light reaching its near
+    // end (each step's emission sigma_t S dt attenuated by the slice in front).
+    float slice_tau = 0.f, slice_near = t0, slice_end = std::max(first_end, t0 * ratio);
+    Imath::C3f slice_light(0, 0, 0);
+    auto flush = [&](float far) {
+      if (slice_tau > 0.f) {
+        const float alpha = 1.f - std::exp(-slice_tau);
+        const float w = alpha * buffer.weight(k);
+        if (alpha > 1e-6f && w > 0.f) {
+          buffer.add_coverage(k, 0.5f * (slice_near + far), 0.5f * (slice_near + far), alpha, w, slice_light / alpha);
+          ++added;
+        }
+      }
+      slice_tau = 0.f;
+      slice_light = Imath::C3f(0, 0, 0);
+      slice_near = far;
+    };
+    for (int i = 0; i < steps; ++i) {
+      const float t = t0 + (float(i) + 0.5f) * dt;
+      if (t > slice_end) {
+        flush(t - 0.5f * dt);
+        slice_end = std::max(slice_end * ratio, t);
+      }
+      const VolumePoint* v = fog.at(p + d * t);
+      if (!v || !(v->sigma_t > 0.f)) continue;
+      const float tau = v->sigma_t * dt;
+      // Emission of the step, seen through the slice's fog in front of it
+      // (integrated exactly over the step: (1 - e^-tau) S).
+      slice_light += v->radiance * (std::exp(-slice_tau) * (1.f - std::exp(-tau)));
+      slice_tau += tau;
+    }
+    flush(t1);
+  }
+  return added;
+}
+
+}  // namespace gather
+}  // namespace pbgi
