@@ -55,11 +55,11 @@ void log_build(const std::string& key, const SurfelGenerationStats& g, const sto
                n / std::max(1e-9, tree_seconds), r.runs, r.merges, s.page_count,
                double(s.file_bytes) / std::max(1.0, n));
   spdlog::info("page set {}: payloads {}", key, r.codec_reason);
-  if (r.glossy_pages > 0) {
+  if (r.glossy.pages > 0) {
     spdlog::info("page set {}: {} glossy surfels, wavelet radiance in {} pages, {} bytes ({} face blocks kept, "
                  "{} dropped), lobes lit in {:.1f} s",
-                 key, r.glossy_surfels, r.glossy_pages, r.glossy_bytes, r.glossy_kept_blocks,
-                 r.glossy_dropped_blocks, r.glossy_shade_seconds);
+                 key, r.glossy.glossy_surfels, r.glossy.pages, r.glossy.bytes, r.glossy.kept_blocks,
+                 r.glossy.dropped_blocks, r.glossy.shade_seconds);
   }
 }
 

@@ -95,7 +95,7 @@ SurfaceSample trace_sample(const RayScene& rays, const Ray& ray, const RenderOpt
   // reference's "indirect" AOV (path_tracer.h): its diffuse lobe times the
   // gathered irradiance plus its GGX lobe, which the gather convolves
   // towards the camera (the receiver's glossy part, set below).
-  const Material& material = scene.materials[t.material[hit.triangle]];
+  const Material& material = scene.materials[tri.material()];
   const BrdfLobes lobes = brdf_lobes(material, mat.albedo);
   out.indirect_brdf = lobes.diffuse * kInvPi;
 

@@ -1,7 +1,6 @@
 #include "storage/codecs/glossy_section.h"
 
 #include "storage/codecs/cube_wavelet.h"
-#include "storage/format/byte_order.h"
 #include "storage/format/byte_stream.h"
 #include "storage/format/checksum.h"
 #include "storage/format/errors.h"
@@ -100,14 +99,7 @@ std::vector<uint8_t> write_glossy_section(const WaveletTreeCode& code, uint32_t 
 
 WaveletTreeCode read_glossy_section(std::span<const uint8_t> bytes, const std::string& what, uint32_t& n) {
   auto corrupt = [&](const std::string& msg) { return CorruptionError(what + ": glossy radiance: " + msg); };
-  if (bytes.size() < 28) throw corrupt("only " + std::to_string(bytes.size()) + " bytes");
-  const size_t body = bytes.size() - 8;
-  const uint64_t stored = load_le<uint64_t>(bytes.data() + body), found = checksum64(bytes.data(), body);
-  if (stored != found) {
-    throw corrupt("checksum mismatch at offset " + std::to_string(body) + ": expected " + checksum_hex(stored) +
-                  ", found " + checksum_hex(found));
-  }
-  ByteReader r(bytes.first(body), what);
+  ByteReader r(checked_body(bytes, 28, what + ": glossy radiance"), what);
   if (r.get<uint32_t>("magic") != kGlossySectionMagic) throw corrupt("bad magic");
   const uint32_t version = r.get<uint32_t>("version");
   if (version != kGlossySectionV1) {

@@ -224,14 +224,7 @@ std::vector<uint8_t> WaveletTreeCode::serialize() const {
 
 WaveletTreeCode WaveletTreeCode::deserialize(std::span<const uint8_t> bytes, const std::string& what) {
   auto corrupt = [&](const std::string& msg) { return CorruptionError(what + ": wavelet tree: " + msg); };
-  if (bytes.size() < 36) throw corrupt("only " + std::to_string(bytes.size()) + " bytes");
-  const size_t body = bytes.size() - 8;
-  const uint64_t stored = load_le<uint64_t>(bytes.data() + body), found = checksum64(bytes.data(), body);
-  if (stored != found) {
-    throw corrupt("checksum mismatch at offset " + std::to_string(body) + ": expected " + checksum_hex(stored) +
-                  ", found " + checksum_hex(found));
-  }
-  ByteReader r(bytes.first(body), what);
+  ByteReader r(checked_body(bytes, 36, what + ": wavelet tree"), what);
   if (r.get<uint32_t>("magic") != kWaveletTreeMagic) throw corrupt("bad magic");
   const uint32_t version = r.get<uint32_t>("version");
   if (version != kWaveletTreeFormatV1) {

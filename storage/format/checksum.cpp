@@ -1,6 +1,11 @@
 #include "storage/format/checksum.h"
 
+#include "storage/format/byte_order.h"
+#include "storage/format/errors.h"
+
 #include <xxhash.h>
+
+#include <algorithm>
 
 #include <cstdio>
 
@@ -12,6 +17,19 @@ std::string checksum_hex(uint64_t c) {
   char buf[19];
   std::snprintf(buf, sizeof buf, "0x%016llx", static_cast<unsigned long long>(c));
   return buf;
+}
+
+std::span<const uint8_t> checked_body(std::span<const uint8_t> block, size_t min_bytes, const std::string& what) {
+  if (block.size() < std::max<size_t>(min_bytes, 8)) {
+    throw CorruptionError(what + ": only " + std::to_string(block.size()) + " bytes");
+  }
+  const size_t body = block.size() - 8;
+  const uint64_t stored = load_le<uint64_t>(block.data() + body), found = checksum64(block.data(), body);
+  if (stored != found) {
+    throw CorruptionError(what + ": checksum mismatch at offset " + std::to_string(body) + ": expected " +
+                          checksum_hex(stored) + ", found " + checksum_hex(found));
+  }
+  return block.first(body);
 }
 
 }  // namespace pbgi::storage

@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <string>
 
 namespace pbgi::storage {
@@ -12,5 +13,11 @@ uint64_t checksum64(const void* data, size_t size);
 
 // "0x%016x": how checksums appear in error messages.
 std::string checksum_hex(uint64_t c);
+
+// The bytes of a block that ends with the XXH3-64 of everything before it,
+// without that trailer. CorruptionError, prefixed with `what`, when the
+// block is shorter than `min_bytes` (trailer included) or the checksum
+// does not match (naming its offset, expected and found values).
+std::span<const uint8_t> checked_body(std::span<const uint8_t> block, size_t min_bytes, const std::string& what);
 
 }  // namespace pbgi::storage

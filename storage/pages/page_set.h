@@ -9,6 +9,7 @@
 // Byte layout: storage/format/FORMAT.md.
 #pragma once
 
+#include "storage/codecs/glossy_pages.h"
 #include "storage/format/format_version.h"
 #include "storage/tree/build_options.h"
 #include "storage/tree/node.h"
@@ -24,8 +25,6 @@
 #include <vector>
 
 namespace pbgi::storage {
-
-class GlossyShader;  // storage/codecs/glossy_pages.h
 
 class PageCache;
 
@@ -81,13 +80,9 @@ struct BuildReport {
   uint32_t lut_entries = 0;           // kmeans-sh: entries learned (<= lut_entries asked)
   double lut_seconds = 0;             // kmeans-sh: sample tree + k-means (inside finish)
   double finish_seconds = 0;          // merge, tree, pages, manifest, publish
-  // Glossy radiance (with a GlossyShader and glossy surfels).
-  uint64_t glossy_surfels = 0;
-  uint64_t glossy_pages = 0;          // pages that store a glossy section
-  uint64_t glossy_nodes = 0;          // nodes coded in them (page nodes and link leaves)
-  uint64_t glossy_bytes = 0;          // their sections' bytes
-  uint64_t glossy_kept_blocks = 0, glossy_dropped_blocks = 0;
-  double glossy_shade_seconds = 0;    // computing lobes (inside finish)
+  // Glossy radiance (with a GlossyShader and glossy surfels; all zero
+  // when no page stores any).
+  GlossyPageStats glossy;
 };
 
 // A streaming build of one page set: surfels arrive in batches in any

@@ -259,14 +259,7 @@ struct PageSetBuilder::Impl {
     m.root = stats.root;
     if (glossy && glossy->stats().pages > 0) {
       m.glossy_resolution = options.glossy_resolution;
-      const GlossyPageStats& g = glossy->stats();
-      report.glossy_surfels = g.glossy_surfels;
-      report.glossy_pages = g.pages;
-      report.glossy_nodes = g.nodes;
-      report.glossy_bytes = g.bytes;
-      report.glossy_kept_blocks = g.kept_blocks;
-      report.glossy_dropped_blocks = g.dropped_blocks;
-      report.glossy_shade_seconds = g.shade_seconds;
+      report.glossy = glossy->stats();
     }
     m.stats.file_bytes = pages.file_bytes();
     m.pages = pages.close();

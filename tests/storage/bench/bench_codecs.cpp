@@ -166,10 +166,10 @@ Row build_variant(const Args& a, const std::vector<Surfel>& surfels, const std::
   const auto t0 = Clock::now();
   const storage::Manifest m = storage::build_page_set(surfels, o, "bench-" + name, dir, {}, &report, &glossy);
   r.build_seconds = since(t0);
-  r.glossy_bytes = report.glossy_bytes;
-  r.glossy_dense_bytes = report.glossy_nodes * storage::CubeLayout{a.glossy_resolution}.floats() * sizeof(float);
-  r.glossy_surfels = report.glossy_surfels;
-  r.glossy_shade_seconds = report.glossy_shade_seconds;
+  r.glossy_bytes = report.glossy.bytes;
+  r.glossy_dense_bytes = report.glossy.nodes * storage::CubeLayout{a.glossy_resolution}.floats() * sizeof(float);
+  r.glossy_surfels = report.glossy.glossy_surfels;
+  r.glossy_shade_seconds = report.glossy.shade_seconds;
   r.file_bytes = m.stats.file_bytes + fs::file_size(dir / storage::kManifestFileName);
   r.payload_bytes = payload_bytes(dir, m) + m.codec_state.size();  // the LUT counts as payload
   r.pages = m.stats.page_count;
@@ -189,8 +189,8 @@ Row build_variant(const Args& a, const std::vector<Surfel>& surfels, const std::
                            "{:.1f} s), load {:.2f} s\n",
                            name, m.stats.node_count, r.pages, double(r.file_bytes) / 1e6, r.build_seconds,
                            r.lut_seconds, r.lut_entries, r.lut_sample, r.glossy_surfels, double(r.glossy_bytes) / 1e6,
-                           report.glossy_pages, report.glossy_kept_blocks,
-                           report.glossy_kept_blocks + report.glossy_dropped_blocks, r.glossy_shade_seconds,
+                           report.glossy.pages, report.glossy.kept_blocks,
+                           report.glossy.kept_blocks + report.glossy.dropped_blocks, r.glossy_shade_seconds,
                            r.load_seconds);
   return r;
 }

@@ -148,8 +148,8 @@ TEST(GlossyPageSet, EveryNodeHoldsTheAverageOfItsSurfelsLobesAtThresholdZero) {
       build_page_set(surfels, options(0.f), "glossy", tmp.path() / "set", {}, &report, &shader);
   EXPECT_EQ(built.glossy_resolution, 8u);
   EXPECT_GT(built.stats.page_count, 4u);
-  EXPECT_GT(report.glossy_pages, 1u);
-  EXPECT_EQ(report.glossy_surfels, std::count_if(surfels.begin(), surfels.end(),
+  EXPECT_GT(report.glossy.pages, 1u);
+  EXPECT_EQ(report.glossy.glossy_surfels, std::count_if(surfels.begin(), surfels.end(),
                                                  [](const Surfel& s) { return s.gloss.glossy(); }));
   const PageSetReader reader(tmp.path() / "set", nullptr);
   EXPECT_EQ(reader.manifest().glossy_resolution, 8u);
@@ -170,8 +170,8 @@ TEST(GlossyPageSet, AThresholdDropsBytesWithABoundedError) {
   build_page_set(surfels, options(0.f), "glossy", tmp.path() / "exact", {}, &exact, &shader);
   const float threshold = 0.05f;
   build_page_set(surfels, options(threshold), "glossy", tmp.path() / "lossy", {}, &lossy, &shader);
-  EXPECT_LT(lossy.glossy_bytes, exact.glossy_bytes);
-  EXPECT_GT(lossy.glossy_dropped_blocks, exact.glossy_dropped_blocks);
+  EXPECT_LT(lossy.glossy.bytes, exact.glossy.bytes);
+  EXPECT_GT(lossy.glossy.dropped_blocks, exact.glossy.dropped_blocks);
   const PageSetReader reader(tmp.path() / "lossy", nullptr);
   const Comparison c = compare_all(reader, surfels, 8);
   // A pixel's error is at most sum over the path of |sign| x (dropped
@@ -187,7 +187,7 @@ TEST(GlossyPageSet, DiffuseScenesStoreNoGlossyRadiance) {
   BuildReport report;
   const Manifest m = build_page_set(surfels, options(0.f), "diffuse", tmp.path() / "set", {}, &report, &shader);
   EXPECT_EQ(m.glossy_resolution, 0u);
-  EXPECT_EQ(report.glossy_pages, 0u);
+  EXPECT_EQ(report.glossy.pages, 0u);
   const PageSetReader reader(tmp.path() / "set", nullptr);
   for (uint32_t p = 0; p < m.stats.page_count; ++p) EXPECT_EQ(reader.page(p)->glossy, nullptr);
 }
