@@ -52,6 +52,11 @@ void BuildArgs::add_to(CLI::App* cmd) {
   cmd->add_option("--wavelet-threshold", wavelet_threshold,
                   "drop wavelet detail blocks (one cube face) whose L2 norm is below this; 0 = exact [0]")
       ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--fog-extinction", fog_extinction,
+                  "fog grids: extinction per unit density and world unit (sigma_t = density x this) [1]")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--fog-albedo", fog_albedo, "fog grids: grey single-scattering albedo, 0 = absorbing [0.8]")
+      ->check(CLI::Range(0.f, 1.f));
 }
 
 v1::BuildOptions BuildArgs::to_proto(uint32_t image_width, uint32_t image_height) const {
@@ -68,6 +73,11 @@ v1::BuildOptions BuildArgs::to_proto(uint32_t image_width, uint32_t image_height
   if (glossy_roughness) build.set_glossy_roughness(*glossy_roughness);
   build.set_glossy_resolution(glossy_resolution);
   if (wavelet_threshold) build.set_wavelet_threshold(*wavelet_threshold);
+  if (fog_extinction > 0.f || fog_albedo) {
+    v1::FogOptions& fog = *build.mutable_fog();
+    fog.set_extinction_per_density(fog_extinction);
+    if (fog_albedo) fog.set_albedo(*fog_albedo);
+  }
   if (!spacing_camera.empty()) {
     build.set_spacing_image_width(image_width);
     build.set_spacing_image_height(image_height);

@@ -26,11 +26,13 @@ struct BuildArgs {
   std::optional<float> glossy_roughness;   // unset = the daemon's default
   uint32_t glossy_resolution = 0;          // 0 = the daemon's default
   std::optional<float> wavelet_threshold;  // unset = the daemon's default
+  float fog_extinction = 0.f;              // 0 = the daemon's default
+  std::optional<float> fog_albedo;         // unset = the daemon's default
 
   // Adds --target-surfels, --surfel-spacing, --build-light-samples,
   // --bounces, --payload, --lut-entries, --sampler, --spacing-camera,
-  // --pixel-footprint, --glossy-roughness, --glossy-resolution and
-  // --wavelet-threshold to `cmd`.
+  // --pixel-footprint, --glossy-roughness, --glossy-resolution,
+  // --wavelet-threshold, --fog-extinction and --fog-albedo to `cmd`.
   void add_to(CLI::App* cmd);
 
   // The request message. Throws InvalidArgument for a --payload value the

@@ -77,6 +77,19 @@ OpenOptions decode_open_options(const v1::BuildOptions& proto, const OpenOptions
   if (proto.has_glossy_roughness()) out.surfels.glossy_roughness = proto.glossy_roughness();
   out.tree.glossy_resolution = or_default(proto.glossy_resolution(), defaults.tree.glossy_resolution);
   if (proto.has_wavelet_threshold()) out.tree.wavelet_threshold = proto.wavelet_threshold();
+  if (proto.has_fog()) {
+    const v1::FogOptions& f = proto.fog();
+    out.fog.extinction_per_density = or_default(f.extinction_per_density(), defaults.fog.extinction_per_density);
+    if (f.has_albedo()) out.fog.albedo = Imath::C3f(f.albedo());
+    out.fog.step_voxels = or_default(f.step_voxels(), defaults.fog.step_voxels);
+    out.fog.light_samples = or_default(f.light_samples(), defaults.fog.light_samples);
+    out.fog.max_block_voxels = or_default(f.max_block_voxels(), defaults.fog.max_block_voxels);
+    try {
+      out.fog.validate();
+    } catch (const InvalidArgument& e) {
+      throw InvalidArgument(fmt::format("BuildOptions.fog: {}", e.what()));
+    }
+  }
   out.surfels.validate();
   out.tree.validate();
   out.bounce.validate();
@@ -146,6 +159,12 @@ v1::BuildOptions encode_open_options(const OpenOptions& options) {
   proto.set_glossy_roughness(options.surfels.glossy_roughness);
   proto.set_glossy_resolution(options.tree.glossy_resolution);
   proto.set_wavelet_threshold(options.tree.wavelet_threshold);
+  v1::FogOptions& fog = *proto.mutable_fog();
+  fog.set_extinction_per_density(options.fog.extinction_per_density);
+  fog.set_albedo(options.fog.albedo.x);  // grey, as the config
+  fog.set_step_voxels(options.fog.step_voxels);
+  fog.set_light_samples(options.fog.light_samples);
+  fog.set_max_block_voxels(options.fog.max_block_voxels);
   return proto;
 }
 
@@ -154,12 +173,13 @@ std::string open_options_key(const OpenOptions& o) {
   // so distinct values never share a key.
   return fmt::format(
       "spacing={};target={};light={};seed={};leaf={};page={};payload={};lut={};lut_fraction={};"
-      "bounces={};sampler={};camera={};image={}x{};footprint={};glossy={},{},{}",
+      "bounces={};sampler={};camera={};image={}x{};footprint={};glossy={},{},{};fog={},{},{},{},{},{},{}",
       o.surfels.spacing, o.surfels.target_surfels, o.surfels.light_samples, o.surfels.seed,
       o.tree.leaf_size, o.tree.page_size, tree::to_string(o.tree.payload_codec), o.tree.lut_entries,
       o.tree.lut_sample_fraction, o.bounce.bounces, to_string(o.surfels.sampler), o.surfels.camera,
       o.surfels.image_width, o.surfels.image_height, o.surfels.pixel_footprint, o.surfels.glossy_roughness,
-      o.tree.glossy_resolution, o.tree.wavelet_threshold);
+      o.tree.glossy_resolution, o.tree.wavelet_threshold, o.fog.extinction_per_density, o.fog.albedo.x,
+      o.fog.albedo.y, o.fog.albedo.z, o.fog.step_voxels, o.fog.light_samples, o.fog.max_block_voxels);
 }
 
 v1::SceneInfo encode_scene_info(const SceneSession& session) {

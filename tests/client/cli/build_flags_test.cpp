@@ -55,5 +55,16 @@ TEST(BuildFlags, GlossySenderFlagsAreSentOnlyWhenGiven) {
   EXPECT_THROW(parse({"--glossy-roughness", "2"}), CLI::ValidationError);
 }
 
+TEST(BuildFlags, FogFlagsAreSentOnlyWhenGiven) {
+  EXPECT_FALSE(parse({}).to_proto().has_fog());
+  const v1::BuildOptions fog = parse({"--fog-extinction", "2.5", "--fog-albedo", "0"}).to_proto();
+  ASSERT_TRUE(fog.has_fog());
+  EXPECT_FLOAT_EQ(fog.fog().extinction_per_density(), 2.5f);
+  ASSERT_TRUE(fog.fog().has_albedo());
+  EXPECT_EQ(fog.fog().albedo(), 0.f);  // absorbing, not "the default"
+  EXPECT_THROW(parse({"--fog-albedo", "1.5"}), CLI::ValidationError);
+  EXPECT_THROW(parse({"--fog-extinction", "0"}), CLI::ValidationError);
+}
+
 }  // namespace
 }  // namespace pbgi::cli

@@ -225,5 +225,30 @@ TEST(OptionsCodec, GlossySenderOptionsAreBuildOptionsWithTheirOwnKey) {
   EXPECT_THROW(decode_open_options(proto, defaults), InvalidArgument);
 }
 
+TEST(OptionsCodec, FogOptionsAreBuildOptionsWithTheirOwnKey) {
+  const OpenOptions defaults;
+  v1::BuildOptions proto;
+  const OpenOptions unset = decode_open_options(proto, defaults);
+  EXPECT_EQ(unset.fog.extinction_per_density, defaults.fog.extinction_per_density);
+  EXPECT_EQ(unset.fog.albedo, defaults.fog.albedo);
+
+  proto.mutable_fog()->set_albedo(0.f);  // absorbing, not "the default"
+  proto.mutable_fog()->set_extinction_per_density(3.f);
+  const OpenOptions set = decode_open_options(proto, defaults);
+  EXPECT_EQ(set.fog.albedo, Imath::C3f(0.f));
+  EXPECT_EQ(set.fog.extinction_per_density, 3.f);
+  EXPECT_EQ(set.fog.step_voxels, defaults.fog.step_voxels);  // 0 in the request: the default
+  EXPECT_NE(open_options_key(set), open_options_key(unset));
+  EXPECT_EQ(open_options_key(decode_open_options(encode_open_options(set), defaults)), open_options_key(set));
+
+  proto.mutable_fog()->set_albedo(2.f);
+  try {
+    decode_open_options(proto, defaults);
+    FAIL() << "albedo 2 accepted";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("BuildOptions.fog"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace pbgi::service
