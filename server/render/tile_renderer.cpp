@@ -99,9 +99,23 @@ SurfaceSample trace_sample(const RayScene& rays, const Ray& ray, const RenderOpt
   const BrdfLobes lobes = brdf_lobes(material, mat.albedo);
   out.indirect_brdf = lobes.diffuse * kInvPi;
 
-  const C3f e_direct = direct_irradiance(rays, p, ns, options.light_samples, light_seed);
   v.albedo = mat.albedo;
-  v.direct = out.brdf * e_direct + mat.emission;
+  if (!lobes.specular) {
+    const C3f e_direct = direct_irradiance(rays, p, ns, options.light_samples, light_seed);
+    v.direct = out.brdf * e_direct + mat.emission;
+  } else {
+    // A GGX lobe reflects each light sample through the whole BRDF, as the
+    // reference's direct AOV does (a metal's highlight, and no Lambertian
+    // term it does not have): the same samples and shadow rays as
+    // direct_irradiance(), each weighted by f(wo, wi).
+    thread_local std::vector<IncidentSample> light;
+    incident_light(rays, p, ns, options.light_samples, light_seed, light);
+    const Brdf brdf(lobes, ns);
+    const V3f wo = -ray.direction.normalized();
+    C3f reflected(0, 0, 0);
+    for (const IncidentSample& in : light) reflected += brdf.eval(wo, in.direction) * in.irradiance;
+    v.direct = reflected + mat.emission;
+  }
   out.gathers = true;
   // Off the surface by the hit point's own rounding bound (not a scene-wide
   // epsilon), so receivers far from the origin keep their precision.

@@ -1,4 +1,5 @@
 #include "server/render/tile_renderer.h"
+#include "server/scene/brdf.h"
 #include "server/surfels/surfels.h"
 #include "storage/format/errors.h"
 #include "storage/tree/memory_tree.h"
@@ -240,6 +241,46 @@ TEST(RenderTile, GlossyMaterialsReflectIndirectLightTowardsTheCamera) {
   EXPECT_GT(metal.indirect[0], 0.01f * matte.indirect[0]);
   EXPECT_GT(metal.indirect[0], 3.f * metal.indirect[1]);  // it reflects the red wall
   EXPECT_EQ(metal.ao[0], matte.ao[0]);                    // the diffuse gather is unchanged
+}
+
+// A metal floor under the rect light: its direct light goes through the
+// GGX lobe (no Lambertian term), as the reference's direct AOV: equal to
+// the integral of f(wo, wi) L cos_i cos_l / d^2 over the light, taken here
+// by brute force on a fine grid of the light.
+TEST(RenderTile, GlossyDirectLightGoesThroughTheLobe) {
+  Scene s = floor_scene();
+  Material& floor = s.materials[0];
+  floor.metallic = 1.f;
+  floor.roughness = 0.4f;
+  const RayScene rays(s);
+  const EmptyTree tree;
+  RenderOptions o;
+  o.light_samples = 1024;
+  const uint32_t c = kSize / 2;
+  const TileAovs out =
+      render_tile(rays, tree, *s.find_camera("/cam"), kSize, kSize, {c, c, c + 1, c + 1}, o);
+  // The center pixel sees the floor's origin from (0, 0, 3).
+  const BrdfLobes lobes = brdf_lobes(floor, floor.albedo);
+  ASSERT_TRUE(lobes.specular);
+  const Brdf brdf(lobes, V3f(0, 0, 1));
+  const V3f p(0, 0, 0), wo(0, 0, 1);
+  constexpr int kGrid = 400;
+  double want = 0.0;
+  for (int i = 0; i < kGrid; ++i) {
+    for (int j = 0; j < kGrid; ++j) {
+      const V3f q(1.f + (i + 0.5f) / kGrid, -0.5f + (j + 0.5f) / kGrid, 1.f);  // the light, facing down
+      const V3f d = q - p;
+      const float r2 = d.length2();
+      const V3f wi = d / std::sqrt(r2);
+      const double cos_l = wi.z;  // the light's normal is -z
+      want += brdf.eval(wo, wi).x * 4.0 * wi.z * cos_l / r2 / (double(kGrid) * kGrid);
+    }
+  }
+  ASSERT_GT(want, 0.0);
+  EXPECT_NEAR(out.direct[0] / want, 1.0, 0.03) << out.direct[0] << " vs " << want;
+  // The Lambertian shading it replaced would be albedo / pi x E.
+  const double lambert = kAlbedo / M_PI * test::rect_irradiance(4.0, 1.0, 2.0, -0.5, 0.5, 0.0, 0.0, 1.0);
+  EXPECT_GT(std::abs(out.direct[0] / lambert - 1.0), 0.1);
 }
 
 }  // namespace
