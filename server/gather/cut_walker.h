@@ -56,8 +56,10 @@ class CutWalker {
 
   const GatherOptions& options() const { return options_; }
   PagePins& pins() { return pins_; }
-  // The receiver's microbuffer (fog fragments are added to it: volume_points.h).
-  Microbuffer& microbuffer() { return buffer_; }
+  // The receiver's microbuffer: fog fragments are added to it
+  // (volume_points.h), glossy lobes read its pixels (glossy_gather.h).
+  Microbuffer& buffer() { return buffer_; }
+  const Microbuffer& buffer() const { return buffer_; }
   PageViews& views() { return views_; }
 
   // Starts a receiver: empty microbuffer for its hemisphere.
@@ -79,7 +81,6 @@ class CutWalker {
   Resolved resolve(const FarBuffer* far, const Imath::C3f* gain = nullptr) {
     return buffer_.resolve(options_.ao_max_distance, far, gain);
   }
-  const Microbuffer& buffer() const { return buffer_; }
 
   // Walks a cluster's coarse cut from the root: far nodes go into `far`
   // (begun by the caller), near nodes are appended to `near` (each holding

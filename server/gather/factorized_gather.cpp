@@ -49,7 +49,7 @@ void FactorizedGather::gather(std::span<const Receiver> rs, std::span<GatherResu
       // Pushed last to first: popped in the cut's pre-order.
       for (size_t j = near_.size(); j-- > 0;) walker_.push(near_[j]);
       walker_.walk_receiver();
-      if (fog) add_volume_fragments(*fog, rs[i].position, walker_.microbuffer());
+      if (fog) add_volume_fragments(*fog, rs[i].position, walker_.buffer());
       const bool lobe = glossy && rs[i].glossy.active();
       const Resolved r =
           walker_.resolve(&far_, lobe ? glossy->begin(rs[i], walker_.buffer()) : nullptr);

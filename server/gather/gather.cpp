@@ -123,7 +123,7 @@ GatherResult Gatherer::gather_pinned(const Receiver& r) {
   ++counters_.receivers;
 
   // 3. Fog in front of (and behind) the surfaces: volume_points.h.
-  if (impl_->fog) gather::add_volume_fragments(*impl_->fog, r.position, w.microbuffer());
+  if (impl_->fog) gather::add_volume_fragments(*impl_->fog, r.position, w.buffer());
 
   // 4. Visibility and convolution; a glossy receiver also convolves its
   //    unrefined pixels with the lobe here.

@@ -24,8 +24,9 @@ namespace pbgi::storage {
 enum class CodecId : uint32_t {
   kFloatSh = 0,      // 27 + 9 float32 SH coefficients, 144 bytes per node
   kQuantizedSh = 1,  // k-means LUT index + log scale, bit-packed (needs its LUT)
-  // 2 is reserved for Haar-wavelet radiance of glossy senders
-  // (storage/codecs/wavelet_tree_coding.h), not yet a node payload codec.
+  // 2 is reserved and unused: glossy senders' Haar-wavelet radiance is not
+  // a node payload codec but a page section beside any of these
+  // (storage/codecs/glossy_pages.h, FORMAT.md "Glossy radiance section").
 };
 
 class PayloadCodec {
