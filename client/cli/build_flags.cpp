@@ -33,6 +33,10 @@ void BuildArgs::add_to(CLI::App* cmd) {
                   "node payloads: sh (exact, derived from the surfels as pages load), quantized "
                   "(k-means LUT), auto, or a codec name (derived, float32-sh, kmeans-sh); "
                   "glossy senders' wavelet radiance has its own flags [daemon default]");
+  cmd->add_option("--leaf-format", leaf_format,
+                  "how leaves store surfels: relative (24 B, positions relative to the leaf, RGB9E5 "
+                  "colours) or half (38 B, float32 positions, half-float colours) [relative]")
+      ->check(CLI::IsMember({"relative", "half"}));
   cmd->add_option("--lut-entries", lut_entries, "quantized payloads: LUT size [4096]")
       ->check(CLI::Range(64u, 65536u));
   cmd->add_option("--sampler", sampler, "surfel sampler: uniform or poisson (blue noise) [uniform]")
@@ -63,6 +67,7 @@ v1::BuildOptions BuildArgs::to_proto(uint32_t image_width, uint32_t image_height
   v1::BuildOptions build;
   build.set_payload_codec(payload_codec_name(payload));
   build.set_lut_entries(lut_entries);
+  build.set_leaf_format(leaf_format);
   build.set_target_surfels(target_surfels);
   build.set_surfel_spacing(surfel_spacing);
   build.set_light_samples(light_samples);

@@ -20,6 +20,7 @@ struct BuildArgs {
   uint32_t bounces = 0;
   std::string payload;
   uint32_t lut_entries = 0;
+  std::string leaf_format;     // "relative" / "half"; "" = the daemon's default
   std::string sampler;         // "uniform" / "poisson"; "" = the daemon's default
   std::string spacing_camera;  // camera-adaptive spacing; "" = absolute
   float pixel_footprint = 0.f;
@@ -30,7 +31,7 @@ struct BuildArgs {
   std::optional<float> fog_albedo;         // unset = the daemon's default
 
   // Adds --target-surfels, --surfel-spacing, --build-light-samples,
-  // --bounces, --payload, --lut-entries, --sampler, --spacing-camera,
+  // --bounces, --payload, --leaf-format, --lut-entries, --sampler, --spacing-camera,
   // --pixel-footprint, --glossy-roughness, --glossy-resolution,
   // --wavelet-threshold, --fog-extinction and --fog-albedo to `cmd`.
   void add_to(CLI::App* cmd);

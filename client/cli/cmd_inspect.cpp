@@ -41,9 +41,11 @@ std::string json_number(double v) { return std::isfinite(v) ? fmt::format("{:.6g
 
 double per(uint64_t a, uint64_t b) { return b ? double(a) / double(b) : 0.0; }
 
-// The manifest version the writer used: V3 exactly when it declares glossy
-// radiance (storage/format/format_version.h).
+// The manifest version the writer used: V4 for a leaf format other than
+// relative, else V3 exactly when it declares glossy radiance
+// (storage/format/format_version.h).
 uint32_t manifest_version(const storage::Manifest& m) {
+  if (m.options.leaf_format != storage::LeafFormat::kRelative) return storage::kManifestFormatV4;
   return m.glossy_resolution ? storage::kManifestFormatV3 : storage::kManifestFormatCurrent;
 }
 
@@ -58,9 +60,10 @@ void print_json(const std::string& dir, const storage::Manifest& m,
                      json_number(m.options.wavelet_threshold));
   out += fmt::format("  \"codec\": {{\"id\": {}, \"name\": {}}},\n", m.codec, json_string(r.codec_name));
   out += fmt::format(
-      "  \"options\": {{\"leaf_size\": {}, \"page_size\": {}, \"payload_codec\": {}, \"lut_entries\": {}, "
-      "\"lut_sample_fraction\": {}}},\n  \"node_payloads\": {},\n",
-      m.options.leaf_size, m.options.page_size, json_string(tree::to_string(m.options.payload_codec)),
+      "  \"options\": {{\"leaf_size\": {}, \"leaf_format\": {}, \"page_size\": {}, \"payload_codec\": {}, "
+      "\"lut_entries\": {}, \"lut_sample_fraction\": {}}},\n  \"node_payloads\": {},\n",
+      m.options.leaf_size, json_string(storage::to_string(m.options.leaf_format)), m.options.page_size,
+      json_string(tree::to_string(m.options.payload_codec)),
       m.options.lut_entries, m.options.lut_sample_fraction, m.node_payloads ? "true" : "false");
   out += fmt::format(
       "  \"stats\": {{\"surfels\": {}, \"nodes\": {}, \"leaves\": {}, \"pages\": {}, \"max_depth\": {}, "
@@ -97,8 +100,9 @@ void print_text(const std::string& dir, const storage::Manifest& m, const storag
   fmt::print("build key     {}\n", m.build_key);
   fmt::print("format        manifest v{}, pages v{}, codec {} ({})\n", manifest_version(m),
              m.page_format, m.codec, r.codec_name);
-  fmt::print("options       leaf_size {}, page_size {}, payload_codec {} (lut {} entries, sample {})\n",
-             m.options.leaf_size, m.options.page_size, tree::to_string(m.options.payload_codec),
+  fmt::print("options       leaf_size {}, leaf_format {}, page_size {}, payload_codec {} (lut {} entries, sample {})\n",
+             m.options.leaf_size, storage::to_string(m.options.leaf_format), m.options.page_size,
+             tree::to_string(m.options.payload_codec),
              m.options.lut_entries, m.options.lut_sample_fraction);
   fmt::print("payloads      {}\n", m.node_payloads ? "stored for every node" : "derived when a page loads");
   if (m.glossy_resolution) {

@@ -304,6 +304,9 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
     build.read("seed", o.surfels.seed);
     build.read("page_size", o.tree.page_size);
     build.read("leaf_size", o.tree.leaf_size);
+    std::string leaf_format = storage::to_string(o.tree.leaf_format);
+    build.read("leaf_format", leaf_format);
+    o.tree.leaf_format = storage::parse_leaf_format(leaf_format);
     std::string payload_codec = tree::to_string(o.tree.payload_codec);
     build.read("payload_codec", payload_codec);
     o.tree.payload_codec = tree::parse_payload_codec(payload_codec);
@@ -414,6 +417,7 @@ std::string to_toml(const DaemonOptions& o) {
   integer_value("seed", b.surfels.seed);
   integer_value("page_size", b.tree.page_size);
   integer_value("leaf_size", b.tree.leaf_size);
+  string_value("leaf_format", storage::to_string(b.tree.leaf_format));
   string_value("payload_codec", tree::to_string(b.tree.payload_codec));
   integer_value("lut_entries", b.tree.lut_entries);
   float_value("lut_sample_fraction", b.tree.lut_sample_fraction);
@@ -513,7 +517,8 @@ bool operator==(const DaemonOptions& a, const DaemonOptions& b) {
          oa.surfels.target_surfels == ob.surfels.target_surfels &&
          oa.surfels.light_samples == ob.surfels.light_samples &&
          oa.surfels.seed == ob.surfels.seed && oa.tree.page_size == ob.tree.page_size &&
-         oa.tree.leaf_size == ob.tree.leaf_size && oa.tree.payload_codec == ob.tree.payload_codec &&
+         oa.tree.leaf_size == ob.tree.leaf_size && oa.tree.leaf_format == ob.tree.leaf_format &&
+         oa.tree.payload_codec == ob.tree.payload_codec &&
          oa.tree.lut_entries == ob.tree.lut_entries &&
          oa.tree.lut_sample_fraction == ob.tree.lut_sample_fraction &&
          oa.bounce.bounces == ob.bounce.bounces && oa.fog.extinction_per_density == ob.fog.extinction_per_density &&

@@ -37,6 +37,9 @@ std::string page_set_build_key(const std::string& scene_content_hash, const Open
       text += fmt::format("|lut={}|lut_fraction={}", t.lut_entries, t.lut_sample_fraction);
     }
   }
+  if (t.leaf_format != storage::LeafFormat::kRelative) {
+    text += fmt::format("|leaf_format={}", storage::to_string(t.leaf_format));
+  }
   if (s.adaptive()) {
     text += fmt::format("|camera={}|image={}x{}|footprint={}|min_spacing={}|offscreen={}|margin={}", s.camera,
                         s.image_width, s.image_height, s.pixel_footprint, s.min_spacing, s.offscreen_factor,

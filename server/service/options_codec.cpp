@@ -60,6 +60,13 @@ OpenOptions decode_open_options(const v1::BuildOptions& proto, const OpenOptions
   out.tree.page_size = or_default(proto.page_size(), defaults.tree.page_size);
   out.tree.leaf_size = or_default(proto.leaf_size(), defaults.tree.leaf_size);
   if (!proto.payload_codec().empty()) out.tree.payload_codec = tree::parse_payload_codec(proto.payload_codec());
+  if (!proto.leaf_format().empty()) {
+    try {
+      out.tree.leaf_format = storage::parse_leaf_format(proto.leaf_format());
+    } catch (const InvalidArgument& e) {
+      throw InvalidArgument(fmt::format("BuildOptions.leaf_format: {}", e.what()));
+    }
+  }
   out.tree.lut_entries = or_default(proto.lut_entries(), defaults.tree.lut_entries);
   out.tree.lut_sample_fraction = or_default(proto.lut_sample_fraction(), defaults.tree.lut_sample_fraction);
   out.bounce.bounces = or_default(proto.bounces(), defaults.bounce.bounces);
@@ -148,6 +155,7 @@ v1::BuildOptions encode_open_options(const OpenOptions& options) {
   proto.set_page_size(options.tree.page_size);
   proto.set_leaf_size(options.tree.leaf_size);
   proto.set_payload_codec(tree::to_string(options.tree.payload_codec));
+  proto.set_leaf_format(storage::to_string(options.tree.leaf_format));
   proto.set_lut_entries(options.tree.lut_entries);
   proto.set_lut_sample_fraction(options.tree.lut_sample_fraction);
   proto.set_bounces(options.bounce.bounces);
@@ -172,10 +180,11 @@ std::string open_options_key(const OpenOptions& o) {
   // fmt's "{}" prints the shortest text that reads back to the same float,
   // so distinct values never share a key.
   return fmt::format(
-      "spacing={};target={};light={};seed={};leaf={};page={};payload={};lut={};lut_fraction={};"
+      "spacing={};target={};light={};seed={};leaf={};leaf_format={};page={};payload={};lut={};lut_fraction={};"
       "bounces={};sampler={};camera={};image={}x{};footprint={};glossy={},{},{};fog={},{},{},{},{},{},{}",
       o.surfels.spacing, o.surfels.target_surfels, o.surfels.light_samples, o.surfels.seed,
-      o.tree.leaf_size, o.tree.page_size, tree::to_string(o.tree.payload_codec), o.tree.lut_entries,
+      o.tree.leaf_size, storage::to_string(o.tree.leaf_format), o.tree.page_size,
+      tree::to_string(o.tree.payload_codec), o.tree.lut_entries,
       o.tree.lut_sample_fraction, o.bounce.bounces, to_string(o.surfels.sampler), o.surfels.camera,
       o.surfels.image_width, o.surfels.image_height, o.surfels.pixel_footprint, o.surfels.glossy_roughness,
       o.tree.glossy_resolution, o.tree.wavelet_threshold, o.fog.extinction_per_density, o.fog.albedo.x,

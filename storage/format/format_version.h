@@ -41,8 +41,13 @@ inline constexpr uint32_t kPageFormatNodePayloads = kPageFormatV3;
 // ends, before its trailer, with a glossy radiance section (a serialized
 // wavelet tree code, storage/codecs/glossy_pages.h, itself versioned and
 // checksummed) instead of ending at its surfel records.
+// kPageFlagHalfLeaves (pages of a V4 manifest whose leaf_format is half):
+// the surfel records are 38-byte half-float records instead of 24-byte
+// frame-relative ones (storage/format/page_records.h). The flag and the
+// manifest must agree, so a page is never decoded with the wrong stride.
 inline constexpr uint32_t kPageFlagNodePayloads = 1u << 0;
 inline constexpr uint32_t kPageFlagGlossy = 1u << 1;
+inline constexpr uint32_t kPageFlagHalfLeaves = 1u << 2;
 
 // Manifest layout versions.
 //   V1: 16-byte header, body (options, stats, root, codec, page table),
@@ -54,11 +59,15 @@ inline constexpr uint32_t kPageFlagGlossy = 1u << 1;
 //       cube_resolution 0 = none, and then pages never carry the glossy
 //       flag). Written only when the page set stores glossy radiance, so
 //       diffuse page sets stay V2 and readable by older builds.
+//   V4: V3 (cube_resolution may be 0 here) + leaf_format (u32: 0 relative,
+//       1 half). Written only for leaf formats other than relative, so
+//       default page sets keep V2/V3 and stay readable by older builds.
 inline constexpr uint32_t kManifestFormatV1 = 1;
 inline constexpr uint32_t kManifestFormatV2 = 2;
 inline constexpr uint32_t kManifestFormatV3 = 3;
+inline constexpr uint32_t kManifestFormatV4 = 4;
 inline constexpr uint32_t kManifestFormatCurrent = kManifestFormatV2;  // diffuse page sets
-inline constexpr uint32_t kManifestFormatLatest = kManifestFormatV3;   // the newest this build reads
+inline constexpr uint32_t kManifestFormatLatest = kManifestFormatV4;   // the newest this build reads
 
 // Version of a page set as a whole (manifest + pages + codec set). Build keys
 // hash it, so bumping it makes every daemon rebuild its cached page sets.
@@ -72,7 +81,7 @@ inline constexpr uint32_t kPageSetFormatVersion = 3;
 // changed with kPageSetFormatVersion), so a V1 page is a VersionError.
 constexpr bool is_known_page_format(uint32_t v) { return v == kPageFormatV2 || v == kPageFormatV3; }
 constexpr bool is_known_manifest_format(uint32_t v) {
-  return v == kManifestFormatV1 || v == kManifestFormatV2 || v == kManifestFormatV3;
+  return v >= kManifestFormatV1 && v <= kManifestFormatV4;
 }
 
 }  // namespace pbgi::storage

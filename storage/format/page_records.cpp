@@ -3,6 +3,11 @@
 #include "storage/format/byte_order.h"
 #include "storage/format/packed_values.h"
 #include "storage/format/page_frame.h"
+#include "storage/format/errors.h"
+
+#include <Imath/half.h>
+
+#include <algorithm>
 
 namespace pbgi::storage {
 
@@ -70,7 +75,16 @@ void read_link_record(const uint8_t* in, uint32_t& page, tree::Node& n) {
   n.area = load_le<float>(p + 4);
 }
 
-void encode_surfel_record(const Surfel& s, const LeafFrame& f, uint8_t* out) {
+LeafFormat parse_leaf_format(const std::string& name) {
+  if (name == "relative") return LeafFormat::kRelative;
+  if (name == "half") return LeafFormat::kHalf;
+  throw InvalidArgument("leaf_format '" + name + "' is not one of: relative, half");
+}
+
+std::string to_string(LeafFormat format) { return format == LeafFormat::kHalf ? "half" : "relative"; }
+
+namespace {
+void encode_relative(const Surfel& s, const LeafFrame& f, uint8_t* out) {
   // A zero-radius frame (every surfel a point at the center) stores zeros.
   const float inv = f.radius > 0.f ? 1.f / f.radius : 0.f;
   const Imath::V3f d = (s.position - f.center) * inv;
@@ -84,7 +98,7 @@ void encode_surfel_record(const Surfel& s, const LeafFrame& f, uint8_t* out) {
   store_le<uint32_t>(out + 20, encode_rgb9e5(s.radiance));
 }
 
-void decode_surfel_record(const uint8_t* in, const LeafFrame& f, Surfel& s) {
+void decode_relative(const uint8_t* in, const LeafFrame& f, Surfel& s) {
   const float R = f.radius;
   s.position.x = f.center.x + R * decode_snorm16(int16_t(load_le<uint16_t>(in + 0)));
   s.position.y = f.center.y + R * decode_snorm16(int16_t(load_le<uint16_t>(in + 2)));
@@ -94,6 +108,77 @@ void decode_surfel_record(const uint8_t* in, const LeafFrame& f, Surfel& s) {
   s.albedo = decode_rgb9e5(load_le<uint32_t>(in + 12));
   s.emission = decode_rgb9e5(load_le<uint32_t>(in + 16));
   s.radiance = decode_rgb9e5(load_le<uint32_t>(in + 20));
+}
+
+
+// Half floats. NaN never reaches here (surfel_checks refuses it); values
+// past half's range clamp to its largest finite value rather than turn
+// into infinities.
+inline uint16_t half_bits(float v) {
+  constexpr float kHalfMax = 65504.f;
+  return Imath::half(std::clamp(v, -kHalfMax, kHalfMax)).bits();
+}
+inline float from_half_bits(uint16_t bits) {
+  Imath::half h;
+  h.setBits(bits);
+  return float(h);
+}
+inline void put_half3(uint8_t* p, float x, float y, float z) {
+  store_le<uint16_t>(p, half_bits(x));
+  store_le<uint16_t>(p + 2, half_bits(y));
+  store_le<uint16_t>(p + 4, half_bits(z));
+}
+template <typename V>
+inline void get_half3(const uint8_t* p, V& v) {
+  v.x = from_half_bits(load_le<uint16_t>(p));
+  v.y = from_half_bits(load_le<uint16_t>(p + 2));
+  v.z = from_half_bits(load_le<uint16_t>(p + 4));
+}
+inline Imath::C3f non_negative(const Imath::C3f& c) {
+  return {std::max(c.x, 0.f), std::max(c.y, 0.f), std::max(c.z, 0.f)};
+}
+
+void encode_half(const Surfel& s, const LeafFrame& f, uint8_t* out) {
+  put3(out, s.position.x, s.position.y, s.position.z);       // 0
+  put_half3(out + 12, s.normal.x, s.normal.y, s.normal.z);   // 12
+  // The radius as a fraction of the frame's: half's relative precision
+  // then holds for any scene scale (an absolute half would overflow past
+  // 65504 units and flush radii below 6e-8 to zero).
+  store_le<uint16_t>(out + 18, half_bits(f.radius > 0.f ? s.radius / f.radius : 0.f));  // 18
+  const Imath::C3f a = non_negative(s.albedo), e = non_negative(s.emission), r = non_negative(s.radiance);
+  put_half3(out + 20, a.x, a.y, a.z);  // 20
+  put_half3(out + 26, e.x, e.y, e.z);  // 26
+  put_half3(out + 32, r.x, r.y, r.z);  // 32
+}
+
+void decode_half(const uint8_t* in, const LeafFrame& f, Surfel& s) {
+  get3(in, s.position);
+  Imath::V3f n;
+  get_half3(in + 12, n);
+  // Three half components are each within 2^-11 of a unit vector's: renormalize.
+  const float len = n.length();
+  s.normal = len > 0.f ? n / len : Imath::V3f(0, 0, 1);
+  s.radius = f.radius * from_half_bits(load_le<uint16_t>(in + 18));
+  get_half3(in + 20, s.albedo);
+  get_half3(in + 26, s.emission);
+  get_half3(in + 32, s.radiance);
+}
+}  // namespace
+
+void encode_surfel_record(LeafFormat format, const Surfel& s, const LeafFrame& f, uint8_t* out) {
+  if (format == LeafFormat::kHalf) {
+    encode_half(s, f, out);
+  } else {
+    encode_relative(s, f, out);
+  }
+}
+
+void decode_surfel_record(LeafFormat format, const uint8_t* in, const LeafFrame& f, Surfel& s) {
+  if (format == LeafFormat::kHalf) {
+    decode_half(in, f, s);
+  } else {
+    decode_relative(in, f, s);
+  }
 }
 
 }  // namespace pbgi::storage

@@ -8,13 +8,20 @@
 //    the bounds, cone and area of its root (its payload follows in the
 //    page's payload array), so that the ancestors' bounds and payloads can
 //    be derived without loading the other page.
-//  * surfel record: 24 bytes, position and radius relative to the leaf's
-//    frame, octahedral normal, RGB9E5 colours.
+//  * surfel record, in the page set's leaf format (LeafFormat below):
+//    relative (24 bytes): position and radius relative to the leaf's
+//      frame, octahedral normal, RGB9E5 colours;
+//    half (38 bytes): float32 position, half-float normal, radius (as a
+//      fraction of the frame radius) and colours.
 //
-// Precision of a decoded surfel, with R the radius of its leaf's frame:
-// each position coordinate within R / 65534 (plus float rounding), radius
-// within R / 131070, normal within kOctahedralMaxAngle radians, each colour
-// channel within max(r, g, b) / 512 (packed_values.h).
+// Precision of a decoded surfel, with R the radius of its leaf's frame.
+// Relative: each position coordinate within R / 65534 (plus float
+// rounding), radius within R / 131070, normal within kOctahedralMaxAngle
+// radians, each colour channel within max(r, g, b) / 512 (packed_values.h).
+// Half: position exact, radius within R / 4096, normal within 1e-3 rad,
+// each colour channel within 2^-11 of itself (relative) above half's
+// smallest normal 6.1e-5, and absolute 6e-8 below. Both clamp colours to
+// [0, 65408] (relative) / [0, 65504] (half).
 #pragma once
 
 #include "storage/tree/node.h"
@@ -24,13 +31,39 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <string>
 
 namespace pbgi::storage {
 
 inline constexpr size_t kShapeBytes = 1;
 inline constexpr size_t kLeafRecordBytes = 18;
 inline constexpr size_t kLinkRecordBytes = 40;
-inline constexpr size_t kSurfelRecordBytes = 24;
+
+// How leaves store their surfels, chosen per page set (BuildOptions::
+// leaf_format, stored in the manifest, flagged in every page). The two
+// formats of Buchholz & Boubekeur 2012, table 2:
+//   relative  format "B": positions relative to the leaf's frame (the
+//             parent-relative coding of QSplat, Rusinkiewicz & Levoy
+//             2000), 16-bit fixed point, octahedral normal, RGB9E5
+//             colours. 24 bytes. The default: smallest.
+//   half      format "A": half floats (Kontkanen et al. 2011) except the
+//             position, which keeps full float32 precision. 38 bytes.
+//             For scenes whose colours need more than RGB9E5's shared
+//             9-bit mantissa, or positions exact to the float.
+// (The paper's records hold one colour; ours hold albedo, emission and
+// radiance, which multiple bounces need.)
+enum class LeafFormat : uint8_t { kRelative = 0, kHalf = 1 };
+
+inline constexpr size_t kRelativeSurfelRecordBytes = 24;
+inline constexpr size_t kHalfSurfelRecordBytes = 38;
+constexpr size_t surfel_record_bytes(LeafFormat f) {
+  return f == LeafFormat::kHalf ? kHalfSurfelRecordBytes : kRelativeSurfelRecordBytes;
+}
+// As written in config files, CLI flags, requests and `pbgi inspect`.
+// parse_leaf_format throws InvalidArgument naming the accepted values.
+LeafFormat parse_leaf_format(const std::string& name);
+std::string to_string(LeafFormat format);
+
 // The largest payload any codec of this build stores per node (float32 SH).
 inline constexpr size_t kMaxPayloadBytesPerNode = 144;
 // Most surfels a leaf record can count (u16).
@@ -65,19 +98,21 @@ void write_link_record(uint32_t page, const tree::Node& n, uint8_t* out);
 void read_link_record(const uint8_t* in, uint32_t& page, tree::Node& n);
 
 // ---- surfel record ----
-// Encodes `s` relative to `f`; `s` must lie in the frame (its disk inside
-// the sphere) for the stated precision to hold.
-void encode_surfel_record(const Surfel& s, const LeafFrame& f, uint8_t* out);
-void decode_surfel_record(const uint8_t* in, const LeafFrame& f, Surfel& s);
+// Encodes `s` relative to `f` in `format` (surfel_record_bytes(format)
+// bytes); `s` must lie in the frame (its disk inside the sphere) for the
+// stated precision to hold.
+void encode_surfel_record(LeafFormat format, const Surfel& s, const LeafFrame& f, uint8_t* out);
+void decode_surfel_record(LeafFormat format, const uint8_t* in, const LeafFrame& f, Surfel& s);
 
 // Bytes around the records of every page: header, trailer and the padding
 // that aligns the leaf records to 4 bytes.
 inline constexpr size_t kPageOverheadBytes = 32 /*header*/ + 8 /*trailer*/ + 3 /*pad*/;
 
-// The smallest legal page size for `leaf_size`: a page must hold one full
-// leaf, and one internal node whose two children both live elsewhere.
-constexpr size_t min_page_bytes(uint32_t leaf_size) {
-  const size_t leaf = kShapeBytes + kLeafRecordBytes + size_t(leaf_size) * kSurfelRecordBytes;
+// The smallest legal page size for `leaf_size` surfels per leaf in
+// `format`: a page must hold one full leaf, and one internal node whose
+// two children both live elsewhere.
+constexpr size_t min_page_bytes(uint32_t leaf_size, LeafFormat format = LeafFormat::kRelative) {
+  const size_t leaf = kShapeBytes + kLeafRecordBytes + size_t(leaf_size) * surfel_record_bytes(format);
   const size_t fork = kShapeBytes + 2 * (kLinkRecordBytes + kMaxPayloadBytesPerNode);
   return kPageOverheadBytes + (leaf > fork ? leaf : fork);
 }

@@ -44,11 +44,15 @@ std::vector<uint8_t> encode_manifest(const Manifest& m) {
     w.put<uint64_t>(e.offset);
     w.put<uint32_t>(e.bytes);
   }
-  if (m.glossy_resolution == 0) return frame_manifest(body, kManifestFormatV2);
+  const bool half_leaves = m.options.leaf_format != LeafFormat::kRelative;
+  if (m.glossy_resolution == 0 && !half_leaves) return frame_manifest(body, kManifestFormatV2);
   // V3: glossy radiance storage.
   w.put<uint32_t>(m.glossy_resolution);
   w.put<float>(m.options.wavelet_threshold);
-  return frame_manifest(body, kManifestFormatV3);
+  if (!half_leaves) return frame_manifest(body, kManifestFormatV3);
+  // V4: the leaf format.
+  w.put<uint32_t>(static_cast<uint32_t>(m.options.leaf_format));
+  return frame_manifest(body, kManifestFormatV4);
 }
 
 Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path) {
@@ -145,8 +149,17 @@ Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path)
   if (framed.version >= kManifestFormatV3) {
     m.glossy_resolution = r.get<uint32_t>("glossy_resolution");
     m.options.wavelet_threshold = r.get<float>("wavelet_threshold");
-    if (m.glossy_resolution == 0) throw corrupt("a V3 manifest without glossy radiance (resolution 0)");
-    m.options.glossy_resolution = m.glossy_resolution;
+    if (framed.version == kManifestFormatV3 && m.glossy_resolution == 0) {
+      throw corrupt("a V3 manifest without glossy radiance (resolution 0)");
+    }
+    if (m.glossy_resolution != 0) m.options.glossy_resolution = m.glossy_resolution;
+  }
+  if (framed.version >= kManifestFormatV4) {
+    const uint32_t leaf_format = r.get<uint32_t>("leaf_format");
+    if (leaf_format != static_cast<uint32_t>(LeafFormat::kHalf)) {
+      throw corrupt("leaf_format " + std::to_string(leaf_format) + " is not one a V4 manifest stores (1, half)");
+    }
+    m.options.leaf_format = static_cast<LeafFormat>(leaf_format);
   }
   r.expect_end();
 

@@ -48,7 +48,8 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
 
   PageHeader h;
   h.format_version = static_cast<uint16_t>(node_payloads ? kPageFormatNodePayloads : kPageFormatCurrent);
-  h.flags = (node_payloads ? kPageFlagNodePayloads : 0u) | (glossy.empty() ? 0u : kPageFlagGlossy);
+  h.flags = (node_payloads ? kPageFlagNodePayloads : 0u) | (glossy.empty() ? 0u : kPageFlagGlossy) |
+            (t.leaf_format == LeafFormat::kHalf ? kPageFlagHalfLeaves : 0u);
   h.codec = static_cast<uint16_t>(codec.id());
   h.page_id = page_id;
   h.node_count = static_cast<uint32_t>(n);
@@ -61,7 +62,7 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
 
 std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const PageLocation& where,
                           uint32_t expected_version, const PayloadCodec& codec,
-                          uint32_t page_count, bool glossy_allowed) {
+                          uint32_t page_count, bool glossy_allowed, LeafFormat leaf_format) {
   const PageHeader h = open_page(bytes, where, expected_version);
   const std::string at = where.describe();
   auto corrupt = [&](const std::string& msg) { return CorruptionError(at + ": " + msg); };
@@ -71,7 +72,10 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
                   std::to_string(codec.id()));
   }
   // V2 has no flags; V3 always stores node payloads (format_version.h).
-  const uint32_t want_flags = h.format_version == kPageFormatV3 ? kPageFlagNodePayloads : 0u;
+  // The leaf format is the manifest's: a page flagged otherwise is refused.
+  const uint32_t want_flags = (h.format_version == kPageFormatV3 ? kPageFlagNodePayloads : 0u) |
+                              (leaf_format == LeafFormat::kHalf ? kPageFlagHalfLeaves : 0u);
+  const size_t record_bytes = surfel_record_bytes(leaf_format);
   const bool glossy = glossy_allowed && (h.flags & kPageFlagGlossy) != 0;
   if ((h.flags & ~(glossy ? kPageFlagGlossy : 0u)) != want_flags) {
     throw corrupt("header flags are " + std::to_string(h.flags) + ", page format " +
@@ -95,7 +99,7 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   const uint64_t links_at = leaves_at + leaves * kLeafRecordBytes;
   const uint64_t payload_at = links_at + links * kLinkRecordBytes;
   const uint64_t surfels_at = payload_at + h.payload_bytes;
-  const uint64_t glossy_at = surfels_at + uint64_t(h.surfel_count) * kSurfelRecordBytes;
+  const uint64_t glossy_at = surfels_at + uint64_t(h.surfel_count) * record_bytes;
   const uint64_t need = glossy_at + kPageTrailerBytes;
   // A glossy section fills what lies between the surfels and the trailer.
   if (glossy ? need >= bytes.size() : need != bytes.size()) {
@@ -130,7 +134,8 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   view.shapes = shapes;
   view.leaf_records = bytes.subspan(leaves_at, leaves * kLeafRecordBytes);
   view.links = link;
-  view.surfel_records = bytes.subspan(surfels_at, uint64_t(h.surfel_count) * kSurfelRecordBytes);
+  view.surfel_records = bytes.subspan(surfels_at, uint64_t(h.surfel_count) * record_bytes);
+  view.leaf_format = leaf_format;
   view.payloads = stored;
   auto page = std::make_shared<tree::Page>();
   tree::expand_treelet(view, h.page_id, at, *page);

@@ -29,10 +29,12 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
 // `where`, deriving every node's summary. Links must point to pages with a
 // smaller id (written before). A glossy section is accepted only when
 // `glossy_allowed` (the manifest declares glossy radiance) and decoded into
-// Page::glossy. Throws CorruptionError naming the page, VersionError for an
-// unknown page format.
+// Page::glossy. Surfel records are read in `leaf_format` (the manifest's);
+// a page whose kPageFlagHalfLeaves disagrees is refused. Throws
+// CorruptionError naming the page, VersionError for an unknown page format.
 std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const PageLocation& where,
                           uint32_t expected_version, const PayloadCodec& codec,
-                          uint32_t page_count, bool glossy_allowed = false);
+                          uint32_t page_count, bool glossy_allowed = false,
+                          LeafFormat leaf_format = LeafFormat::kRelative);
 
 }  // namespace pbgi::storage

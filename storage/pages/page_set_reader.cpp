@@ -39,7 +39,7 @@ struct PageSetReader::Impl {
     if (cache) cache->note_bytes_read(bytes.size());
     std::shared_ptr<tree::Page> page = decode_page(bytes, {pages.path(), id, e.offset},
                                                    manifest.page_format, *codec, manifest.stats.page_count,
-                                                   manifest.glossy_resolution != 0);
+                                                   manifest.glossy_resolution != 0, manifest.options.leaf_format);
     if (decorate) decorate(*page);
     return page;
   }

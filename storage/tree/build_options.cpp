@@ -36,12 +36,15 @@ void BuildOptions::validate() const {
   }
   // Every page must be able to hold one full leaf (a leaf is never split
   // across pages) and one node whose two children live in other pages.
-  const size_t min_page = storage::min_page_bytes(leaf_size);
+  if (static_cast<uint8_t>(leaf_format) > static_cast<uint8_t>(storage::LeafFormat::kHalf)) {
+    throw InvalidArgument("tree.leaf_format = " + std::to_string(int(leaf_format)) + ": unknown");
+  }
+  const size_t min_page = storage::min_page_bytes(leaf_size, leaf_format);
   if (page_size < min_page || page_size > kMaxPageSize) {
     throw InvalidArgument("tree.page_size = " + std::to_string(page_size) + ": must be in [" +
                           std::to_string(min_page) + ", " + std::to_string(kMaxPageSize) +
-                          "] for tree.leaf_size = " + std::to_string(leaf_size) +
-                          " (a page holds at least one full leaf)");
+                          "] for tree.leaf_size = " + std::to_string(leaf_size) + " and tree.leaf_format = " +
+                          storage::to_string(leaf_format) + " (a page holds at least one full leaf)");
   }
   constexpr uint64_t kMinSortMemory = 64 * 1024;
   if (sort_memory_bytes < kMinSortMemory) {

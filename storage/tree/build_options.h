@@ -1,6 +1,8 @@
 // Options of the tree build and page layout (documented defaults).
 #pragma once
 
+#include "storage/format/page_records.h"
+
 #include <cstdint>
 #include <string>
 
@@ -49,6 +51,10 @@ struct BuildOptions {
   // block: exact). Scenes without glossy surfels never pay for them.
   uint32_t glossy_resolution = 16;
   float wavelet_threshold = 0.f;
+  // How leaves store surfels (storage/format/page_records.h): relative
+  // (the paper's format B, 24 B per surfel, the default) or half (format
+  // A, 38 B: float32 positions, half-float colours).
+  storage::LeafFormat leaf_format = storage::LeafFormat::kRelative;
 
   void validate() const;  // throws pbgi::InvalidArgument
 };

@@ -1,5 +1,5 @@
-// Turns the surfels of a leaf into V2 surfel records relative to the leaf's
-// frame (storage/format/page_records.h), and back.
+// Turns the surfels of a leaf into surfel records of a leaf format, relative
+// to the leaf's frame (storage/format/page_records.h), and back.
 //
 // The frame is the bounding sphere of the surfel disks, widened until every
 // *decoded* disk lies inside it: the tree's bounds are computed from the
@@ -18,9 +18,9 @@
 namespace pbgi::tree {
 
 // Encodes `surfels` (non-empty, finite, unit normals, radius >= 0) into
-// `records` (surfels.size() * kSurfelRecordBytes bytes) and writes what a
-// reader will decode into `decoded` (same size). Returns the frame.
-storage::LeafFrame quantize_leaf(std::span<const Surfel> surfels, uint8_t* records,
-                                 std::span<Surfel> decoded);
+// `records` (surfels.size() * surfel_record_bytes(format) bytes) and writes
+// what a reader will decode into `decoded` (same size). Returns the frame.
+storage::LeafFrame quantize_leaf(storage::LeafFormat format, std::span<const Surfel> surfels,
+                                 uint8_t* records, std::span<Surfel> decoded);
 
 }  // namespace pbgi::tree

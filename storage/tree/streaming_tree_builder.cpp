@@ -20,7 +20,6 @@ using storage::kLeafRecordBytes;
 using storage::kLinkRecordBytes;
 using storage::kPageOverheadBytes;
 using storage::kShapeBytes;
-using storage::kSurfelRecordBytes;
 
 constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
 
@@ -81,17 +80,21 @@ struct StreamingTreeBuilder::Impl {
   std::vector<Surfel> decoded;
   Treelet treelet;
   std::vector<uint32_t> visited;
+  size_t record_bytes = 0;  // of options.leaf_format
 
   Impl(const BuildOptions& o, uint64_t pb, uint64_t lpb, TreeletSink& s, const NodePayloadSizer* z)
       : options(o), page_bytes(pb), link_bytes(kLinkRecordBytes + lpb), sink(s), sizer(z) {
     options.validate();
-    if (page_bytes != 0 && page_bytes < storage::min_page_bytes(options.leaf_size)) {
+    record_bytes = storage::surfel_record_bytes(options.leaf_format);
+    treelet.leaf_format = options.leaf_format;
+    if (page_bytes != 0 && page_bytes < storage::min_page_bytes(options.leaf_size, options.leaf_format)) {
       throw InvalidArgument("page of " + std::to_string(page_bytes) + " bytes cannot hold a leaf of " +
                             std::to_string(options.leaf_size) + " surfels");
     }
     // A stored payload is at most a float32 one plus its code word.
     constexpr uint64_t kMaxStoredPayload = storage::kMaxPayloadBytesPerNode + 8;
-    if (sizer && page_bytes != 0 && page_bytes < storage::min_page_bytes(options.leaf_size) + kMaxStoredPayload) {
+    if (sizer && page_bytes != 0 &&
+        page_bytes < storage::min_page_bytes(options.leaf_size, options.leaf_format) + kMaxStoredPayload) {
       throw InvalidArgument("page of " + std::to_string(page_bytes) + " bytes cannot hold a leaf of " +
                             std::to_string(options.leaf_size) + " surfels and its stored payload");
     }
@@ -153,9 +156,9 @@ struct StreamingTreeBuilder::Impl {
   void close_leaf(uint32_t i) {
     Pending& p = arena[i];
     const size_t n = p.raw.size();
-    p.records.resize(n * kSurfelRecordBytes);
+    p.records.resize(n * record_bytes);
     decoded.resize(n);
-    p.frame = quantize_leaf(p.raw, p.records.data(), decoded);
+    p.frame = quantize_leaf(options.leaf_format, p.raw, p.records.data(), decoded);
     for (const Surfel& s : p.raw) {
       if (!s.gloss.glossy()) continue;
       p.gloss.resize(n);
@@ -163,7 +166,7 @@ struct StreamingTreeBuilder::Impl {
       break;
     }
     summarize_leaf(decoded, p.frame, p.node);
-    p.bytes = kShapeBytes + kLeafRecordBytes + n * kSurfelRecordBytes;
+    p.bytes = kShapeBytes + kLeafRecordBytes + n * record_bytes;
     p.payload_bits = 0;
     size_payload(p);
     p.height = 0;
@@ -253,7 +256,7 @@ struct StreamingTreeBuilder::Impl {
         const size_t at = treelet.leaf_records.size();
         treelet.leaf_records.resize(at + kLeafRecordBytes);
         storage::write_leaf_record(p.frame, p.node.surfel_count, treelet.leaf_records.data() + at);
-        const size_t before = treelet.surfel_records.size() / kSurfelRecordBytes;
+        const size_t before = treelet.surfel_records.size() / record_bytes;
         treelet.surfel_records.insert(treelet.surfel_records.end(), p.records.begin(), p.records.end());
         if (!p.gloss.empty()) {
           // Lobes are listed per surfel of the page once one leaf has any.
@@ -281,7 +284,7 @@ struct StreamingTreeBuilder::Impl {
         emit(c);  // may grow stack_frames: `f` is not used after this
       }
     }
-    if (!treelet.gloss.empty()) treelet.gloss.resize(treelet.surfel_records.size() / kSurfelRecordBytes);
+    if (!treelet.gloss.empty()) treelet.gloss.resize(treelet.surfel_records.size() / record_bytes);
     const uint32_t id = sink.write(treelet);
     if (id != stats.page_count) {
       throw Error("internal: page sink returned id " + std::to_string(id) + ", expected " +

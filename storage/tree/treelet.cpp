@@ -8,7 +8,9 @@
 
 namespace pbgi::tree {
 
-size_t Treelet::surfel_count() const { return surfel_records.size() / storage::kSurfelRecordBytes; }
+size_t Treelet::surfel_count() const {
+  return surfel_records.size() / storage::surfel_record_bytes(leaf_format);
+}
 
 namespace {
 void copy_payload(const Node& from, Node& to) {
@@ -31,7 +33,8 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
   auto corrupt = [&](const std::string& msg) { return CorruptionError(what + ": " + msg); };
   const size_t n = t.shapes.size();
   const size_t leaves = t.leaf_records.size() / kLeafRecordBytes;
-  const size_t surfels = t.surfel_records.size() / kSurfelRecordBytes;
+  const size_t record_bytes = surfel_record_bytes(t.leaf_format);
+  const size_t surfels = t.surfel_records.size() / record_bytes;
   if (n == 0) throw corrupt("page has no nodes");
   const bool stored = !t.payloads.empty();
   if (stored && t.payloads.size() != n) {
@@ -117,8 +120,10 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
       const LeafFrame& f = frame[node.children[0].index];
       node.children[0].index = 0;
       Surfel* s = out.surfels.data() + node.first_surfel;
-      const uint8_t* rec = t.surfel_records.data() + size_t(node.first_surfel) * kSurfelRecordBytes;
-      for (uint32_t k = 0; k < node.surfel_count; ++k) decode_surfel_record(rec + k * kSurfelRecordBytes, f, s[k]);
+      const uint8_t* rec = t.surfel_records.data() + size_t(node.first_surfel) * record_bytes;
+      for (uint32_t k = 0; k < node.surfel_count; ++k) {
+        decode_surfel_record(t.leaf_format, rec + k * record_bytes, f, s[k]);
+      }
       const uint32_t first = node.first_surfel;
       summarize_leaf({s, node.surfel_count}, f, node, !stored);
       node.first_surfel = first;

@@ -8,6 +8,7 @@
 // Thread-safety: values; expand_treelet() is reentrant.
 #pragma once
 
+#include "storage/format/page_records.h"
 #include "storage/tree/node.h"
 
 #include <cstdint>
@@ -29,7 +30,8 @@ struct TreeletView {
   std::span<const uint8_t> shapes;          // storage::kShapeBytes per node
   std::span<const uint8_t> leaf_records;    // storage::kLeafRecordBytes per leaf
   std::span<const TreeletLink> links;       // in the order the parse meets them
-  std::span<const uint8_t> surfel_records;  // storage::kSurfelRecordBytes per surfel
+  std::span<const uint8_t> surfel_records;  // surfel_record_bytes(leaf_format) per surfel
+  storage::LeafFormat leaf_format = storage::LeafFormat::kRelative;
   // Pages that store every node's payload: one decoded node per node, in
   // pre-order, whose radiance_sh and coverage_sh are taken instead of
   // derived. Empty: payloads are derived from the surfels and links.
@@ -42,6 +44,7 @@ struct Treelet {
   std::vector<uint8_t> leaf_records;
   std::vector<TreeletLink> links;
   std::vector<uint8_t> surfel_records;
+  storage::LeafFormat leaf_format = storage::LeafFormat::kRelative;
   // Builds that store every node's payload (NodePayloadSizer): each node's
   // summary with its exact payload, in pre-order, for the page's codec.
   // Empty otherwise.
@@ -50,7 +53,7 @@ struct Treelet {
   // page writer turns them into the page's wavelet radiance); else empty.
   std::vector<SurfelGloss> gloss;
 
-  TreeletView view() const { return {shapes, leaf_records, links, surfel_records, {}}; }
+  TreeletView view() const { return {shapes, leaf_records, links, surfel_records, leaf_format, {}}; }
   size_t node_count() const { return shapes.size(); }
   size_t surfel_count() const;
   void clear();

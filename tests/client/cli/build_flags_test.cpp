@@ -55,6 +55,12 @@ TEST(BuildFlags, GlossySenderFlagsAreSentOnlyWhenGiven) {
   EXPECT_THROW(parse({"--glossy-roughness", "2"}), CLI::ValidationError);
 }
 
+TEST(BuildFlags, LeafFormat) {
+  EXPECT_EQ(parse({}).to_proto().leaf_format(), "");
+  EXPECT_EQ(parse({"--leaf-format", "half"}).to_proto().leaf_format(), "half");
+  EXPECT_THROW(parse({"--leaf-format", "A"}), CLI::ValidationError);
+}
+
 TEST(BuildFlags, FogFlagsAreSentOnlyWhenGiven) {
   EXPECT_FALSE(parse({}).to_proto().has_fog());
   const v1::BuildOptions fog = parse({"--fog-extinction", "2.5", "--fog-albedo", "0"}).to_proto();

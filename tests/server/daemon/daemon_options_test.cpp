@@ -71,6 +71,7 @@ DaemonOptions non_default_options() {
   o.service.defaults.open.surfels.seed = 42;
   o.service.defaults.open.tree.page_size = 32768;
   o.service.defaults.open.tree.leaf_size = 8;
+  o.service.defaults.open.tree.leaf_format = storage::LeafFormat::kHalf;
   o.service.defaults.open.tree.payload_codec = tree::PayloadCodecOption::kQuantizedSh;
   o.service.defaults.open.tree.lut_entries = 1000;
   o.service.defaults.open.tree.lut_sample_fraction = 0.05;

@@ -59,5 +59,15 @@ TEST(BuildKey, GlossySenderOptionsChangeTheKeyButTheirDefaultsDoNot) {
   EXPECT_NE(page_set_build_key("h", d), k);
 }
 
+TEST(BuildKey, LeafFormatChangesTheKeyButItsDefaultDoesNot) {
+  const OpenOptions a;
+  OpenOptions explicit_default = a;
+  explicit_default.tree.leaf_format = storage::LeafFormat::kRelative;
+  EXPECT_EQ(page_set_build_key("h", explicit_default), page_set_build_key("h", a));
+  OpenOptions half = a;
+  half.tree.leaf_format = storage::LeafFormat::kHalf;
+  EXPECT_NE(page_set_build_key("h", half), page_set_build_key("h", a));
+}
+
 }  // namespace
 }  // namespace pbgi

@@ -225,6 +225,24 @@ TEST(OptionsCodec, GlossySenderOptionsAreBuildOptionsWithTheirOwnKey) {
   EXPECT_THROW(decode_open_options(proto, defaults), InvalidArgument);
 }
 
+TEST(OptionsCodec, LeafFormatIsABuildOptionWithItsOwnKey) {
+  const OpenOptions defaults;
+  v1::BuildOptions proto;
+  EXPECT_EQ(decode_open_options(proto, defaults).tree.leaf_format, storage::LeafFormat::kRelative);
+  proto.set_leaf_format("half");
+  const OpenOptions half = decode_open_options(proto, defaults);
+  EXPECT_EQ(half.tree.leaf_format, storage::LeafFormat::kHalf);
+  EXPECT_NE(open_options_key(half), open_options_key(defaults));
+  EXPECT_EQ(decode_open_options(encode_open_options(half), defaults).tree.leaf_format, storage::LeafFormat::kHalf);
+  proto.set_leaf_format("A");
+  try {
+    decode_open_options(proto, defaults);
+    FAIL() << "accepted leaf_format A";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("BuildOptions.leaf_format"), std::string::npos) << e.what();
+  }
+}
+
 TEST(OptionsCodec, FogOptionsAreBuildOptionsWithTheirOwnKey) {
   const OpenOptions defaults;
   v1::BuildOptions proto;

@@ -70,6 +70,9 @@ struct Args {
   // (threshold 0) glossy radiance.
   std::vector<float> wavelet_thresholds;
   uint32_t glossy_resolution = 16;
+  // Leaf formats (storage/format/page_records.h) besides relative, the
+  // paper's format B: each repeats float32-sh and every LUT in that format.
+  std::vector<std::string> leaf_formats;
 };
 
 // 1. Surfels of the scene, from the cache when present.
@@ -122,6 +125,7 @@ double psnr(const std::vector<float>& ref, const std::vector<float>& img) {
 
 struct Row {
   std::string name;
+  storage::LeafFormat leaf_format = storage::LeafFormat::kRelative;
   uint64_t file_bytes = 0, payload_bytes = 0;
   uint64_t pages = 0;
   double build_seconds = 0, lut_seconds = 0;
@@ -152,16 +156,18 @@ uint64_t payload_bytes(const fs::path& dir, const storage::Manifest& m) {
 // Builds one variant's page set from `surfels` and measures it.
 Row build_variant(const Args& a, const std::vector<Surfel>& surfels, const std::string& name,
                   tree::PayloadCodecOption codec, uint32_t lut, const fs::path& dir,
-                  const storage::GlossyShader& glossy, float wavelet_threshold = 0.f) {
+                  const storage::GlossyShader& glossy, float wavelet_threshold = 0.f,
+                  storage::LeafFormat leaf_format = storage::LeafFormat::kRelative) {
   tree::BuildOptions o;
   o.leaf_size = a.leaf_size;
+  o.leaf_format = leaf_format;
   o.payload_codec = codec;
   o.lut_entries = lut;
   o.lut_sample_fraction = a.fraction;
   o.glossy_resolution = a.glossy_resolution;
   o.wavelet_threshold = wavelet_threshold;
   fs::remove_all(dir);
-  Row r{name};
+  Row r{name, leaf_format};
   storage::BuildReport report;
   const auto t0 = Clock::now();
   const storage::Manifest m = storage::build_page_set(surfels, o, "bench-" + name, dir, {}, &report, &glossy);
@@ -227,9 +233,10 @@ int run(const Args& a) {
   }
 
   // 3. Stored variants.
-  auto add_variant = [&](const std::string& name, tree::PayloadCodecOption codec, uint32_t lut, float threshold) {
+  auto add_variant = [&](const std::string& name, tree::PayloadCodecOption codec, uint32_t lut, float threshold,
+                         storage::LeafFormat leaf_format = storage::LeafFormat::kRelative) {
     const fs::path dir = a.sets / name;
-    Row r = build_variant(a, surfels, name, codec, lut, dir, glossy, threshold);
+    Row r = build_variant(a, surfels, name, codec, lut, dir, glossy, threshold, leaf_format);
     const Image img = render_set(dir);
     if (a.render) {
       r.psnr_indirect = psnr(ref_img.indirect, img.indirect);
@@ -245,9 +252,18 @@ int run(const Args& a) {
   for (float t : a.wavelet_thresholds) {
     add_variant(fmt::format("wavelet-t{}", t), tree::PayloadCodecOption::kDerived, 4096, t);
   }
+  for (const std::string& name : a.leaf_formats) {
+    const storage::LeafFormat f = storage::parse_leaf_format(name);
+    if (f == storage::LeafFormat::kRelative) continue;  // the rows above
+    add_variant(fmt::format("float32-sh-{}", name), tree::PayloadCodecOption::kFloatSh, 4096, 0.f, f);
+    for (uint32_t l : a.luts) {
+      add_variant(fmt::format("kmeans-sh-l{}-{}", l, name), tree::PayloadCodecOption::kQuantizedSh, l, 0.f, f);
+    }
+  }
 
   // 4. Report. Ratios are against the float32-sh page set (every node's
-  //    payload stored as 144 bytes), the paper's uncompressed tree.
+  //    payload stored as 144 bytes), the paper's uncompressed tree, of the
+  //    same leaf format.
   std::cout << fmt::format("scene {}, {} surfels, leaf_size {}, {} nodes, image {}^2, LUT sample {:.1f} %, "
                            "{} threads\n\n",
                            a.scene.filename().string(), surfels.size(), a.leaf_size, nodes, a.image,
@@ -256,8 +272,14 @@ int run(const Args& a) {
                "build s | of which LUT s | LUT entries / sample surfels | load all pages s | PSNR indirect dB | "
                "PSNR beauty dB |\n";
   std::cout << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
-  const Row& fl = rows[1];
+  auto float_row = [&](const Row& r) -> const Row& {
+    for (const Row& f : rows) {
+      if (f.name.rfind("float32-sh", 0) == 0 && f.leaf_format == r.leaf_format) return f;
+    }
+    return rows[1];
+  };
   for (const Row& r : rows) {
+    const Row& fl = float_row(r);
     std::cout << fmt::format(
         "| {} | {:.1f} | {:.2f}x | {:.2f} | {} | {:.2f} | {} | {:.1f} | {:.1f} | {} | {:.2f} | {:.1f} | {:.1f} |\n",
         r.name,
@@ -269,7 +291,8 @@ int run(const Args& a) {
         r.psnr_indirect,
         r.psnr_beauty);
   }
-  std::cout << "\nPSNR against the derived (exact) page set; inf = identical images.\n";
+  std::cout << "\nPSNR against the derived (exact) page set in the relative leaf format; inf = identical "
+               "images. Ratios against float32-sh in the row's leaf format.\n";
   if (rows[0].glossy_surfels > 0) {
     std::cout << fmt::format("\nGlossy senders: {} surfels, cube maps {}^2 per face. Stored glossy radiance "
                              "against dense float32 cube maps for every coded node:\n\n",
@@ -307,6 +330,9 @@ int main(int argc, char** argv) {
   app.add_option("--wavelet-threshold", a.wavelet_thresholds,
                  "glossy senders: wavelet thresholds to measure (a variant each)");
   app.add_option("--glossy-resolution", a.glossy_resolution, "glossy senders: cube map pixels per face side");
+  app.add_option("--leaf-format", a.leaf_formats,
+                 "leaf formats besides relative (format B) to measure: half (format A); each repeats "
+                 "float32-sh and every --lut");
   app.add_option("--threads", a.threads, "worker threads (0: all cores; 1: the paper's single-threaded build)");
   CLI11_PARSE(app, argc, argv);
   std::optional<tbb::global_control> threads;

@@ -263,10 +263,10 @@ TEST(PageRecords, SurfelRecordWithinItsStatedPrecision) {
     s.albedo = {0.5f + 0.5f * u(rng), 0.25f, 0.f};
     s.emission = {0, 0, 0};
     s.radiance = {100.f * (u(rng) + 1.f), 3.f, 0.125f};
-    uint8_t rec[kSurfelRecordBytes];
-    encode_surfel_record(s, frame, rec);
+    uint8_t rec[kRelativeSurfelRecordBytes];
+    encode_surfel_record(LeafFormat::kRelative, s, frame, rec);
     Surfel d;
-    decode_surfel_record(rec, frame, d);
+    decode_surfel_record(LeafFormat::kRelative, rec, frame, d);
     // Documented: R/65534 per coordinate, R/131070 for the radius (plus
     // float rounding of center + offset).
     const float ulp = 250.f * 0x1p-23f;
@@ -277,6 +277,92 @@ TEST(PageRecords, SurfelRecordWithinItsStatedPrecision) {
     ASSERT_EQ(d.emission, Imath::C3f(0.f));
     ASSERT_NEAR(d.radiance.x, s.radiance.x, std::max(s.radiance.x, 3.f) / 512.f);
   }
+}
+
+// Format A (half): positions exact, the rest within the precision
+// page_records.h states, for bright and dim colours alike.
+TEST(PageRecords, HalfSurfelRecordWithinItsStatedPrecision) {
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  const LeafFrame frame{{1e5f, -3.f, 250.f}, 0.37f};
+  double worst_normal = 0;
+  for (int i = 0; i < 100000; ++i) {
+    Surfel s;
+    s.position = frame.center + 0.55f * frame.radius * Imath::V3f(u(rng), u(rng), u(rng));
+    s.normal = Imath::V3f(u(rng), u(rng), u(rng) + 0.01f).normalized();
+    s.radius = 0.4f * frame.radius * (u(rng) + 1.f) / 2.f;
+    s.albedo = {0.5f + 0.5f * u(rng), 0.25f, 0.f};
+    s.emission = {1e-6f, 0, 40000.f};
+    s.radiance = {100.f * (u(rng) + 1.f), 3.f, 1e-3f * (u(rng) + 1.f)};
+    uint8_t rec[kHalfSurfelRecordBytes];
+    encode_surfel_record(LeafFormat::kHalf, s, frame, rec);
+    Surfel d;
+    decode_surfel_record(LeafFormat::kHalf, rec, frame, d);
+    ASSERT_EQ(d.position, s.position);  // float32, stored as is
+    ASSERT_NEAR(d.radius, s.radius, frame.radius / 4096.f);
+    ASSERT_NEAR(d.normal.length(), 1.f, 1e-6f);
+    const double angle = angle_between(d.normal, s.normal);
+    worst_normal = std::max(worst_normal, angle);
+    ASSERT_LE(angle, 1e-3);
+    auto near_rel = [](float got, float want) {
+      // 2^-11 of itself above half's smallest normal, 6e-8 below.
+      return std::abs(got - want) <= std::max(want * 0x1p-11f, 6e-8f);
+    };
+    for (int c = 0; c < 3; ++c) {
+      ASSERT_TRUE(near_rel(d.albedo[c], s.albedo[c])) << c << " " << d.albedo[c] << " " << s.albedo[c];
+      ASSERT_TRUE(near_rel(d.emission[c], s.emission[c])) << c << " " << d.emission[c] << " " << s.emission[c];
+      ASSERT_TRUE(near_rel(d.radiance[c], s.radiance[c])) << c << " " << d.radiance[c] << " " << s.radiance[c];
+    }
+  }
+  std::printf("half leaf records: worst normal angle %.3g rad\n", worst_normal);
+}
+
+// Half colours keep what RGB9E5's shared exponent loses: a dim channel
+// next to a bright one.
+TEST(PageRecords, HalfKeepsDimChannelsNextToBrightOnes) {
+  const LeafFrame frame{{0, 0, 0}, 1.f};
+  Surfel s;
+  s.normal = {0, 0, 1};
+  s.radius = 0.5f;
+  s.radiance = {1000.f, 0.01f, 0.f};
+  Surfel relative, half;
+  uint8_t rec[kHalfSurfelRecordBytes];
+  encode_surfel_record(LeafFormat::kRelative, s, frame, rec);
+  decode_surfel_record(LeafFormat::kRelative, rec, frame, relative);
+  encode_surfel_record(LeafFormat::kHalf, s, frame, rec);
+  decode_surfel_record(LeafFormat::kHalf, rec, frame, half);
+  EXPECT_EQ(relative.radiance.y, 0.f);  // below max/512: flushed by the shared exponent
+  EXPECT_NEAR(half.radiance.y, 0.01f, 0.01f * 0x1p-11f);
+}
+
+// Out-of-range values clamp to half's largest finite value: never inf.
+TEST(PageRecords, HalfClampsInsteadOfOverflowing) {
+  const LeafFrame frame{{0, 0, 0}, 1.f};
+  Surfel s;
+  s.normal = {0, 0, 1};
+  s.radius = 0.5f;
+  s.emission = {1e9f, 0.f, 0.f};
+  s.radiance = {1e9f, 0.f, 0.f};
+  uint8_t rec[kHalfSurfelRecordBytes];
+  encode_surfel_record(LeafFormat::kHalf, s, frame, rec);
+  Surfel d;
+  decode_surfel_record(LeafFormat::kHalf, rec, frame, d);
+  EXPECT_EQ(d.emission.x, 65504.f);
+  EXPECT_EQ(d.radiance.x, 65504.f);
+}
+
+TEST(PageRecords, LeafFormatNames) {
+  EXPECT_EQ(parse_leaf_format("relative"), LeafFormat::kRelative);
+  EXPECT_EQ(parse_leaf_format("half"), LeafFormat::kHalf);
+  EXPECT_EQ(to_string(LeafFormat::kHalf), "half");
+  try {
+    parse_leaf_format("A");
+    FAIL() << "accepted an unknown leaf format";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("relative, half"), std::string::npos) << e.what();
+  }
+  // Large leaves (not the internal node) set the minimum: 14 more bytes per surfel.
+  EXPECT_EQ(min_page_bytes(64, LeafFormat::kHalf), min_page_bytes(64, LeafFormat::kRelative) + 64 * 14);
 }
 
 }  // namespace
