@@ -17,6 +17,10 @@ void GatherArgs::add_to(CLI::App* cmd) {
                   "glossy lobes: finest microbuffer resolution, 4..64 [32]");
   cmd->add_option("--glossy-importance", glossy_importance,
                   "glossy lobes: lobe share that splits a cell, (0, 1] [0.01]");
+  cmd->add_option("--glossy-radiance-weight", glossy_radiance_weight,
+                  "glossy lobes: share of a cell's importance that follows incoming radiance, "
+                  "0 = the lobe alone [0.5]")
+      ->check(CLI::Range(0.f, 1.f));
 }
 
 v1::GatherOptions GatherArgs::to_proto() const {
@@ -33,6 +37,7 @@ v1::GatherOptions GatherArgs::to_proto() const {
   o.set_hdr_refine(hdr_refine);
   o.set_glossy_max_resolution(glossy_max_resolution);
   o.set_glossy_importance(glossy_importance);
+  if (glossy_radiance_weight) o.set_glossy_radiance_weight(*glossy_radiance_weight);
   return o;
 }
 

@@ -9,6 +9,7 @@
 #include <CLI/CLI.hpp>
 
 #include <cstdint>
+#include <optional>
 #include <string>
 
 namespace pbgi::cli {
@@ -25,6 +26,7 @@ struct GatherArgs {
   float hdr_refine = 0.f;
   uint32_t glossy_max_resolution = 0;
   float glossy_importance = 0.f;
+  std::optional<float> glossy_radiance_weight;  // unset = the daemon's default
 
   // Adds --mb-res, --max-solid-angle, --ao-max-distance, --light-samples,
   // --pixel-samples, --method, --clusters, --epsilon, --hdr-refine,

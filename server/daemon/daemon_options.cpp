@@ -283,6 +283,7 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
     gather.read("hdr_refine", r.gather.hdr_refine);
     gather.read("glossy_max_resolution", r.gather.glossy_max_resolution);
     gather.read("glossy_importance", r.gather.glossy_importance);
+    gather.read("glossy_radiance_weight", r.gather.glossy_radiance_weight);
     gather.reject_unknown();
   }
   if (const toml::table* table = top.table("build")) {
@@ -400,6 +401,7 @@ std::string to_toml(const DaemonOptions& o) {
   float32_value("hdr_refine", r.gather.hdr_refine);
   integer_value("glossy_max_resolution", r.gather.glossy_max_resolution);
   float32_value("glossy_importance", r.gather.glossy_importance);
+  float32_value("glossy_radiance_weight", r.gather.glossy_radiance_weight);
 
   const OpenOptions& b = o.service.defaults.open;
   out << "\n[build]\n";
@@ -507,6 +509,7 @@ bool operator==(const DaemonOptions& a, const DaemonOptions& b) {
          ra.gather.epsilon == rb.gather.epsilon && ra.gather.hdr_refine == rb.gather.hdr_refine &&
          ra.gather.glossy_max_resolution == rb.gather.glossy_max_resolution &&
          ra.gather.glossy_importance == rb.gather.glossy_importance &&
+         ra.gather.glossy_radiance_weight == rb.gather.glossy_radiance_weight &&
          oa.surfels.spacing == ob.surfels.spacing && oa.surfels.sampler == ob.surfels.sampler &&
          oa.surfels.camera == ob.surfels.camera && oa.surfels.image_width == ob.surfels.image_width &&
          oa.surfels.image_height == ob.surfels.image_height &&

@@ -78,8 +78,9 @@ class CutWalker {
   void walk_lobe(const LobeRefinement& lobe);
   // Resolves the receiver's microbuffer, with a cluster's far content and
   // a per-pixel gain (Microbuffer::resolve).
-  Resolved resolve(const FarBuffer* far, const Imath::C3f* gain = nullptr) {
-    return buffer_.resolve(options_.ao_max_distance, far, gain);
+  Resolved resolve(const FarBuffer* far, const Imath::C3f* gain = nullptr,
+                   std::vector<PixelLight>* light = nullptr) {
+    return buffer_.resolve(options_.ao_max_distance, far, gain, light);
   }
 
   // Walks a cluster's coarse cut from the root: far nodes go into `far`

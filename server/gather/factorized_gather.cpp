@@ -51,12 +51,11 @@ void FactorizedGather::gather(std::span<const Receiver> rs, std::span<GatherResu
       walker_.walk_receiver();
       if (fog) add_volume_fragments(*fog, rs[i].position, walker_.buffer());
       const bool lobe = glossy && rs[i].glossy.active();
-      const Resolved r =
-          walker_.resolve(&far_, lobe ? glossy->begin(rs[i], walker_.buffer()) : nullptr);
+      const Resolved r = lobe ? glossy->resolve(rs[i], walker_, &far_) : walker_.resolve(&far_);
       results[i].irradiance = r.irradiance;
       results[i].ao = r.ao;
       if (lobe) {
-        results[i].glossy = r.reflected + glossy->refined(rs[i], counters);
+        results[i].glossy = r.reflected + glossy->refined(rs[i], counters, fog);
         ++counters.glossy_receivers;
       }
       ++counters.receivers;

@@ -135,11 +135,11 @@ GatherResult Gatherer::gather_pinned(const Receiver& r) {
     return out;
   }
   gather::GlossyGather& glossy = impl_->glossy();
-  const gather::Resolved res = w.resolve(nullptr, glossy.begin(r, w.buffer()));
+  const gather::Resolved res = glossy.resolve(r, w, nullptr);
   GatherResult out;
   out.irradiance = res.irradiance;
   out.ao = res.ao;
-  out.glossy = res.reflected + glossy.refined(r, counters_);
+  out.glossy = res.reflected + glossy.refined(r, counters_, impl_->fog.get());
   ++counters_.glossy_receivers;
   return out;
 }

@@ -47,6 +47,10 @@ void GatherOptions::validate() const {
         ": must be in [" + std::to_string(kMinMicrobufferResolution) + ", " +
         std::to_string(kMaxGlossyResolution) + "]");
   }
+  if (!(glossy_radiance_weight >= 0.f && glossy_radiance_weight <= 1.f)) {
+    throw InvalidArgument("GatherOptions.glossy_radiance_weight = " + std::to_string(glossy_radiance_weight) +
+                          ": must be in [0, 1]");
+  }
   if (!(std::isfinite(glossy_importance) && glossy_importance > 0.f && glossy_importance <= 1.f)) {
     throw InvalidArgument("GatherOptions.glossy_importance = " +
                           std::to_string(glossy_importance) + ": must be in (0, 1]");

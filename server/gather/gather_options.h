@@ -69,6 +69,11 @@ struct GatherOptions {
   uint32_t glossy_max_resolution = 32;
   // (0, 1]: smaller refines more of the lobe's tails.
   float glossy_importance = 0.01f;
+  // [0, 1]: how much of a cell's importance follows the incoming radiance
+  // (the lobe's weight x the radiance the coarse microbuffer resolved
+  // there, lobe_refinement.h) rather than the lobe alone: the lobe's tail
+  // is refined where it meets a bright source. 0 = the lobe alone.
+  float glossy_radiance_weight = 0.5f;
 
   // Throws pbgi::InvalidArgument naming the field when out of range.
   void validate() const;

@@ -1,8 +1,9 @@
 // The glossy part of a receiver's gather (docs/gather.md, section 14), used
 // by PBGI and factorized PBGI alike once the receiver's own microbuffer has
-// been walked: its lobe's quadtree (lobe_refinement.h) gives the coarse
-// pixels' gains, which the caller's resolve applies, and the refined pixels
-// are gathered again here, by a walk into a fine microbuffer.
+// been walked: resolve() resolves that buffer keeping each pixel's light,
+// builds the lobe's quadtree (lobe_refinement.h) from the lobe and that
+// light, and convolves the unrefined pixels with the lobe; refined() gathers
+// the refined pixels again, by a walk into a fine microbuffer.
 //
 // Thread-safety: none; one per Gatherer. Errors: whatever the TreeSource
 // throws, CorruptionError for bad links (as the diffuse walk).
@@ -15,6 +16,10 @@
 
 #include <memory>
 
+namespace pbgi {
+class VolumePoints;
+}
+
 namespace pbgi::gather {
 
 class GlossyGather {
@@ -23,18 +28,21 @@ class GlossyGather {
   GlossyGather(const tree::TreeSource& tree, const GatherOptions& options,
                GatherCache::Impl* shared);
 
-  // Starts receiver r (checked, active lobe): samples its lobe and returns
-  // the coarse pixels' gains against `coarse`, the receiver's microbuffer
-  // (begun for r), valid until the next begin().
-  const Imath::C3f* begin(const Receiver& r, const Microbuffer& coarse);
-  // The refined pixels' part of r's glossy radiance (after begin(r)): the
-  // fine walk, with pages pinned only during the call. Adds its node visits
-  // to counters.glossy_nodes_visited and its page fetches to
+  // Resolves receiver r's coarse microbuffer (`walker`'s, walked for r,
+  // with a cluster's far content if any) as CutWalker::resolve does, and
+  // starts r's lobe (r checked, lobe active): Resolved::reflected holds
+  // the unrefined pixels' part of r's glossy radiance.
+  Resolved resolve(const Receiver& r, CutWalker& walker, const FarBuffer* far);
+  // The refined pixels' part of r's glossy radiance (after resolve(r)):
+  // the fine walk, with the fog's points if any (volume_points.h), with
+  // pages pinned only during the call. Adds its node visits to
+  // counters.glossy_nodes_visited and its page fetches to
   // counters.pages_fetched.
-  Imath::C3f refined(const Receiver& r, GatherCounters& counters);
+  Imath::C3f refined(const Receiver& r, GatherCounters& counters, const VolumePoints* fog);
 
  private:
   LobeRefinement lobe_;
+  std::vector<PixelLight> light_;  // the coarse buffer's, per receiver
   GatherCounters fine_counters_;  // the fine walker's own
   std::unique_ptr<CutWalker> fine_;  // null: no refinement (fixed buffer)
 };

@@ -27,14 +27,24 @@ uint32_t log2_ratio(uint32_t fine, uint32_t coarse) {
 
 inline float mean(const Imath::C3f& c) { return (c.x + c.y + c.z) * (1.f / 3.f); }
 
+// A pixel straddling the horizon has a cosine weight (its part above) but
+// its center may lie below, where f is 0: its part above is what the
+// weight stands for, so f is taken just above the horizon instead.
+Imath::V3f above_horizon(const Imath::V3f& d, const Imath::V3f& n) {
+  constexpr float kLift = 0.02f;  // ~1 degree
+  const float c = n.dot(d);
+  return c >= kLift ? d : (d + n * (kLift - c)).normalized();
+}
 }  // namespace
 
 LobeRefinement::LobeRefinement(const CubeLayout& coarse, const CubeLayout& fine, float importance,
-                               float max_solid_angle)
+                               float radiance_weight, float max_solid_angle)
     : coarse_(coarse),
       fine_(fine),
       levels_(log2_ratio(fine.resolution(), coarse.resolution())),
       importance_(importance),
+      radiance_weight_(radiance_weight),
+      radiance_(coarse.pixel_count(), 0.f),
       level_(coarse.pixel_count(), 0),
       coarse_mass_(coarse.pixel_count(), Imath::C3f(0, 0, 0)),
       coarse_gain_(coarse.pixel_count(), Imath::C3f(0, 0, 0)),
@@ -47,11 +57,24 @@ LobeRefinement::LobeRefinement(const CubeLayout& coarse, const CubeLayout& fine,
     level_cut_.push_back(std::min(max_solid_angle, 4.f * kPiF / (6.f * side * side)));
   }
   samples_.reserve(kLobeSamples);
+  share_.reserve(kLobeSamples);
   scratch_.reserve(kLobeSamples);
   // A pixel's center-to-corner angle is largest at a face's center,
   // atan(pixel width / sqrt 2).
   pixel_half_diagonal_ = std::atan(coarse.pixel_width() * 0.70710678f);
+  // A finest pixel spans at most atan(its width) radians.
+  wide_alpha_ = kWideLobePixels * std::atan(fine.pixel_width());
 }
+
+namespace {
+BrdfLobes specular_lobes(const GlossyLobe& lobe) {
+  BrdfLobes lobes;
+  lobes.f0 = lobe.specular;
+  lobes.alpha = std::max(kMinGgxAlpha, lobe.roughness * lobe.roughness);  // brdf.h's rule
+  lobes.specular = true;
+  return lobes;
+}
+}  // namespace
 
 uint32_t LobeRefinement::coarse_of(uint32_t fine) const {
   // Derived from the fine pixel (not looked up again) so that a fine pixel
@@ -69,18 +92,22 @@ uint64_t LobeRefinement::cell_key(uint32_t fine, uint32_t level) const {
   return (uint64_t(face) << 40) | (uint64_t(j >> shift) << 20) | uint64_t(i >> shift);
 }
 
-void LobeRefinement::begin(const Imath::V3f& n, const GlossyLobe& lobe) {
+void LobeRefinement::begin(const Imath::V3f& n, const GlossyLobe& lobe, std::span<const PixelLight> light,
+                           const Microbuffer& coarse) {
   // 1. The lobe as weighted directions, from brdf.h's sampler (specular
   //    lobe only: no diffuse, so every sample is a GGX one).
-  BrdfLobes lobes;
-  lobes.f0 = lobe.specular;
-  lobes.alpha = std::max(kMinGgxAlpha, lobe.roughness * lobe.roughness);  // brdf.h's rule
-  lobes.specular = true;
+  const BrdfLobes lobes = specular_lobes(lobe);
   const Brdf brdf(lobes, n);
   for (const Sample& s : samples_) {
     coarse_mass_[s.coarse] = Imath::C3f(0, 0, 0);
     coarse_gain_[s.coarse] = Imath::C3f(0, 0, 0);
   }
+  for (const uint32_t k : hemisphere_) coarse_gain_[k] = Imath::C3f(0, 0, 0);
+  hemisphere_.clear();
+  normal_ = n;
+  view_ = lobe.view;
+  lobe_ = lobe;
+  wide_ = levels_ > 0 && lobes.alpha >= wide_alpha_;
   for (const uint32_t k : refined_list_) level_[k] = 0;
   refined_list_.clear();
   samples_.clear();
@@ -101,16 +128,117 @@ void LobeRefinement::begin(const Imath::V3f& n, const GlossyLobe& lobe) {
     }
   }
 
-  // 2. The quadtree: a cell holding more than `importance` of the lobe is
-  //    split; a coarse pixel's level is the deepest split inside it, + 1.
+  // 2. Each sample's importance (header): its share of the lobe, mixed
+  //    with its share of the lobe x incoming radiance.
   refined_count_ = 0;
   max_level_ = 0;
-  const float threshold = importance_ * mean(total_);
-  if (levels_ == 0 || !(threshold > 0.f)) return;
+  if (levels_ == 0 || !(mean(total_) > 0.f)) return;
+  for (const uint32_t k : lit_) radiance_[k] = 0.f;
+  lit_.clear();
+  if (radiance_weight_ > 0.f) {
+    for (const PixelLight& p : light) {
+      const float w = coarse.weight(p.pixel);
+      const float l = mean(p.light);
+      if (!(w > 0.f) || !(l > 0.f) || !std::isfinite(l)) continue;
+      radiance_[p.pixel] = l / w;
+      lit_.push_back(p.pixel);
+    }
+  }
+  if (wide_) {
+    begin_wide(brdf, coarse);
+  } else {
+    begin_binned();
+  }
+  refined_count_ = uint32_t(refined_list_.size());
+
+  // 4. A cone around the refined pixels, for cut()'s quick rejection.
+  Imath::V3f axis(0, 0, 0);
+  for (const uint32_t k : refined_list_) axis += coarse_.direction(k);
+  region_axis_ = axis.length() > 1e-6f ? axis.normalized() : n;
+  float widest = 0.f;
+  for (const uint32_t k : refined_list_) {
+    const float c = std::clamp(region_axis_.dot(coarse_.direction(k)), -1.f, 1.f);
+    widest = std::max(widest, std::acos(c) + pixel_half_diagonal_);
+  }
+  region_angle_ = widest;
+}
+
+void LobeRefinement::begin_wide(const Brdf& brdf, const Microbuffer& coarse) {
+  // Every coarse pixel of the hemisphere: f_spec averaged over the pixel
+  // (over its finest pixels, weighted by their cosine x solid angle: a
+  // coarse pixel spans 11 degrees at N = 8, over which a lobe's tail
+  // changes several-fold), and its share of the lobe (f x the pixel's
+  // cosine weight) and of lobe x radiance.
+  double lobe_total = 0.0, lit_total = 0.0;
+  const uint32_t nc = coarse_.resolution(), side = 1u << levels_;
+  for (uint32_t k = 0; k < coarse_.pixel_count(); ++k) {
+    const float w = coarse.weight(k);
+    if (!(w > 0.f)) continue;
+    const uint32_t i = k % nc, j = (k / nc) % nc, face = k / (nc * nc);
+    Imath::C3f sum(0, 0, 0);
+    float sum_w = 0.f;
+    for (uint32_t dj = 0; dj < side; ++dj) {
+      for (uint32_t di = 0; di < side; ++di) {
+        const uint32_t fp = fine_.index(int(face), i * side + di, j * side + dj);
+        const Imath::V3f d = fine_.direction(fp);
+        const float c = normal_.dot(d);
+        if (!(c > 0.f)) continue;
+        const float fw = c * fine_.solid_angle(fp);
+        sum += brdf.eval(view_, above_horizon(d, normal_)) * fw;
+        sum_w += fw;
+      }
+    }
+    if (!(sum_w > 0.f)) continue;
+    const Imath::C3f f = sum / sum_w;
+    const float m = mean(f) * w;
+    if (!(m > 0.f) || !std::isfinite(m)) continue;
+    coarse_gain_[k] = f;
+    hemisphere_.push_back(k);
+    lobe_total += m;
+    lit_total += double(m) * radiance_[k];
+  }
+  if (!(lobe_total > 0.0)) return;
+  // The pixels' weights near the horizon are the microbuffer's
+  // approximations (microbuffer.h), and a lobe at a grazing view lies
+  // there: the evaluated lobe is scaled to the directional albedo its
+  // stratified samples integrate (within ~1%), so only its distribution
+  // comes from evaluation.
+  Imath::C3f evaluated(0, 0, 0);
+  for (const uint32_t k : hemisphere_) evaluated += coarse_gain_[k] * coarse.weight(k);
+  for (int c = 0; c < 3; ++c) scale_[c] = evaluated[c] > 0.f ? total_[c] / evaluated[c] : 0.f;
+  for (const uint32_t k : hemisphere_) coarse_gain_[k] *= scale_;
+  const double b = lit_total > 0.0 && std::isfinite(lit_total) ? radiance_weight_ : 0.0;
+  for (const uint32_t k : hemisphere_) {
+    const double m = double(mean(coarse_gain_[k])) * coarse.weight(k);
+    const double share = (1.0 - b) * m / lobe_total + (b > 0.0 ? b * m * radiance_[k] / lit_total : 0.0);
+    if (share > importance_) {
+      level_[k] = uint8_t(levels_);
+      refined_list_.push_back(k);
+      coarse_gain_[k] = Imath::C3f(0, 0, 0);  // gathered in the fine buffer
+    }
+  }
+  max_level_ = refined_list_.empty() ? 0 : levels_;
+}
+
+void LobeRefinement::begin_binned() {
+  double lit_total = 0.0;
+  for (const Sample& s : samples_) lit_total += double(mean(s.weight)) * radiance_[s.coarse];
+  const float b = lit_total > 0.0 && std::isfinite(lit_total) ? radiance_weight_ : 0.f;
+  const float lobe_scale = (1.f - b) / mean(total_);
+  const float lit_scale = b > 0.f ? float(double(b) / lit_total) : 0.f;
+  share_.clear();
+  for (const Sample& s : samples_) {
+    share_.push_back(mean(s.weight) * (lobe_scale + lit_scale * radiance_[s.coarse]));
+  }
+
+  // 3. The quadtree: a cell whose importance is more than `importance` is
+  //    split; a coarse pixel's level is the deepest split inside it, + 1.
+  const float threshold = importance_;
   for (uint32_t level = 0; level < levels_; ++level) {
     scratch_.clear();
-    for (const Sample& s : samples_) {
-      scratch_.push_back({cell_key(s.fine, level), mean(s.weight), s.coarse});
+    for (size_t i = 0; i < samples_.size(); ++i) {
+      const Sample& s = samples_[i];
+      scratch_.push_back({cell_key(s.fine, level), share_[i], s.coarse});
     }
     std::sort(scratch_.begin(), scratch_.end(),
               [](const Cell& a, const Cell& b) { return a.key < b.key; });
@@ -127,21 +255,10 @@ void LobeRefinement::begin(const Imath::V3f& n, const GlossyLobe& lobe) {
       i = j;
     }
   }
-  refined_count_ = uint32_t(refined_list_.size());
-
-  // 3. A cone around the refined pixels, for cut()'s quick rejection.
-  Imath::V3f axis(0, 0, 0);
-  for (const uint32_t k : refined_list_) axis += coarse_.direction(k);
-  region_axis_ = axis.length() > 1e-6f ? axis.normalized() : n;
-  float widest = 0.f;
-  for (const uint32_t k : refined_list_) {
-    const float c = std::clamp(region_axis_.dot(coarse_.direction(k)), -1.f, 1.f);
-    widest = std::max(widest, std::acos(c) + pixel_half_diagonal_);
-  }
-  region_angle_ = widest;
 }
 
 const Imath::C3f* LobeRefinement::coarse_gain(const Microbuffer& coarse) {
+  if (wide_) return coarse_gain_.data();  // evaluated by begin()
   // Only pixels holding samples can be non-zero; the rest were zeroed when
   // they last held some.
   for (const Sample& s : samples_) {
@@ -155,6 +272,23 @@ const Imath::C3f* LobeRefinement::coarse_gain(const Microbuffer& coarse) {
 const Imath::C3f* LobeRefinement::fine_gain(const Microbuffer& fine) {
   for (const uint32_t k : fine_touched_) fine_gain_[k] = Imath::C3f(0, 0, 0);
   fine_touched_.clear();
+  if (wide_) {
+    // f_spec at each fine pixel of the refined coarse pixels.
+    const Brdf brdf(specular_lobes(lobe_), normal_);
+    const uint32_t nc = coarse_.resolution(), side = 1u << levels_;
+    for (const uint32_t k : refined_list_) {
+      const uint32_t i = k % nc, j = (k / nc) % nc, face = k / (nc * nc);
+      for (uint32_t dj = 0; dj < side; ++dj) {
+        for (uint32_t di = 0; di < side; ++di) {
+          const uint32_t f = fine_.index(int(face), i * side + di, j * side + dj);
+          if (!(fine.weight(f) > 0.f)) continue;
+          fine_gain_[f] = brdf.eval(view_, above_horizon(fine_.direction(f), normal_)) * scale_;
+          fine_touched_.push_back(f);
+        }
+      }
+    }
+    return fine_gain_.data();
+  }
   for (const Sample& s : samples_) {
     if (level_[s.coarse] == 0) continue;
     if (fine_gain_[s.fine] == Imath::C3f(0, 0, 0)) fine_touched_.push_back(s.fine);

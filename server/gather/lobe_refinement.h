@@ -10,10 +10,31 @@
 // point evaluation at pixel centers would miss).
 //
 // Each pixel of the receiver's coarse microbuffer (N per face side) is the
-// root of a quadtree: a cell is split into four while it holds more than
-// `importance` of the lobe's total weight, down to cells of the finest cube
+// root of a quadtree: a cell is split into four while its importance is
+// more than `importance`, down to cells of the finest cube
 // (N 2^L per side, GatherOptions::effective_glossy_resolution()). The
 // deepest level reached inside a coarse pixel is that pixel's level.
+//
+// A cell's importance mixes two shares, each summing to 1 over the lobe:
+//   (1 - b) x the lobe's weight in the cell / the lobe's total
+//   + b x the lobe's weight x incoming radiance in the cell / the total,
+// b = `radiance_weight` (GatherOptions::glossy_radiance_weight). Incoming
+// radiance is what the coarse microbuffer resolved in the cell's coarse
+// pixel: the lobe's tail is refined where it meets a bright source (a
+// small light, a sunlit patch) and left coarse where it sees darkness,
+// which matters little to the integral. Under uniform light both shares
+// are equal and refinement follows the lobe alone (as b = 0 always does).
+//
+// Two estimates of the lobe's weight over a pixel. A narrow lobe (GGX
+// alpha below kWideLobePixels finest pixels) is binned from its samples:
+// it may be narrower than a pixel, which point evaluation would miss. A
+// wide lobe is evaluated at every pixel's direction (f_spec there, times
+// the pixel's exact cosine weight): its samples are too sparse in the
+// tail, where a pixel that holds none would get no weight at all, and a
+// bright source there would vanish or, caught by one sample, flare. A wide
+// lobe refines a coarse pixel whose importance exceeds `importance`
+// straight to the finest level (each of its fine pixels then evaluates the
+// lobe at its own direction).
 // Unrefined pixels are convolved with the lobe in the coarse buffer
 // (coarse_gain); refined ones are gathered again in a fine buffer by a walk
 // that only visits nodes whose cone reaches a refined pixel, with a cut
@@ -32,7 +53,12 @@
 #include <Imath/ImathVec.h>
 
 #include <cstdint>
+#include <span>
 #include <vector>
+
+namespace pbgi {
+class Brdf;
+}
 
 namespace pbgi::gather {
 
@@ -40,16 +66,22 @@ class LobeRefinement {
  public:
   // Directions representing a lobe (a 16 x 16 stratified pattern).
   static constexpr uint32_t kLobeSamples = 256;
+  // A lobe is wide when its alpha spans this many finest pixels.
+  static constexpr float kWideLobePixels = 1.f;
 
   // `coarse`: the receiver microbuffer's layout; `fine`: the finest cube,
   // a power-of-two multiple of it (equal: no refinement, the fixed
   // buffer); `max_solid_angle`: the gather's cut bound.
   LobeRefinement(const CubeLayout& coarse, const CubeLayout& fine, float importance,
-                 float max_solid_angle);
+                 float radiance_weight, float max_solid_angle);
 
   // Starts a receiver of unit normal n with an active lobe: samples it,
-  // bins the samples and builds the quadtree levels.
-  void begin(const Imath::V3f& n, const GlossyLobe& lobe);
+  // bins the samples and builds the quadtree levels. `light`: the coarse
+  // buffer's resolved light per pixel (Microbuffer::resolve), whose
+  // radiance (light / the pixel's cosine weight in `coarse`, begun for
+  // this receiver) drives the radiance share of the importance.
+  void begin(const Imath::V3f& n, const GlossyLobe& lobe, std::span<const PixelLight> light,
+             const Microbuffer& coarse);
 
   // Per coarse pixel: the lobe's weight over the pixel divided by the
   // pixel's cosine weight in `coarse` (begun for this receiver), so that
@@ -60,6 +92,8 @@ class LobeRefinement {
   // against `fine` (begun for this receiver).
   const Imath::C3f* fine_gain(const Microbuffer& fine);
 
+  // Whether the lobe begun is evaluated per pixel (wide) or binned.
+  bool wide() const { return wide_; }
   // Whether any coarse pixel is refined (then the fine walk is needed).
   bool refined() const { return refined_count_ > 0; }
   uint32_t refined_pixels() const { return refined_count_; }
@@ -80,6 +114,10 @@ class LobeRefinement {
     uint32_t coarse;  // coarse pixel index
     Imath::C3f weight;
   };
+  // begin()'s quadtree for a wide lobe (evaluated per pixel) and for a
+  // narrow one (binned from its samples).
+  void begin_wide(const Brdf& brdf, const Microbuffer& coarse);
+  void begin_binned();
   // The coarse pixel holding a fine one.
   uint32_t coarse_of(uint32_t fine) const;
   // The quadtree cell of a fine pixel at `level` (0 = coarse pixel).
@@ -89,10 +127,22 @@ class LobeRefinement {
   const CubeLayout& fine_;
   const uint32_t levels_;  // L: fine = coarse x 2^L
   const float importance_;
+  const float radiance_weight_;
+  float wide_alpha_;  // alphas at or above it are wide lobes
+  bool wide_ = false;
+  // The wide lobe begun: its BRDF's parts, to evaluate fine pixels.
+  Imath::V3f normal_{0, 0, 1};
+  Imath::V3f view_{0, 0, 1};
+  GlossyLobe lobe_;
+  std::vector<uint32_t> hemisphere_;  // coarse pixels with a wide-lobe gain
+  Imath::C3f scale_{1, 1, 1};         // evaluated lobe -> its sampled albedo
   std::vector<float> level_cut_;  // per level: cut solid angle
   float pixel_half_diagonal_;     // largest center-to-corner angle of a coarse pixel
 
   std::vector<Sample> samples_;
+  std::vector<float> share_;     // per sample: its importance (sums to 1)
+  std::vector<float> radiance_;  // per coarse pixel: mean incoming radiance, reset through light pixels
+  std::vector<uint32_t> lit_;    // coarse pixels whose radiance_ is set
   Imath::C3f total_{0, 0, 0};
   std::vector<uint8_t> level_;        // per coarse pixel
   std::vector<Imath::C3f> coarse_mass_;

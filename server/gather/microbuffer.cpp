@@ -106,7 +106,8 @@ inline FarShare far_share(const FarLayer& f, const Imath::V3f& n, float cos_k, f
 }  // namespace
 
 Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
-                              const Imath::C3f* gain) {
+                              const Imath::C3f* gain, std::vector<PixelLight>* light) {
+  if (light) light->clear();
   double er = 0, eg = 0, eb = 0, occlusion = 0;
   double gr = 0, gg = 0, gb = 0;  // reflected (with gain)
   const float* margin = layout_.horizon_margins();
@@ -137,6 +138,7 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
         gg += double(gain[k].y * (f.g + t * r.g));
         gb += double(gain[k].z * (f.b + t * r.b));
       }
+      if (light) light->push_back({k, Imath::C3f(f.r + t * r.r, f.g + t * r.g, f.b + t * r.b)});
     }
   }
   for (const uint32_t k : touched_) {
@@ -216,6 +218,7 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
       gg += double(g * gain[k].y);
       gb += double(b * gain[k].z);
     }
+    if (light) light->push_back({k, Imath::C3f(r, g, b)});
   }
   Resolved out;
   out.reflected = Imath::C3f(float(gr), float(gg), float(gb));

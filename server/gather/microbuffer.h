@@ -69,6 +69,14 @@ struct Resolved {
   Imath::C3f reflected{0, 0, 0};
 };
 
+// One pixel's resolved light: sum of transmittance x cosine-weighted
+// solid angle x radiance over what the pixel sees (its share of the
+// irradiance).
+struct PixelLight {
+  uint32_t pixel;
+  Imath::C3f light;
+};
+
 class Microbuffer {
  public:
   Microbuffer(const CubeLayout& layout, float depth_band);
@@ -139,9 +147,11 @@ class Microbuffer {
   // with the resolved far content of `far` if given. With `gain` (one
   // colour per pixel, e.g. the BRDF towards a view at the pixel's
   // direction), also sums each pixel's cosine-weighted light (near and
-  // far) times its gain into `reflected`.
+  // far) times its gain into `reflected`. With `light`, appends every
+  // pixel's cosine-weighted light (replacing what it held): what a
+  // glossy lobe needs to decide where to refine before convolving.
   Resolved resolve(float ao_max_distance, const FarBuffer* far = nullptr,
-                   const Imath::C3f* gain = nullptr);
+                   const Imath::C3f* gain = nullptr, std::vector<PixelLight>* light = nullptr);
 
   size_t fragment_count() const { return fragments_.size(); }
   size_t touched_pixel_count() const { return touched_.size(); }

@@ -26,8 +26,9 @@
 //                [--surfels 200000] [--repeat 3] [--ref-res 32] [--ref-angle 0.002]
 //                [--ref-stride 2] [--no-error] [--page-set] [--glossy ROUGHNESS]
 // LIST is comma separated; each entry
-// method:N:angle[:k=K][:eps=E][:hdr=H][:gres=N][:gimp=X] (gres, gimp: the
-// glossy options glossy_max_resolution and glossy_importance),
+// method:N:angle[:k=K][:eps=E][:hdr=H][:gres=N][:gimp=X][:grw=W] (gres,
+// gimp, grw: the glossy options glossy_max_resolution, glossy_importance
+// and glossy_radiance_weight),
 // method pbgi or fpbgi, e.g. "pbgi:8:0.03,fpbgi:8:0.03:k=100:eps=0.01".
 // --glossy R makes every receiver glossy (roughness R, F0 1, seen from the
 // camera): the reference uses glossy_max_resolution 64 and importance
@@ -233,6 +234,7 @@ std::vector<Config> parse_configs(const std::string& list) {
       else if (p.rfind("hdr=", 0) == 0) c.options.hdr_refine = std::stof(p.substr(4));
       else if (p.rfind("gres=", 0) == 0) c.options.glossy_max_resolution = uint32_t(std::stoul(p.substr(5)));
       else if (p.rfind("gimp=", 0) == 0) c.options.glossy_importance = std::stof(p.substr(5));
+      else if (p.rfind("grw=", 0) == 0) c.options.glossy_radiance_weight = std::stof(p.substr(4));
       else throw std::runtime_error("unknown parameter '" + p + "' in '" + item + "'");
     }
     c.options.validate();

@@ -171,6 +171,72 @@ TEST(GlossyGather, NearMirrorReflectsTheWallItFacesNotTheOneBehindTheViewer) {
   EXPECT_NEAR(r.irradiance.x, r.irradiance.y, 0.05f * r.irradiance.x);
 }
 
+// A small, very bright patch (radiance 300, 0.1 m) on a dim wall (0.1),
+// in the tail of a roughness-0.3 lobe, at six places. The wide lobe is
+// evaluated per pixel (binned from its 256 samples, the patch's pixels
+// held zero or one sample: 41% rms error when this test was written);
+// refinement by the lobe alone leaves the patch's coarse pixel unrefined,
+// so the lobe's mean over the whole pixel weighs it; refinement by lobe x
+// incoming radiance resolves it in fine pixels. Against a quadrature of
+// brdf.h over the wall and the patch (measured: 7.5% rms by the lobe
+// alone, 5.8% with radiance weight 0.5, 5.2% with 1).
+TEST(GlossyGather, RadianceDrivenRefinementResolvesABrightSourceInTheLobesTail) {
+  constexpr float kX = 1.5f, kY = 2.f, kZ = 2.f, kDim = 0.1f, kBright = 300.f, kHalf = 0.05f;
+  const V3f n(0, 0, 1);
+  const float e = 30.f * kPi / 180.f;
+  const V3f mirror(std::cos(e), 0.f, std::sin(e));
+  const V3f v = (2.f * n.dot(mirror) * n - mirror).normalized();
+  const float hit_z = kX * std::tan(e);
+  double err[3] = {0, 0, 0};
+  uint64_t nodes[3] = {0, 0, 0};
+  int cases = 0;
+  for (const float dz : {0.35f, 0.5f, 0.7f}) {
+    for (const float dy : {0.f, 0.3f}) {
+      const V3f patch_c(kX - 0.01f, dy, hit_z + dz);
+      std::vector<Surfel> s;
+      test::add_quad(s, V3f(kX, -kY, 0), V3f(0, 2 * kY, 0), V3f(0, 0, kZ), 160, 80, C3f(kDim));
+      const size_t wall = s.size();
+      test::add_quad(s, patch_c - V3f(0, kHalf, kHalf), V3f(0, 2 * kHalf, 0), V3f(0, 0, 2 * kHalf), 6, 6,
+                     C3f(kBright));
+      for (Surfel& x : s) x.normal = V3f(-1, 0, 0);
+      (void)wall;
+      test::SurfelTree tree(s);
+      auto on_patch = [&](const V3f& w) {
+        if (!(w.x > 0.f)) return false;
+        const float t = patch_c.x / w.x;
+        return std::abs(t * w.y - patch_c.y) < kHalf && std::abs(t * w.z - patch_c.z) < kHalf;
+      };
+      auto on_wall = [&](const V3f& w) {
+        if (!(w.x > 0.f) || on_patch(w)) return false;
+        const float t = kX / w.x;
+        return std::abs(t * w.y) < kY && t * w.z > 0.f && t * w.z < kZ;
+      };
+      const float truth = kDim * ggx_integral(n, v, 0.3f, C3f(1), on_wall).x +
+                          kBright * ggx_integral(n, v, 0.3f, C3f(1), on_patch).x;
+      const float weights[3] = {0.f, 0.5f, 1.f};
+      for (int b = 0; b < 3; ++b) {
+        GatherOptions o;
+        o.glossy_radiance_weight = weights[b];
+        Gatherer g(tree, o);
+        const float got = g.gather(glossy_receiver(V3f(0, 0, 0.001f), n, v, 0.3f, C3f(1))).glossy.x;
+        err[b] += std::pow(double(got / truth - 1.f), 2);
+        nodes[b] += g.counters().nodes_visited + g.counters().glossy_nodes_visited;
+      }
+      ++cases;
+    }
+  }
+  for (double& x : err) x = std::sqrt(x / cases);
+  std::printf("bright patch in a roughness-0.3 lobe's tail: rel rms error, radiance weight 0: %.4f (%llu nodes), "
+              "0.5: %.4f (%llu nodes), 1: %.4f (%llu nodes)\n",
+              err[0], (unsigned long long)nodes[0], err[1], (unsigned long long)nodes[1], err[2],
+              (unsigned long long)nodes[2]);
+  EXPECT_LT(err[0], 0.12);
+  EXPECT_LT(err[1], 0.85 * err[0]);
+  EXPECT_LT(err[2], 0.85 * err[0]);
+  // At about the same cost.
+  EXPECT_LT(nodes[1], uint64_t(1.1 * double(nodes[0])));
+}
+
 // Receivers on a floor below a checkered emitting wall, each with a
 // roughness-0.1 lobe aimed at the wall; the reference is the adaptive
 // buffer at its finest (64 per face side, every cell holding 0.1% of the
@@ -375,6 +441,11 @@ TEST(GlossyGather, OptionsAreValidated) {
   o.glossy_importance = 0.f;
   EXPECT_THROW(o.validate(), InvalidArgument);
   o.glossy_importance = 1.5f;
+  EXPECT_THROW(o.validate(), InvalidArgument);
+  o = GatherOptions{};
+  o.glossy_radiance_weight = -0.1f;
+  EXPECT_THROW(o.validate(), InvalidArgument);
+  o.glossy_radiance_weight = std::nanf("");
   EXPECT_THROW(o.validate(), InvalidArgument);
   o = GatherOptions{};
   o.microbuffer_resolution = 12;

@@ -16,6 +16,7 @@ RenderOptions custom_render_defaults() {
   d.gather.ao_max_distance = 3.f;
   d.gather.glossy_max_resolution = 48;
   d.gather.glossy_importance = 0.02f;
+  d.gather.glossy_radiance_weight = 0.25f;
   d.light_samples = 7;
   d.pixel_samples = 2;
   return d;
@@ -39,7 +40,11 @@ TEST(OptionsCodec, SetGatherFieldsOverrideDefaults) {
   proto.set_light_samples(4);
   proto.set_glossy_max_resolution(64);
   proto.set_glossy_importance(0.05f);
+  proto.set_glossy_radiance_weight(0.f);  // the lobe alone, not "the default"
   const RenderOptions r = decode_render_options(proto, custom_render_defaults());
+  EXPECT_EQ(r.gather.glossy_radiance_weight, 0.f);
+  EXPECT_EQ(decode_render_options(v1::GatherOptions{}, custom_render_defaults()).gather.glossy_radiance_weight,
+            custom_render_defaults().gather.glossy_radiance_weight);
   EXPECT_EQ(r.gather.glossy_max_resolution, 64u);
   EXPECT_FLOAT_EQ(r.gather.glossy_importance, 0.05f);
   EXPECT_EQ(r.gather.microbuffer_resolution, 16u);
@@ -56,6 +61,9 @@ TEST(OptionsCodec, GlossyOptionsAreValidated) {
   proto.set_glossy_max_resolution(0);
   proto.set_glossy_importance(2.f);
   EXPECT_THROW(decode_gather_options(proto, GatherOptions{}), InvalidArgument);
+  proto.set_glossy_importance(0.f);
+  proto.set_glossy_radiance_weight(1.5f);
+  EXPECT_THROW(decode_gather_options(proto, GatherOptions{}), InvalidArgument);
 }
 
 TEST(OptionsCodec, EncodeDecodeRoundTrip) {
@@ -68,6 +76,7 @@ TEST(OptionsCodec, EncodeDecodeRoundTrip) {
   EXPECT_EQ(back.pixel_samples, original.pixel_samples);
   EXPECT_EQ(back.gather.glossy_max_resolution, original.gather.glossy_max_resolution);
   EXPECT_EQ(back.gather.glossy_importance, original.gather.glossy_importance);
+  EXPECT_EQ(back.gather.glossy_radiance_weight, original.gather.glossy_radiance_weight);
 
   OpenOptions open;
   open.surfels.spacing = 0.02f;
