@@ -155,6 +155,7 @@ void PbgiSweep::validate() const {
   f.clusters = fpbgi_clusters;
   f.epsilon = fpbgi_epsilon;
   f.glossy_max_resolution = glossy_max_resolution;
+  f.glossy_radiance_weight = glossy_radiance_weight;
   f.validate();
   if (!contains(methods, default_method))
     throw InvalidArgument("bench: the default gather method " + gather_method_name(default_method) +
@@ -196,6 +197,7 @@ MethodConfig pbgi_config(const PbgiSweep& sweep, const std::string& build, const
   options.gather.clusters = sweep.fpbgi_clusters;
   options.gather.epsilon = sweep.fpbgi_epsilon;
   options.gather.glossy_max_resolution = sweep.glossy_max_resolution;
+  options.gather.glossy_radiance_weight = sweep.glossy_radiance_weight;
   options.pixel_samples = k.pixel_samples;
   options.light_samples = sweep.light_samples;
   options.seed = sweep.seed;
@@ -222,7 +224,8 @@ MethodConfig pbgi_config(const PbgiSweep& sweep, const std::string& build, const
               {"max_solid_angle", fmt::format("{:g}", k.sa)},
               {"pixel_samples", std::to_string(k.pixel_samples)},
               {"light_samples", std::to_string(sweep.light_samples)},
-              {"glossy_max_resolution", std::to_string(sweep.glossy_max_resolution)}};
+              {"glossy_max_resolution", std::to_string(sweep.glossy_max_resolution)},
+              {"glossy_radiance_weight", fmt::format("{:g}", sweep.glossy_radiance_weight)}};
   if (k.method == GatherMethod::kFpbgi) {
     c.params.push_back({"clusters", std::to_string(options.gather.clusters)});
     c.params.push_back({"epsilon", fmt::format("{:g}", options.gather.effective_epsilon())});

@@ -37,6 +37,8 @@ struct PbgiSweep {
   // Glossy receivers' finest lobe microbuffer (GatherOptions'; at or below
   // the microbuffer resolution: the fixed buffer), for every render.
   uint32_t glossy_max_resolution = GatherOptions{}.glossy_max_resolution;
+  // And how much of its refinement follows incoming radiance (GatherOptions').
+  float glossy_radiance_weight = GatherOptions{}.glossy_radiance_weight;
   // Payload codecs. The first gets the full sweep above (the default
   // configuration is one of its); every other one is one more page set at
   // default_target_surfels, rendered by each method at each microbuffer

@@ -31,6 +31,7 @@ struct BenchArgs {
   std::optional<uint32_t> clusters;
   std::optional<float> epsilon;
   std::optional<uint32_t> glossy_max_resolution;
+  std::optional<float> glossy_radiance_weight;
   bool quick = false;
   bool images = false;
   bool no_plot = false;
@@ -67,6 +68,7 @@ int run(const BenchArgs& args) {
   if (args.clusters) o.pbgi.fpbgi_clusters = *args.clusters;
   if (args.epsilon) o.pbgi.fpbgi_epsilon = *args.epsilon;
   if (args.glossy_max_resolution) o.pbgi.glossy_max_resolution = *args.glossy_max_resolution;
+  if (args.glossy_radiance_weight) o.pbgi.glossy_radiance_weight = *args.glossy_radiance_weight;
   pick_default(o.pbgi.methods, &o.pbgi.default_method);
   pick_default(o.pbgi.target_surfels, &o.pbgi.default_target_surfels);
   pick_default(o.pbgi.microbuffer_resolutions, &o.pbgi.default_microbuffer_resolution);
@@ -135,6 +137,10 @@ const CommandRegistrar kRegistrar("bench", [](CLI::App& app, int* exit_code) {
   cmd->add_option("--glossy-max-res", args->glossy_max_resolution,
                   "Glossy receivers' finest lobe microbuffer, 4..64 (default 32; at or below the "
                   "microbuffer resolution: the fixed buffer)");
+  cmd->add_option("--glossy-radiance-weight", args->glossy_radiance_weight,
+                  "Glossy receivers: share of the lobe's refinement that follows incoming radiance, "
+                  "0..1 (default 0.5)")
+      ->check(CLI::Range(0.f, 1.f));
   cmd->add_flag("--quick", args->quick, "Small sweep for CI (64x64, 20k surfels, 4 settings per gather method)");
   cmd->add_flag("--images", args->images, "Also write <out-dir>/images/<config>.exr");
   cmd->add_flag("--no-plot", args->no_plot, "Do not run scripts/plot_bench.py");
