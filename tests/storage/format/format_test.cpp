@@ -251,16 +251,24 @@ TEST(PackedValues, OctahedralWithinItsStatedAngle) {
   std::printf("octahedral 2x16 bits: worst angle %.3g rad\n", worst);
 }
 
+// A surfel inside `frame` (its disk within the sphere), random but for
+// the colours, which the tests set.
+Surfel random_surfel_in(const LeafFrame& frame, std::mt19937& rng) {
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  Surfel s;
+  s.position = frame.center + 0.55f * frame.radius * Imath::V3f(u(rng), u(rng), u(rng));
+  s.normal = Imath::V3f(u(rng), u(rng), u(rng) + 0.01f).normalized();
+  s.radius = 0.4f * frame.radius * (u(rng) + 1.f) / 2.f;
+  s.albedo = {0.5f + 0.5f * u(rng), 0.25f, 0.f};
+  return s;
+}
+
 TEST(PageRecords, SurfelRecordWithinItsStatedPrecision) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> u(-1.f, 1.f);
   const LeafFrame frame{{10.f, -3.f, 250.f}, 0.37f};
   for (int i = 0; i < 100000; ++i) {
-    Surfel s;
-    s.position = frame.center + 0.55f * frame.radius * Imath::V3f(u(rng), u(rng), u(rng));
-    s.normal = Imath::V3f(u(rng), u(rng), u(rng) + 0.01f).normalized();
-    s.radius = 0.4f * frame.radius * (u(rng) + 1.f) / 2.f;
-    s.albedo = {0.5f + 0.5f * u(rng), 0.25f, 0.f};
+    Surfel s = random_surfel_in(frame, rng);
     s.emission = {0, 0, 0};
     s.radiance = {100.f * (u(rng) + 1.f), 3.f, 0.125f};
     uint8_t rec[kRelativeSurfelRecordBytes];
@@ -287,11 +295,7 @@ TEST(PageRecords, HalfSurfelRecordWithinItsStatedPrecision) {
   const LeafFrame frame{{1e5f, -3.f, 250.f}, 0.37f};
   double worst_normal = 0;
   for (int i = 0; i < 100000; ++i) {
-    Surfel s;
-    s.position = frame.center + 0.55f * frame.radius * Imath::V3f(u(rng), u(rng), u(rng));
-    s.normal = Imath::V3f(u(rng), u(rng), u(rng) + 0.01f).normalized();
-    s.radius = 0.4f * frame.radius * (u(rng) + 1.f) / 2.f;
-    s.albedo = {0.5f + 0.5f * u(rng), 0.25f, 0.f};
+    Surfel s = random_surfel_in(frame, rng);
     s.emission = {1e-6f, 0, 40000.f};
     s.radiance = {100.f * (u(rng) + 1.f), 3.f, 1e-3f * (u(rng) + 1.f)};
     uint8_t rec[kHalfSurfelRecordBytes];
