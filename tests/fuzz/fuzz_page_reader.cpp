@@ -21,15 +21,19 @@ namespace {
 void decode(std::span<const uint8_t> bytes, uint32_t page_id) {
   using namespace pbgi::storage;
   uint32_t codec_id = 0;
+  // The manifest's leaf format is taken from the page's own flag, so that
+  // both surfel record formats are reached.
+  LeafFormat leaf_format = LeafFormat::kRelative;
   if (bytes.size() >= kPageHeaderBytes) {
     const uint32_t c = load_le<uint16_t>(bytes.data() + 6);
     if (is_known_payload_codec(c) && !codec_needs_state(c)) codec_id = c;
+    if (load_le<uint32_t>(bytes.data() + 28) & kPageFlagHalfLeaves) leaf_format = LeafFormat::kHalf;
   }
   static const auto codec0 = make_payload_codec(0);
   const auto codec = codec_id == 0 ? codec0 : make_payload_codec(codec_id);
   try {
     const auto page = decode_page(bytes, {"fuzz.pbgp", page_id, 0}, kPageFormatCurrent, *codec,
-                                  page_id + 1024);
+                                  page_id + 1024, false, leaf_format);
     (void)page;
   } catch (const pbgi::Error&) {
   }

@@ -62,26 +62,31 @@ void pages(const fs::path& dir) {
     s.albedo = {0.5f, 0.4f, 0.3f};
     s.radiance = {std::abs(u(rng)), 0.2f, 0.1f};
   }
-  pbgi::tree::BuildOptions options;
-  options.leaf_size = 4;
-  options.page_size = 4096;
   const fs::path tmp = fs::temp_directory_path() / ("pbgi-corpus-" + std::to_string(::getpid()));
   fs::remove_all(tmp);
   fs::create_directories(tmp);
-  const pbgi::storage::Manifest m =
-      pbgi::storage::build_page_set(surfels, options, "corpus", tmp / "set");
-  std::ifstream in(tmp / "set" / pbgi::storage::kPagesFileName, std::ios::binary);
-  const std::string all((std::istreambuf_iterator<char>(in)), {});
-  // A few pages (first, middle, last: the root) and the manifest.
-  const size_t n = m.pages.size();
-  for (size_t id : {size_t(0), n / 2, n - 1}) {
-    const auto& e = m.pages[id];
-    write(dir / ("page_" + std::to_string(id)), all.substr(e.offset, e.bytes));
+  // Both leaf formats; the half one's files are suffixed "_half".
+  for (const auto format : {pbgi::storage::LeafFormat::kRelative, pbgi::storage::LeafFormat::kHalf}) {
+    pbgi::tree::BuildOptions options;
+    options.leaf_size = 4;
+    options.page_size = 4096;
+    options.leaf_format = format;
+    const std::string suffix = format == pbgi::storage::LeafFormat::kHalf ? "_half" : "";
+    const fs::path set = tmp / ("set" + suffix);
+    const pbgi::storage::Manifest m = pbgi::storage::build_page_set(surfels, options, "corpus", set);
+    std::ifstream in(set / pbgi::storage::kPagesFileName, std::ios::binary);
+    const std::string all((std::istreambuf_iterator<char>(in)), {});
+    // A few pages (first, middle, last: the root) and the manifest.
+    const size_t n = m.pages.size();
+    for (size_t id : {size_t(0), n / 2, n - 1}) {
+      const auto& e = m.pages[id];
+      write(dir / ("page_" + std::to_string(id) + suffix), all.substr(e.offset, e.bytes));
+    }
+    std::ifstream mf(set / pbgi::storage::kManifestFileName, std::ios::binary);
+    write(dir / ("manifest" + suffix), std::string((std::istreambuf_iterator<char>(mf)), {}));
+    std::printf("%zu pages in the tiny page set%s\n", n, suffix.c_str());
   }
-  std::ifstream mf(tmp / "set" / pbgi::storage::kManifestFileName, std::ios::binary);
-  write(dir / "manifest", std::string((std::istreambuf_iterator<char>(mf)), {}));
   fs::remove_all(tmp);
-  std::printf("%zu pages in the tiny page set\n", n);
 }
 
 }  // namespace
