@@ -55,6 +55,92 @@ TEST_P(InstancedSurfels, EqualTheFlattenedScenesSurfels) {
   expect_same_surfels(a, b);
 }
 
+// Many instances under non-uniform scales, the spacing derived from
+// target_surfels (so from the total area, summed instance by instance):
+// the same count and area per unit area as the scene flattened.
+TEST_P(InstancedSurfels, SameDensityPerUnitAreaAsTheFlattenedScene) {
+  Scene inst = test::base_scene();
+  inst.prototypes.push_back({"/Proto", test::prototype_soup()});
+  std::vector<M44f> placed;
+  for (int k = 0; k < 40; ++k) {
+    const float a = 0.37f * float(k);
+    const V3f scale(0.5f + 0.05f * float(k % 7), 1.5f - 0.1f * float(k % 5), k % 3 == 0 ? -1.f : 0.8f);
+    placed.push_back(test::placement(a, scale, V3f(3.f * float(k % 8), float(k / 8), -3.f * float(k / 8))));
+    inst.add_instance(0, placed.back());
+  }
+  // Flattened: the prototype's triangles appended to the world soup.
+  Scene flat = test::base_scene();
+  const TriangleSoup proto = test::prototype_soup();
+  for (const M44f& m : placed) {
+    TriangleSoup& t = flat.triangles;
+    const uint32_t base = uint32_t(t.positions.size());
+    for (const V3f& v : proto.positions) {
+      V3f w;
+      m.multVecMatrix(v, w);
+      t.positions.push_back(w);
+    }
+    for (const V3f& n : proto.normals) {
+      V3f w;
+      m.inverse().transposed().multDirMatrix(n, w);
+      t.normals.push_back(w);
+    }
+    const bool mirror = m.determinant() < 0.f;
+    for (size_t i = 0; i < proto.triangle_count(); ++i) {
+      t.indices.push_back(base + proto.indices[3 * i]);
+      t.indices.push_back(base + proto.indices[3 * i + (mirror ? 2 : 1)]);
+      t.indices.push_back(base + proto.indices[3 * i + (mirror ? 1 : 2)]);
+      t.material.push_back(proto.material[i]);
+      t.mesh.push_back(uint32_t(t.mesh_paths.size()) + proto.mesh[i]);
+    }
+    for (size_t k = 0; k < proto.mesh_paths.size(); ++k) {
+      t.mesh_paths.push_back(proto.mesh_paths[k]);
+      t.double_sided.push_back(proto.double_sided[k]);
+    }
+  }
+  SurfelOptions o;
+  o.sampler = GetParam();
+  o.target_surfels = 20000;
+  const std::vector<Surfel> a = sample_surfels(inst, o), b = sample_surfels(flat, o);
+  double area_a = 0, area_b = 0;
+  for (const Surfel& s : a) area_a += s.area();
+  for (const Surfel& s : b) area_b += s.area();
+  ASSERT_GT(b.size(), 10000u);
+  EXPECT_NEAR(double(a.size()) / double(b.size()), 1.0, 1e-3) << a.size() << " vs " << b.size();
+  EXPECT_NEAR(area_a / area_b, 1.0, 1e-4);
+  // Only the instances' surfels, away from the ground: per unit area too.
+  auto above = [](const std::vector<Surfel>& v) {
+    size_t n = 0;
+    for (const Surfel& s : v) n += s.position.y > -9.f;
+    return n;
+  };
+  EXPECT_NEAR(double(above(a)) / double(above(b)), 1.0, 2e-3);
+}
+
+// A prototype holding a quad twice (a duplicated wall) placed with a
+// non-uniform scale: the copies are found in the prototype's space and
+// counted once, as in the flattened scene.
+TEST(InstancedSurfels, CoincidentCopiesInsideAPrototypeCountOnce) {
+  TriangleSoup quad;
+  quad.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  quad.indices = {0, 1, 2, 0, 2, 3, 1, 2, 3, 1, 3, 0};  // the same square, both diagonals
+  quad.material = {0, 0, 0, 0};
+  quad.mesh = {0, 0, 1, 1};
+  quad.mesh_paths = {"/Proto/A", "/Proto/B"};
+  Scene s;
+  s.source_path = "coincident_instances";
+  s.materials.resize(1);
+  s.prototypes.push_back({"/Proto", quad});
+  s.add_instance(0, test::placement(0.3f, V3f(3.f, 2.f, 1.f), V3f(0, 0, 0)));
+  s.add_instance(0, test::placement(1.1f, V3f(-2.f, 4.f, 1.f), V3f(10, 0, 0)));  // mirrored
+  SurfelOptions o;
+  o.spacing = 0.05f;
+  const std::vector<Surfel> surfels = sample_surfels(s, o);
+  double first = 0, second = 0;
+  for (const Surfel& x : surfels) (x.position.x < 5.f ? first : second) += x.area();
+  EXPECT_NEAR(first, 6.0, 0.01 * 6.0);    // 3 x 2, once
+  EXPECT_NEAR(second, 8.0, 0.01 * 8.0);   // 2 x 4, once
+}
+
 INSTANTIATE_TEST_SUITE_P(Samplers, InstancedSurfels,
                          ::testing::Values(SurfelSampler::kUniform, SurfelSampler::kPoisson));
 
