@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <utility>
 
 namespace pbgi {
 namespace {
@@ -55,10 +56,10 @@ TEST_P(InstancedSurfels, EqualTheFlattenedScenesSurfels) {
   expect_same_surfels(a, b);
 }
 
-// Many instances under non-uniform scales, the spacing derived from
-// target_surfels (so from the total area, summed instance by instance):
-// the same count and area per unit area as the scene flattened.
-TEST_P(InstancedSurfels, SameDensityPerUnitAreaAsTheFlattenedScene) {
+// 40 placements of the test prototype under non-uniform scales (a third
+// of them mirrored) over the world triangle: instanced, and flattened into
+// the world soup with the same triangle ids.
+std::pair<Scene, Scene> forty_instances() {
   Scene inst = test::base_scene();
   inst.prototypes.push_back({"/Proto", test::prototype_soup()});
   std::vector<M44f> placed;
@@ -68,7 +69,6 @@ TEST_P(InstancedSurfels, SameDensityPerUnitAreaAsTheFlattenedScene) {
     placed.push_back(test::placement(a, scale, V3f(3.f * float(k % 8), float(k / 8), -3.f * float(k / 8))));
     inst.add_instance(0, placed.back());
   }
-  // Flattened: the prototype's triangles appended to the world soup.
   Scene flat = test::base_scene();
   const TriangleSoup proto = test::prototype_soup();
   for (const M44f& m : placed) {
@@ -97,6 +97,14 @@ TEST_P(InstancedSurfels, SameDensityPerUnitAreaAsTheFlattenedScene) {
       t.double_sided.push_back(proto.double_sided[k]);
     }
   }
+  return {std::move(inst), std::move(flat)};
+}
+
+// Many instances under non-uniform scales, the spacing derived from
+// target_surfels (so from the total area, summed instance by instance):
+// the same count and area per unit area as the scene flattened.
+TEST_P(InstancedSurfels, SameDensityPerUnitAreaAsTheFlattenedScene) {
+  const auto [inst, flat] = forty_instances();
   SurfelOptions o;
   o.sampler = GetParam();
   o.target_surfels = 20000;
@@ -114,6 +122,19 @@ TEST_P(InstancedSurfels, SameDensityPerUnitAreaAsTheFlattenedScene) {
     return n;
   };
   EXPECT_NEAR(double(above(a)) / double(above(b)), 1.0, 2e-3);
+}
+
+// Enough surfels for the Poisson sampler's octree to split (more than one
+// tile's worth): instances go down it whole and are expanded where they
+// straddle a split or end in a tile, with the flattened scene's surfels.
+TEST(InstancedSurfels, PoissonOctreeSplitsInstancesLikeTheFlattenedTriangles) {
+  const auto [inst, flat] = forty_instances();
+  SurfelOptions o;
+  o.sampler = SurfelSampler::kPoisson;
+  o.target_surfels = 120000;
+  const std::vector<Surfel> a = sample_surfels(inst, o), b = sample_surfels(flat, o);
+  ASSERT_GT(b.size(), 100000u);  // several tiles of at most 32768 expected surfels
+  expect_same_surfels(a, b);
 }
 
 // A prototype holding a quad twice (a duplicated wall) placed with a
