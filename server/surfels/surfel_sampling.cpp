@@ -281,18 +281,32 @@ void sample_uniform(const Scene& scene, const SurfelOptions& options, const Surf
       soup_cover(scene.triangles, bounds.isEmpty() ? V3f(0.f) : bounds.center(), tolerance);
   const std::vector<CoincidentCover> covers = prototype_covers(scene, tolerance);
 
-  // 3-4, 6. Range by range: plan, then surfels. The meter counts the
-  //         expected surfels (the exact count is known range by range).
+  // 3-4, 6. Range by range: plan, then surfels. Ranges are planned a group
+  //         at a time in parallel (a plan's shares are serial, and an
+  //         instance is often too small to keep the cores busy alone), a
+  //         group holding at most kGroupTriangles plan entries (besides
+  //         one range larger than that on its own); their surfels then go
+  //         out in range order. The meter counts the expected surfels (the
+  //         exact count is known range by range).
+  constexpr size_t kGroupTriangles = size_t(1) << 20;  // 24 MiB of plans
   ProgressMeter meter(progress, "sample_surfels", uint64_t(std::ceil(area.total / s2)));
-  std::vector<TrianglePlan> plan;
   std::vector<Surfel> chunk;
   const size_t ranges = range_count(scene);
-  for (size_t r = 0; r < ranges; ++r) {
-    const TriangleRange range = triangle_range(scene, r);
-    if (range.size() == 0) continue;
-    const uint64_t total = plan_range(range, s2, options.seed, plan);
-    const CoincidentCover& cover = r == 0 ? world_cover : covers[range.instance->prototype];
-    emit_range(scene, range, plan, total, cover, options, sink, meter, chunk);
+  for (size_t r0 = 0; r0 < ranges;) {
+    size_t r1 = r0 + 1, planned = triangle_range(scene, r0).size();
+    while (r1 < ranges && planned + triangle_range(scene, r1).size() <= kGroupTriangles)
+      planned += triangle_range(scene, r1++).size();
+    std::vector<std::vector<TrianglePlan>> plans(r1 - r0);
+    std::vector<uint64_t> totals(r1 - r0);
+    tbb::parallel_for(size_t(r0), r1, [&](size_t r) {
+      totals[r - r0] = plan_range(triangle_range(scene, r), s2, options.seed, plans[r - r0]);
+    });
+    for (size_t r = r0; r < r1; ++r) {
+      const TriangleRange range = triangle_range(scene, r);
+      const CoincidentCover& cover = r == 0 ? world_cover : covers[range.instance->prototype];
+      emit_range(scene, range, plans[r - r0], totals[r - r0], cover, options, sink, meter, chunk);
+    }
+    r0 = r1;
   }
   meter.finish();
 }

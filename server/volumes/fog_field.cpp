@@ -68,25 +68,15 @@ float FogField::optical_depth(const V3f& origin, const V3f& dir, float tmin, flo
 
 MediumScatter FogField::sample_scatter(const V3f& origin, const V3f& dir, float tmin, float tmax, float u_pick,
                                        float u_distance) const {
-  // 1. The grids the segment crosses; one of them, uniformly.
-  size_t crossed = 0, chosen = fogs_.size();
+  // 1. One of the grids the segment crosses, uniformly.
   March m;
-  for (size_t i = 0; i < fogs_.size(); ++i) {
-    March mi;
-    if (!march(fogs_[i], origin, dir, tmin, tmax, &mi)) continue;
-    ++crossed;
-  }
+  size_t crossed = 0;
+  for (const Fog& f : fogs_) crossed += march(f, origin, dir, tmin, tmax, &m) ? 1 : 0;
   if (crossed == 0) return {};
-  const size_t pick = std::min(crossed - 1, size_t(u_pick * float(crossed)));
-  for (size_t i = 0, k = 0; i < fogs_.size(); ++i) {
-    March mi;
-    if (!march(fogs_[i], origin, dir, tmin, tmax, &mi)) continue;
-    if (k++ == pick) {
-      chosen = i;
-      m = mi;
-      break;
-    }
-  }
+  size_t pick = std::min(crossed - 1, size_t(u_pick * float(crossed)));
+  size_t chosen = 0;
+  for (; chosen < fogs_.size(); ++chosen)
+    if (march(fogs_[chosen], origin, dir, tmin, tmax, &m) && pick-- == 0) break;
   const Fog& f = fogs_[chosen];
   // 2. Its optical depth, then the step where the drawn depth
   //    -ln(1 - u (1 - T)) is reached (sigma_t constant within a step).
@@ -106,7 +96,8 @@ MediumScatter FogField::sample_scatter(const V3f& origin, const V3f& dir, float 
     }
     depth += step;
   }
-  // 3. The other grids attenuate the light on its way from t too.
+  // 3. The other grids attenuate the scattered light on its way back
+  //    from t to tmin.
   double others = 0.0;
   for (size_t i = 0; i < fogs_.size(); ++i)
     if (i != chosen) others += grid_depth(fogs_[i], origin, dir, tmin, t);

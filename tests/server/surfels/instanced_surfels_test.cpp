@@ -70,33 +70,7 @@ std::pair<Scene, Scene> forty_instances() {
     inst.add_instance(0, placed.back());
   }
   Scene flat = test::base_scene();
-  const TriangleSoup proto = test::prototype_soup();
-  for (const M44f& m : placed) {
-    TriangleSoup& t = flat.triangles;
-    const uint32_t base = uint32_t(t.positions.size());
-    for (const V3f& v : proto.positions) {
-      V3f w;
-      m.multVecMatrix(v, w);
-      t.positions.push_back(w);
-    }
-    for (const V3f& n : proto.normals) {
-      V3f w;
-      m.inverse().transposed().multDirMatrix(n, w);
-      t.normals.push_back(w);
-    }
-    const bool mirror = m.determinant() < 0.f;
-    for (size_t i = 0; i < proto.triangle_count(); ++i) {
-      t.indices.push_back(base + proto.indices[3 * i]);
-      t.indices.push_back(base + proto.indices[3 * i + (mirror ? 2 : 1)]);
-      t.indices.push_back(base + proto.indices[3 * i + (mirror ? 1 : 2)]);
-      t.material.push_back(proto.material[i]);
-      t.mesh.push_back(uint32_t(t.mesh_paths.size()) + proto.mesh[i]);
-    }
-    for (size_t k = 0; k < proto.mesh_paths.size(); ++k) {
-      t.mesh_paths.push_back(proto.mesh_paths[k]);
-      t.double_sided.push_back(proto.double_sided[k]);
-    }
-  }
+  test::flatten_into(flat, test::prototype_soup(), placed);
   return {std::move(inst), std::move(flat)};
 }
 

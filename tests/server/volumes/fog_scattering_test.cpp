@@ -4,8 +4,8 @@
 // the reference on the same scene.
 //
 // Scene: a floor at z = 0 (albedo 0.5, nothing else to reflect), a sun
-// straight above (irradiance E), and a slab of fog sigma_t = 1 between
-// z0 = 0.05 and z1 = 0.55 (D = 0.5), 40 m wide so that directions from the
+// straight above (irradiance E), and a slab of fog sigma_t = 1 from
+// z0 = 0.025 to z1 = 0.525 (D = 0.5), 40 m wide so that directions from the
 // floor's centre leave through its top down to 1.5 degrees of elevation.
 // The camera looks straight down at the floor from inside the slab (camera
 // rays see no fog, in the reference as in the daemon), so the floor's
@@ -18,15 +18,14 @@
 #include "server/reference/path_tracer.h"
 #include "server/volumes/fog_field.h"
 #include "server/volumes/fog_points.h"
-#include "server/volumes/volume_grid.h"
 #include "tests/server/gather/surfel_tree.h"
-
-#include <openvdb/openvdb.h>
+#include "tests/server/volumes/constant_fog.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <iostream>
+#include <memory>
 #include <numeric>
 
 namespace pbgi {
@@ -34,12 +33,11 @@ namespace {
 
 constexpr float kVoxel = 0.05f;
 constexpr float kSigma = 1.f;
-constexpr float kZ0 = 0.05f, kZ1 = 0.55f;  // the slab's faces (voxel bounds)
+constexpr float kZ0 = 0.025f, kZ1 = 0.525f;  // the slab's faces (voxel bounds)
 constexpr float kSun = 2.f;                // irradiance
 constexpr float kFloorAlbedo = 0.5f;
 
 Scene sunlit_slab() {
-  openvdb::initialize();
   Scene s;
   s.source_path = "fog_scattering_test";
   s.materials.resize(1);
@@ -59,18 +57,10 @@ Scene sunlit_slab() {
   cam.horizontal_aperture = cam.vertical_aperture = 20.f;
   s.cameras[cam.prim_path] = cam;
 
-  // Voxel k covers [k - 0.5, k + 0.5) x kVoxel: indices 1..10 are z in
-  // [0.05, 0.55), and x, y in [-20, 20).
-  openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(0.f);
-  grid->setTransform(openvdb::math::Transform::createLinearTransform(kVoxel));
-  grid->fill(openvdb::CoordBBox({-400, -400, 1}, {399, 399, 10}), kSigma, true);
-  Volume v;
-  v.prim_path = "/Fog";
-  v.kind = VolumeKind::Fog;
-  v.voxel_size = kVoxel;
-  v.grid = std::make_shared<VolumeGrid>(grid);
-  v.bounds = Box3f(V3f(-20.025f, -20.025f, kZ0), V3f(19.975f, 19.975f, kZ1));
-  s.volumes.push_back(v);
+  // Voxel k is centred at k x kVoxel: indices 1..10 are z in [0.025,
+  // 0.525) (trilinear: full density from 0.05 to 0.5, ramps to 0 at 0 and
+  // 0.55, optical depth 0.5 straight through), x, y in [-20.025, 19.975).
+  s.volumes.push_back(test::constant_fog(openvdb::CoordBBox({-400, -400, 1}, {399, 399, 10}), kVoxel, kSigma));
   return s;
 }
 
@@ -91,21 +81,63 @@ double analytic_floor_indirect(double fog_albedo) {
 
 float mean(const std::vector<float>& v) { return std::accumulate(v.begin(), v.end(), 0.f) / float(v.size()); }
 
-ReferenceImage render(const RayScene& rays, const Scene& s) {
-  ReferenceOptions ro;
-  ro.width = ro.height = 16;
-  ro.spp = 256;
-  ro.max_depth = 1;
-  return render_reference(rays, s.cameras.at("/Cam"), ro);
+// The slab scene, its fog (of the given albedo) as the rays' medium.
+struct FoggyFloor {
+  explicit FoggyFloor(float albedo) : scene(sunlit_slab()), rays(scene) {
+    fog.albedo = C3f(albedo);
+    field = std::make_shared<const FogField>(scene, fog);
+    rays.set_medium(field);
+  }
+  // The reference's view of the floor.
+  ReferenceImage reference() const {
+    ReferenceOptions ro;
+    ro.width = ro.height = 16;
+    ro.spp = 256;
+    ro.max_depth = 1;
+    return render_reference(rays, scene.cameras.at("/Cam"), ro);
+  }
+
+  Scene scene;
+  FogOptions fog;
+  RayScene rays;
+  std::shared_ptr<const FogField> field;
+};
+
+// The scattering distances' defining property (participating_medium.h),
+// E[weight * g(t)] = integral of sigma_t T g, for g = 1 (then 1 - T of the
+// whole segment) and g = [t < half the slab] (1 - T up to there), with one
+// grid and with two overlapping grids of half the density each.
+TEST(FogScattering, ScatteringDistancesFollowSigmaTTimesTransmittance) {
+  const openvdb::CoordBBox slab({-20, -20, 1}, {19, 19, 10});  // z in [0.025, 0.525)
+  Scene one, two;
+  one.volumes.push_back(test::constant_fog(slab, kVoxel, 1.2f));
+  two.volumes.push_back(test::constant_fog(slab, kVoxel, 0.6f, "/FogA"));
+  two.volumes.push_back(test::constant_fog(slab, kVoxel, 0.6f, "/FogB"));
+  const V3f origin(0.1f, 0.2f, -1.f), up(0.f, 0.f, 1.f);
+  for (const Scene* s : {&one, &two}) {
+    const FogField field(*s, FogOptions{});
+    const float half = 1.f + 0.5f * (kZ0 + kZ1);  // t at the slab's middle
+    // Midpoints of 8 x 1024 strata of (u_pick, u_distance): the
+    // indicator's error is at most one stratum's mass, < 5e-4.
+    constexpr int picks = 8, distances = 1024;
+    double all = 0, below_half = 0;
+    for (int i = 0; i < picks; ++i)
+      for (int j = 0; j < distances; ++j) {
+        const MediumScatter m =
+            field.sample_scatter(origin, up, 0.f, INFINITY, (i + 0.5f) / picks, (j + 0.5f) / distances);
+        all += m.weight;
+        below_half += m.t < half ? m.weight : 0.f;
+      }
+    all /= picks * distances;
+    below_half /= picks * distances;
+    EXPECT_NEAR(all, 1.0 - field.transmittance(origin, up, 0.f, INFINITY), 1e-3) << s->volumes.size();
+    EXPECT_NEAR(below_half, 1.0 - field.transmittance(origin, up, 0.f, half), 1e-3) << s->volumes.size();
+  }
 }
 
 TEST(FogScattering, ReferenceMatchesTheSingleScatteringIntegralOfASunlitSlab) {
-  const Scene s = sunlit_slab();
-  FogOptions fog;
-  fog.albedo = C3f(0.8f);
-  RayScene rays(s);
-  rays.set_medium(std::make_shared<FogField>(s, fog));
-  const ReferenceImage ref = render(rays, s);
+  const FoggyFloor f(0.8f);
+  const ReferenceImage ref = f.reference();
   const double expected = analytic_floor_indirect(0.8);
   std::cout << "sunlit slab (tau 0.5, albedo 0.8): floor indirect analytic " << expected << ", reference "
             << mean(ref.indirect) << "\n";
@@ -118,12 +150,7 @@ TEST(FogScattering, ReferenceMatchesTheSingleScatteringIntegralOfASunlitSlab) {
 }
 
 TEST(FogScattering, ABlackAlbedoScattersNothing) {
-  const Scene s = sunlit_slab();
-  FogOptions fog;
-  fog.albedo = C3f(0.f);
-  RayScene rays(s);
-  rays.set_medium(std::make_shared<FogField>(s, fog));
-  const ReferenceImage ref = render(rays, s);
+  const ReferenceImage ref = FoggyFloor(0.f).reference();
   EXPECT_EQ(mean(ref.indirect), 0.f);
   EXPECT_GT(mean(ref.direct), 0.f);
 }
@@ -131,18 +158,12 @@ TEST(FogScattering, ABlackAlbedoScattersNothing) {
 // PBGI's fog contribution (fog points lit by single scattering, composited
 // by the gather into the floor's irradiance) against the reference's.
 TEST(FogScattering, PbgiFogPointsAgreeWithTheReference) {
-  const Scene s = sunlit_slab();
-  FogOptions fog;
-  fog.albedo = C3f(0.8f);
-  RayScene rays(s);
-  const auto field = std::make_shared<FogField>(s, fog);
-  rays.set_medium(field);
-  const ReferenceImage ref = render(rays, s);
-
+  const FoggyFloor f(0.8f);
+  const ReferenceImage ref = f.reference();
   const test::SurfelTree empty(std::vector<Surfel>{});
   Gatherer g(empty, GatherOptions{});
-  auto points = std::make_shared<VolumePoints>(bake_fog_points(s, 0.2f, fog));
-  light_fog_points(rays, *field, fog, *points);
+  auto points = std::make_shared<VolumePoints>(bake_fog_points(f.scene, 0.2f, f.fog));
+  light_fog_points(f.rays, *f.field, f.fog, *points);
   g.set_volume_points(points);
   const GatherResult r = g.gather(Receiver{V3f(0, 0, 0.001f), V3f(0, 0, 1)});
   const float pbgi = kFloorAlbedo / float(M_PI) * r.irradiance.x;
