@@ -175,6 +175,8 @@ const CommandRegistrar kRegistrar("reference", [](CLI::App& app, int* exit_code)
   cmd->add_option_function<float>(
          "--fog-albedo", [args](float a) { args->fog.albedo = C3f(a); },
          "fog grids: grey single-scattering albedo, 0 = absorbing [0.8]");
+  cmd->add_flag("--camera-fog", args->render.fog_on_camera_rays,
+                "Fog attenuates and scatters along camera rays too (the daemon's images have none there)");
   cmd->add_flag("--hide-lights", args->hide_lights, "Camera rays do not see area lights");
   cmd->add_flag("--png", args->png, "Also write <out>.png of the beauty (sRGB display)");
   cmd->add_flag("--png-all", args->png_all, "Also write <out>.<aov>.png for every AOV");

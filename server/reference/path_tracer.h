@@ -42,11 +42,14 @@
 //    fog's albedo -- what the daemon's fog points carry (fog_points.h).
 //    The estimate is (1 - T(segment)) * albedo / (4 pi) * sum over lights of
 //    Le T V / pdf, added besides the path's continuation to x_{k+1}.
+//    Fog on the camera ray (between the camera and x1) only with
+//    ReferenceOptions::fog_on_camera_rays: the daemon's tile renderer
+//    shades x1 as seen through clear air, so by default the reference does
+//    too and the AOVs compare; with it, x1's light is attenuated and the
+//    light scattered toward the camera is added to "direct".
 //    Not modelled, as in the daemon: multiple scattering (paths do not
-//    continue from a point in the medium), emissive triangles lighting the
-//    fog, and fog on the camera ray (between the camera and x1: the
-//    daemon's tile renderer shades x1 as seen through clear air, so the
-//    reference does too and the AOVs compare).
+//    continue from a point in the medium) and emissive triangles lighting
+//    the fog.
 //  * Russian roulette once a path has ReferenceOptions::rr_start_depth
 //    reflections, with continuation probability min(1, max component of the
 //    throughput); ReferenceOptions::max_depth caps the reflections.

@@ -155,6 +155,37 @@ TEST(FogScattering, ABlackAlbedoScattersNothing) {
   EXPECT_GT(mean(ref.direct), 0.f);
 }
 
+// ReferenceOptions::fog_on_camera_rays: a camera just above the floor
+// looking up at 45 degrees through the slab into an empty sky sees only the
+// light the fog scatters along its rays, L(mu) of the top of this file with
+// mu = cos 45 degrees (the same integral read from the other end: the path
+// through the slab and the sun's light at each point); without the option,
+// nothing.
+TEST(FogScattering, CameraRaysSeeTheSlabsScatteredLightWhenAsked) {
+  const FoggyFloor f(0.8f);
+  Camera up;
+  up.local_to_world.setAxisAngle(V3f(1, 0, 0), float(M_PI) * 0.75f);  // -Z -> (0, 0.71, 0.71)
+  up.local_to_world *= M44f().setTranslation(V3f(0, 0, 0.002f));
+  up.focal_length = 100.f;
+  up.horizontal_aperture = up.vertical_aperture = 1.f;  // rays within 0.3 degrees of the axis
+  up.near_clip = 1e-4f;
+  ReferenceOptions ro;
+  ro.width = ro.height = 4;
+  ro.spp = 64;
+  ro.max_depth = 1;
+  ro.fog_on_camera_rays = true;
+  const ReferenceImage seen = render_reference(f.rays, up, ro);
+  const double mu = std::sqrt(0.5), d = kZ1 - kZ0;
+  const double expected =
+      0.8 * kSun / (4.0 * M_PI) * (std::exp(-kSigma * d) - std::exp(-kSigma * d / mu)) / (1.0 - mu);
+  std::cout << "camera ray up through the slab at 45 degrees: analytic " << expected << ", reference "
+            << mean(seen.direct) << "\n";
+  EXPECT_NEAR(mean(seen.direct), expected, 0.02 * expected);
+  EXPECT_EQ(mean(seen.indirect), 0.f);
+  ro.fog_on_camera_rays = false;
+  EXPECT_EQ(mean(render_reference(f.rays, up, ro).direct), 0.f);
+}
+
 // PBGI's fog contribution (fog points lit by single scattering, composited
 // by the gather into the floor's irradiance) against the reference's.
 TEST(FogScattering, PbgiFogPointsAgreeWithTheReference) {
