@@ -56,7 +56,7 @@ float mean(const std::vector<float>& v) { return std::accumulate(v.begin(), v.en
 TEST(FogReference, DirectLightAndAmbientOcclusionUnderAFogSlab) {
   const Scene s = foggy_floor();
   FogOptions fog;
-  fog.albedo = C3f(0.f);  // absorbing: the reference does not scatter in the medium
+  fog.albedo = C3f(0.f);  // absorbing (fog_scattering_test.cpp checks scattering)
   RayScene rays(s);
   const auto field = std::make_shared<FogField>(s, fog);
   rays.set_medium(field);
