@@ -42,18 +42,19 @@
 //
 //  5. Instances (native or point-instanced prototypes) go down the octree
 //     whole, as one item with their world bounds and area, while their
-//     bounds lie strictly inside a cell (half-open); they are expanded into
-//     their triangles (scene triangle ids, transformed on the fly) only at
-//     the cell they straddle or at the tile they end in. So the octree
-//     holds the world soup's triangles, the instances, and the expanded
-//     triangles of the instances near the current path -- not one id per
-//     triangle with instances expanded (before: 4 bytes per expanded
-//     triangle at the root plus its copies down the tree). A tile's list is
-//     kept in ascending id order, as when everything was expanded, so the
-//     surfels are those of the flattened scene; an instance's estimate is
-//     its area over h^2 at its bounds' centre (exact for an absolute
-//     spacing up to rounding, approximate with a camera: only the octree's
-//     split decisions and the progress use it).
+//     bounds lie strictly inside a cell (touching no face); they are
+//     expanded into their triangles (scene triangle ids, transformed on the
+//     fly) only at the cell they straddle or at the tile they end in. So
+//     the octree holds the world soup's triangles, the instances, and the
+//     expanded triangles of the instances near the current path -- not one
+//     id per triangle with instances expanded (before: 4 bytes per expanded
+//     triangle at the root plus its copies down the tree). A tile's list
+//     is kept in ascending id order and holds the triangles it would hold
+//     with everything expanded, so the surfels are those of the flattened
+//     scene; an instance's estimate is its area over h^2 at its bounds'
+//     centre (exact for an absolute spacing up to rounding, approximate
+//     with a camera: only the octree's split decisions and the progress
+//     use it).
 //
 // Everything derives from hashes of (seed, triangle, lattice cell), and the
 // order of tiles and candidates is fixed: the result does not depend on
@@ -160,6 +161,12 @@ V3f polygon_mean(const Polygon& p) {
 
 bool in_box_half_open(const V3f& p, const Box3f& b) {
   return p.x >= b.min.x && p.x < b.max.x && p.y >= b.min.y && p.y < b.max.y && p.z >= b.min.z && p.z < b.max.z;
+}
+
+bool strictly_inside(const Box3f& inner, const Box3f& outer) {
+  for (int k = 0; k < 3; ++k)
+    if (!(inner.min[k] > outer.min[k] && inner.max[k] < outer.max[k])) return false;
+  return true;
 }
 
 float distance_to_faces(const V3f& p, const Box3f& b) {
@@ -315,15 +322,16 @@ class PoissonSampler {
             cbox[c].max[k] = hi ? box.max[k] : mid[k];
           }
         }
-        // Instances strictly inside a child (half-open, so that none of
-        // their triangles touches another child) stay whole; the others
-        // are expanded here, their triangles routed like the rest.
+        // Instances strictly inside a child (touching none of its faces,
+        // so that none of their triangles is routed to another child, as
+        // when expanded) stay whole; the others are expanded here, their
+        // triangles routed like the rest.
         bool expanded = false;
         for (uint32_t k : items.insts) {
           const Box3f& b = whole_[k].bounds;
           int inside = -1;
           for (int c = 0; c < 8 && inside < 0; ++c)
-            if (in_box_half_open(b.min, cbox[c]) && in_box_half_open(b.max, cbox[c])) inside = c;
+            if (strictly_inside(b, cbox[c])) inside = c;
           if (inside >= 0) {
             child[inside].insts.push_back(k);
           } else {
