@@ -91,7 +91,7 @@ struct TrianglePlan {
   uint64_t first = 0;     // index of its first surfel within the range
 };
 
-// Steps 1, 3 and 4 of the top of this file for one range: areas, sample
+// Steps 1, 3 and 4 of sample_uniform() for one range: areas, sample
 // counts (each from the generator of its scene triangle id), area shares
 // per mesh and the surfel layout. Returns the range's surfel count.
 uint64_t plan_range(const TriangleRange& range, double s2, uint64_t seed, std::vector<TrianglePlan>& plan) {
