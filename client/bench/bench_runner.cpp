@@ -9,6 +9,7 @@
 #include "client/image/exr_image.h"
 #include "client/metrics/perceptual_diff.h"
 #include "server/ingest/usd_ingest.h"
+#include "server/volumes/fog_field.h"
 #include "storage/format/errors.h"
 
 #include <fmt/format.h>
@@ -262,7 +263,12 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& o) {
   create_dir(work_dir);
   if (o.save_images) create_dir(o.out_dir / "images");
   const std::string scene_hash = scene_model_hash(scene);
-  const RayScene rays(scene);
+  RayScene rays(scene);
+  // Fog grids as the PBGI method's open_scene_model applies them (its
+  // OpenOptions keep the default FogOptions), so the reference sees the
+  // same extinction and single scattering.
+  const auto fog = std::make_shared<FogField>(scene, FogOptions{});
+  if (!fog->empty()) rays.set_medium(fog);
   const BenchInput in{scene, scene_hash, rays, camera, o.width, o.height, work_dir,
                       o.page_cache_bytes};
 

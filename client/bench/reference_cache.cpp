@@ -16,7 +16,8 @@ namespace {
 // that old references are not reused.
 // 2: emissive triangles sampled directly (MIS) and pbrt-style ray offsets.
 // 3: glossy and metallic materials reflect by the GGX BRDF (brdf.h).
-constexpr int kCacheVersion = 3;
+// 4: fog grids attenuate and single-scatter (the bench sets the medium).
+constexpr int kCacheVersion = 4;
 
 constexpr char kKeyAttribute[] = "pbgi/bench_reference_key";
 constexpr char kSecondsAttribute[] = "pbgi/render_seconds";

@@ -7,6 +7,7 @@
 #include "client/image/png_display.h"
 #include "server/ingest/usd_ingest.h"
 #include "server/reference/path_tracer.h"
+#include "server/volumes/fog_field.h"
 #include "storage/format/errors.h"
 
 #include <fmt/format.h>
@@ -25,6 +26,7 @@ struct ReferenceArgs {
   std::string camera;
   std::string out = "reference.exr";
   ReferenceOptions render;
+  FogOptions fog;  // the daemon's defaults unless a flag sets them
   bool png = false;
   bool png_all = false;
   bool half = false;
@@ -98,7 +100,10 @@ int run(const ReferenceArgs& args) {
   // 2. Render.
   ReferenceOptions options = args.render;
   options.lights_visible_to_camera = !args.hide_lights;
-  const RayScene rays(scene);
+  RayScene rays(scene);
+  // Fog grids attenuate and scatter light as the daemon's do (FogField).
+  const auto fog = std::make_shared<FogField>(scene, args.fog);
+  if (!fog->empty()) rays.set_medium(fog);
   ProgressBar bar(args.quiet);
   ReferenceStats stats;
   const ReferenceImage result =
@@ -164,6 +169,14 @@ const CommandRegistrar kRegistrar("reference", [](CLI::App& app, int* exit_code)
   cmd->add_option("--ao-max-distance", args->render.ao_max_distance,
                   "AO occluder distance (0 = unbounded)")
       ->capture_default_str();
+  cmd->add_option("--fog-extinction", args->fog.extinction_per_density,
+                  "fog grids: extinction per unit density and world unit (sigma_t = density x this)")
+      ->capture_default_str();
+  cmd->add_option_function<float>(
+         "--fog-albedo", [args](float a) { args->fog.albedo = C3f(a); },
+         "fog grids: grey single-scattering albedo, 0 = absorbing [0.8]");
+  cmd->add_flag("--camera-fog", args->render.fog_on_camera_rays,
+                "Fog attenuates and scatters along camera rays too (the daemon's images have none there)");
   cmd->add_flag("--hide-lights", args->hide_lights, "Camera rays do not see area lights");
   cmd->add_flag("--png", args->png, "Also write <out>.png of the beauty (sRGB display)");
   cmd->add_flag("--png-all", args->png_all, "Also write <out>.<aov>.png for every AOV");

@@ -23,6 +23,8 @@ namespace pbgi {
 namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
+// The isotropic phase function, 1 / (4 pi): the fog points' (fog_points.h).
+constexpr float kInvFourPi = 0.0795774715f;
 
 // The radiance estimates of one camera sample, split as the AOVs are.
 struct PathSample {
@@ -72,7 +74,13 @@ class PathTracer {
   PathSample trace(const Ray& camera_ray, Rng& rng, uint64_t* ray_count) const;
 
  private:
+  // The camera sample as seen through clear air (everything from x1 on).
+  PathSample trace_from_x1(const Ray& camera_ray, const Hit& hit, Rng& rng, uint64_t* ray_count) const;
   Vertex make_vertex(const Hit& hit, const V3f& ray_dir) const;
+  // Light of the UsdLux lights scattered once by the fog along the ray
+  // (origin, dir) over [tmin, tmax] toward the origin (see path_tracer.h).
+  C3f in_scattered(const V3f& origin, const V3f& dir, float tmin, float tmax, Rng& rng,
+                   uint64_t* ray_count) const;
   // Origin of a ray leaving v along w (w in ng's hemisphere): offset by the
   // bound on p's own rounding error, so it is tight at any distance from
   // the world origin.
@@ -109,14 +117,56 @@ Vertex PathTracer::make_vertex(const Hit& hit, const V3f& ray_dir) const {
   return v;
 }
 
+C3f PathTracer::in_scattered(const V3f& origin, const V3f& dir, float tmin, float tmax, Rng& rng,
+                             uint64_t* ray_count) const {
+  // Without scattering fog no number is drawn: such renders are the
+  // same as before fog scattered.
+  const ParticipatingMedium* medium = rays_.medium();
+  if (!medium || is_black(medium->albedo()) || scene_.lights.empty()) return C3f(0.f);
+  const float u_pick = rng.uniform(), u_distance = rng.uniform();
+  const MediumScatter ms = medium->sample_scatter(origin, dir, tmin, tmax, u_pick, u_distance);
+  if (!(ms.weight > 0.f)) return C3f(0.f);
+  // Next-event estimation at the scattering point: one sample of every
+  // light, through the fog and past the surfaces (a point in the medium
+  // has no surface to offset from).
+  const V3f p = origin + dir * ms.t;
+  C3f sum(0.f);
+  for (const Light& light : scene_.lights) {
+    const float u1 = rng.uniform(), u2 = rng.uniform();
+    const LightSample ls = sample_light(light, p, u1, u2);
+    if (!(ls.pdf > 0.f) || is_black(ls.radiance)) continue;
+    const float t_light = std::isinf(ls.distance) ? kInf : ls.distance * (1.f - 1e-4f);
+    ++*ray_count;
+    if (!(t_light > 0.f) || rays_.occluded(p, ls.direction, 0.f, t_light)) continue;
+    sum += ls.radiance * (rays_.transmittance(p, ls.direction, 0.f, t_light) / ls.pdf);
+  }
+  return medium->albedo() * sum * (ms.weight * kInvFourPi);
+}
+
 PathSample PathTracer::trace(const Ray& camera_ray, Rng& rng, uint64_t* ray_count) const {
+  const Hit hit = rays_.intersect(camera_ray.origin, camera_ray.direction, camera_ray.tmin, camera_ray.tmax);
+  ++*ray_count;
+  if (!options_.fog_on_camera_rays || !rays_.medium()) return trace_from_x1(camera_ray, hit, rng, ray_count);
+  // Fog between the camera and x1 (ReferenceOptions::fog_on_camera_rays):
+  // what lies behind it is attenuated, and the lights' light it scatters
+  // toward the camera is added to "direct" (no surface scattered it).
+  const float t_end = hit.valid() ? hit.t : camera_ray.tmax;
+  const C3f scattered = in_scattered(camera_ray.origin, camera_ray.direction, camera_ray.tmin, t_end, rng, ray_count);
+  const float tr = rays_.transmittance(camera_ray.origin, camera_ray.direction, camera_ray.tmin, t_end);
+  PathSample out = trace_from_x1(camera_ray, hit, rng, ray_count);
+  out.direct = out.direct * tr + scattered;
+  out.indirect *= tr;
+  out.indirect1 *= tr;
+  return out;
+}
+
+PathSample PathTracer::trace_from_x1(const Ray& camera_ray, const Hit& hit, Rng& rng, uint64_t* ray_count) const {
   PathSample out;
   const std::vector<Light>& lights = scene_.lights;
 
-  // 1. The camera ray. A visible area light in front of the first surface
-  // is what the pixel shows, as in the daemon's tile renderer.
-  const Hit hit = rays_.intersect(camera_ray.origin, camera_ray.direction, camera_ray.tmin, camera_ray.tmax);
-  ++*ray_count;
+  // 1. The camera ray (traced by trace()). A visible area light in front
+  // of the first surface is what the pixel shows, as in the daemon's tile
+  // renderer.
   if (options_.lights_visible_to_camera) {
     float tmax = hit.t;
     bool seen = false;
@@ -238,9 +288,12 @@ PathSample PathTracer::trace(const Ray& camera_ray, Rng& rng, uint64_t* ray_coun
       if (!(pdf_light > 0.f)) continue;
       add(k - 1, beta * le * (rays_.transmittance(origin, d, 0.f, t) * power_heuristic(pdf_bsdf, pdf_light)));
     }
+    // Fog along the segment to the next surface (or out of the scene):
+    // single scattering of the lights' light, which left no surface after
+    // x_k: like x_{k+1}'s emission, k surfaces by x1 (path_tracer.h).
+    add(k, beta * in_scattered(origin, d, 0.f, next.valid() ? next.t : kInf, rng, ray_count));
     if (!next.valid()) break;
-    // Fog along the segment to the next surface: extinction only (the
-    // reference does not scatter in the medium; see path_tracer.h).
+    // ... and its extinction of what lies behind.
     beta *= rays_.transmittance(origin, d, 0.f, next.t);
     v = make_vertex(next, d);
     wo = -d;

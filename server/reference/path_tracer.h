@@ -33,8 +33,23 @@
 //    the world origin renders as it does near it.
 //  * Fog (RayScene::medium(), server/volumes/fog_field.h) attenuates every
 //    shadow ray, every path segment and the AO ray by its ray-marched
-//    transmittance: the reference models extinction, not scattering inside
-//    the medium (compare PBGI against it with an absorbing fog, albedo 0).
+//    transmittance, and scatters the UsdLux lights' light once: along every
+//    path segment leaving a surface x_k (to x_{k+1}, or out of the scene)
+//    one distance t is drawn in proportion to sigma_t(t) T(x_k, t)
+//    (ParticipatingMedium::sample_scatter: inverting the marched optical
+//    depth) and every light is sampled from there (shadow ray, fog
+//    transmittance), with the isotropic phase function 1/(4 pi) and the
+//    fog's albedo -- what the daemon's fog points carry (fog_points.h).
+//    The estimate is (1 - T(segment)) * albedo / (4 pi) * sum over lights of
+//    Le T V / pdf, added besides the path's continuation to x_{k+1}.
+//    Fog on the camera ray (between the camera and x1) only with
+//    ReferenceOptions::fog_on_camera_rays: the daemon's tile renderer
+//    shades x1 as seen through clear air, so by default the reference does
+//    too and the AOVs compare; with it, x1's light is attenuated and the
+//    light scattered toward the camera is added to "direct".
+//    Not modelled, as in the daemon: multiple scattering (paths do not
+//    continue from a point in the medium) and emissive triangles lighting
+//    the fog.
 //  * Russian roulette once a path has ReferenceOptions::rr_start_depth
 //    reflections, with continuation probability min(1, max component of the
 //    throughput); ReferenceOptions::max_depth caps the reflections.
@@ -61,6 +76,9 @@
 //             lobe times the irradiance plus its GGX lobe convolved by the
 //             glossy gather (docs/gather.md, "Glossy receivers"); glossy
 //             x2 (senders) are not in PBGI yet: surfels are Lambertian.
+//             Fog scattering counts as a surface here: light of a UsdLux
+//             light scattered once in the fog on its way to x1 (what the
+//             daemon's gather adds from its fog points) has s = 1.
 //   indirect  s >= 1: all interreflections (includes indirect1).
 //   beauty    direct + indirect.
 //   albedo    albedo of x1's material (0 where the camera ray misses).

@@ -38,6 +38,12 @@ struct ReferenceOptions {
   // combined with BSDF sampling. Off: they are found by BSDF sampling only
   // (unbiased too, but small emitters then make fireflies).
   bool sample_emissive_triangles = true;
+  // Fog (RayScene::medium()) on camera rays too: the surface the camera
+  // sees is attenuated by the fog in front of it, and the lights' light
+  // that fog scatters toward the camera is added to the direct AOV. Off by
+  // default because the daemon's tile renderer shades x1 through clear
+  // air: with it off the AOVs mean the same in both (path_tracer.h).
+  bool fog_on_camera_rays = false;
 
   // Throws pbgi::InvalidArgument naming the field when out of range.
   void validate() const;

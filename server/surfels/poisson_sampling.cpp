@@ -40,6 +40,22 @@
 //     outside the cell) and is emitted. Memory is one tile's candidates and
 //     the surfels along the faces of the cells on the current octree path.
 //
+//  5. Instances (native or point-instanced prototypes) go down the octree
+//     whole, as one item with their world bounds and area, while their
+//     bounds lie strictly inside a cell (touching no face); they are
+//     expanded into their triangles (scene triangle ids, transformed on the
+//     fly) only at the cell they straddle or at the tile they end in. So
+//     the octree holds the world soup's triangles, the instances, and the
+//     expanded triangles of the instances near the current path -- not one
+//     id per triangle with instances expanded (before: 4 bytes per expanded
+//     triangle at the root plus its copies down the tree). A tile's list
+//     is kept in ascending id order and holds the triangles it would hold
+//     with everything expanded, so the surfels are those of the flattened
+//     scene; an instance's estimate is its area over h^2 at its bounds'
+//     centre (exact for an absolute spacing up to rounding, approximate
+//     with a camera: only the octree's split decisions and the progress
+//     use it).
+//
 // Everything derives from hashes of (seed, triangle, lattice cell), and the
 // order of tiles and candidates is fixed: the result does not depend on
 // threads or batch sizes.
@@ -51,9 +67,12 @@
 #include "server/surfels/spacing_field.h"
 #include "server/surfels/surfel_material.h"
 #include "server/surfels/surfel_samplers.h"
+#include "server/surfels/triangle_ranges.h"
 #include "storage/format/errors.h"
 
 #include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
@@ -144,6 +163,12 @@ bool in_box_half_open(const V3f& p, const Box3f& b) {
   return p.x >= b.min.x && p.x < b.max.x && p.y >= b.min.y && p.y < b.max.y && p.z >= b.min.z && p.z < b.max.z;
 }
 
+bool strictly_inside(const Box3f& inner, const Box3f& outer) {
+  for (int k = 0; k < 3; ++k)
+    if (!(inner.min[k] > outer.min[k] && inner.max[k] < outer.max[k])) return false;
+  return true;
+}
+
 float distance_to_faces(const V3f& p, const Box3f& b) {
   float d = std::numeric_limits<float>::infinity();
   for (int k = 0; k < 3; ++k) d = std::min({d, p[k] - b.min[k], b.max[k] - p[k]});
@@ -180,6 +205,21 @@ struct Candidate {
   uint64_t priority;
 };
 
+// An instance as one octree item: its world bounds and its surface
+// (double-sided meshes twice), for estimates without its triangles.
+struct WholeInstance {
+  Box3f bounds;
+  double area = 0.0;
+};
+
+// The octree's items in one cell: triangle ids (ascending) and instances
+// not yet expanded (indices into Scene::instances, ascending).
+struct CellItems {
+  std::vector<uint32_t> tris;
+  std::vector<uint32_t> insts;
+  bool empty() const { return tris.empty() && insts.empty(); }
+};
+
 struct Live {
   V3f p, n;
   float r;
@@ -193,19 +233,50 @@ class PoissonSampler {
   PoissonSampler(const Scene& scene, const SurfelOptions& options, const SpacingField& field,
                  const SurfelChunkSink& sink, ProgressMeter& meter, uint64_t meter_total)
       : scene_(scene), options_(options), field_(field), sink_(sink), meter_(meter),
-        meter_total_(meter_total) {}
+        meter_total_(meter_total) {
+    // Bounds and area of every instance, in parallel (each walks its
+    // prototype's triangles once).
+    whole_.resize(scene.instances.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, whole_.size(), 1), [&](const auto& r) {
+      for (size_t k = r.begin(); k != r.end(); ++k) {
+        const TriangleRange range = triangle_range(scene, k + 1);
+        WholeInstance& w = whole_[k];
+        for (uint32_t j = 0; j < range.size(); ++j) {
+          const TriangleRef t = range.triangle(j);
+          for (int c = 0; c < 3; ++c) w.bounds.extendBy(t.position(c));
+        }
+        w.area = range_area(range).total;
+      }
+    });
+  }
+
+  // The items of the whole scene: the world soup's triangles and every
+  // instance with some area.
+  CellItems root_items() const {
+    CellItems items;
+    items.tris.reserve(scene_.triangles.triangle_count());
+    for (size_t i = 0; i < scene_.triangles.triangle_count(); ++i) items.tris.push_back(uint32_t(i));
+    for (size_t k = 0; k < whole_.size(); ++k)
+      if (whole_[k].area > 0.0) items.insts.push_back(uint32_t(k));
+    return items;
+  }
 
   // Samples everything inside `cube` (which encloses the scene).
-  void run(const Box3f& cube, std::vector<uint32_t> tris, double root_estimate) {
+  void run(const Box3f& cube, CellItems items, double root_estimate) {
     root_estimate_ = std::max(root_estimate, 1.0);
-    process(cube, tris, 0);
+    process(cube, items, 0);
     flush();
   }
 
-  // Expected surfels over the pieces of `tris` inside `box`; drops from
-  // `tris` the triangles with no area inside.
-  double estimate(const Box3f& box, std::vector<uint32_t>& tris) const {
+  // Expected surfels over the pieces of the items inside `box` (whole
+  // instances lie inside it); drops the triangles with no area inside.
+  double estimate(const Box3f& box, CellItems& items) const {
     double e = 0;
+    for (uint32_t k : items.insts) {
+      const float h = field_.at(whole_[k].bounds.center());
+      e += whole_[k].area / (double(h) * h);
+    }
+    std::vector<uint32_t>& tris = items.tris;
     size_t kept = 0;
     for (uint32_t t : tris) {
       const Polygon p = clip_to_box(vertex(t, 0), vertex(t, 1), vertex(t, 2), box);
@@ -225,17 +296,24 @@ class PoissonSampler {
   bool twin(uint32_t tri) const { return scene_.triangle(tri).double_sided(); }
   float radius_at(const V3f& p) const { return kRadiusFactor * field_.at(p); }
 
-  void process(const Box3f& box, std::vector<uint32_t>& tris, int depth) {
-    const double expected = estimate(box, tris);
+  // Appends the triangles of instance k to `tris` (scene ids, ascending).
+  void expand(uint32_t k, std::vector<uint32_t>& tris) const {
+    const TriangleRange range = triangle_range(scene_, k + 1);
+    for (uint32_t j = 0; j < range.size(); ++j) tris.push_back(range.first_id + j);
+  }
+
+  void process(const Box3f& box, CellItems& items, int depth) {
+    const double expected = estimate(box, items);
     const size_t mark = live_.size();
-    if (!tris.empty()) {
+    std::vector<uint32_t>& tris = items.tris;
+    if (!items.empty()) {
       const float h_min = field_.min_in(box), h_max = field_.max_in(box);
       const float edge = box.size().x;
       const bool split = depth < kMaxDepth && edge > 4.f * kRadiusFactor * h_min &&
                          (expected > kMaxTileSamples || h_max > 2.f * h_min);
       if (split) {
         const V3f mid = box.center();
-        std::vector<uint32_t> child[8];
+        CellItems child[8];
         Box3f cbox[8];
         for (int c = 0; c < 8; ++c) {
           for (int k = 0; k < 3; ++k) {
@@ -244,17 +322,42 @@ class PoissonSampler {
             cbox[c].max[k] = hi ? box.max[k] : mid[k];
           }
         }
+        // Instances strictly inside a child (touching none of its faces,
+        // so that none of their triangles is routed to another child, as
+        // when expanded) stay whole; the others are expanded here, their
+        // triangles routed like the rest.
+        bool expanded = false;
+        for (uint32_t k : items.insts) {
+          const Box3f& b = whole_[k].bounds;
+          int inside = -1;
+          for (int c = 0; c < 8 && inside < 0; ++c)
+            if (strictly_inside(b, cbox[c])) inside = c;
+          if (inside >= 0) {
+            child[inside].insts.push_back(k);
+          } else {
+            expand(k, tris);
+            expanded = true;
+          }
+        }
+        std::vector<uint32_t>().swap(items.insts);
+        if (expanded) std::sort(tris.begin(), tris.end());
         for (uint32_t t : tris) {
           Box3f tb;
           tb.extendBy(vertex(t, 0));
           tb.extendBy(vertex(t, 1));
           tb.extendBy(vertex(t, 2));
           for (int c = 0; c < 8; ++c)
-            if (tb.intersects(cbox[c])) child[c].push_back(t);
+            if (tb.intersects(cbox[c])) child[c].tris.push_back(t);
         }
         std::vector<uint32_t>().swap(tris);
         for (int c = 0; c < 8; ++c) process(cbox[c], child[c], depth + 1);
       } else {
+        // A tile: every item as triangles, in ascending id order.
+        if (!items.insts.empty()) {
+          for (uint32_t k : items.insts) expand(k, tris);
+          std::vector<uint32_t>().swap(items.insts);
+          std::sort(tris.begin(), tris.end());
+        }
         sample_tile(box, tris, field_.min_in(box), field_.max_in(box));
         done_ += expected;
         const uint64_t target = uint64_t(double(meter_total_) * std::min(1.0, done_ / root_estimate_));
@@ -512,6 +615,7 @@ class PoissonSampler {
   double root_estimate_ = 1, done_ = 0;
   uint64_t reported_ = 0;
 
+  std::vector<WholeInstance> whole_;  // per Scene::instances entry
   std::vector<Live> live_;
   std::vector<Candidate> cands_;
   // The tile's triangle pieces and their candidates' range in cands_
@@ -545,19 +649,16 @@ void sample_poisson(const Scene& scene, const SurfelOptions& options, const Surf
   const V3f lo = b.min - V3f(side * 0.0005f + 1e-7f);
   const Box3f cube(lo, lo + V3f(side));
 
-  std::vector<uint32_t> tris;
-  tris.reserve(size_t(scene.triangle_count()));
-  for (uint64_t i = 0; i < scene.triangle_count(); ++i) tris.push_back(uint32_t(i));
-
   constexpr uint64_t kMeterSteps = 1000;
   ProgressMeter meter(progress, "sample_surfels", kMeterSteps);
   PoissonSampler sampler(scene, options, field, sink, meter, kMeterSteps);
-  const double expected = sampler.estimate(cube, tris);
+  CellItems items = sampler.root_items();
+  const double expected = sampler.estimate(cube, items);
   if (expected > double(1ull << 31)) {
     throw InvalidArgument(fmt::format("{}: the surfel spacing would produce {:.3g} surfels (limit 2^31)",
                                       scene.source_path, expected));
   }
-  sampler.run(cube, std::move(tris), expected);
+  sampler.run(cube, std::move(items), expected);
   meter.finish();
 }
 

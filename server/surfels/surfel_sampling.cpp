@@ -28,10 +28,25 @@
 //
 // Triangles with zero, negative or non-finite area are skipped and counted.
 //
-// Streaming: the per-triangle plan (counts, shares, offsets) is computed
-// first; surfels are then produced chunk by chunk of the global surfel
-// index, each surfel from its triangle's plan alone, so a chunk boundary
-// may fall inside a triangle and no chunk depends on another.
+// Streaming: the scene is sampled range by range (triangle_ranges.h: the
+// world soup, then each instance in order). Per range, the per-triangle
+// plan (counts, shares, offsets) is computed first; surfels are then
+// produced chunk by chunk of the range's surfel index, each surfel from its
+// triangle's plan alone, so a chunk boundary may fall inside a triangle and
+// no chunk depends on another. The plan is per triangle of the range's soup,
+// so memory follows the world soup and the largest prototype, not the
+// number of instances (before: 24 bytes per triangle with instances
+// expanded). Every random stream is still keyed by the scene triangle id,
+// and area shares are per mesh, which never spans two ranges: the surfels
+// are those of the scene flattened, in the same order.
+//
+// Coincident copies are found within a range: the world soup's triangles
+// among themselves (in world space), and a prototype's among themselves
+// (once per prototype, in its own space, the plane tolerance divided by
+// the geometric mean of its instances' linear scales: coplanarity and
+// overlap survive an invertible affine map). Copies split across ranges --
+// two instances placed on top of each other, or an instance over world
+// geometry -- are not detected: their area is counted twice.
 //
 // Albedo and emission come from the triangle's material; a textured or
 // vertex-coloured one is evaluated at each surfel's point
@@ -45,6 +60,7 @@
 #include "server/surfels/progress_meter.h"
 #include "server/surfels/surfel_material.h"
 #include "server/surfels/surfel_samplers.h"
+#include "server/surfels/triangle_ranges.h"
 #include "storage/format/errors.h"
 
 #include <fmt/format.h>
@@ -65,95 +81,39 @@ constexpr uint64_t kPlaceDomain = 0x706c616365ull;   // "place"
 
 // Surfels produced per chunk handed to the sink.
 constexpr uint64_t kChunk = 65536;
+// Coincident pieces: planes closer than this fraction of the spacing.
+constexpr float kCoplanarTolerance = 0.01f;
 
 struct TrianglePlan {
   float area = 0.f;       // one face; 0 = skipped
   uint32_t count = 0;     // samples (twins not counted)
   float share = 0.f;      // area each of its surfels stands for
-  uint64_t first = 0;     // index of its first surfel
+  uint64_t first = 0;     // index of its first surfel within the range
 };
 
-bool is_double_sided(const Scene& scene, uint32_t tri) { return scene.triangle(tri).double_sided(); }
-
-// World-space area of one face of a scene triangle (instances transformed).
-float triangle_area(const Scene& scene, uint32_t tri) {
-  const TriangleRef r = scene.triangle(tri);
-  const V3f p0 = r.position(0), p1 = r.position(1), p2 = r.position(2);
-  return 0.5f * (p1 - p0).cross(p2 - p0).length();
-}
-
-}  // namespace
-
-SceneArea scene_area(const Scene& scene) {
-  SceneArea out;
-  const uint64_t tris = scene.triangle_count();
-  for (uint64_t i = 0; i < tris; ++i) {
-    const float a = triangle_area(scene, uint32_t(i));
-    if (!(std::isfinite(a) && a > 0.f)) {
-      ++out.skipped;
-      continue;
-    }
-    out.total += a * (is_double_sided(scene, static_cast<uint32_t>(i)) ? 2.0 : 1.0);
-  }
-  return out;
-}
-
-float absolute_spacing(const Scene& scene, const SurfelOptions& options, double total_area) {
-  const double s2 = options.spacing > 0.f ? static_cast<double>(options.spacing) * options.spacing
-                                          : total_area / static_cast<double>(options.target_surfels);
-  const double expected = total_area / s2;
-  // The tree indexes surfels with 31 bits (tree_builder.h); refuse early,
-  // before sampling, rather than after shading.
-  if (expected > static_cast<double>(1ull << 31)) {
-    throw InvalidArgument(fmt::format(
-        "{}: surfels.spacing = {} would produce {:.3g} surfels for {:.6g} square units (limit 2^31)",
-        scene.source_path, options.spacing, expected, total_area));
-  }
-  return static_cast<float>(std::sqrt(s2));
-}
-
-void sample_uniform(const Scene& scene, const SurfelOptions& options, const SurfelChunkSink& sink,
-                    const ProgressFn& progress) {
-  // Scene triangle ids (Scene::triangle): instances are sampled as their
-  // own surfaces, their prototype's triangles transformed on the fly.
-  const size_t tris = size_t(scene.triangle_count());
-  std::vector<TrianglePlan> plan(tris);
-
-  // 1. Areas, in parallel; degenerate and non-finite triangles get area 0.
+// Steps 1, 3 and 4 of sample_uniform() for one range: areas, sample
+// counts (each from the generator of its scene triangle id), area shares
+// per mesh and the surfel layout. Returns the range's surfel count.
+uint64_t plan_range(const TriangleRange& range, double s2, uint64_t seed, std::vector<TrianglePlan>& plan) {
+  const size_t tris = range.size();
+  plan.assign(tris, TrianglePlan{});
   tbb::parallel_for(tbb::blocked_range<size_t>(0, tris, 4096), [&](const auto& r) {
     for (size_t i = r.begin(); i != r.end(); ++i) {
-      const float a = triangle_area(scene, uint32_t(i));
-      plan[i].area = std::isfinite(a) && a > 0.f ? a : 0.f;
-    }
-  });
-  double total_area = 0.0;  // both faces of double-sided meshes
-  uint64_t skipped = 0;
-  for (size_t i = 0; i < tris; ++i) {
-    if (plan[i].area == 0.f) ++skipped;
-    total_area += plan[i].area * (is_double_sided(scene, static_cast<uint32_t>(i)) ? 2.0 : 1.0);
-  }
-  if (!(total_area > 0.0)) return;
-
-  // 2. Spacing: given, or the one that yields about target_surfels.
-  const double spacing = absolute_spacing(scene, options, total_area);
-  const double s2 = spacing * spacing;
-
-  // 3. Sample counts per triangle, each from its own generator.
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, tris, 4096), [&](const auto& r) {
-    for (size_t i = r.begin(); i != r.end(); ++i) {
-      Rng rng(hash_ids(options.seed, kCountDomain, i));
-      plan[i].count = static_cast<uint32_t>(std::floor(plan[i].area / s2 + rng.uniform()));
+      TrianglePlan& p = plan[i];
+      p.area = range.area(uint32_t(i));
+      Rng rng(hash_ids(seed, kCountDomain, uint64_t(range.first_id) + i));
+      p.count = static_cast<uint32_t>(std::floor(p.area / s2 + rng.uniform()));
     }
   });
 
-  // 4. Area shares, serially per mesh (see the top of this file), then the
-  // output layout.
-  const size_t meshes = std::max<size_t>(scene.mesh_count(), 1);
+  // Area shares, serially per mesh of the range's soup (meshes never span
+  // two ranges).
+  const TriangleSoup& soup = *range.soup;
+  const size_t meshes = std::max<size_t>(soup.mesh_paths.size(), 1);
   std::vector<double> pending(meshes, 0.0);
   std::vector<int64_t> last(meshes, -1), largest(meshes, -1);
-  auto mesh_of = [&](size_t i) -> size_t { return scene.mesh_ordinal(uint32_t(i)); };
   for (size_t i = 0; i < tris; ++i) {
-    const size_t m = mesh_of(i);
+    const size_t m = soup.mesh.empty() ? 0 : soup.mesh[i];
     TrianglePlan& p = plan[i];
     if (p.area == 0.f) continue;
     if (largest[m] < 0 || p.area > plan[largest[m]].area) largest[m] = static_cast<int64_t>(i);
@@ -179,30 +139,53 @@ void sample_uniform(const Scene& scene, const SurfelOptions& options, const Surf
   uint64_t total = 0;
   for (size_t i = 0; i < tris; ++i) {
     plan[i].first = total;
-    total += static_cast<uint64_t>(plan[i].count) * (is_double_sided(scene, i) ? 2 : 1);
+    total += static_cast<uint64_t>(plan[i].count) * (range.double_sided(uint32_t(i)) ? 2 : 1);
   }
-  if (skipped > 0) {
-    spdlog::warn("{}: skipped {} of {} triangles with zero or non-finite area", scene.source_path,
-                 skipped, tris);
-  }
+  return total;
+}
 
-  // 5. Coincident coplanar triangles (see the top of this file).
-  constexpr float kCoplanarTolerance = 0.01f;  // of the spacing
-  // Every triangle with area covers points, also those that draw no
-  // surfel; degenerate ones are left out.
+// Step 5 for the triangles of one soup: its coincident coplanar pieces,
+// in world space (the world soup) or in the soup's own space (a
+// prototype: coincidence is the same in every placement; the caller
+// scales the tolerance). Degenerate triangles cover nothing.
+CoincidentCover soup_cover(const TriangleSoup& soup, const V3f& centre, float plane_tolerance) {
+  const TriangleRange range{&soup, nullptr, 0};
   auto piece = [&](uint32_t i, PlanarPiece* out) {
-    if (!(plan[i].area > 0.f)) return false;
-    const TriangleRef r = scene.triangle(i);
+    if (!(range.area(i) > 0.f)) return false;
+    const TriangleRef r = range.triangle(i);
     return PlanarPiece::of_triangle(r.position(0), r.position(1), r.position(2), out);
   };
-  const Box3f bounds = scene.bounds();
-  const CoincidentCover cover(uint32_t(tris), piece, bounds.isEmpty() ? V3f(0.f) : bounds.center(),
-                              kCoplanarTolerance * float(spacing));
+  return CoincidentCover(range.size(), piece, centre, plane_tolerance);
+}
 
-  // 6. Positions and attributes, chunk by chunk of the global surfel
-  //    index, in parallel within a chunk.
-  ProgressMeter meter(progress, "sample_surfels", total);
-  std::vector<Surfel> chunk;
+// Per prototype, its cover (prototype space). The plane tolerance is the
+// world one over the geometric mean of its instances' linear scales
+// (cbrt |det|); prototypes without instances get none.
+std::vector<CoincidentCover> prototype_covers(const Scene& scene, float world_tolerance) {
+  std::vector<double> log_scale(scene.prototypes.size(), 0.0);
+  std::vector<uint32_t> uses(scene.prototypes.size(), 0);
+  for (const Instance& inst : scene.instances) {
+    log_scale[inst.prototype] += std::log(std::fabs(double(inst.local_to_world.determinant()))) / 3.0;
+    ++uses[inst.prototype];
+  }
+  std::vector<CoincidentCover> covers(scene.prototypes.size());
+  for (size_t p = 0; p < scene.prototypes.size(); ++p) {
+    if (uses[p] == 0) continue;
+    const TriangleSoup& soup = scene.prototypes[p].triangles;
+    Box3f box;
+    for (const V3f& v : soup.positions) box.extendBy(v);
+    const float scale = float(std::exp(log_scale[p] / uses[p]));
+    covers[p] = soup_cover(soup, box.isEmpty() ? V3f(0.f) : box.center(), world_tolerance / scale);
+  }
+  return covers;
+}
+
+// Step 6 for one range: positions and attributes, chunk by chunk of the
+// range's surfel index, in parallel within a chunk. `cover` is the range's
+// soup's (world space for the world soup, prototype space for instances).
+void emit_range(const Scene& scene, const TriangleRange& range, const std::vector<TrianglePlan>& plan,
+                uint64_t total, const CoincidentCover& cover, const SurfelOptions& options,
+                const SurfelChunkSink& sink, ProgressMeter& meter, std::vector<Surfel>& chunk) {
   for (uint64_t g0 = 0; g0 < total; g0 += kChunk) {
     const uint64_t g1 = std::min(total, g0 + kChunk);
     chunk.resize(g1 - g0);
@@ -213,31 +196,117 @@ void sample_uniform(const Scene& scene, const SurfelOptions& options, const Surf
                         plan.begin()) - 1;
       for (uint64_t g = r.begin(); g != r.end(); ++g) {
         const auto span_of = [&](size_t k) {
-          return uint64_t(plan[k].count) * (is_double_sided(scene, uint32_t(k)) ? 2 : 1);
+          return uint64_t(plan[k].count) * (range.double_sided(uint32_t(k)) ? 2 : 1);
         };
         while (g >= plan[i].first + span_of(i)) ++i;
         const TrianglePlan& p = plan[i];
-        const bool twin = is_double_sided(scene, static_cast<uint32_t>(i));
+        const uint32_t id = range.first_id + uint32_t(i);  // scene triangle id
+        const bool twin = range.double_sided(uint32_t(i));
         const uint64_t local = g - p.first;
         const uint32_t k = static_cast<uint32_t>(twin ? local / 2 : local);
-        const TriangleRef r = scene.triangle(uint32_t(i));
-        const V3f p0 = r.position(0), p1 = r.position(1), p2 = r.position(2);
+        const TriangleRef tri = range.triangle(uint32_t(i));
+        const V3f p0 = tri.position(0), p1 = tri.position(1), p2 = tri.position(2);
         const V3f n = (p1 - p0).cross(p2 - p0).normalized();
-        Rng rng(hash_ids(options.seed, kPlaceDomain, i));
+        Rng rng(hash_ids(options.seed, kPlaceDomain, id));
         const Imath::V2f shift(rng.uniform(), rng.uniform());
         const Imath::V2f b = square_to_triangle(r2_sample(k, shift));
         Surfel& s = chunk[g - g0];
         s.position = (1.f - b.x - b.y) * p0 + b.x * p1 + b.y * p2;
         s.normal = twin && (local & 1) ? -n : n;
-        const float share = cover.any() ? p.share / float(cover.cover(uint32_t(i), s.position)) : p.share;
+        float share = p.share;
+        if (cover.any()) {
+          const V3f at = range.instance ? range.soup_point(uint32_t(i), b.x, b.y) : s.position;
+          share /= float(cover.cover(uint32_t(i), at));
+        }
         s.radius = std::sqrt(share * kInvPi);
-        const SurfaceColors colors = surface_colors(scene, static_cast<uint32_t>(i), b.x, b.y, 2.f * s.radius);
-        set_surfel_material(scene, static_cast<uint32_t>(i), colors, options.glossy_roughness, s);
+        const SurfaceColors colors = surface_colors(scene, id, b.x, b.y, 2.f * s.radius);
+        set_surfel_material(scene, id, colors, options.glossy_roughness, s);
         s.radiance = colors.emission;
       }
       meter.advance(r.size());
     });
     sink(chunk);
+  }
+}
+
+}  // namespace
+
+SceneArea scene_area(const Scene& scene) {
+  // The world soup in triangle order, then the instances (each summed on
+  // its own, in parallel, then added in order: deterministic).
+  const RangeArea world = range_area(triangle_range(scene, 0));
+  std::vector<RangeArea> inst(scene.instances.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, inst.size(), 1), [&](const auto& r) {
+    for (size_t k = r.begin(); k != r.end(); ++k) inst[k] = range_area(triangle_range(scene, k + 1));
+  });
+  SceneArea out{world.total, world.skipped};
+  for (const RangeArea& a : inst) {
+    out.total += a.total;
+    out.skipped += a.skipped;
+  }
+  return out;
+}
+
+float absolute_spacing(const Scene& scene, const SurfelOptions& options, double total_area) {
+  const double s2 = options.spacing > 0.f ? static_cast<double>(options.spacing) * options.spacing
+                                          : total_area / static_cast<double>(options.target_surfels);
+  const double expected = total_area / s2;
+  // The tree indexes surfels with 31 bits (tree_builder.h); refuse early,
+  // before sampling, rather than after shading.
+  if (expected > static_cast<double>(1ull << 31)) {
+    throw InvalidArgument(fmt::format(
+        "{}: surfels.spacing = {} would produce {:.3g} surfels for {:.6g} square units (limit 2^31)",
+        scene.source_path, options.spacing, expected, total_area));
+  }
+  return static_cast<float>(std::sqrt(s2));
+}
+
+void sample_uniform(const Scene& scene, const SurfelOptions& options, const SurfelChunkSink& sink,
+                    const ProgressFn& progress) {
+  // 1-2. Total area (both faces of double-sided meshes) and the spacing:
+  //      given, or the one that yields about target_surfels.
+  const SceneArea area = scene_area(scene);
+  if (area.skipped > 0) {
+    spdlog::warn("{}: skipped {} of {} triangles with zero or non-finite area", scene.source_path,
+                 area.skipped, scene.triangle_count());
+  }
+  if (!(area.total > 0.0)) return;
+  const double spacing = absolute_spacing(scene, options, area.total);
+  const double s2 = spacing * spacing;
+
+  // 5. Coincident coplanar triangles, per soup (see the top of this file).
+  const float tolerance = kCoplanarTolerance * float(spacing);
+  const Box3f bounds = scene.bounds();
+  const CoincidentCover world_cover =
+      soup_cover(scene.triangles, bounds.isEmpty() ? V3f(0.f) : bounds.center(), tolerance);
+  const std::vector<CoincidentCover> covers = prototype_covers(scene, tolerance);
+
+  // 3-4, 6. Range by range: plan, then surfels. Ranges are planned a group
+  //         at a time in parallel (a plan's shares are serial, and an
+  //         instance is often too small to keep the cores busy alone), a
+  //         group holding at most kGroupTriangles plan entries (besides
+  //         one range larger than that on its own); their surfels then go
+  //         out in range order. The meter counts the expected surfels (the
+  //         exact count is known range by range).
+  constexpr size_t kGroupTriangles = size_t(1) << 20;  // 24 MiB of plans
+  ProgressMeter meter(progress, "sample_surfels", uint64_t(std::ceil(area.total / s2)));
+  std::vector<Surfel> chunk;
+  const size_t ranges = range_count(scene);
+  for (size_t r0 = 0; r0 < ranges;) {
+    size_t r1 = r0 + 1, planned = triangle_range(scene, r0).size();
+    while (r1 < ranges && planned + triangle_range(scene, r1).size() <= kGroupTriangles)
+      planned += triangle_range(scene, r1++).size();
+    std::vector<std::vector<TrianglePlan>> plans(r1 - r0);
+    std::vector<uint64_t> totals(r1 - r0);
+    tbb::parallel_for(size_t(r0), r1, [&](size_t r) {
+      totals[r - r0] = plan_range(triangle_range(scene, r), s2, options.seed, plans[r - r0]);
+    });
+    for (size_t r = r0; r < r1; ++r) {
+      const TriangleRange range = triangle_range(scene, r);
+      const CoincidentCover& cover = r == 0 ? world_cover : covers[range.instance->prototype];
+      emit_range(scene, range, plans[r - r0], totals[r - r0], cover, options, sink, meter, chunk);
+    }
+    r0 = r1;
   }
   meter.finish();
 }

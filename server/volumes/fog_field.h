@@ -5,6 +5,14 @@
 // (RayScene::set_medium) so direct lighting, surfel shading and the
 // reference path tracer attenuate their shadow rays by the same fog.
 //
+// Scattering distances (sample_scatter, for the reference's single
+// scattering): one grid the ray crosses is picked uniformly (the weight
+// multiplied by their number), and a distance is drawn in proportion to
+// sigma_t T within it by inverting its optical depth under the same
+// midpoint rule the transmittance uses (sigma_t constant over each march
+// step, so the inversion is exact for that discretization); the weight is
+// (1 - T_grid) times the other grids' transmittance up to that distance.
+//
 // Thread-safe: immutable; each query makes its own accessor.
 #pragma once
 
@@ -25,6 +33,9 @@ class FogField final : public ParticipatingMedium {
 
   float transmittance(const V3f& origin, const V3f& dir, float tmin, float tmax) const override;
   bool empty() const override { return fogs_.empty(); }
+  C3f albedo() const override { return albedo_; }
+  MediumScatter sample_scatter(const V3f& origin, const V3f& dir, float tmin, float tmax, float u_pick,
+                               float u_distance) const override;
 
   // Optical depth along the segment (transmittance = exp(-tau)).
   float optical_depth(const V3f& origin, const V3f& dir, float tmin, float tmax) const;
@@ -40,9 +51,19 @@ class FogField final : public ParticipatingMedium {
     float step = 0.f;    // world units
   };
   float density(const Fog& f, const openvdb::FloatGrid::ConstAccessor& acc, const V3f& p) const;
+  // The march of one grid over [tmin, tmax] clipped to its bounds: false
+  // if the ray misses it; else the clipped range and the number of steps.
+  struct March {
+    float t0 = 0.f, dt = 0.f;
+    int steps = 0;
+  };
+  bool march(const Fog& f, const V3f& origin, const V3f& dir, float tmin, float tmax, March* out) const;
+  // Optical depth of one grid (not scaled by extinction_per_density).
+  double grid_depth(const Fog& f, const V3f& origin, const V3f& dir, float tmin, float tmax) const;
 
   std::vector<Fog> fogs_;
   float scale_;
+  C3f albedo_;
 };
 
 }  // namespace pbgi

@@ -66,12 +66,11 @@ inline Scene instanced_scene() {
   return s;
 }
 
-// The same, flattened the way the reader flattens: world positions, normals
-// by the inverse transpose, mirrored triangles re-wound.
-inline Scene flattened_scene() {
-  Scene s = base_scene();
-  const TriangleSoup p = prototype_soup();
-  for (const M44f& m : placements()) {
+// Appends the prototype placed by each transform to the world soup the way
+// the reader flattens: world positions, normals by the inverse transpose,
+// mirrored triangles re-wound (the same triangle ids as instancing).
+inline void flatten_into(Scene& s, const TriangleSoup& p, const std::vector<M44f>& transforms) {
+  for (const M44f& m : transforms) {
     TriangleSoup& t = s.triangles;
     const uint32_t base = uint32_t(t.positions.size());
     const M44f nm = m.inverse().transposed();
@@ -95,6 +94,12 @@ inline Scene flattened_scene() {
       t.double_sided.push_back(p.double_sided[k]);
     }
   }
+}
+
+// The same, flattened.
+inline Scene flattened_scene() {
+  Scene s = base_scene();
+  flatten_into(s, prototype_soup(), placements());
   return s;
 }
 

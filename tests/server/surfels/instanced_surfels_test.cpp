@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <utility>
 
 namespace pbgi {
 namespace {
@@ -53,6 +54,86 @@ TEST_P(InstancedSurfels, EqualTheFlattenedScenesSurfels) {
   shade_direct(ri, o, a);
   shade_direct(rf, o, b);
   expect_same_surfels(a, b);
+}
+
+// 40 placements of the test prototype under non-uniform scales (a third
+// of them mirrored) over the world triangle: instanced, and flattened into
+// the world soup with the same triangle ids.
+std::pair<Scene, Scene> forty_instances() {
+  Scene inst = test::base_scene();
+  inst.prototypes.push_back({"/Proto", test::prototype_soup()});
+  std::vector<M44f> placed;
+  for (int k = 0; k < 40; ++k) {
+    const float a = 0.37f * float(k);
+    const V3f scale(0.5f + 0.05f * float(k % 7), 1.5f - 0.1f * float(k % 5), k % 3 == 0 ? -1.f : 0.8f);
+    placed.push_back(test::placement(a, scale, V3f(3.f * float(k % 8), float(k / 8), -3.f * float(k / 8))));
+    inst.add_instance(0, placed.back());
+  }
+  Scene flat = test::base_scene();
+  test::flatten_into(flat, test::prototype_soup(), placed);
+  return {std::move(inst), std::move(flat)};
+}
+
+// Many instances under non-uniform scales, the spacing derived from
+// target_surfels (so from the total area, summed instance by instance):
+// the same count and area per unit area as the scene flattened.
+TEST_P(InstancedSurfels, SameDensityPerUnitAreaAsTheFlattenedScene) {
+  const auto [inst, flat] = forty_instances();
+  SurfelOptions o;
+  o.sampler = GetParam();
+  o.target_surfels = 20000;
+  const std::vector<Surfel> a = sample_surfels(inst, o), b = sample_surfels(flat, o);
+  double area_a = 0, area_b = 0;
+  for (const Surfel& s : a) area_a += s.area();
+  for (const Surfel& s : b) area_b += s.area();
+  ASSERT_GT(b.size(), 10000u);
+  EXPECT_NEAR(double(a.size()) / double(b.size()), 1.0, 1e-3) << a.size() << " vs " << b.size();
+  EXPECT_NEAR(area_a / area_b, 1.0, 1e-4);
+  // Only the instances' surfels, away from the ground: per unit area too.
+  auto above = [](const std::vector<Surfel>& v) {
+    size_t n = 0;
+    for (const Surfel& s : v) n += s.position.y > -9.f;
+    return n;
+  };
+  EXPECT_NEAR(double(above(a)) / double(above(b)), 1.0, 2e-3);
+}
+
+// Enough surfels for the Poisson sampler's octree to split (more than one
+// tile's worth): instances go down it whole and are expanded where they
+// straddle a split or end in a tile, with the flattened scene's surfels.
+TEST(InstancedSurfels, PoissonOctreeSplitsInstancesLikeTheFlattenedTriangles) {
+  const auto [inst, flat] = forty_instances();
+  SurfelOptions o;
+  o.sampler = SurfelSampler::kPoisson;
+  o.target_surfels = 120000;
+  const std::vector<Surfel> a = sample_surfels(inst, o), b = sample_surfels(flat, o);
+  ASSERT_GT(b.size(), 100000u);  // several tiles of at most 32768 expected surfels
+  expect_same_surfels(a, b);
+}
+
+// A prototype holding a quad twice (a duplicated wall) placed with a
+// non-uniform scale: the copies are found in the prototype's space and
+// counted once, as in the flattened scene.
+TEST(InstancedSurfels, CoincidentCopiesInsideAPrototypeCountOnce) {
+  TriangleSoup quad;
+  quad.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  quad.indices = {0, 1, 2, 0, 2, 3, 1, 2, 3, 1, 3, 0};  // the same square, both diagonals
+  quad.material = {0, 0, 0, 0};
+  quad.mesh = {0, 0, 1, 1};
+  quad.mesh_paths = {"/Proto/A", "/Proto/B"};
+  Scene s;
+  s.source_path = "coincident_instances";
+  s.materials.resize(1);
+  s.prototypes.push_back({"/Proto", quad});
+  s.add_instance(0, test::placement(0.3f, V3f(3.f, 2.f, 1.f), V3f(0, 0, 0)));
+  s.add_instance(0, test::placement(1.1f, V3f(-2.f, 4.f, 1.f), V3f(10, 0, 0)));  // mirrored
+  SurfelOptions o;
+  o.spacing = 0.05f;
+  const std::vector<Surfel> surfels = sample_surfels(s, o);
+  double first = 0, second = 0;
+  for (const Surfel& x : surfels) (x.position.x < 5.f ? first : second) += x.area();
+  EXPECT_NEAR(first, 6.0, 0.01 * 6.0);    // 3 x 2, once
+  EXPECT_NEAR(second, 8.0, 0.01 * 8.0);   // 2 x 4, once
 }
 
 INSTANTIATE_TEST_SUITE_P(Samplers, InstancedSurfels,

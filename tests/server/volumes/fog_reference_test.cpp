@@ -9,6 +9,7 @@
 #include "server/volumes/fog_points.h"
 #include "server/volumes/volume_grid.h"
 #include "tests/server/gather/surfel_tree.h"
+#include "tests/server/volumes/constant_fog.h"
 
 #include <openvdb/openvdb.h>
 
@@ -27,7 +28,6 @@ constexpr float kDensity = 0.5f;  // tau = 0.5 straight up through the 1 m slab
 // A floor at z = 0 (albedo 0.5), a sun straight above, and an absorbing
 // fog slab z in [0.95, 1.95], |x|, |y| < 20 (wide: AO rays cross it).
 Scene foggy_floor() {
-  openvdb::initialize();
   Scene s;
   s.source_path = "fog_reference_test";
   s.materials.resize(1);
@@ -46,16 +46,8 @@ Scene foggy_floor() {
   cam.horizontal_aperture = cam.vertical_aperture = 2.f;
   s.cameras[cam.prim_path] = cam;
 
-  openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(0.f);
-  grid->setTransform(openvdb::math::Transform::createLinearTransform(kVoxel));
-  grid->denseFill(openvdb::CoordBBox({-200, -200, 10}, {199, 199, 19}), kDensity, true);
-  Volume v;
-  v.prim_path = "/Fog";
-  v.kind = VolumeKind::Fog;
-  v.voxel_size = kVoxel;
-  v.grid = std::make_shared<VolumeGrid>(grid);
-  v.bounds = Box3f(V3f(-20.05f, -20.05f, 0.95f), V3f(19.95f, 19.95f, 1.95f));
-  s.volumes.push_back(v);
+  // Voxels z 10..19 of 0.1: the slab z in [0.95, 1.95].
+  s.volumes.push_back(test::constant_fog(openvdb::CoordBBox({-200, -200, 10}, {199, 199, 19}), kVoxel, kDensity));
   return s;
 }
 
@@ -64,7 +56,7 @@ float mean(const std::vector<float>& v) { return std::accumulate(v.begin(), v.en
 TEST(FogReference, DirectLightAndAmbientOcclusionUnderAFogSlab) {
   const Scene s = foggy_floor();
   FogOptions fog;
-  fog.albedo = C3f(0.f);  // absorbing: the reference does not scatter in the medium
+  fog.albedo = C3f(0.f);  // absorbing (fog_scattering_test.cpp checks scattering)
   RayScene rays(s);
   const auto field = std::make_shared<FogField>(s, fog);
   rays.set_medium(field);
