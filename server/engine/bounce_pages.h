@@ -35,7 +35,7 @@ namespace pbgi {
 // throw (nothing is published then).
 storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
                                         const tree::TreeSource& previous,
-                                        const GatherOptions& gather,
+                                        const BounceOptions& options,
                                         const tree::BuildOptions& tree_options,
                                         const std::string& build_key,
                                         const std::filesystem::path& dir,

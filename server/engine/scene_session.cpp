@@ -117,7 +117,7 @@ std::unique_ptr<storage::PageSetReader> build_page_sets(
     if (!next) {
       const std::string stage = "bounce " + std::to_string(b);
       next = build_or_join(dir, ctx, [&] {
-        build_bounce_page_set(direct ? *direct : *tree, *tree, options.bounce.gather, options.tree,
+        build_bounce_page_set(direct ? *direct : *tree, *tree, options.bounce, options.tree,
                               dir.filename().string(), dir, scene.bounds(),
                               [&](float f) { report(stage, f); });
       });

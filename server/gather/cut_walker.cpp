@@ -384,10 +384,21 @@ void CutWalker::walk_lobe(const LobeRefinement& lobe) {
 
 void CutWalker::walk_cluster(const ClusterFrame& c, FarBuffer& far,
                              std::vector<StackEntry>& near) {
-  const float omega_max = cut_;
-  const float eps = options_.effective_epsilon();
-  uint64_t visited = 0;
   push_root();
+  walk_cluster_stack(c, options_.effective_epsilon(), far, near);
+}
+
+void CutWalker::walk_cluster(const ClusterFrame& c, float epsilon, std::span<const StackEntry> from,
+                             FarBuffer& far, std::vector<StackEntry>& near) {
+  // Pushed last to first: popped in the cut's pre-order.
+  for (size_t j = from.size(); j-- > 0;) push(from[j]);
+  walk_cluster_stack(c, epsilon, far, near);
+}
+
+void CutWalker::walk_cluster_stack(const ClusterFrame& c, float eps, FarBuffer& far,
+                                   std::vector<StackEntry>& near) {
+  const float omega_max = cut_;
+  uint64_t visited = 0;
   while (!stack_.empty()) {
     const StackEntry e = stack_.back();
     stack_.pop_back();

@@ -26,6 +26,7 @@
 #include <Imath/ImathVec.h>
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 namespace pbgi::gather {
@@ -86,6 +87,12 @@ class CutWalker {
   // (begun by the caller), near nodes are appended to `near` (each holding
   // a pin reference the caller releases).
   void walk_cluster(const ClusterFrame& c, FarBuffer& far, std::vector<StackEntry>& near);
+  // The same from `from` (entries whose pins the caller holds references
+  // on, e.g. a larger cluster's near nodes) instead of the root, with the
+  // far/near split `epsilon` (radius / distance) instead of the options':
+  // the view-tree gather's walk of a receiver node (view_tree_gather.h).
+  void walk_cluster(const ClusterFrame& c, float epsilon, std::span<const StackEntry> from,
+                    FarBuffer& far, std::vector<StackEntry>& near);
 
  private:
   // The receiver walk with a cut per node, cut_of(v, d2, radius): the
@@ -96,6 +103,9 @@ class CutWalker {
   bool culled_for_cluster(const HotNode& h, const Imath::V3f& v, float d2,
                           const ClusterFrame& c) const;
   void push_children(const StackEntry& parent, const HotNode& h);
+  // walk_cluster() on whatever the stack holds.
+  void walk_cluster_stack(const ClusterFrame& c, float epsilon, FarBuffer& far,
+                          std::vector<StackEntry>& near);
   // Splats a node into the receiver's microbuffer (or, with `far`, the
   // cluster's far buffer). Returns false, drawing nothing, when the
   // HDR-aware cut wants it refined.
