@@ -21,10 +21,12 @@ storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
                                         const std::string& build_key,
                                         const std::filesystem::path& dir,
                                         const Imath::Box3f& bounds,
+                                        const BounceGlossy& glossy,
                                         const std::function<void(float)>& progress,
                                         const std::function<bool()>& cancelled) {
   options.validate();
   storage::PageSetBuilder builder(tree_options, build_key, dir, bounds);
+  if (glossy.shader) builder.set_glossy_shader(glossy.shader);
   std::vector<Surfel> batch;
   std::vector<Imath::C3f> radiance;
   batch.reserve(kSurfelsPerPass + 4096);
@@ -35,6 +37,7 @@ storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
   auto flush = [&](uint32_t pages_done) {
     if (batch.empty()) return;
     gather_bounce(previous, batch, radiance, options, cancelled);
+    if (glossy.restore) glossy.restore(batch);
     builder.add(batch);
     batch.clear();
     radiance.clear();

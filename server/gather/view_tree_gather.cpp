@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <cstdlib>
+#include <limits>
 
 namespace pbgi::gather {
 
@@ -40,7 +42,18 @@ ClusterFrame ViewTreeGather::frame_of(uint32_t first, uint32_t count) const {
     nsum += receivers_[i].normal;
   }
   ClusterFrame f;
-  f.p = psum / float(count);
+  // Far content is drawn from the member nearest the centroid (FPBGI's
+  // active receiver): a point on the surfaces, where the centroid of a run
+  // over an edge lies off them.
+  const Imath::V3f centroid = psum / float(count);
+  float best = std::numeric_limits<float>::max();
+  for (uint32_t i = first; i < first + count; ++i) {
+    const float d2 = (receivers_[i].position - centroid).length2();
+    if (d2 < best) {
+      best = d2;
+      f.p = receivers_[i].position;
+    }
+  }
   const float len = nsum.length();
   // Opposite normals (both faces of a thin wall) average to nothing: any
   // axis does, the chord then bounds the spread.
@@ -84,7 +97,7 @@ void ViewTreeGather::gather(std::span<const Receiver> receivers, std::span<Gathe
   // One far buffer and near list per level of the receiver hierarchy,
   // made before the recursion holds references into them.
   uint32_t levels = 1;
-  for (size_t n = receivers_.size(); n > kLeafReceivers; n = (n + 1) / 2) ++levels;
+  for (size_t n = receivers_.size(); n > 1; n = (n + 1) / 2) ++levels;
   const GatherOptions& o = walker_.options();
   while (far_.size() < levels) {
     far_.push_back(std::make_unique<FarBuffer>(CubeLayout::get(o.microbuffer_resolution), depth_band_for(o)));
@@ -116,7 +129,8 @@ void ViewTreeGather::gather_node(uint32_t first, uint32_t count, uint32_t level,
   const ClusterFrame frame = frame_of(first, count);
   walker_.walk_cluster(frame, epsilon_, from, far, near);
 
-  if (count > kLeafReceivers) {
+  static const uint32_t leaf = getenv("PBGI_VT_LEAF") ? atoi(getenv("PBGI_VT_LEAF")) : kLeafReceivers;
+  if (count > leaf) {
     // 2. Refine on the receiver side: both halves of the Morton run.
     const uint32_t half = count / 2;
     gather_node(first, half, level + 1, near, results);

@@ -12,8 +12,9 @@
 //
 // Usage:
 //   bench_bounce [--surfels 200000] [--bounces 2] [--configs LIST]
-// LIST is comma separated; each entry pbgi | fpbgi | view[:omega=SR],
-// e.g. "pbgi,fpbgi,view,view:omega=0.03" (the default).
+// LIST is comma separated; each entry pbgi | fpbgi | view, then optional
+// :omega=SR (the view solid angle) and :eps=E (the gather's epsilon), e.g.
+// "pbgi,fpbgi,view,view:omega=0.03" (the default).
 #include "server/gather/surfel_bounce.h"
 #include "surfel_shapes.h"
 
@@ -57,6 +58,8 @@ BounceOptions parse(const std::string& entry, uint32_t bounces) {
   for (std::string kv; std::getline(in, kv, ':');) {
     if (kv.rfind("omega=", 0) == 0) {
       o.view_solid_angle = std::stof(kv.substr(6));
+    } else if (kv.rfind("eps=", 0) == 0) {
+      o.gather.epsilon = std::stof(kv.substr(4));
     } else {
       throw std::invalid_argument("unknown key '" + kv + "' in '" + entry + "'");
     }
