@@ -69,15 +69,17 @@ struct BounceOptions {
   bool splatting = true;
   // The view solid angle (sr) below which a receiver node, seen from a
   // sender node, is small enough to share that sender's splat:
-  // pi r_R^2 / d^2 <= view_solid_angle. 0 (the default) = auto,
-  // pi x gather.effective_epsilon()^2 (FPBGI's near/far split: 0.0079 sr at
-  // N = 8). [0, kMaxViewSolidAngle].
+  // pi r_R^2 / d^2 <= view_solid_angle. 0 (the default) = auto, half of
+  // FPBGI's near/far split, pi x gather.effective_epsilon()^2 / 2 (0.0039
+  // sr at N = 8): the view tree draws much of its far content right at the
+  // split, and at FPBGI's own split it was 1.7x further from per-surfel
+  // PBGI than FPBGI (docs/gather.md, section 9b). [0, kMaxViewSolidAngle].
   float view_solid_angle = 0.f;
 
   // view_solid_angle with 0 resolved.
   float effective_view_solid_angle() const {
     const float eps = gather.effective_epsilon();
-    return view_solid_angle > 0.f ? view_solid_angle : 3.14159265358979f * eps * eps;
+    return view_solid_angle > 0.f ? view_solid_angle : 0.5f * 3.14159265358979f * eps * eps;
   }
 
   // Throws InvalidArgument naming the field.

@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
-#include <cstdlib>
 #include <limits>
 
 namespace pbgi::gather {
@@ -97,7 +96,7 @@ void ViewTreeGather::gather(std::span<const Receiver> receivers, std::span<Gathe
   // One far buffer and near list per level of the receiver hierarchy,
   // made before the recursion holds references into them.
   uint32_t levels = 1;
-  for (size_t n = receivers_.size(); n > 1; n = (n + 1) / 2) ++levels;
+  for (size_t n = receivers_.size(); n > kLeafReceivers; n = (n + 1) / 2) ++levels;
   const GatherOptions& o = walker_.options();
   while (far_.size() < levels) {
     far_.push_back(std::make_unique<FarBuffer>(CubeLayout::get(o.microbuffer_resolution), depth_band_for(o)));
@@ -129,8 +128,7 @@ void ViewTreeGather::gather_node(uint32_t first, uint32_t count, uint32_t level,
   const ClusterFrame frame = frame_of(first, count);
   walker_.walk_cluster(frame, epsilon_, from, far, near);
 
-  static const uint32_t leaf = getenv("PBGI_VT_LEAF") ? atoi(getenv("PBGI_VT_LEAF")) : kLeafReceivers;
-  if (count > leaf) {
+  if (count > kLeafReceivers) {
     // 2. Refine on the receiver side: both halves of the Morton run.
     const uint32_t half = count / 2;
     gather_node(first, half, level + 1, near, results);

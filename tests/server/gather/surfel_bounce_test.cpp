@@ -178,10 +178,11 @@ TEST(SurfelBounce, SplattedBounceFollowsTheUnsplattedOne) {
               "FPBGI vs PBGI rel rms %.4f, worst %.3f\n",
               vp.mean, vp.rel_rms, vp.rel_worst, fp.rel_rms, fp.rel_worst);
   EXPECT_GT(vp.mean, 0.01);  // the room does reflect light
-  // FPBGI, the unsplatted default, is within a few % of per-surfel PBGI
-  // (docs/gather.md, section 13); the splatted bounce must be as close.
-  EXPECT_LT(vp.rel_rms, 0.03);
-  EXPECT_LT(vp.rel_worst, 0.3);
+  // FPBGI, the unsplatted default, is within 1% of per-surfel PBGI here
+  // (measured 0.0062 rms, worst 0.10); the splatted bounce must be as close
+  // (measured 0.0013, worst 0.033 at the defaults).
+  EXPECT_LT(vp.rel_rms, 0.01);
+  EXPECT_LT(vp.rel_worst, 0.15);
 }
 
 TEST(SurfelBounce, ViewSolidAngleIsValidated) {
@@ -202,7 +203,7 @@ TEST(SurfelBounce, ViewSolidAngleIsValidated) {
   EXPECT_NE(message(o).find("bounce_view_solid_angle"), std::string::npos);
   o.view_solid_angle = 0.f;  // auto
   EXPECT_EQ(message(o), "");
-  EXPECT_NEAR(o.effective_view_solid_angle(), 3.14159265f * 0.05f * 0.05f, 1e-6f);
+  EXPECT_NEAR(o.effective_view_solid_angle(), 0.5f * 3.14159265f * 0.05f * 0.05f, 1e-6f);
   o.view_solid_angle = 0.02f;
   EXPECT_EQ(message(o), "");
   EXPECT_EQ(o.effective_view_solid_angle(), 0.02f);
