@@ -112,14 +112,7 @@ void Gatherer::gather_tile(std::span<const Receiver> receivers, std::span<Gather
     // time). Pages are unpinned between runs and when the tile is done.
     constexpr size_t kPinRun = 64;
     gather::CutWalker& w = impl_->walker;
-    struct Release {
-      gather::PagePins& pins;
-      ~Release() {
-        pins.clear();
-        pins.set_hold(false);
-      }
-    } release{w.pins()};
-    w.pins().set_hold(true);
+    const gather::HoldPinsInScope hold{w.pins()};
     for (size_t i = 0; i < receivers.size(); ++i) {
       results[i] = gather_pinned(gather::checked_receiver(receivers[i], i));
       if ((i + 1) % kPinRun == 0) {

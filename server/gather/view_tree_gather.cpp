@@ -86,13 +86,6 @@ void ViewTreeGather::gather(std::span<const Receiver> receivers, std::span<Gathe
   // Pages stay pinned for the whole batch: the receiver hierarchy revisits
   // them from every node. Unpinned when done (and on errors).
   PagePins& pins = walker_.pins();
-  struct Release {
-    PagePins& pins;
-    ~Release() {
-      pins.clear();
-      pins.set_hold(false);
-    }
-  } release{pins};
   // One far buffer and near list per level of the receiver hierarchy,
   // made before the recursion holds references into them.
   uint32_t levels = 1;
@@ -103,7 +96,7 @@ void ViewTreeGather::gather(std::span<const Receiver> receivers, std::span<Gathe
     near_.emplace_back();
   }
   walker_.views().trim();
-  pins.set_hold(true);
+  const HoldPinsInScope hold{pins};
   walker_.push_root();
   gather_node(0, uint32_t(receivers_.size()), 0, {}, results);
   counters_.pages_fetched += pins.take_fetches();

@@ -6,8 +6,9 @@
 // receivers is a compact patch: the receiver hierarchy is the binary split
 // of the batch's index range (what the tree's own top-down Morton split
 // makes of the same surfels), down to runs of at most kLeafReceivers. Each
-// receiver node R gets a frame: its centroid, bounding radius r_R, mean
-// normal and the spread of its normals around it.
+// receiver node R gets a frame: the member nearest its centroid, R's
+// bounding radius r_R around it, the mean normal and the spread of the
+// normals around it.
 //
 // The walk pairs receiver nodes with sender nodes S, top down:
 //  - S is *far* for R when R is small as seen from S: R's view solid angle
@@ -16,8 +17,11 @@
 //    splatted ONCE into R's far microbuffer (a FarBuffer drawn from R's
 //    centroid, far_field.h), and so reaches every surfel below R; a far S
 //    that does not pass the cut is opened (its children are paired with R).
-//  - otherwise S is *near* and the pair is refined on the receiver side:
-//    R's children start from R's near nodes, with R's far content.
+//  - otherwise S is *near*. If S is too large for the cut even from R's
+//    farthest point, every surfel of R would open it: it is opened here
+//    (its children are paired with R), so that its far parts are shared
+//    too. Else the pair is refined on the receiver side: R's children
+//    start from R's near nodes, with R's far content.
 //  - at a receiver leaf (at most kLeafReceivers surfels) the far buffer is
 //    resolved once and each surfel walks its near nodes into its own
 //    microbuffer (per-surfel visibility and cosine), composited by depth
@@ -54,8 +58,7 @@ class ViewTreeGather {
  public:
   // Receiver nodes of at most this many surfels are not split. Smaller
   // leaves put more senders into shared far buffers (faster) at more
-  // parallax; measured in docs/gather.md, section 9b (box room, 20k
-  // surfels: leaves of 2 / 4 / 8 / 16 took 5.4 / 6.1 / 8.2 / 8.2 CPU s).
+  // parallax (docs/gather.md, section 9b).
   static constexpr uint32_t kLeafReceivers = 4;
 
   // `view_solid_angle` in (0, pi/4] sr. Throws InvalidArgument for invalid
