@@ -169,20 +169,30 @@ TEST(SurfelBounce, SplattedBounceFollowsTheUnsplattedOne) {
   fo.gather.method = GatherMethod::kFpbgi;
   const std::vector<Surfel> f = add_bounces(room, fo, tree::BuildOptions{});
   const std::vector<Surfel> v = add_bounces(room, splatted(2), tree::BuildOptions{});
+  BounceOptions fine = splatted(2);
+  fine.view_solid_angle = 0.0005f;
+  const std::vector<Surfel> vf = add_bounces(room, fine, tree::BuildOptions{});
   ASSERT_EQ(direct.size(), room.size());
   ASSERT_EQ(v.size(), p.size());
   for (size_t i = 0; i < p.size(); ++i) ASSERT_EQ(v[i].position, p[i].position);
   const IndirectDifference vp = indirect_difference(v, p, direct);
+  const IndirectDifference vfp = indirect_difference(vf, p, direct);
   const IndirectDifference fp = indirect_difference(f, p, direct);
-  std::printf("[ measured ] room bounce, mean indirect %.4f: splatted vs PBGI rel rms %.4f, worst %.3f; "
-              "FPBGI vs PBGI rel rms %.4f, worst %.3f\n",
-              vp.mean, vp.rel_rms, vp.rel_worst, fp.rel_rms, fp.rel_worst);
+  std::printf("[ measured ] room bounce, mean indirect %.4f, against PBGI: splatted rel rms %.4f, worst %.3f; "
+              "splatted at 0.0005 sr %.4f, worst %.3f; FPBGI %.4f, worst %.3f\n",
+              vp.mean, vp.rel_rms, vp.rel_worst, vfp.rel_rms, vfp.rel_worst, fp.rel_rms, fp.rel_worst);
   EXPECT_GT(vp.mean, 0.01);  // the room does reflect light
   // FPBGI, the unsplatted default, is within 1% of per-surfel PBGI here
-  // (measured 0.0062 rms, worst 0.10); the splatted bounce must be as close
-  // (measured 0.0013, worst 0.033 at the defaults).
-  EXPECT_LT(vp.rel_rms, 0.01);
+  // (measured 0.0062 rms, worst 0.10). The splatted default trades some of
+  // that for speed (measured 0.0122, worst 0.098; docs/gather.md, 9b).
+  EXPECT_LT(vp.rel_rms, 0.02);
   EXPECT_LT(vp.rel_worst, 0.15);
+  // At 0.0005 sr no sender of this small room is far from a receiver leaf
+  // (4 surfels ~ 0.15 m across: far from 6 m): the receiver hierarchy
+  // then only hands every surfel the root and its walk is PBGI's
+  // (measured 0.0000).
+  EXPECT_LT(vfp.rel_rms, 0.001);
+  EXPECT_LT(vfp.rel_worst, 0.01);
 }
 
 TEST(SurfelBounce, ViewSolidAngleIsValidated) {
