@@ -18,6 +18,8 @@ namespace {
 // surfel's normal is its triangle's geometric normal (or its opposite for
 // the back side of a double-sided mesh), up to rounding.
 constexpr float kParallelCos = 0.999f;
+// Surfaces within the surfel's offset passed through before giving up.
+constexpr int kMaxCoincident = 4;
 
 }  // namespace
 
@@ -36,8 +38,21 @@ GlossLookupStats restore_surfel_gloss(const RayScene& rays, float glossy_roughne
       const V3f err = rays.point_error(s.position);
       const float offset = 4.f * std::max({err.x, err.y, err.z}) + 1e-3f * s.radius;
       const V3f origin = s.position + s.normal * offset;
-      const Hit hit = rays.intersect(origin, -s.normal, 0.f, 2.f * offset);
-      if (!hit.valid() || std::abs(hit.geometric_normal.dot(s.normal)) < kParallelCos) {
+      // The surfel's own triangle faces its way (its winding normal is the
+      // surfel's, or the opposite for the back of a double-sided mesh):
+      // a coincident surface facing the other way (a box's bottom on a
+      // floor) is passed through.
+      Hit hit;
+      float tmin = 0.f;
+      for (int tries = 0; tries < kMaxCoincident; ++tries) {
+        hit = rays.intersect(origin, -s.normal, tmin, 2.f * offset);
+        if (!hit.valid()) break;
+        const float facing = hit.geometric_normal.dot(s.normal);
+        if (facing > kParallelCos || (facing < -kParallelCos && scene.triangle(hit.triangle).double_sided())) break;
+        tmin = std::nextafter(hit.t, 2.f * offset);
+        hit = Hit{};
+      }
+      if (!hit.valid()) {
         ++c.missed;
         continue;
       }

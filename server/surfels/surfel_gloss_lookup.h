@@ -9,9 +9,10 @@
 // was sampled on, and the material there gives the lobe exactly as
 // sampling did (set_surfel_material with the same texture footprint).
 //
-// A surfel whose ray meets no triangle, or one not parallel to it (another
-// surface within the offset: a box standing on a floor), keeps no lobe: it
-// is counted, never guessed.
+// The triangle must face the surfel's way (or be the back of a
+// double-sided mesh): a coincident surface facing the other way (a box's
+// bottom face lying on a floor) is passed through. A surfel whose ray
+// meets no such triangle keeps no lobe: it is counted, never guessed.
 //
 // Thread-safety: reentrant; the scene is only read.
 #pragma once

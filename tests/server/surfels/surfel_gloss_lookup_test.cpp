@@ -13,7 +13,8 @@ namespace pbgi {
 namespace {
 
 // A gold metal quad (roughness 0.15) facing +z, a white diffuse one beside
-// it, and a gold quad standing on the white one (a box-on-floor contact).
+// it, a gold quad standing on the white one, and a gold quad lying on the
+// white one facing down into it (a box's bottom face on a floor).
 Scene gold_and_white() {
   Scene s;
   s.source_path = "gold-and-white";
@@ -24,6 +25,8 @@ Scene gold_and_white() {
   test::add_quad(s, V3f(0, 0, 0), V3f(1, 0, 0), V3f(1, 1, 0), V3f(0, 1, 0), gold, "/gold");
   test::add_quad(s, V3f(2, 0, 0), V3f(3, 0, 0), V3f(3, 1, 0), V3f(2, 1, 0), white, "/white");
   test::add_quad(s, V3f(2.5f, 0, 0), V3f(2.5f, 1, 0), V3f(2.5f, 1, 1), V3f(2.5f, 0, 1), gold, "/wall");
+  test::add_quad(s, V3f(2.2f, 0.2f, 0), V3f(2.2f, 0.8f, 0), V3f(2.4f, 0.8f, 0), V3f(2.4f, 0.2f, 0), gold,
+                 "/bottom");
   return s;
 }
 
@@ -41,6 +44,9 @@ TEST(SurfelGlossLookup, GivesBackTheLobesSamplingSet) {
   }
   ASSERT_GT(glossy, 500u);
   ASSERT_LT(glossy, sampled.size());
+  size_t facing_down = 0;
+  for (const Surfel& s : sampled) facing_down += s.gloss.glossy() && s.normal.z < -0.5f ? 1 : 0;
+  ASSERT_GT(facing_down, 10u);  // the bottom face's surfels, on the floor
   const GlossLookupStats st = restore_surfel_gloss(rays, o.glossy_roughness, stored);
   EXPECT_EQ(st.glossy, glossy);
   EXPECT_EQ(st.missed, 0u);
