@@ -12,10 +12,10 @@
 //
 // The walk pairs receiver nodes with sender nodes S, top down:
 //  - S is *far* for R when R is small as seen from S: R's view solid angle
-//    pi r_R^2 / d^2 <= view_solid_angle (d from R's centroid to S's
+//    pi r_R^2 / d^2 <= view_solid_angle (d from R's frame point to S's
 //    centre). A far S that passes the cut (small as seen from R) is
 //    splatted ONCE into R's far microbuffer (a FarBuffer drawn from R's
-//    centroid, far_field.h), and so reaches every surfel below R; a far S
+//    frame point, far_field.h), and so reaches every surfel below R; a far S
 //    that does not pass the cut is opened (its children are paired with R).
 //  - otherwise S is *near*. If S is too large for the cut even from R's
 //    farthest point, every surfel of R would open it: it is opened here
@@ -31,7 +31,7 @@
 //    instead of being walked again from the root for every cluster.
 //
 // Visibility: between far senders it is resolved in R's far buffer (a
-// depth-sorted A-buffer from R's centroid, off by at most the view angle
+// depth-sorted A-buffer from R's frame point, off by at most the view angle
 // sqrt(view_solid_angle / pi) for R's surfels); near occluders are in each
 // surfel's own microbuffer and hide the far content behind them. Normals:
 // the far buffer keeps each fragment's direction moments, so each surfel
