@@ -76,6 +76,7 @@ std::unique_ptr<BuiltState> build_pbgi(const BenchInput& input, const PbgiSweep&
   options.surfels.seed = sweep.seed;
   options.tree.payload_codec = payload.codec;
   options.tree.lut_entries = payload.lut_entries;
+  options.bounce = sweep.bounce;
   EngineContext ctx;
   ctx.cache_dir = dir;
   ctx.cache = std::make_shared<storage::PageCache>(input.page_cache_bytes);
@@ -157,6 +158,7 @@ void PbgiSweep::validate() const {
   f.glossy_max_resolution = glossy_max_resolution;
   f.glossy_radiance_weight = glossy_radiance_weight;
   f.validate();
+  bounce.validate();
   if (!contains(methods, default_method))
     throw InvalidArgument("bench: the default gather method " + gather_method_name(default_method) +
                           " must be part of the sweep");
@@ -249,8 +251,14 @@ BuildSpec pbgi_build(const PbgiSweep& sweep, uint64_t surfels, const PayloadSpec
   *name = "pbgi/s" + surfel_label(surfels) + payload_suffix(codec);
   std::string dir_name = "pbgi-s" + std::to_string(surfels) + "-" + codec.label();
   std::replace(dir_name.begin(), dir_name.end(), ':', '-');
-  return {*name,
-          {{"target_surfels", std::to_string(surfels)}, {"payload_codec", codec.label()}},
+  std::vector<Param> params{{"target_surfels", std::to_string(surfels)},
+                            {"payload_codec", codec.label()}};
+  if (sweep.bounce.bounces > 1) {
+    params.push_back({"bounces", std::to_string(sweep.bounce.bounces)});
+    params.push_back({"bounce_splatting", sweep.bounce.splatting ? "true" : "false"});
+    params.push_back({"bounce_view_solid_angle", fmt::format("{:g}", sweep.bounce.effective_view_solid_angle())});
+  }
+  return {*name, std::move(params),
           [sweep, surfels, codec, dir_name](const BenchInput& in) {
             return build_pbgi(in, sweep, surfels, codec, dir_name);
           }};

@@ -7,6 +7,7 @@
 #include "client/bench/bench_method.h"
 #include "client/bench/payload_spec.h"
 #include "server/gather/gather_options.h"
+#include "server/gather/surfel_bounce.h"
 
 #include <cstdint>
 #include <vector>
@@ -58,6 +59,10 @@ struct PbgiSweep {
   uint32_t light_samples = 16;
   uint32_t surfel_light_samples = 16;
   uint64_t seed = 1;
+  // Light bounces every build puts into the surfels, with their bounce
+  // gather and splatting (server/gather/surfel_bounce.h); the default, 1:
+  // direct light only. Compare with a path tracer of max_depth bounces + 1.
+  BounceOptions bounce;
 
   // Throws InvalidArgument naming the field (empty lists, repeated methods
   // or payloads, values the gather, surfel or build options reject, defaults

@@ -29,6 +29,13 @@ void BuildArgs::add_to(CLI::App* cmd) {
                   "light bounces in the image: 1 = one indirect bounce gathered at render time "
                   "(default); n > 1 adds n - 1 bounces to the surfels at build time [1..4]")
       ->check(CLI::Range(1u, 4u));
+  cmd->add_option("--bounce-splatting", bounce_splatting,
+                  "bounce gathers (--bounces > 1): view-tree splatting, a sender node far from a node "
+                  "of the receiving surfels drawn once for all of them (true/false) [true]");
+  cmd->add_option("--bounce-view-solid-angle", bounce_view_solid_angle,
+                  "bounce splatting: view solid angle (sr) of a receiver node seen from a sender node "
+                  "below which it shares the sender's splat; 0 = auto [0]")
+      ->check(CLI::Range(0.f, 0.7854f));
   cmd->add_option("--payload", payload,
                   "node payloads: sh (exact, derived from the surfels as pages load), quantized "
                   "(k-means LUT), auto, or a codec name (derived, float32-sh, kmeans-sh); "
@@ -72,6 +79,8 @@ v1::BuildOptions BuildArgs::to_proto(uint32_t image_width, uint32_t image_height
   build.set_surfel_spacing(surfel_spacing);
   build.set_light_samples(light_samples);
   build.set_bounces(bounces);
+  if (bounce_splatting) build.set_bounce_splatting(*bounce_splatting);
+  if (bounce_view_solid_angle) build.set_bounce_view_solid_angle(*bounce_view_solid_angle);
   build.set_sampler(sampler);
   build.set_spacing_camera(spacing_camera);
   build.set_pixel_footprint(pixel_footprint);

@@ -29,11 +29,14 @@ struct BuildArgs {
   std::optional<float> wavelet_threshold;  // unset = the daemon's default
   float fog_extinction = 0.f;              // 0 = the daemon's default
   std::optional<float> fog_albedo;         // unset = the daemon's default
+  std::optional<bool> bounce_splatting;    // unset = the daemon's default
+  std::optional<float> bounce_view_solid_angle;  // unset = the daemon's default
 
   // Adds --target-surfels, --surfel-spacing, --build-light-samples,
   // --bounces, --payload, --leaf-format, --lut-entries, --sampler, --spacing-camera,
   // --pixel-footprint, --glossy-roughness, --glossy-resolution,
-  // --wavelet-threshold, --fog-extinction and --fog-albedo to `cmd`.
+  // --wavelet-threshold, --fog-extinction, --fog-albedo,
+  // --bounce-splatting and --bounce-view-solid-angle to `cmd`.
   void add_to(CLI::App* cmd);
 
   // The request message. Throws InvalidArgument for a --payload value the

@@ -32,6 +32,9 @@ struct BenchArgs {
   std::optional<float> epsilon;
   std::optional<uint32_t> glossy_max_resolution;
   std::optional<float> glossy_radiance_weight;
+  std::optional<uint32_t> bounces;
+  std::optional<bool> bounce_splatting;
+  std::optional<float> bounce_view_solid_angle;
   bool quick = false;
   bool images = false;
   bool no_plot = false;
@@ -69,6 +72,9 @@ int run(const BenchArgs& args) {
   if (args.epsilon) o.pbgi.fpbgi_epsilon = *args.epsilon;
   if (args.glossy_max_resolution) o.pbgi.glossy_max_resolution = *args.glossy_max_resolution;
   if (args.glossy_radiance_weight) o.pbgi.glossy_radiance_weight = *args.glossy_radiance_weight;
+  if (args.bounces) o.pbgi.bounce.bounces = *args.bounces;
+  if (args.bounce_splatting) o.pbgi.bounce.splatting = *args.bounce_splatting;
+  if (args.bounce_view_solid_angle) o.pbgi.bounce.view_solid_angle = *args.bounce_view_solid_angle;
   pick_default(o.pbgi.methods, &o.pbgi.default_method);
   pick_default(o.pbgi.target_surfels, &o.pbgi.default_target_surfels);
   pick_default(o.pbgi.microbuffer_resolutions, &o.pbgi.default_microbuffer_resolution);
@@ -141,6 +147,13 @@ const CommandRegistrar kRegistrar("bench", [](CLI::App& app, int* exit_code) {
                   "Glossy receivers: share of the lobe's refinement that follows incoming radiance, "
                   "0..1 (default 0.5)")
       ->check(CLI::Range(0.f, 1.f));
+  cmd->add_option("--bounces", args->bounces,
+                  "Light bounces every build puts into the surfels (1..4, default 1); compare with "
+                  "--max-depth bounces + 1");
+  cmd->add_option("--bounce-splatting", args->bounce_splatting,
+                  "Bounce gathers: view-tree splatting (true/false, default true)");
+  cmd->add_option("--bounce-view-solid-angle", args->bounce_view_solid_angle,
+                  "Bounce splatting: view solid angle in sr (default 0 = auto)");
   cmd->add_flag("--quick", args->quick, "Small sweep for CI (64x64, 20k surfels, 4 settings per gather method)");
   cmd->add_flag("--images", args->images, "Also write <out-dir>/images/<config>.exr");
   cmd->add_flag("--no-plot", args->no_plot, "Do not run scripts/plot_bench.py");

@@ -314,6 +314,8 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
     build.read("lut_entries", o.tree.lut_entries);
     build.read("lut_sample_fraction", o.tree.lut_sample_fraction);
     build.read("bounces", o.bounce.bounces);
+    build.read("bounce_splatting", o.bounce.splatting);
+    build.read("bounce_view_solid_angle", o.bounce.view_solid_angle);
     build.reject_unknown();
   }
   if (const toml::table* table = top.table("fog")) {
@@ -424,6 +426,8 @@ std::string to_toml(const DaemonOptions& o) {
   integer_value("lut_entries", b.tree.lut_entries);
   float_value("lut_sample_fraction", b.tree.lut_sample_fraction);
   integer_value("bounces", b.bounce.bounces);
+  out << "bounce_splatting = " << (b.bounce.splatting ? "true" : "false") << '\n';
+  float32_value("bounce_view_solid_angle", b.bounce.view_solid_angle);
 
   out << "\n[fog]\n";
   float32_value("extinction_per_density", b.fog.extinction_per_density);
@@ -524,7 +528,8 @@ bool operator==(const DaemonOptions& a, const DaemonOptions& b) {
          oa.tree.payload_codec == ob.tree.payload_codec &&
          oa.tree.lut_entries == ob.tree.lut_entries &&
          oa.tree.lut_sample_fraction == ob.tree.lut_sample_fraction &&
-         oa.bounce.bounces == ob.bounce.bounces && oa.fog.extinction_per_density == ob.fog.extinction_per_density &&
+         oa.bounce.bounces == ob.bounce.bounces && oa.bounce.splatting == ob.bounce.splatting &&
+         oa.bounce.view_solid_angle == ob.bounce.view_solid_angle && oa.fog.extinction_per_density == ob.fog.extinction_per_density &&
          oa.fog.albedo == ob.fog.albedo && oa.fog.step_voxels == ob.fog.step_voxels &&
          oa.fog.light_samples == ob.fog.light_samples && oa.fog.max_block_voxels == ob.fog.max_block_voxels &&
          la.max_receivers == lb.max_receivers &&

@@ -16,15 +16,17 @@ constexpr size_t kSurfelsPerPass = 64 * kBounceBatch;
 
 storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
                                         const tree::TreeSource& previous,
-                                        const GatherOptions& gather,
+                                        const BounceOptions& options,
                                         const tree::BuildOptions& tree_options,
                                         const std::string& build_key,
                                         const std::filesystem::path& dir,
                                         const Imath::Box3f& bounds,
+                                        const BounceGlossy& glossy,
                                         const std::function<void(float)>& progress,
                                         const std::function<bool()>& cancelled) {
-  gather.validate();
+  options.validate();
   storage::PageSetBuilder builder(tree_options, build_key, dir, bounds);
+  if (glossy.shader) builder.set_glossy_shader(glossy.shader);
   std::vector<Surfel> batch;
   std::vector<Imath::C3f> radiance;
   batch.reserve(kSurfelsPerPass + 4096);
@@ -34,7 +36,8 @@ storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
   const uint32_t pages = direct.manifest().stats.page_count;
   auto flush = [&](uint32_t pages_done) {
     if (batch.empty()) return;
-    gather_bounce(previous, batch, radiance, gather, cancelled);
+    gather_bounce(previous, batch, radiance, options, cancelled);
+    if (glossy.restore) glossy.restore(batch);
     builder.add(batch);
     batch.clear();
     radiance.clear();

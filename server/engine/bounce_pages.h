@@ -14,6 +14,12 @@
 // Each bounce's set is content-addressed like any page set (its key holds
 // the bounce count and the bounce gather options), so a build for 3 bounces
 // leaves the 2-bounce set behind, reused by a later open asking for 2.
+//
+// Glossy senders: stored surfels have no lobe (storage/tree/surfel.h), so
+// `glossy.restore` gives each batch its lobes back before it goes to the
+// builder, and `glossy.shader` lights them for the pages' wavelet cube maps
+// as the direct set's build does (direct light only: docs/gather.md,
+// section 9b). The diffuse part of a glossy surfel gathers like any.
 #pragma once
 
 #include "server/gather/surfel_bounce.h"
@@ -23,9 +29,17 @@
 
 #include <filesystem>
 #include <functional>
+#include <span>
 #include <string>
 
 namespace pbgi {
+
+// How a bounce's set gets its glossy senders' radiance; both empty: it
+// stores none.
+struct BounceGlossy {
+  const storage::GlossyShader* shader = nullptr;   // must outlive the build
+  std::function<void(std::span<Surfel>)> restore;  // sets Surfel::gloss
+};
 
 // Builds the page set of one more bounce into `dir` (published atomically,
 // as PageSetBuilder does). `direct` is the bounce-1 set, `previous` the set
@@ -35,11 +49,12 @@ namespace pbgi {
 // throw (nothing is published then).
 storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
                                         const tree::TreeSource& previous,
-                                        const GatherOptions& gather,
+                                        const BounceOptions& options,
                                         const tree::BuildOptions& tree_options,
                                         const std::string& build_key,
                                         const std::filesystem::path& dir,
                                         const Imath::Box3f& bounds,
+                                        const BounceGlossy& glossy = {},
                                         const std::function<void(float)>& progress = {},
                                         const std::function<bool()>& cancelled = {});
 

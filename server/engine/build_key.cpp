@@ -47,9 +47,15 @@ std::string page_set_build_key(const std::string& scene_content_hash, const Open
   }
   if (o.bounce.bounces > 1) {
     const GatherOptions& g = o.bounce.gather;
-    text += fmt::format("|bounces={}|bounce_gather={},{},{},{},{},{},{}", o.bounce.bounces, int(g.method),
+    // bounce_sets=2: bounce sets carry the glossy senders' radiance (sets
+    // built before had none).
+    text += fmt::format("|bounces={}|bounce_sets=2|bounce_gather={},{},{},{},{},{},{}", o.bounce.bounces, int(g.method),
                         g.microbuffer_resolution, g.max_solid_angle, g.ao_max_distance, g.clusters,
                         g.epsilon, g.hdr_refine);
+    // The splatting changes the gathered radiances (within the measured
+    // error, docs/gather.md section 9b), so the bytes: resolved, so that
+    // "auto" and its value share a set.
+    if (o.bounce.splatting) text += fmt::format("|splat={}", o.bounce.effective_view_solid_angle());
   }
   const XXH128_hash_t h = XXH3_128bits(text.data(), text.size());
   return fmt::format("{:016x}{:016x}", h.high64, h.low64);

@@ -9,6 +9,7 @@
 #include "server/scene/render_origin.h"
 #include "server/ingest/usd_ingest.h"
 #include "server/surfels/glossy_shading.h"
+#include "server/surfels/surfel_gloss_lookup.h"
 #include "server/surfels/surfels.h"
 #include "storage/format/errors.h"
 
@@ -109,6 +110,21 @@ std::unique_ptr<storage::PageSetReader> build_page_sets(
   // 6. More bounces: each a page set gathered from the previous one
   //    (server/engine/bounce_pages.h).
   std::unique_ptr<storage::PageSetReader> direct;
+  // Glossy senders keep their lobes in every bounce's set, lit by direct
+  // light as in the direct set (docs/gather.md, section 9b).
+  std::unique_ptr<SceneGlossyShader> glossy_shader;
+  BounceGlossy glossy;
+  GlossLookupStats gloss_found;  // of the last bounce set built
+  if (options.surfels.glossy_roughness > 0.f && options.bounce.bounces > 1) {
+    glossy_shader = std::make_unique<SceneGlossyShader>(*session.rays, options.surfels.light_samples,
+                                                        options.surfels.seed);
+    glossy.shader = glossy_shader.get();
+    glossy.restore = [&](std::span<Surfel> surfels) {
+      const GlossLookupStats st = restore_surfel_gloss(*session.rays, options.surfels.glossy_roughness, surfels);
+      gloss_found.glossy += st.glossy;
+      gloss_found.missed += st.missed;
+    };
+  }
   for (uint32_t b = 2; b <= options.bounce.bounces; ++b) {
     OpenOptions bounce_options = options;
     bounce_options.bounce.bounces = b;
@@ -116,11 +132,16 @@ std::unique_ptr<storage::PageSetReader> build_page_sets(
     auto next = try_open_existing(dir, ctx);
     if (!next) {
       const std::string stage = "bounce " + std::to_string(b);
+      gloss_found = {};
       next = build_or_join(dir, ctx, [&] {
-        build_bounce_page_set(direct ? *direct : *tree, *tree, options.bounce.gather, options.tree,
-                              dir.filename().string(), dir, scene.bounds(),
+        build_bounce_page_set(direct ? *direct : *tree, *tree, options.bounce, options.tree,
+                              dir.filename().string(), dir, scene.bounds(), glossy,
                               [&](float f) { report(stage, f); });
       });
+      if (glossy.restore) {
+        spdlog::info("page set {}: {} glossy senders' lobes restored, {} surfels found no triangle",
+                     dir.filename().string(), gloss_found.glossy, gloss_found.missed);
+      }
     }
     if (!direct) direct = std::move(tree);
     tree = std::move(next);

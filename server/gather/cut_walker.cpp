@@ -384,10 +384,21 @@ void CutWalker::walk_lobe(const LobeRefinement& lobe) {
 
 void CutWalker::walk_cluster(const ClusterFrame& c, FarBuffer& far,
                              std::vector<StackEntry>& near) {
-  const float omega_max = cut_;
-  const float eps = options_.effective_epsilon();
-  uint64_t visited = 0;
   push_root();
+  walk_cluster_stack(c, options_.effective_epsilon(), false, far, near);
+}
+
+void CutWalker::walk_cluster(const ClusterFrame& c, float epsilon, std::span<const StackEntry> from,
+                             FarBuffer& far, std::vector<StackEntry>& near) {
+  // Pushed last to first: popped in the cut's pre-order.
+  for (size_t j = from.size(); j-- > 0;) push(from[j]);
+  walk_cluster_stack(c, epsilon, true, far, near);
+}
+
+void CutWalker::walk_cluster_stack(const ClusterFrame& c, float eps, bool open_near, FarBuffer& far,
+                                   std::vector<StackEntry>& near) {
+  const float omega_max = cut_;
+  uint64_t visited = 0;
   while (!stack_.empty()) {
     const StackEntry e = stack_.back();
     stack_.pop_back();
@@ -404,6 +415,16 @@ void CutWalker::walk_cluster(const ClusterFrame& c, FarBuffer& far,
     // (gamma = radius / d > epsilon); each refines it on its own. The
     // entry's pin reference moves to the near list.
     if (c.radius > eps * std::sqrt(d2)) {
+      // A near node too large for the cut even from the cluster's farthest
+      // point is refined by every member anyway (the cull tests pass its
+      // children no less): open it here, so that its far parts can still
+      // be shared instead of each member drawing them.
+      const float farthest = std::sqrt(d2) + c.radius;
+      if (open_near && !h.leaf() && kPi * h.radius * h.radius > omega_max * farthest * farthest) {
+        push_children(e, h);
+        pins_.release(e.pin);
+        continue;
+      }
       near.push_back(e);
       continue;
     }

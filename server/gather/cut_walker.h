@@ -26,6 +26,7 @@
 #include <Imath/ImathVec.h>
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 namespace pbgi::gather {
@@ -87,6 +88,15 @@ class CutWalker {
   // (begun by the caller), near nodes are appended to `near` (each holding
   // a pin reference the caller releases).
   void walk_cluster(const ClusterFrame& c, FarBuffer& far, std::vector<StackEntry>& near);
+  // The same from `from` (entries whose pins the caller holds references
+  // on, e.g. a larger cluster's near nodes; pushed on top of whatever the
+  // stack holds, e.g. push_root()) instead of the root, with the far/near
+  // split `epsilon` (radius / distance) instead of the options': the
+  // view-tree gather's walk of a receiver node (view_tree_gather.h). Near
+  // nodes too large for the cut from every member are opened, not handed
+  // back: their far parts then go into `far`.
+  void walk_cluster(const ClusterFrame& c, float epsilon, std::span<const StackEntry> from,
+                    FarBuffer& far, std::vector<StackEntry>& near);
 
  private:
   // The receiver walk with a cut per node, cut_of(v, d2, radius): the
@@ -97,6 +107,10 @@ class CutWalker {
   bool culled_for_cluster(const HotNode& h, const Imath::V3f& v, float d2,
                           const ClusterFrame& c) const;
   void push_children(const StackEntry& parent, const HotNode& h);
+  // walk_cluster() on whatever the stack holds; `open_near`: near nodes
+  // every member would refine are opened rather than handed back.
+  void walk_cluster_stack(const ClusterFrame& c, float epsilon, bool open_near, FarBuffer& far,
+                          std::vector<StackEntry>& near);
   // Splats a node into the receiver's microbuffer (or, with `far`, the
   // cluster's far buffer). Returns false, drawing nothing, when the
   // HDR-aware cut wants it refined.

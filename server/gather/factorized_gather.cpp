@@ -26,14 +26,7 @@ void FactorizedGather::gather(std::span<const Receiver> rs, std::span<GatherResu
   PagePins& pins = walker_.pins();
   // Pages stay pinned for a whole cluster; unpinned after each (and on
   // errors).
-  struct Release {
-    PagePins& pins;
-    ~Release() {
-      pins.clear();
-      pins.set_hold(false);
-    }
-  } release{pins};
-  pins.set_hold(true);
+  const HoldPinsInScope hold{pins};
 
   const std::vector<uint32_t>& members = clusters_.members();
   for (const ReceiverCluster& c : clusters_.clusters()) {

@@ -1,6 +1,9 @@
 #include "server/gather/far_field.h"
 
+#include "storage/format/errors.h"
+
 #include <algorithm>
+#include <string>
 
 namespace pbgi::gather {
 
@@ -25,6 +28,22 @@ void FarBuffer::begin() {
   }
   touched_.clear();
   fragments_.clear();
+}
+
+void FarBuffer::begin_from(const FarBuffer& other) {
+  if (&other.layout_ != &layout_) {
+    throw InvalidArgument("FarBuffer::begin_from: the buffers' cube layouts differ (" +
+                          std::to_string(other.layout_.resolution()) + " vs " +
+                          std::to_string(layout_.resolution()) + " pixels per side)");
+  }
+  begin();
+  // Fragment indices (the per-pixel lists' links) stay valid in the copy.
+  fragments_ = other.fragments_;
+  touched_ = other.touched_;
+  for (const uint32_t k : touched_) {
+    stamp_[k] = generation_;
+    head_[k] = other.head_[k];
+  }
 }
 
 void FarBuffer::push(uint32_t k, const Fragment& f) {

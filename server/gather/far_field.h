@@ -69,6 +69,10 @@ class FarBuffer {
 
   // Drops all fragments (a new cluster).
   void begin();
+  // Drops all fragments and takes `other`'s (unresolved) ones: a smaller
+  // cluster inside `other`'s starts from its far content (the view-tree
+  // gather, view_tree_gather.h). Both must share the layout.
+  void begin_from(const FarBuffer& other);
   // A splat fragment: covers the fraction `alpha` of pixel k (omega sr) at
   // `depth`, with moment m per unit solid angle and `radiance`.
   void add(uint32_t k, float depth, float alpha, float omega, const Imath::V3f& m,

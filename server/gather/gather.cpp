@@ -9,6 +9,7 @@
 #include "server/gather/cut_walker.h"
 #include "server/gather/factorized_gather.h"
 #include "server/gather/glossy_gather.h"
+#include "server/gather/receiver_check.h"
 #include "server/gather/volume_points.h"
 #include "storage/format/errors.h"
 
@@ -19,51 +20,6 @@
 #include <vector>
 
 namespace pbgi {
-
-namespace {
-
-bool finite(const Imath::V3f& v) {
-  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
-}
-
-// How far a glossy view direction's length may be from 1.
-constexpr float kUnitTolerance = 1e-3f;
-
-// Names receiver `index` of a batch (or, without one, just "Receiver").
-std::string receiver_name(size_t index) {
-  return index == SIZE_MAX ? std::string("Receiver") : "receiver " + std::to_string(index);
-}
-
-// The receiver with a unit normal; throws InvalidArgument if unusable,
-// naming `index` (SIZE_MAX: a single receiver).
-Receiver checked(const Receiver& r, size_t index = SIZE_MAX) {
-  if (!finite(r.position) || !finite(r.normal)) {
-    throw InvalidArgument(receiver_name(index) + ": non-finite position or normal");
-  }
-  const float len = r.normal.length();
-  if (!(len > 1e-12f)) throw InvalidArgument(receiver_name(index) + ".normal: zero length");
-  const GlossyLobe& g = r.glossy;
-  const bool colour_ok = std::isfinite(g.specular.x) && std::isfinite(g.specular.y) &&
-                         std::isfinite(g.specular.z) && g.specular.x >= 0.f &&
-                         g.specular.y >= 0.f && g.specular.z >= 0.f;
-  if (!colour_ok) {
-    throw InvalidArgument(receiver_name(index) + ".glossy.specular: not a finite colour >= 0");
-  }
-  if (g.active()) {
-    if (!finite(g.view) || !(std::abs(g.view.length() - 1.f) <= kUnitTolerance)) {
-      throw InvalidArgument(receiver_name(index) + ".glossy.view = (" + std::to_string(g.view.x) +
-                            ", " + std::to_string(g.view.y) + ", " + std::to_string(g.view.z) +
-                            "): not a unit vector");
-    }
-    if (!(g.roughness >= 0.f && g.roughness <= 1.f)) {
-      throw InvalidArgument(receiver_name(index) + ".glossy.roughness = " +
-                            std::to_string(g.roughness) + ": not in [0, 1]");
-    }
-  }
-  return {r.position, r.normal / len, g};
-}
-
-}  // namespace
 
 struct Gatherer::Impl {
   Impl(const tree::TreeSource& tree, const GatherOptions& options, GatherCounters& counters,
@@ -106,7 +62,7 @@ void Gatherer::set_volume_points(std::shared_ptr<const VolumePoints> fog) {
 GatherResult Gatherer::gather(const Receiver& receiver) {
   // Pages stay pinned until the receiver is done.
   const gather::ClearPinsOnExit unpin{impl_->walker.pins()};
-  const GatherResult out = gather_pinned(checked(receiver));
+  const GatherResult out = gather_pinned(gather::checked_receiver(receiver));
   counters_.pages_fetched += impl_->walker.pins().take_fetches();
   return out;
 }
@@ -156,16 +112,9 @@ void Gatherer::gather_tile(std::span<const Receiver> receivers, std::span<Gather
     // time). Pages are unpinned between runs and when the tile is done.
     constexpr size_t kPinRun = 64;
     gather::CutWalker& w = impl_->walker;
-    struct Release {
-      gather::PagePins& pins;
-      ~Release() {
-        pins.clear();
-        pins.set_hold(false);
-      }
-    } release{w.pins()};
-    w.pins().set_hold(true);
+    const gather::HoldPinsInScope hold{w.pins()};
     for (size_t i = 0; i < receivers.size(); ++i) {
-      results[i] = gather_pinned(checked(receivers[i], i));
+      results[i] = gather_pinned(gather::checked_receiver(receivers[i], i));
       if ((i + 1) % kPinRun == 0) {
         counters_.pages_fetched += w.pins().take_fetches();
         w.pins().clear();
@@ -177,7 +126,7 @@ void Gatherer::gather_tile(std::span<const Receiver> receivers, std::span<Gather
   // Factorized: all receivers checked first, then clustered.
   std::vector<Receiver>& batch = impl_->batch;
   batch.clear();
-  for (size_t i = 0; i < receivers.size(); ++i) batch.push_back(checked(receivers[i], i));
+  for (size_t i = 0; i < receivers.size(); ++i) batch.push_back(gather::checked_receiver(receivers[i], i));
   impl_->walker.views().trim();
   if (!impl_->factorized) impl_->factorized = std::make_unique<gather::FactorizedGather>(impl_->walker);
   const bool any_glossy = std::any_of(batch.begin(), batch.end(),

@@ -153,4 +153,18 @@ struct ClearPinsOnExit {
   ~ClearPinsOnExit() { pins.clear(); }
 };
 
+// Holds pages pinned without references (PagePins::set_hold) while the
+// scope lasts, for a batch of receivers that revisits the same pages;
+// unpins everything when it ends (also on errors).
+struct HoldPinsInScope {
+  explicit HoldPinsInScope(PagePins& p) : pins(p) { pins.set_hold(true); }
+  ~HoldPinsInScope() {
+    pins.clear();
+    pins.set_hold(false);
+  }
+  HoldPinsInScope(const HoldPinsInScope&) = delete;
+  HoldPinsInScope& operator=(const HoldPinsInScope&) = delete;
+  PagePins& pins;
+};
+
 }  // namespace pbgi::gather

@@ -1,6 +1,7 @@
 #include "server/gather/surfel_bounce.h"
 
 #include "server/gather/gather.h"
+#include "server/gather/view_tree_gather.h"
 #include "storage/format/errors.h"
 #include "storage/tree/node_payload.h"
 #include "storage/tree/tree_builder.h"
@@ -64,10 +65,14 @@ void BounceOptions::validate() const {
                           std::to_string(kMaxBounces) + "]");
   }
   gather.validate();
+  if (!(view_solid_angle >= 0.f && view_solid_angle <= kMaxViewSolidAngle)) {
+    throw InvalidArgument("bounce_view_solid_angle = " + std::to_string(view_solid_angle) +
+                          ": must be in [0, " + std::to_string(kMaxViewSolidAngle) + "] sr (0 = auto)");
+  }
 }
 
 void gather_bounce(const tree::TreeSource& tree, std::span<Surfel> surfels,
-                   std::span<const Imath::C3f> direct, const GatherOptions& options,
+                   std::span<const Imath::C3f> direct, const BounceOptions& options,
                    const std::function<bool()>& cancelled) {
   if (surfels.size() != direct.size()) {
     throw InvalidArgument("gather_bounce: " + std::to_string(surfels.size()) + " surfels but " +
@@ -81,7 +86,8 @@ void gather_bounce(const tree::TreeSource& tree, std::span<Surfel> surfels,
   // tree is only read meanwhile.
   auto cache = std::make_shared<GatherCache>();
   struct Worker {
-    std::unique_ptr<Gatherer> gatherer;
+    std::unique_ptr<Gatherer> gatherer;            // without splatting
+    std::unique_ptr<gather::ViewTreeGather> view;  // with
     std::vector<Receiver> receivers;
     std::vector<uint32_t> index;
     std::vector<GatherResult> results;
@@ -91,7 +97,12 @@ void gather_bounce(const tree::TreeSource& tree, std::span<Surfel> surfels,
   const size_t batches = (n + kBounceBatch - 1) / kBounceBatch;
   tbb::parallel_for(tbb::blocked_range<size_t>(0, batches, 1), [&](const auto& range) {
     Worker& w = workers.local();
-    if (!w.gatherer) w.gatherer = std::make_unique<Gatherer>(tree, options, cache);
+    if (options.splatting && !w.view) {
+      w.view = std::make_unique<gather::ViewTreeGather>(tree, options.gather,
+                                                        options.effective_view_solid_angle(), cache);
+    } else if (!options.splatting && !w.gatherer) {
+      w.gatherer = std::make_unique<Gatherer>(tree, options.gather, cache);
+    }
     for (size_t b = range.begin(); b != range.end(); ++b) {
       if (stop.load(std::memory_order_relaxed)) return;
       if (cancelled && cancelled()) {
@@ -109,7 +120,11 @@ void gather_bounce(const tree::TreeSource& tree, std::span<Surfel> surfels,
         w.index.push_back(uint32_t(i));
       }
       w.results.resize(w.receivers.size());
-      w.gatherer->gather_tile(w.receivers, w.results);
+      if (w.view) {
+        w.view->gather(w.receivers, w.results);
+      } else {
+        w.gatherer->gather_tile(w.receivers, w.results);
+      }
       for (size_t j = 0; j < w.index.size(); ++j) irradiance[w.index[j]] = w.results[j].irradiance;
     }
   });
@@ -122,15 +137,12 @@ void gather_bounce(const tree::TreeSource& tree, std::span<Surfel> surfels,
   }
 }
 
-std::vector<Surfel> add_bounces(std::vector<Surfel> surfels, uint32_t bounces,
-                                const tree::BuildOptions& build, const GatherOptions& options,
+std::vector<Surfel> add_bounces(std::vector<Surfel> surfels, const BounceOptions& options,
+                                const tree::BuildOptions& build,
                                 const std::function<void(uint32_t, float)>& progress,
                                 const std::function<bool()>& cancelled) {
-  if (bounces < 1 || bounces > kMaxBounces) {
-    throw InvalidArgument("bounces = " + std::to_string(bounces) + ": must be in [1, " +
-                          std::to_string(kMaxBounces) + "]");
-  }
   options.validate();
+  const uint32_t bounces = options.bounces;
   if (bounces == 1 || surfels.empty()) return surfels;
 
   // The tree is built once; bounces change radiances, hence payloads, not

@@ -12,10 +12,13 @@
 //
 // Receivers are the surfels themselves (at their centers, facing along
 // their normals; a receiver on its own surfel does not see it), gathered in
-// batches of kBounceBatch consecutive surfels with gather_tile(): in the
-// tree's (Morton) order a batch is a compact patch, which factorized PBGI
-// clusters well. Batches run in parallel (TBB); the trees are held in
-// memory (storage/tree/memory_tree.h).
+// batches of kBounceBatch consecutive surfels: in the tree's (Morton) order
+// a batch is a compact patch. With `splatting` (the default) a batch is
+// gathered by the view tree (server/gather/view_tree_gather.h: sender nodes
+// far from a node of the batch's receiver hierarchy are splatted once for
+// all its surfels); without, by gather_tile() (factorized PBGI clusters a
+// compact patch well). Batches run in parallel (TBB); the trees are held
+// in memory (storage/tree/memory_tree.h).
 //
 // Thread-safety: the functions are reentrant; gather_bounce() reads `tree`
 // from several threads.
@@ -39,9 +42,15 @@ inline constexpr uint32_t kMaxBounces = 4;
 inline constexpr size_t kBounceBatch = 1024;
 
 // The build option: how many bounces the surfels' radiance holds, and how
-// the bounce gathers are made. Shared by the config file ([build] bounces),
-// the CLI (--bounces) and pbgi.v1.BuildOptions.bounces.
+// the bounce gathers are made. Shared by the config file ([build] bounces,
+// bounce_splatting, bounce_view_solid_angle), the CLI (--bounces,
+// --bounce-splatting, --bounce-view-solid-angle) and pbgi.v1.BuildOptions
+// (bounces, bounce_splatting, bounce_view_solid_angle).
 struct BounceOptions {
+  // Largest accepted view_solid_angle: pi x GatherOptions::kMaxEpsilon^2.
+  static constexpr float kMaxViewSolidAngle =
+      3.14159265358979f * GatherOptions::kMaxEpsilon * GatherOptions::kMaxEpsilon;
+
   // 1 = direct light only (the default: a render's gather adds the one
   // indirect bounce); n = the surfels carry n - 1 indirect bounces, so a
   // render shows n. [1, kMaxBounces].
@@ -53,29 +62,50 @@ struct BounceOptions {
     g.method = GatherMethod::kFpbgi;
     return g;
   }();
+  // View-tree splatting (docs/gather.md, section 9b): a sender node far
+  // from a node of the receivers' hierarchy is drawn once into that node's
+  // shared far microbuffer for all its surfels. Off: every batch is
+  // gathered with gather.method (gather.clusters then applies).
+  bool splatting = true;
+  // The view solid angle (sr) below which a receiver node, seen from a
+  // sender node, is small enough to share that sender's splat:
+  // pi r_R^2 / d^2 <= view_solid_angle. 0 (the default) = auto, half of
+  // FPBGI's near/far split, pi x gather.effective_epsilon()^2 / 2 (0.0039
+  // sr at N = 8): the view tree draws much of its far content right at the
+  // split, and at FPBGI's own split it was 2.3x further from per-surfel
+  // PBGI than FPBGI; at half, 1.3-1.4x and 1.37-1.48x faster than FPBGI
+  // (docs/gather.md, section 9b). [0, kMaxViewSolidAngle].
+  float view_solid_angle = 0.f;
+
+  // view_solid_angle with 0 resolved.
+  float effective_view_solid_angle() const {
+    const float eps = gather.effective_epsilon();
+    return view_solid_angle > 0.f ? view_solid_angle : 0.5f * 3.14159265358979f * eps * eps;
+  }
 
   // Throws InvalidArgument naming the field.
   void validate() const;
 };
 
 // One bounce: for every surfel i, gathers the irradiance E_i from `tree` at
-// the surfel and sets surfels[i].radiance = direct[i] + albedo_i / pi E_i.
+// the surfel and sets surfels[i].radiance = direct[i] + albedo_i / pi E_i,
+// with options.gather and options.splatting (options.bounces is not used).
 // `direct` may alias nothing in `surfels`. Throws InvalidArgument if the
 // spans differ in size or `options` are invalid, Cancelled if `cancelled`
 // returns true (polled between batches), and whatever the tree throws.
 void gather_bounce(const tree::TreeSource& tree, std::span<Surfel> surfels,
-                   std::span<const Imath::C3f> direct, const GatherOptions& options,
+                   std::span<const Imath::C3f> direct, const BounceOptions& options,
                    const std::function<bool()>& cancelled = {});
 
 // The whole multi-bounce pass in memory: builds the tree of `surfels`
 // (direct lighting only) with `build`, gathers a bounce into them, and
-// repeats bounces - 1 times. Returns the surfels with their final radiance,
-// in the tree's order (ready to be fed to a page-set builder).
+// repeats options.bounces - 1 times. Returns the surfels with their final
+// radiance, in the tree's order (ready to be fed to a page-set builder).
 // `progress(bounce, fraction)` is called from this thread. Throws
-// InvalidArgument for bounces outside [1, kMaxBounces] and what
-// gather_bounce() and tree::build_tree() throw.
-std::vector<Surfel> add_bounces(std::vector<Surfel> surfels, uint32_t bounces,
-                                const tree::BuildOptions& build, const GatherOptions& options,
+// InvalidArgument for invalid options (bounces outside [1, kMaxBounces])
+// and what gather_bounce() and tree::build_tree() throw.
+std::vector<Surfel> add_bounces(std::vector<Surfel> surfels, const BounceOptions& options,
+                                const tree::BuildOptions& build,
                                 const std::function<void(uint32_t, float)>& progress = {},
                                 const std::function<bool()>& cancelled = {});
 

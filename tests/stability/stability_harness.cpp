@@ -53,6 +53,7 @@ PbgiScene::PbgiScene(const Scene& scene, const RenderSettings& s)
   OpenOptions open;
   open.surfels.target_surfels = s.target_surfels;
   open.surfels.sampler = s.sampler;
+  open.bounce.bounces = s.bounces;
   EngineContext ctx;
   ctx.cache_dir = dir_.path();
   ctx.cache = std::make_shared<storage::PageCache>(1ull << 30);

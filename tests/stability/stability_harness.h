@@ -35,6 +35,8 @@ struct RenderSettings {
   // then exactly what PBGI's gather estimates.
   uint32_t reference_max_depth = 2;
   uint64_t reference_seed = 7;
+  // Light bounces the PBGI build puts into the surfels (BounceOptions).
+  uint32_t bounces = 1;
 };
 
 // Pixel-interleaved RGB AOVs, row-major.

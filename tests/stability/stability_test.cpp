@@ -441,5 +441,20 @@ TEST(Stability, GlossyCausticPbgiAgainstTheReference) {
   EXPECT_LT(err, 0.6);
 }
 
+// A 2-bounce build rebuilds its pages from stored surfels, which have no
+// lobe (server/engine/bounce_pages.h): the facets must get theirs back and
+// still focus the sun on the floor. The flat floor cannot see itself and
+// the metal facets reflect no diffuse light, so the second bounce adds
+// almost nothing to the floor here: the 1-bounce bounds apply. Without the
+// lobes in the bounce set the floor receives no power from the facets.
+TEST(Stability, GlossyCausticSurvivesABounceBuild) {
+  const Scene scene = glossy_caustic();
+  RenderSettings settings = caustic_settings();
+  settings.bounces = 2;
+  const Aovs pbgi = render_pbgi(scene, "/Camera", settings);
+  expect_finite(pbgi, "glossy caustic, 2 bounces (PBGI)");
+  expect_caustic(measure_caustic(scene, pbgi, settings), "PBGI, 2 bounces", 7.0, 0.6);
+}
+
 }  // namespace
 }  // namespace pbgi::stability

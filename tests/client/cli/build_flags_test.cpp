@@ -72,5 +72,21 @@ TEST(BuildFlags, FogFlagsAreSentOnlyWhenGiven) {
   EXPECT_THROW(parse({"--fog-extinction", "0"}), CLI::ValidationError);
 }
 
+TEST(BuildFlags, BounceSplattingFlagsAreSentOnlyWhenGiven) {
+  const v1::BuildOptions none = parse({}).to_proto();
+  EXPECT_FALSE(none.has_bounce_splatting());
+  EXPECT_FALSE(none.has_bounce_view_solid_angle());
+  const v1::BuildOptions set =
+      parse({"--bounces", "3", "--bounce-splatting", "false", "--bounce-view-solid-angle", "0"}).to_proto();
+  EXPECT_EQ(set.bounces(), 3u);
+  ASSERT_TRUE(set.has_bounce_splatting());
+  EXPECT_FALSE(set.bounce_splatting());  // off, not "the default"
+  ASSERT_TRUE(set.has_bounce_view_solid_angle());
+  EXPECT_EQ(set.bounce_view_solid_angle(), 0.f);  // auto, not "the default"
+  EXPECT_THROW(parse({"--bounce-view-solid-angle", "-0.1"}), CLI::ValidationError);
+  EXPECT_THROW(parse({"--bounce-view-solid-angle", "1"}), CLI::ValidationError);
+  EXPECT_THROW(parse({"--bounce-splatting", "maybe"}), CLI::ParseError);
+}
+
 }  // namespace
 }  // namespace pbgi::cli

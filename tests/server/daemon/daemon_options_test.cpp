@@ -77,6 +77,8 @@ DaemonOptions non_default_options() {
   o.service.defaults.open.tree.lut_entries = 1000;
   o.service.defaults.open.tree.lut_sample_fraction = 0.05;
   o.service.defaults.open.bounce.bounces = 2;
+  o.service.defaults.open.bounce.splatting = false;
+  o.service.defaults.open.bounce.view_solid_angle = 0.02f;
   o.service.defaults.open.fog.extinction_per_density = 2.5f;
   o.service.defaults.open.fog.albedo = Imath::C3f(0.3f);
   o.service.defaults.open.fog.step_voxels = 0.25f;

@@ -45,6 +45,30 @@ TEST(BuildKey, BounceCountAndBounceGatherChangeTheKey) {
   EXPECT_EQ(page_set_build_key("h", a), page_set_build_key("h", d));
 }
 
+TEST(BuildKey, BounceSplattingOptionsChangeTheKey) {
+  OpenOptions on;
+  on.bounce.bounces = 2;
+  ASSERT_TRUE(on.bounce.splatting);  // the default
+  OpenOptions off = on;
+  off.bounce.splatting = false;
+  EXPECT_NE(page_set_build_key("h", on), page_set_build_key("h", off));
+  OpenOptions wider = on;
+  wider.bounce.view_solid_angle = 0.03f;
+  EXPECT_NE(page_set_build_key("h", on), page_set_build_key("h", wider));
+  // "auto" is its resolved value: one set for both spellings.
+  OpenOptions explicit_auto = on;
+  explicit_auto.bounce.view_solid_angle = on.bounce.effective_view_solid_angle();
+  EXPECT_EQ(page_set_build_key("h", on), page_set_build_key("h", explicit_auto));
+  // Without splatting its view solid angle is unused.
+  OpenOptions off_wider = off;
+  off_wider.bounce.view_solid_angle = 0.03f;
+  EXPECT_EQ(page_set_build_key("h", off), page_set_build_key("h", off_wider));
+  // With one bounce nothing is gathered: no split of the cache.
+  OpenOptions one, one_off;
+  one_off.bounce.splatting = false;
+  EXPECT_EQ(page_set_build_key("h", one), page_set_build_key("h", one_off));
+}
+
 TEST(BuildKey, GlossySenderOptionsChangeTheKeyButTheirDefaultsDoNot) {
   const OpenOptions a;
   const std::string k = page_set_build_key("h", a);

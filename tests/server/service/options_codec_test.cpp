@@ -168,6 +168,29 @@ TEST(OptionsCodec, BouncesAreABuildOptionWithTheirOwnKey) {
   }
 }
 
+TEST(OptionsCodec, BounceSplattingIsABuildOptionWithItsOwnKey) {
+  OpenOptions defaults;
+  v1::BuildOptions proto;
+  // Unset: the daemon's defaults.
+  EXPECT_TRUE(decode_open_options(proto, defaults).bounce.splatting);
+  EXPECT_EQ(decode_open_options(proto, defaults).bounce.view_solid_angle, 0.f);
+  proto.set_bounce_splatting(false);
+  proto.set_bounce_view_solid_angle(0.02f);
+  const OpenOptions o = decode_open_options(proto, defaults);
+  EXPECT_FALSE(o.bounce.splatting);
+  EXPECT_EQ(o.bounce.view_solid_angle, 0.02f);
+  EXPECT_FALSE(encode_open_options(o).bounce_splatting());
+  EXPECT_EQ(encode_open_options(o).bounce_view_solid_angle(), 0.02f);
+  EXPECT_NE(open_options_key(o), open_options_key(defaults));
+  proto.set_bounce_view_solid_angle(-1.f);
+  try {
+    decode_open_options(proto, defaults);
+    FAIL() << "negative bounce_view_solid_angle accepted";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("bounce_view_solid_angle"), std::string::npos) << e.what();
+  }
+}
+
 TEST(OptionsCodec, SamplerAndAdaptiveSpacingAreBuildOptionsWithTheirOwnKey) {
   OpenOptions defaults;
   v1::BuildOptions proto;
