@@ -284,6 +284,7 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
     gather.read("glossy_max_resolution", r.gather.glossy_max_resolution);
     gather.read("glossy_importance", r.gather.glossy_importance);
     gather.read("glossy_radiance_weight", r.gather.glossy_radiance_weight);
+    gather.read("bent_normal", r.gather.bent_normal);
     gather.reject_unknown();
   }
   if (const toml::table* table = top.table("build")) {
@@ -374,6 +375,7 @@ std::string to_toml(const DaemonOptions& o) {
     out << key << " = " << text << '\n';
   };
   auto float32_value = [&](const char* key, float v) { float_value(key, float_for_toml(v)); };
+  auto bool_value = [&](const char* key, bool v) { out << key << " = " << (v ? "true" : "false") << '\n'; };
 
   out << "# pbgid effective configuration\n";
   string_value("listen", o.effective_listen());
@@ -404,6 +406,7 @@ std::string to_toml(const DaemonOptions& o) {
   integer_value("glossy_max_resolution", r.gather.glossy_max_resolution);
   float32_value("glossy_importance", r.gather.glossy_importance);
   float32_value("glossy_radiance_weight", r.gather.glossy_radiance_weight);
+  bool_value("bent_normal", r.gather.bent_normal);
 
   const OpenOptions& b = o.service.defaults.open;
   out << "\n[build]\n";
@@ -514,6 +517,7 @@ bool operator==(const DaemonOptions& a, const DaemonOptions& b) {
          ra.gather.glossy_max_resolution == rb.gather.glossy_max_resolution &&
          ra.gather.glossy_importance == rb.gather.glossy_importance &&
          ra.gather.glossy_radiance_weight == rb.gather.glossy_radiance_weight &&
+         ra.gather.bent_normal == rb.gather.bent_normal &&
          oa.surfels.spacing == ob.surfels.spacing && oa.surfels.sampler == ob.surfels.sampler &&
          oa.surfels.camera == ob.surfels.camera && oa.surfels.image_width == ob.surfels.image_width &&
          oa.surfels.image_height == ob.surfels.image_height &&

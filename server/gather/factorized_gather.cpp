@@ -47,6 +47,7 @@ void FactorizedGather::gather(std::span<const Receiver> rs, std::span<GatherResu
       const Resolved r = lobe ? glossy->resolve(rs[i], walker_, &far_) : walker_.resolve(&far_);
       results[i].irradiance = r.irradiance;
       results[i].ao = r.ao;
+      if (o.bent_normal) results[i].bent_normal = walker_.buffer().bent_normal(r);
       if (lobe) {
         results[i].glossy = r.reflected + glossy->refined(rs[i], counters, fog);
         ++counters.glossy_receivers;

@@ -88,6 +88,7 @@ GatherResult Gatherer::gather_pinned(const Receiver& r) {
     GatherResult out;
     out.irradiance = res.irradiance;
     out.ao = res.ao;
+    if (w.options().bent_normal) out.bent_normal = w.buffer().bent_normal(res);
     return out;
   }
   gather::GlossyGather& glossy = impl_->glossy();
@@ -95,6 +96,7 @@ GatherResult Gatherer::gather_pinned(const Receiver& r) {
   GatherResult out;
   out.irradiance = res.irradiance;
   out.ao = res.ao;
+  if (w.options().bent_normal) out.bent_normal = w.buffer().bent_normal(res);
   out.glossy = res.reflected + glossy.refined(r, counters_, impl_->fog.get());
   ++counters_.glossy_receivers;
   return out;

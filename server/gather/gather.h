@@ -41,6 +41,10 @@ struct GatherResult {
   // Radiance reflected towards glossy.view by the specular lobe,
   // integral of L_i(w) f_spec(w, view) cos dw (0 for diffuse receivers).
   Imath::C3f glossy{0, 0, 0};
+  // With GatherOptions::bent_normal: the cosine-weighted mean unoccluded
+  // direction (unit; the normal when everything is occluded), occlusion
+  // counted as for AO. Zero otherwise.
+  Imath::V3f bent_normal{0, 0, 0};
 };
 
 struct GatherCounters {

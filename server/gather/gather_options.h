@@ -75,6 +75,10 @@ struct GatherOptions {
   // is refined where it meets a bright source. 0 = the lobe alone.
   float glossy_radiance_weight = 0.5f;
 
+  // Also output each receiver's bent normal (GatherResult::bent_normal):
+  // one pass over the microbuffer's pixels per receiver.
+  bool bent_normal = false;
+
   // Throws pbgi::InvalidArgument naming the field when out of range.
   void validate() const;
   // epsilon, with 0 resolved to its automatic value.

@@ -109,6 +109,13 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
                               const Imath::C3f* gain, std::vector<PixelLight>* light) {
   if (light) light->clear();
   double er = 0, eg = 0, eb = 0, occlusion = 0;
+  double occluded[3] = {0, 0, 0};  // occlusion x direction
+  auto add_direction = [this](double* sum, float amount, uint32_t k) {
+    const Imath::V3f d = layout_.direction(k);
+    sum[0] += double(amount) * d.x;
+    sum[1] += double(amount) * d.y;
+    sum[2] += double(amount) * d.z;
+  };
   double gr = 0, gg = 0, gb = 0;  // reflected (with gain)
   const float* margin = layout_.horizon_margins();
   const float* omega = layout_.solid_angles();
@@ -122,7 +129,7 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
       er += f.r;
       eg += f.g;
       eb += f.b;
-      occlusion += f.occ;
+      float occ = f.occ;
       const float t = std::max(0.f, 1.f - fp.front_alpha);
       const bool rest = fp.rest_alpha > 0.f && t > kOpaque;
       FarShare r{0.f, 0.f, 0.f, 0.f};
@@ -131,8 +138,10 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
         er += t * r.r;
         eg += t * r.g;
         eb += t * r.b;
-        if (!(ao_max_distance > 0.f) || fp.rest_z < ao_max_distance) occlusion += t * r.occ;
+        if (!(ao_max_distance > 0.f) || fp.rest_z < ao_max_distance) occ += t * r.occ;
       }
+      occlusion += occ;
+      add_direction(occluded, occ, k);
       if (gain) {
         gr += double(gain[k].x * (f.r + t * r.r));
         gg += double(gain[k].y * (f.g + t * r.g));
@@ -213,6 +222,7 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
     eg += g;
     eb += b;
     occlusion += ao_cover;
+    add_direction(occluded, ao_cover, k);
     if (gain) {
       gr += double(r * gain[k].x);
       gg += double(g * gain[k].y);
@@ -224,7 +234,24 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
   out.reflected = Imath::C3f(float(gr), float(gg), float(gb));
   out.irradiance = Imath::C3f(float(er), float(eg), float(eb));
   out.ao = std::clamp(1.f - float(occlusion / kPi), 0.f, 1.f);
+  out.occluded = Imath::V3f(float(occluded[0]), float(occluded[1]), float(occluded[2]));
   return out;
+}
+
+Imath::V3f Microbuffer::bent_normal(const Resolved& r) const {
+  double open[3] = {0, 0, 0};
+  for (uint32_t k = 0; k < layout_.pixel_count(); ++k) {
+    if (!(weight_[k] > 0.f)) continue;
+    const Imath::V3f d = layout_.direction(k);
+    open[0] += double(weight_[k]) * d.x;
+    open[1] += double(weight_[k]) * d.y;
+    open[2] += double(weight_[k]) * d.z;
+  }
+  const Imath::V3f v(float(open[0] - r.occluded.x), float(open[1] - r.occluded.y),
+                     float(open[2] - r.occluded.z));
+  const float len = v.length();
+  // Nothing open (or only rounding left): the normal, as for AO 0.
+  return len > 1e-4f ? v / len : normal_;
 }
 
 }  // namespace pbgi::gather

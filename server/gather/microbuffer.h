@@ -67,6 +67,9 @@ struct Resolved {
   // With a per-pixel gain: sum over pixels of gain x the pixel's part of
   // the irradiance (the glossy lobe's convolution, lobe_refinement.h).
   Imath::C3f reflected{0, 0, 0};
+  // Sum over pixels of the occluded cosine weight (AO's occlusion) times
+  // the pixel's direction: what the bent normal leaves out.
+  Imath::V3f occluded{0, 0, 0};
 };
 
 // One pixel's resolved light: sum of transmittance x cosine-weighted
@@ -153,6 +156,11 @@ class Microbuffer {
   Resolved resolve(float ao_max_distance, const FarBuffer* far = nullptr,
                    const Imath::C3f* gain = nullptr, std::vector<PixelLight>* light = nullptr);
 
+  // The cosine-weighted mean unoccluded direction of the current receiver
+  // after `r` = resolve(): sum over the hemisphere's pixels of weight x
+  // direction, less r.occluded, normalized; the normal when nothing is
+  // open. Occlusion counts as AO does (ao_max_distance).
+  Imath::V3f bent_normal(const Resolved& r) const;
   size_t fragment_count() const { return fragments_.size(); }
   size_t touched_pixel_count() const { return touched_.size(); }
 

@@ -39,6 +39,7 @@ GatherOptions decode_gather_options(const v1::GatherOptions& proto,
       or_default(proto.glossy_max_resolution(), defaults.glossy_max_resolution);
   out.glossy_importance = or_default(proto.glossy_importance(), defaults.glossy_importance);
   if (proto.has_glossy_radiance_weight()) out.glossy_radiance_weight = proto.glossy_radiance_weight();
+  if (proto.has_bent_normal()) out.bent_normal = proto.bent_normal();
   out.validate();
   return out;
 }
@@ -146,6 +147,7 @@ v1::GatherOptions encode_render_options(const RenderOptions& options) {
   proto.set_glossy_max_resolution(options.gather.glossy_max_resolution);
   proto.set_glossy_importance(options.gather.glossy_importance);
   proto.set_glossy_radiance_weight(options.gather.glossy_radiance_weight);
+  proto.set_bent_normal(options.gather.bent_normal);
   proto.set_light_samples(options.light_samples);
   proto.set_pixel_samples(options.pixel_samples);
   return proto;

@@ -326,6 +326,16 @@ grpc::Status PbgiService::Gather(grpc::ServerContext* context, const v1::GatherR
       }
       response->set_glossy(pack_floats(glossy.data(), glossy.size()));
     }
+    if (options.bent_normal) {
+      std::vector<float> bent(3 * receivers.size());
+      for (size_t i = 0; i < receivers.size(); ++i) {
+        const Imath::V3f& b = batch.results[i].bent_normal;
+        bent[3 * i + 0] = b.x;
+        bent[3 * i + 1] = b.y;
+        bent[3 * i + 2] = b.z;
+      }
+      response->set_bent_normals(pack_floats(bent.data(), bent.size()));
+    }
     set_stats(batch.counters, batch.seconds, response->mutable_stats());
     return grpc::Status::OK;
   });

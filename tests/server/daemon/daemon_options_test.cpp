@@ -58,6 +58,7 @@ DaemonOptions non_default_options() {
   o.service.defaults.render.gather.glossy_max_resolution = 64;
   o.service.defaults.render.gather.glossy_importance = 0.03f;
   o.service.defaults.render.gather.glossy_radiance_weight = 0.25f;
+  o.service.defaults.render.gather.bent_normal = true;
   o.service.defaults.open.surfels.spacing = 0.013f;
   o.service.defaults.open.surfels.sampler = SurfelSampler::kPoisson;
   o.service.defaults.open.surfels.camera = "/World/Camera";

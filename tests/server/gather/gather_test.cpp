@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -62,6 +63,51 @@ TEST(Gather, NearOccluderHidesEmitterAndMovingItAsideRestoresIt) {
   // The occluder covers sin^2(50 deg) of the cosine-weighted hemisphere.
   const float sin2 = 0.36f / (0.36f + 0.25f);
   EXPECT_NEAR(hidden.ao, 1.f - sin2, 0.02f);
+}
+
+// Bent normals: a wall just beside the receiver closes the half space
+// x > 0, so the cosine-weighted mean open direction is
+// normalize(-2/3, 0, pi/3), 32.5 degrees from the normal towards -x;
+// with nothing around it is the normal; a centred occluder leaves it
+// there; FPBGI agrees; and it is only computed when asked for.
+TEST(Gather, BentNormalPointsAwayFromTheOccluders) {
+  auto angle_deg = [](const V3f& a, const V3f& b) {
+    return std::acos(std::clamp(a.dot(b) / (a.length() * b.length()), -1.f, 1.f)) * 180.f / kPi;
+  };
+  GatherOptions o;
+  o.bent_normal = true;
+  {
+    test::SurfelTree open_tree({});
+    EXPECT_LT(angle_deg(Gatherer(open_tree, o).gather(kUp).bent_normal, kUp.normal), 1.f);
+    EXPECT_EQ(Gatherer(open_tree, GatherOptions{}).gather(kUp).bent_normal, V3f(0));  // not asked
+  }
+  std::vector<Surfel> wall;
+  test::add_quad(wall, {0.05f, -4, 0}, {0, 8, 0}, {0, 0, 4}, 160, 80, C3f(0), /*flip=*/true);
+  test::SurfelTree wall_tree(std::move(wall));
+  const V3f expected = V3f(-2.f / 3.f, 0.f, kPi / 3.f).normalized();
+  for (const GatherMethod m : {GatherMethod::kPbgi, GatherMethod::kFpbgi}) {
+    GatherOptions om = o;
+    om.method = m;
+    Gatherer g(wall_tree, om);
+    std::vector<Receiver> rs{kUp};
+    std::vector<GatherResult> out(1);
+    g.gather_tile(rs, out);
+    const V3f b = out[0].bent_normal;
+    std::printf("wall beside the receiver (%s): bent normal (%.3f, %.3f, %.3f), %.1f deg from the normal, "
+                "%.1f deg from the half-space's, AO %.3f\n",
+                m == GatherMethod::kPbgi ? "PBGI" : "FPBGI", b.x, b.y, b.z, angle_deg(b, kUp.normal),
+                angle_deg(b, expected), out[0].ao);
+    EXPECT_NEAR(b.length(), 1.f, 1e-4f);
+    EXPECT_LT(angle_deg(b, expected), 3.f);
+    EXPECT_NEAR(out[0].ao, 0.5f, 0.03f);
+  }
+  // A disk straight above: symmetric, the bent normal stays the normal.
+  std::vector<Surfel> lid;
+  test::add_disk(lid, {0, 0, 0.5f}, {0, 0, -1}, 0.6f, 3000, C3f(0));
+  test::SurfelTree lid_tree(std::move(lid));
+  const GatherResult r = Gatherer(lid_tree, o).gather(kUp);
+  EXPECT_LT(r.ao, 0.6f);
+  EXPECT_LT(angle_deg(r.bent_normal, kUp.normal), 2.f);
 }
 
 TEST(Gather, PartialOccluderHidesItsShare) {

@@ -17,6 +17,7 @@ RenderOptions custom_render_defaults() {
   d.gather.glossy_max_resolution = 48;
   d.gather.glossy_importance = 0.02f;
   d.gather.glossy_radiance_weight = 0.25f;
+  d.gather.bent_normal = true;
   d.light_samples = 7;
   d.pixel_samples = 2;
   return d;
@@ -77,6 +78,7 @@ TEST(OptionsCodec, EncodeDecodeRoundTrip) {
   EXPECT_EQ(back.gather.glossy_max_resolution, original.gather.glossy_max_resolution);
   EXPECT_EQ(back.gather.glossy_importance, original.gather.glossy_importance);
   EXPECT_EQ(back.gather.glossy_radiance_weight, original.gather.glossy_radiance_weight);
+  EXPECT_EQ(back.gather.bent_normal, original.gather.bent_normal);
 
   OpenOptions open;
   open.surfels.spacing = 0.02f;

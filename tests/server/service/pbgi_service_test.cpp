@@ -405,6 +405,37 @@ TEST_F(PbgiServiceTest, GatherReturnsGlossyRadianceForGlossyReceivers) {
   EXPECT_GT(response.stats().glossy_nodes_visited(), 0u);
 }
 
+// Bent normals come back only when asked for, one unit vector per receiver.
+TEST_F(PbgiServiceTest, GatherReturnsBentNormalsWhenAsked) {
+  std::vector<v1::OpenSceneEvent> events;
+  ASSERT_TRUE(open("lit.usda", &events).ok());
+  const float positions[6] = {0, 0, 0, 0.2f, 0, 0};
+  const float normals[6] = {0, 0, 1, 0, 0, 1};
+  v1::GatherRequest request;
+  request.set_scene_id(events.back().ready().scene_id());
+  request.set_positions(std::string(reinterpret_cast<const char*>(positions), sizeof(positions)));
+  request.set_normals(std::string(reinterpret_cast<const char*>(normals), sizeof(normals)));
+  {
+    grpc::ClientContext context;
+    v1::GatherResponse response;
+    ASSERT_TRUE(stub->Gather(&context, request, &response).ok());
+    EXPECT_TRUE(response.bent_normals().empty());
+  }
+  request.mutable_options()->set_bent_normal(true);
+  grpc::ClientContext context;
+  v1::GatherResponse response;
+  const grpc::Status s = stub->Gather(&context, request, &response);
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  ASSERT_EQ(response.bent_normals().size(), 6 * sizeof(float));
+  float bent[6];
+  std::memcpy(bent, response.bent_normals().data(), sizeof(bent));
+  for (int i = 0; i < 2; ++i) {
+    const Imath::V3f b(bent[3 * i], bent[3 * i + 1], bent[3 * i + 2]);
+    EXPECT_NEAR(b.length(), 1.f, 1e-4f) << "receiver " << i;
+    EXPECT_GT(b.z, 0.f) << "receiver " << i;  // in the receiver's hemisphere
+  }
+}
+
 TEST_F(PbgiServiceTest, UnloadSceneAndStatus) {
   const std::string id = open_id();
   {
