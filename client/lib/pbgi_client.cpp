@@ -273,6 +273,11 @@ GatherOutput PbgiClient::gather(const std::string& scene_id,
     out.irradiance[i] = {irradiance[3 * i], irradiance[3 * i + 1], irradiance[3 * i + 2]};
   }
   out.ao = unpack_floats(response.ao(), n, "GatherResponse.ao");
+  if (!response.bent_normals().empty()) {
+    const std::vector<float> bent = unpack_floats(response.bent_normals(), 3 * n, "GatherResponse.bent_normals");
+    out.bent_normals.resize(n);
+    for (size_t i = 0; i < n; ++i) out.bent_normals[i] = {bent[3 * i], bent[3 * i + 1], bent[3 * i + 2]};
+  }
   out.stats = response.stats();
   return out;
 }

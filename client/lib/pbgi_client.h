@@ -68,6 +68,8 @@ struct TileImage {
 struct GatherOutput {
   std::vector<Imath::C3f> irradiance;
   std::vector<float> ao;
+  // With GatherOptions.bent_normal: one unit vector per receiver; else empty.
+  std::vector<Imath::V3f> bent_normals;
   v1::GatherStats stats;
 };
 

@@ -148,6 +148,7 @@ class PbgiClient:
         Glossy receivers (docs/protocol.md): give specular_color (rgb F0 per
         receiver, black = diffuse) with unit view_directions (towards the eye)
         and roughness (one float each); the result then has "glossy" (rgb).
+        With bent_normal=True, it has "bent_normals" (xyz per receiver).
         """
         request = self.pb.GatherRequest(scene_id=scene_id, positions=_pack(positions),
                                         normals=_pack(normals),
@@ -161,6 +162,8 @@ class PbgiClient:
                "stats": response.stats}
         if response.glossy:
             out["glossy"] = _unpack(response.glossy, 3)
+        if response.bent_normals:
+            out["bent_normals"] = _unpack(response.bent_normals, 3)
         return out
 
     def render_tile(self, scene_id: str, camera: str, width: int, height: int,
