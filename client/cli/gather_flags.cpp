@@ -21,7 +21,6 @@ void GatherArgs::add_to(CLI::App* cmd) {
                   "glossy lobes: share of a cell's importance that follows incoming radiance, "
                   "0 = the lobe alone [0.5]")
       ->check(CLI::Range(0.f, 1.f));
-  cmd->add_flag("--bent-normal", bent_normal, "also return each receiver's bent normal (Gather)");
 }
 
 v1::GatherOptions GatherArgs::to_proto() const {
@@ -39,7 +38,6 @@ v1::GatherOptions GatherArgs::to_proto() const {
   o.set_glossy_max_resolution(glossy_max_resolution);
   o.set_glossy_importance(glossy_importance);
   if (glossy_radiance_weight) o.set_glossy_radiance_weight(*glossy_radiance_weight);
-  if (bent_normal) o.set_bent_normal(true);
   return o;
 }
 

@@ -27,7 +27,6 @@ struct GatherArgs {
   uint32_t glossy_max_resolution = 0;
   float glossy_importance = 0.f;
   std::optional<float> glossy_radiance_weight;  // unset = the daemon's default
-  bool bent_normal = false;                     // false = the daemon's default
 
   // Adds --mb-res, --max-solid-angle, --ao-max-distance, --light-samples,
   // --pixel-samples, --method, --clusters, --epsilon, --hdr-refine,

@@ -23,7 +23,6 @@ TEST(GatherFlags, UnsetFlagsLeaveTheDaemonDefaults) {
   EXPECT_EQ(o.glossy_max_resolution(), 0u);
   EXPECT_EQ(o.glossy_importance(), 0.f);
   EXPECT_FALSE(o.has_glossy_radiance_weight());
-  EXPECT_FALSE(o.has_bent_normal());
 }
 
 TEST(GatherFlags, EveryFlagReachesItsField) {
@@ -31,7 +30,7 @@ TEST(GatherFlags, EveryFlagReachesItsField) {
       parse({"--mb-res", "16", "--max-solid-angle", "0.01", "--ao-max-distance", "2",
              "--light-samples", "4", "--pixel-samples", "3", "--method", "fpbgi", "--clusters",
              "50", "--epsilon", "0.02", "--hdr-refine", "0.5", "--glossy-max-res", "64",
-             "--glossy-importance", "0.05", "--glossy-radiance-weight", "0", "--bent-normal"});
+             "--glossy-importance", "0.05", "--glossy-radiance-weight", "0"});
   EXPECT_EQ(o.microbuffer_resolution(), 16u);
   EXPECT_FLOAT_EQ(o.max_solid_angle(), 0.01f);
   EXPECT_FLOAT_EQ(o.ao_max_distance(), 2.f);
@@ -45,7 +44,6 @@ TEST(GatherFlags, EveryFlagReachesItsField) {
   EXPECT_FLOAT_EQ(o.glossy_importance(), 0.05f);
   ASSERT_TRUE(o.has_glossy_radiance_weight());
   EXPECT_EQ(o.glossy_radiance_weight(), 0.f);
-  EXPECT_TRUE(o.bent_normal());
   EXPECT_EQ(parse({"--method", "pbgi"}).method(), v1::GatherOptions::PBGI);
 }
 
