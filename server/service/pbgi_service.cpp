@@ -55,6 +55,20 @@ std::string pack_aov(const std::vector<float>& values, size_t expected, const ch
   return pack_floats(values.data(), values.size());
 }
 
+// One packed float32 triple per gather result, `field` of each (a colour
+// or a vector).
+template <class Triple>
+std::string pack_triples(const std::vector<GatherResult>& results, Triple GatherResult::*field) {
+  std::vector<float> out(3 * results.size());
+  for (size_t i = 0; i < results.size(); ++i) {
+    const Triple& t = results[i].*field;
+    out[3 * i + 0] = t[0];
+    out[3 * i + 1] = t[1];
+    out[3 * i + 2] = t[2];
+  }
+  return pack_floats(out.data(), out.size());
+}
+
 uint32_t resolve_max_in_flight(uint32_t configured) {
   if (configured > 0) return configured;
   return 2 * std::max(1u, std::thread::hardware_concurrency());
@@ -305,37 +319,13 @@ grpc::Status PbgiService::Gather(grpc::ServerContext* context, const v1::GatherR
     GatherBatch batch = gather_receivers(*session->tree, receivers, options, cancelled, session->fog);
 
     // 3. Packed results.
-    std::vector<float> irradiance(3 * receivers.size()), ao(receivers.size());
-    for (size_t i = 0; i < receivers.size(); ++i) {
-      const GatherResult& r = batch.results[i];
-      irradiance[3 * i + 0] = r.irradiance.x;
-      irradiance[3 * i + 1] = r.irradiance.y;
-      irradiance[3 * i + 2] = r.irradiance.z;
-      ao[i] = r.ao;
-    }
-    response->set_irradiance(pack_floats(irradiance.data(), irradiance.size()));
+    std::vector<float> ao(receivers.size());
+    for (size_t i = 0; i < receivers.size(); ++i) ao[i] = batch.results[i].ao;
+    response->set_irradiance(pack_triples(batch.results, &GatherResult::irradiance));
     response->set_ao(pack_floats(ao.data(), ao.size()));
-    if (!request->specular_color().empty()) {
-      // Glossy radiance towards each receiver's view (0 for diffuse ones).
-      std::vector<float> glossy(3 * receivers.size());
-      for (size_t i = 0; i < receivers.size(); ++i) {
-        const Imath::C3f& g = batch.results[i].glossy;
-        glossy[3 * i + 0] = g.x;
-        glossy[3 * i + 1] = g.y;
-        glossy[3 * i + 2] = g.z;
-      }
-      response->set_glossy(pack_floats(glossy.data(), glossy.size()));
-    }
-    if (options.bent_normal) {
-      std::vector<float> bent(3 * receivers.size());
-      for (size_t i = 0; i < receivers.size(); ++i) {
-        const Imath::V3f& b = batch.results[i].bent_normal;
-        bent[3 * i + 0] = b.x;
-        bent[3 * i + 1] = b.y;
-        bent[3 * i + 2] = b.z;
-      }
-      response->set_bent_normals(pack_floats(bent.data(), bent.size()));
-    }
+    // Glossy radiance towards each receiver's view (0 for diffuse ones).
+    if (!request->specular_color().empty()) response->set_glossy(pack_triples(batch.results, &GatherResult::glossy));
+    if (options.bent_normal) response->set_bent_normals(pack_triples(batch.results, &GatherResult::bent_normal));
     set_stats(batch.counters, batch.seconds, response->mutable_stats());
     return grpc::Status::OK;
   });
