@@ -321,36 +321,39 @@ TEST(PageRecords, HalfSurfelRecordWithinItsStatedPrecision) {
   std::printf("half leaf records: worst normal angle %.3g rad\n", worst_normal);
 }
 
-// Half colours keep what RGB9E5's shared exponent loses: a dim channel
-// next to a bright one.
-TEST(PageRecords, HalfKeepsDimChannelsNextToBrightOnes) {
+// `s` through a record of `format` in the unit frame at the origin.
+Surfel round_trip(LeafFormat format, const Surfel& s) {
   const LeafFrame frame{{0, 0, 0}, 1.f};
+  uint8_t rec[kHalfSurfelRecordBytes];
+  encode_surfel_record(format, s, frame, rec);
+  Surfel d;
+  decode_surfel_record(format, rec, frame, d);
+  return d;
+}
+
+Surfel unit_disk_surfel() {
   Surfel s;
   s.normal = {0, 0, 1};
   s.radius = 0.5f;
+  return s;
+}
+
+// Half colours keep what RGB9E5's shared exponent loses: a dim channel
+// next to a bright one.
+TEST(PageRecords, HalfKeepsDimChannelsNextToBrightOnes) {
+  Surfel s = unit_disk_surfel();
   s.radiance = {1000.f, 0.01f, 0.f};
-  Surfel relative, half;
-  uint8_t rec[kHalfSurfelRecordBytes];
-  encode_surfel_record(LeafFormat::kRelative, s, frame, rec);
-  decode_surfel_record(LeafFormat::kRelative, rec, frame, relative);
-  encode_surfel_record(LeafFormat::kHalf, s, frame, rec);
-  decode_surfel_record(LeafFormat::kHalf, rec, frame, half);
+  const Surfel relative = round_trip(LeafFormat::kRelative, s), half = round_trip(LeafFormat::kHalf, s);
   EXPECT_EQ(relative.radiance.y, 0.f);  // below max/512: flushed by the shared exponent
   EXPECT_NEAR(half.radiance.y, 0.01f, 0.01f * 0x1p-11f);
 }
 
 // Out-of-range values clamp to half's largest finite value: never inf.
 TEST(PageRecords, HalfClampsInsteadOfOverflowing) {
-  const LeafFrame frame{{0, 0, 0}, 1.f};
-  Surfel s;
-  s.normal = {0, 0, 1};
-  s.radius = 0.5f;
+  Surfel s = unit_disk_surfel();
   s.emission = {1e9f, 0.f, 0.f};
   s.radiance = {1e9f, 0.f, 0.f};
-  uint8_t rec[kHalfSurfelRecordBytes];
-  encode_surfel_record(LeafFormat::kHalf, s, frame, rec);
-  Surfel d;
-  decode_surfel_record(LeafFormat::kHalf, rec, frame, d);
+  const Surfel d = round_trip(LeafFormat::kHalf, s);
   EXPECT_EQ(d.emission.x, 65504.f);
   EXPECT_EQ(d.radiance.x, 65504.f);
 }
