@@ -90,6 +90,7 @@ CutWalker::CutWalker(const tree::TreeSource& tree, const GatherOptions& options,
       cut_(cut_solid_angle(options)),
       surfel_splat_max_(std::max(cut_, kRaycastMinPixels * layout_.mean_pixel_solid_angle())) {
   stack_.reserve(256);
+  buffer_.track_occluded(options.bent_normal);
 }
 
 void CutWalker::begin_receiver(const Imath::V3f& p, const Imath::V3f& n) {

@@ -48,7 +48,8 @@ LobeRefinement::LobeRefinement(const CubeLayout& coarse, const CubeLayout& fine,
       level_(coarse.pixel_count(), 0),
       coarse_mass_(coarse.pixel_count(), Imath::C3f(0, 0, 0)),
       coarse_gain_(coarse.pixel_count(), Imath::C3f(0, 0, 0)),
-      fine_gain_(levels_ > 0 ? fine.pixel_count() : 0, Imath::C3f(0, 0, 0)) {
+      fine_gain_(levels_ > 0 ? fine.pixel_count() : 0, Imath::C3f(0, 0, 0)),
+      fine_f_(levels_ > 0 ? fine.pixel_count() : 0, Imath::C3f(0, 0, 0)) {
   // A cell of level l is a pixel of the cube of N 2^l per side: the walk
   // cuts at that cube's mean pixel solid angle (as the diffuse cut does at
   // level 0, cut_walker.h), within the gather's bound.
@@ -65,16 +66,6 @@ LobeRefinement::LobeRefinement(const CubeLayout& coarse, const CubeLayout& fine,
   // A finest pixel spans at most atan(its width) radians.
   wide_alpha_ = kWideLobePixels * std::atan(fine.pixel_width());
 }
-
-namespace {
-BrdfLobes specular_lobes(const GlossyLobe& lobe) {
-  BrdfLobes lobes;
-  lobes.f0 = lobe.specular;
-  lobes.alpha = std::max(kMinGgxAlpha, lobe.roughness * lobe.roughness);  // brdf.h's rule
-  lobes.specular = true;
-  return lobes;
-}
-}  // namespace
 
 uint32_t LobeRefinement::coarse_of(uint32_t fine) const {
   // Derived from the fine pixel (not looked up again) so that a fine pixel
@@ -96,7 +87,10 @@ void LobeRefinement::begin(const Imath::V3f& n, const GlossyLobe& lobe, std::spa
                            const Microbuffer& coarse) {
   // 1. The lobe as weighted directions, from brdf.h's sampler (specular
   //    lobe only: no diffuse, so every sample is a GGX one).
-  const BrdfLobes lobes = specular_lobes(lobe);
+  BrdfLobes lobes;
+  lobes.f0 = lobe.specular;
+  lobes.alpha = std::max(kMinGgxAlpha, lobe.roughness * lobe.roughness);  // brdf.h's rule
+  lobes.specular = true;
   const Brdf brdf(lobes, n);
   for (const Sample& s : samples_) {
     coarse_mass_[s.coarse] = Imath::C3f(0, 0, 0);
@@ -104,9 +98,6 @@ void LobeRefinement::begin(const Imath::V3f& n, const GlossyLobe& lobe, std::spa
   }
   for (const uint32_t k : hemisphere_) coarse_gain_[k] = Imath::C3f(0, 0, 0);
   hemisphere_.clear();
-  normal_ = n;
-  view_ = lobe.view;
-  lobe_ = lobe;
   wide_ = levels_ > 0 && lobes.alpha >= wide_alpha_;
   for (const uint32_t k : refined_list_) level_[k] = 0;
   refined_list_.clear();
@@ -145,7 +136,7 @@ void LobeRefinement::begin(const Imath::V3f& n, const GlossyLobe& lobe, std::spa
     }
   }
   if (wide_) {
-    begin_wide(brdf, coarse);
+    begin_wide(brdf, n, lobe.view, coarse);
   } else {
     begin_binned();
   }
@@ -163,7 +154,8 @@ void LobeRefinement::begin(const Imath::V3f& n, const GlossyLobe& lobe, std::spa
   region_angle_ = widest;
 }
 
-void LobeRefinement::begin_wide(const Brdf& brdf, const Microbuffer& coarse) {
+void LobeRefinement::begin_wide(const Brdf& brdf, const Imath::V3f& n, const Imath::V3f& view,
+                                const Microbuffer& coarse) {
   // Every coarse pixel of the hemisphere: f_spec averaged over the pixel
   // (over its finest pixels, weighted by their cosine x solid angle: a
   // coarse pixel spans 11 degrees at N = 8, over which a lobe's tail
@@ -181,10 +173,13 @@ void LobeRefinement::begin_wide(const Brdf& brdf, const Microbuffer& coarse) {
       for (uint32_t di = 0; di < side; ++di) {
         const uint32_t fp = fine_.index(int(face), i * side + di, j * side + dj);
         const Imath::V3f d = fine_.direction(fp);
-        const float c = normal_.dot(d);
+        // Kept for fine_gain() also where the center is below the horizon:
+        // the fine buffer may still weigh the part of the pixel above it.
+        fine_f_[fp] = brdf.eval(view, above_horizon(d, n));
+        const float c = n.dot(d);
         if (!(c > 0.f)) continue;
         const float fw = c * fine_.solid_angle(fp);
-        sum += brdf.eval(view_, above_horizon(d, normal_)) * fw;
+        sum += fine_f_[fp] * fw;
         sum_w += fw;
       }
     }
@@ -274,7 +269,6 @@ const Imath::C3f* LobeRefinement::fine_gain(const Microbuffer& fine) {
   fine_touched_.clear();
   if (wide_) {
     // f_spec at each fine pixel of the refined coarse pixels.
-    const Brdf brdf(specular_lobes(lobe_), normal_);
     const uint32_t nc = coarse_.resolution(), side = 1u << levels_;
     for (const uint32_t k : refined_list_) {
       const uint32_t i = k % nc, j = (k / nc) % nc, face = k / (nc * nc);
@@ -282,7 +276,7 @@ const Imath::C3f* LobeRefinement::fine_gain(const Microbuffer& fine) {
         for (uint32_t di = 0; di < side; ++di) {
           const uint32_t f = fine_.index(int(face), i * side + di, j * side + dj);
           if (!(fine.weight(f) > 0.f)) continue;
-          fine_gain_[f] = brdf.eval(view_, above_horizon(fine_.direction(f), normal_)) * scale_;
+          fine_gain_[f] = fine_f_[f] * scale_;
           fine_touched_.push_back(f);
         }
       }

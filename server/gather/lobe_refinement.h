@@ -116,7 +116,7 @@ class LobeRefinement {
   };
   // begin()'s quadtree for a wide lobe (evaluated per pixel) and for a
   // narrow one (binned from its samples).
-  void begin_wide(const Brdf& brdf, const Microbuffer& coarse);
+  void begin_wide(const Brdf& brdf, const Imath::V3f& n, const Imath::V3f& view, const Microbuffer& coarse);
   void begin_binned();
   // The coarse pixel holding a fine one.
   uint32_t coarse_of(uint32_t fine) const;
@@ -130,10 +130,6 @@ class LobeRefinement {
   const float radiance_weight_;
   float wide_alpha_;  // alphas at or above it are wide lobes
   bool wide_ = false;
-  // The wide lobe begun: its BRDF's parts, to evaluate fine pixels.
-  Imath::V3f normal_{0, 0, 1};
-  Imath::V3f view_{0, 0, 1};
-  GlossyLobe lobe_;
   std::vector<uint32_t> hemisphere_;  // coarse pixels with a wide-lobe gain
   Imath::C3f scale_{1, 1, 1};         // evaluated lobe -> its sampled albedo
   std::vector<float> level_cut_;  // per level: cut solid angle
@@ -148,6 +144,9 @@ class LobeRefinement {
   std::vector<Imath::C3f> coarse_mass_;
   std::vector<Imath::C3f> coarse_gain_;
   std::vector<Imath::C3f> fine_gain_;  // reset through fine_touched_
+  // A wide lobe's f_spec at each finest pixel of hemisphere_'s coarse
+  // pixels (evaluated once by begin(); fine_gain() scales it).
+  std::vector<Imath::C3f> fine_f_;
   std::vector<uint32_t> fine_touched_;
   std::vector<uint32_t> refined_list_;
   uint32_t refined_count_ = 0;

@@ -110,7 +110,9 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
   if (light) light->clear();
   double er = 0, eg = 0, eb = 0, occlusion = 0;
   double occluded[3] = {0, 0, 0};  // occlusion x direction
+  // Only for bent normals: off, it costs one predictable branch per pixel.
   auto add_direction = [this](double* sum, float amount, uint32_t k) {
+    if (!track_occluded_) return;
     const Imath::V3f d = layout_.direction(k);
     sum[0] += double(amount) * d.x;
     sum[1] += double(amount) * d.y;

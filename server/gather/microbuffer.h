@@ -68,7 +68,8 @@ struct Resolved {
   // the irradiance (the glossy lobe's convolution, lobe_refinement.h).
   Imath::C3f reflected{0, 0, 0};
   // Sum over pixels of the occluded cosine weight (AO's occlusion) times
-  // the pixel's direction: what the bent normal leaves out.
+  // the pixel's direction: what the bent normal leaves out. Zero unless
+  // the buffer tracks it (Microbuffer::track_occluded).
   Imath::V3f occluded{0, 0, 0};
 };
 
@@ -156,6 +157,8 @@ class Microbuffer {
   Resolved resolve(float ao_max_distance, const FarBuffer* far = nullptr,
                    const Imath::C3f* gain = nullptr, std::vector<PixelLight>* light = nullptr);
 
+  // Whether resolve() fills Resolved::occluded (for bent_normal()).
+  void track_occluded(bool on) { track_occluded_ = on; }
   // The cosine-weighted mean unoccluded direction of the current receiver
   // after `r` = resolve(): sum over the hemisphere's pixels of weight x
   // direction, less r.occluded, normalized; the normal when nothing is
@@ -180,6 +183,7 @@ class Microbuffer {
   const CubeLayout& layout_;
   float band_;
   float grow_;  // 1 + band_
+  bool track_occluded_ = false;
   Imath::V3f normal_{0, 0, 1};
   std::vector<float> weight_;
   std::vector<float> cos_;  // n . mean direction, unnormalized
