@@ -92,15 +92,18 @@ TEST(RenderTile, EmptyTreeGivesZeroIndirect) {
   EXPECT_EQ(counters.receivers, uint64_t{kSize} * kSize);
 }
 
-TEST(RenderTile, DirectMatchesAnalytic) {
-  const Scene s = floor_scene();
+// The center pixel of `s` rendered with 1024 light samples and no tree.
+TileAovs center_pixel_direct(const Scene& s) {
   const RayScene rays(s);
   const EmptyTree tree;
   RenderOptions o;
   o.light_samples = 1024;
   const uint32_t c = kSize / 2;
-  const TileAovs out =
-      render_tile(rays, tree, *s.find_camera("/cam"), kSize, kSize, {c, c, c + 1, c + 1}, o);
+  return render_tile(rays, tree, *s.find_camera("/cam"), kSize, kSize, {c, c, c + 1, c + 1}, o);
+}
+
+TEST(RenderTile, DirectMatchesAnalytic) {
+  const TileAovs out = center_pixel_direct(floor_scene());
   const double e = test::rect_irradiance(4.0, 1.0, 2.0, -0.5, 0.5, 0.0, 0.0, 1.0);
   EXPECT_NEAR(out.direct[0] / (kAlbedo / M_PI * e), 1.0, 0.01);
 }
@@ -252,13 +255,7 @@ TEST(RenderTile, GlossyDirectLightGoesThroughTheLobe) {
   Material& floor = s.materials[0];
   floor.metallic = 1.f;
   floor.roughness = 0.4f;
-  const RayScene rays(s);
-  const EmptyTree tree;
-  RenderOptions o;
-  o.light_samples = 1024;
-  const uint32_t c = kSize / 2;
-  const TileAovs out =
-      render_tile(rays, tree, *s.find_camera("/cam"), kSize, kSize, {c, c, c + 1, c + 1}, o);
+  const TileAovs out = center_pixel_direct(s);
   // The center pixel sees the floor's origin from (0, 0, 3).
   const BrdfLobes lobes = brdf_lobes(floor, floor.albedo);
   ASSERT_TRUE(lobes.specular);
