@@ -53,7 +53,15 @@ void on_embree_error(void* user, RTCError code, const char* message) {
   sink->last = fmt::format("{} ({})", error_name(code), message ? message : "");
 }
 
+std::string& device_config() {
+  static std::string config;
+  return config;
+}
+
 }  // namespace
+
+void set_embree_device_config(std::string config) { device_config() = std::move(config); }
+const std::string& embree_device_config() { return device_config(); }
 
 struct RayScene::Impl {
   RTCDevice device = nullptr;
@@ -108,7 +116,10 @@ struct RayScene::Impl {
 
   RTCScene new_scene() const {
     RTCScene s = rtcNewScene(device);
-    rtcSetSceneFlags(s, RTC_SCENE_FLAG_ROBUST);
+    // Context filters let intersect() pass rejected candidates through
+    // inside the traversal (in every scene a ray descends into, prototypes
+    // included); rays without a filter pay nothing for it.
+    rtcSetSceneFlags(s, RTC_SCENE_FLAG_ROBUST | RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
     rtcSetSceneBuildQuality(s, RTC_BUILD_QUALITY_MEDIUM);
     return s;
   }
@@ -119,9 +130,11 @@ RayScene::RayScene(const Scene& scene) : scene_(scene), impl_(std::make_unique<I
   validate_scene(scene);
 
   // 2. Device. Embree shares the process's TBB scheduler for its build.
-  impl_->device = rtcNewDevice("verbose=0");
+  const std::string config =
+      embree_device_config().empty() ? std::string("verbose=0") : "verbose=0," + embree_device_config();
+  impl_->device = rtcNewDevice(config.c_str());
   if (!impl_->device) {
-    throw Error(fmt::format("{}: cannot create an Embree device: {}", scene.source_path,
+    throw Error(fmt::format("{}: cannot create an Embree device ({}): {}", scene.source_path, config,
                             error_name(rtcGetDeviceError(nullptr))));
   }
   rtcSetDeviceErrorFunction(impl_->device, on_embree_error, &impl_->errors);
@@ -226,9 +239,43 @@ V3f RayScene::offset_ray_origin(const SurfacePoint& sp, const V3f& n, const V3f&
   return po;
 }
 
+struct RayScene::FilterContext {
+  RTCIntersectContext base;  // first: Embree hands the filter a pointer to it
+  const RayScene* self = nullptr;
+  const HitFilter* accept = nullptr;
+  V3f dir;
+
+  static void filter(const RTCFilterFunctionNArguments* args) {
+    const auto* c = reinterpret_cast<const FilterContext*>(args->context);
+    for (unsigned i = 0; i < args->N; ++i) {
+      if (args->valid[i] == 0) continue;
+      const Hit hit = c->self->make_hit(RTCHitN_instID(args->hit, args->N, i, 0),
+                                        RTCHitN_primID(args->hit, args->N, i),
+                                        RTCHitN_u(args->hit, args->N, i), RTCHitN_v(args->hit, args->N, i),
+                                        RTCRayN_tfar(args->ray, args->N, i), c->dir);
+      if (!(*c->accept)(hit)) args->valid[i] = 0;
+    }
+  }
+};
+
 Hit RayScene::intersect(const V3f& origin, const V3f& dir, float tmin, float tmax) const {
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
+  return trace(origin, dir, tmin, tmax, nullptr);
+}
+
+Hit RayScene::intersect(const V3f& origin, const V3f& dir, float tmin, float tmax,
+                        const HitFilter& accept) const {
+  return trace(origin, dir, tmin, tmax, &accept);
+}
+
+Hit RayScene::trace(const V3f& origin, const V3f& dir, float tmin, float tmax, const HitFilter* accept) const {
+  FilterContext context;
+  rtcInitIntersectContext(&context.base);
+  if (accept) {
+    context.base.filter = &FilterContext::filter;
+    context.self = this;
+    context.accept = accept;
+    context.dir = dir;
+  }
   RTCRayHit rh;
   rh.ray.org_x = origin.x;
   rh.ray.org_y = origin.y;
@@ -245,19 +292,21 @@ Hit RayScene::intersect(const V3f& origin, const V3f& dir, float tmin, float tma
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect1(impl_->scene, &context, &rh);
+  rtcIntersect1(impl_->scene, &context.base, &rh);
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return Hit{};
+  return make_hit(rh.hit.instID[0], rh.hit.primID, rh.hit.u, rh.hit.v, rh.ray.tfar, dir);
+}
 
+Hit RayScene::make_hit(unsigned instance, unsigned primitive, float u, float v, float t, const V3f& dir) const {
   Hit hit;
-  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hit;
-  hit.t = rh.ray.tfar;
+  hit.t = t;
   // Scene triangle ids: the world soup's first, then the instances' (Scene::triangle).
-  const unsigned instance = rh.hit.instID[0];
   hit.triangle = instance == RTC_INVALID_GEOMETRY_ID
-                     ? rh.hit.primID
+                     ? primitive
                      : uint32_t(scene_.triangles.triangle_count() + scene_.instances[instance - 1].first_triangle +
-                                rh.hit.primID);
-  hit.u = rh.hit.u;
-  hit.v = rh.hit.v;
+                                primitive);
+  hit.u = u;
+  hit.v = v;
   // A mirroring instance's corners 1 and 2 are swapped (TriangleRef::corners).
   if (instance != RTC_INVALID_GEOMETRY_ID && scene_.instances[instance - 1].mirrored) std::swap(hit.u, hit.v);
   // The normal from the winding, not Embree's Ng, so that it matches the

@@ -6,8 +6,10 @@
 #include "server/scene/participating_medium.h"
 #include "server/scene/scene.h"
 
+#include <functional>
 #include <limits>
 #include <memory>
+#include <string>
 #include <utility>
 
 namespace pbgi {
@@ -30,6 +32,19 @@ struct SurfacePoint {
   V3f error{0.f, 0.f, 0.f};
 };
 
+// Accepts or rejects a candidate hit of RayScene::intersect().
+using HitFilter = std::function<bool(const Hit&)>;
+
+// The configuration string of the Embree devices RayScenes create from now
+// on (rtcNewDevice's config, e.g. "isa=sse4.2"); "" (the default) lets
+// Embree pick the widest ISA of the CPU. Embree's traversal order, and so
+// which of two coincident triangles a ray meets first, may differ between
+// ISAs: tests run the ray queries under two of them (tests/support), and
+// callers must not depend on that order (intersect() with a filter).
+// Not thread-safe against concurrent RayScene construction.
+void set_embree_device_config(std::string config);
+const std::string& embree_device_config();
+
 class RayScene {
  public:
   explicit RayScene(const Scene& scene);   // builds the BVH; throws pbgi::Error
@@ -39,6 +54,13 @@ class RayScene {
 
   Hit intersect(const V3f& origin, const V3f& dir, float tmin = 0.f,
                 float tmax = std::numeric_limits<float>::infinity()) const;
+  // The closest hit in [tmin, tmax] that `accept` accepts: the others are
+  // passed through inside the traversal (an Embree context filter), so a
+  // rejected triangle cannot hide an accepted one at the same distance, as
+  // stepping tmin past a rejected hit would. `accept` may be called from
+  // the calling thread only, in any order of candidates.
+  Hit intersect(const V3f& origin, const V3f& dir, float tmin, float tmax,
+                const HitFilter& accept) const;
   bool occluded(const V3f& origin, const V3f& dir, float tmin, float tmax) const;
 
   // Fog and other media (participating_medium.h): set once after the
@@ -92,6 +114,11 @@ class RayScene {
 
  private:
   struct Impl;
+  struct FilterContext;  // an Embree intersect context carrying a HitFilter
+  // A Hit of this scene from Embree's ids (instance: RTC_INVALID_GEOMETRY_ID for the world soup).
+  Hit make_hit(unsigned instance, unsigned primitive, float u, float v, float t, const V3f& dir) const;
+  Hit trace(const V3f& origin, const V3f& dir, float tmin, float tmax, const HitFilter* accept) const;
+
   const Scene& scene_;
   std::unique_ptr<Impl> impl_;
   std::shared_ptr<const ParticipatingMedium> medium_;

@@ -18,8 +18,6 @@ namespace {
 // surfel's normal is its triangle's geometric normal (or its opposite for
 // the back side of a double-sided mesh), up to rounding.
 constexpr float kParallelCos = 0.999f;
-// Surfaces within the surfel's offset passed through before giving up.
-constexpr int kMaxCoincident = 4;
 
 }  // namespace
 
@@ -39,19 +37,15 @@ GlossLookupStats restore_surfel_gloss(const RayScene& rays, float glossy_roughne
       const float offset = 4.f * std::max({err.x, err.y, err.z}) + 1e-3f * s.radius;
       const V3f origin = s.position + s.normal * offset;
       // The surfel's own triangle faces its way (its winding normal is the
-      // surfel's, or the opposite for the back of a double-sided mesh):
-      // a coincident surface facing the other way (a box's bottom on a
-      // floor) is passed through.
-      Hit hit;
-      float tmin = 0.f;
-      for (int tries = 0; tries < kMaxCoincident; ++tries) {
-        hit = rays.intersect(origin, -s.normal, tmin, 2.f * offset);
-        if (!hit.valid()) break;
-        const float facing = hit.geometric_normal.dot(s.normal);
-        if (facing > kParallelCos || (facing < -kParallelCos && scene.triangle(hit.triangle).double_sided())) break;
-        tmin = std::nextafter(hit.t, 2.f * offset);
-        hit = Hit{};
-      }
+      // surfel's, or the opposite for the back of a double-sided mesh): a
+      // coincident surface facing the other way (a box's bottom on a
+      // floor) is passed through. It lies at the same distance as the
+      // surfel's own triangle, so it is rejected inside the traversal, not
+      // stepped over: which of the two Embree meets first depends on its ISA.
+      const Hit hit = rays.intersect(origin, -s.normal, 0.f, 2.f * offset, [&](const Hit& h) {
+        const float facing = h.geometric_normal.dot(s.normal);
+        return facing > kParallelCos || (facing < -kParallelCos && scene.triangle(h.triangle).double_sided());
+      });
       if (!hit.valid()) {
         ++c.missed;
         continue;

@@ -96,6 +96,54 @@ TEST(RayScene, ShadingNormalInterpolatesVertexNormals) {
   EXPECT_NEAR(right.geometric_normal.z, 1.f, 1e-6f);
 }
 
+// Two coincident squares facing opposite ways (a box's bottom on a floor):
+// a filter that accepts only one finds it whichever of the two Embree meets
+// first (that order differs between ISAs; this test runs under two).
+TEST(RayScene, FilteredHitFindsTheAcceptedOfTwoCoincidentSurfaces) {
+  Scene s;
+  const uint32_t m = test::add_material(s, {0.5f, 0.5f, 0.5f});
+  const uint32_t up = test::add_square_z(s, 0.f, 0.f, 0.f, 1.f, m, false, "/floor");
+  const uint32_t down = test::add_square_z(s, 0.f, 0.f, 0.f, 1.f, m, true, "/box_bottom");
+  const RayScene rays(s);
+  for (const float sign : {1.f, -1.f}) {
+    const V3f wanted_normal(0.f, 0.f, sign);  // accept only triangles facing this way
+    size_t calls = 0;
+    for (int i = 0; i < 64; ++i) {
+      const V3f origin(-0.9f + 0.028f * float(i), 0.37f - 0.011f * float(i), -1.f);
+      const Hit hit = rays.intersect(origin, V3f(0, 0, 1), 0.f, 2.f, [&](const Hit& h) {
+        ++calls;
+        return h.geometric_normal.dot(wanted_normal) > 0.5f;
+      });
+      ASSERT_TRUE(hit.valid()) << i;
+      EXPECT_NEAR(hit.t, 1.f, 1e-6f);
+      EXPECT_EQ(s.triangles.mesh[hit.triangle], sign > 0.f ? up : down) << i;
+      EXPECT_EQ(hit.geometric_normal, wanted_normal) << i;
+    }
+    EXPECT_GE(calls, 64u);
+  }
+  // A filter that rejects everything finds nothing; one that accepts
+  // everything finds one of the two at the unfiltered distance.
+  EXPECT_FALSE(rays.intersect(V3f(0.1f, 0.2f, -1.f), V3f(0, 0, 1), 0.f, 2.f, [](const Hit&) { return false; })
+                   .valid());
+  const Hit plain = rays.intersect(V3f(0.1f, 0.2f, -1.f), V3f(0, 0, 1));
+  const Hit all = rays.intersect(V3f(0.1f, 0.2f, -1.f), V3f(0, 0, 1), 0.f, 1e30f, [](const Hit&) { return true; });
+  ASSERT_TRUE(all.valid());
+  EXPECT_EQ(all.t, plain.t);
+}
+
+// A device limited to SSE4.2 (what every x86-64 CPU the tests run on has)
+// builds and traces: the configuration string is well formed.
+TEST(RayScene, DeviceConfigurationReachesEmbree) {
+  const Scene s = unit_quad_scene();
+  const std::string saved = embree_device_config();
+  set_embree_device_config("isa=sse4.2");
+  {
+    const RayScene rays(s);
+    EXPECT_TRUE(rays.intersect(V3f(0.25f, -0.5f, 2.f), V3f(0, 0, -1)).valid());
+  }
+  set_embree_device_config(saved);
+}
+
 TEST(RayScene, EmptySceneMisses) {
   Scene s;
   const RayScene rays(s);
