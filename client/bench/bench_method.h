@@ -39,6 +39,9 @@ struct BenchInput {
 // y down from the top, width * height * 3 floats each.
 struct RenderedAovs {
   std::vector<float> beauty, direct, indirect;
+  // Counts the render reports about itself (e.g. gathers_per_pixel),
+  // appended to the row's parameters.
+  std::vector<std::pair<std::string, std::string>> stats;
 };
 
 // A named parameter of a configuration or build (a column of bench.csv).

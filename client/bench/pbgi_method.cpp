@@ -102,8 +102,12 @@ RenderedAovs render_pbgi(const BenchInput& input, const BuiltState* built,
     throw NotFound(fmt::format("bench: camera {} missing from the PBGI session's scene",
                                input.camera.prim_path));
   const TileRect whole{0, 0, input.width, input.height};
-  TileAovs t = render_tile(*s.rays, *s.tree, *camera, input.width, input.height, whole, options);
-  return {std::move(t.beauty), std::move(t.direct), std::move(t.indirect)};
+  GatherCounters counters;
+  TileAovs t = render_tile(*s.rays, *s.tree, *camera, input.width, input.height, whole, options, &counters);
+  const double pixels = double(input.width) * input.height;
+  return {std::move(t.beauty), std::move(t.direct), std::move(t.indirect),
+          {{"gathers_per_pixel", fmt::format("{:.4g}", double(counters.receivers) / pixels)},
+           {"camera_samples_per_pixel", fmt::format("{:g}", double(t.camera_samples) / pixels)}}};
 }
 
 template <typename T>
@@ -135,6 +139,8 @@ void PbgiSweep::validate() const {
   r.pixel_samples = pixel_samples;
   r.light_samples = light_samples;
   r.validate();
+  if (interpolations.empty()) throw InvalidArgument("bench: the PBGI sweep needs at least one interpolation setting");
+  for (const InterpolationOptions& i : interpolations) i.validate();
   for (uint32_t px : extra_pixel_samples) {
     r.pixel_samples = px;
     r.validate();
@@ -189,7 +195,16 @@ struct ConfigKey {
   uint32_t mb;
   float sa;
   uint32_t pixel_samples;
+  size_t interpolation = 0;  // index in sweep.interpolations
 };
+
+// "" for the sweep's first interpolation setting (so that a sweep of one
+// keeps its names), else "/interp-off" or "/tol<t>".
+std::string interpolation_suffix(const PbgiSweep& sweep, size_t i) {
+  if (sweep.interpolations.size() == 1) return "";
+  const InterpolationOptions& o = sweep.interpolations[i];
+  return o.mode == InterpolationMode::kOff ? "/interp-off" : fmt::format("/tol{:g}", o.tolerance);
+}
 
 MethodConfig pbgi_config(const PbgiSweep& sweep, const std::string& build, const ConfigKey& k) {
   RenderOptions options;
@@ -203,8 +218,9 @@ MethodConfig pbgi_config(const PbgiSweep& sweep, const std::string& build, const
   options.pixel_samples = k.pixel_samples;
   options.light_samples = sweep.light_samples;
   options.seed = sweep.seed;
+  options.interpolation = sweep.interpolations[k.interpolation];
   const std::string method = gather_method_name(k.method);
-  const std::string payload = payload_suffix(k.payload);
+  const std::string payload = payload_suffix(k.payload) + interpolation_suffix(sweep, k.interpolation);
   MethodConfig c;
   c.method = method;
   c.name = fmt::format("{}/s{}{}/mb{}/sa{:g}", method, surfel_label(k.surfels), payload, k.mb, k.sa);
@@ -212,7 +228,8 @@ MethodConfig pbgi_config(const PbgiSweep& sweep, const std::string& build, const
   // payload, or a sweep of one cut: a curve over the microbuffer resolution.
   c.series = k.main_payload && sweep.max_solid_angles.size() > 1
                  ? fmt::format("{} s{}{} mb{}", method, surfel_label(k.surfels), payload, k.mb)
-                 : fmt::format("{} s{} {}", method, surfel_label(k.surfels), k.payload.label());
+                 : fmt::format("{} s{} {}{}", method, surfel_label(k.surfels), k.payload.label(),
+                               interpolation_suffix(sweep, k.interpolation));
   if (k.pixel_samples != sweep.pixel_samples) {
     c.name += fmt::format("/px{}", k.pixel_samples);
     c.series = fmt::format("{} s{}{} mb{} sa{:g} px", method, surfel_label(k.surfels), payload, k.mb,
@@ -227,7 +244,10 @@ MethodConfig pbgi_config(const PbgiSweep& sweep, const std::string& build, const
               {"pixel_samples", std::to_string(k.pixel_samples)},
               {"light_samples", std::to_string(sweep.light_samples)},
               {"glossy_max_resolution", std::to_string(sweep.glossy_max_resolution)},
-              {"glossy_radiance_weight", fmt::format("{:g}", sweep.glossy_radiance_weight)}};
+              {"glossy_radiance_weight", fmt::format("{:g}", sweep.glossy_radiance_weight)},
+              {"interpolation", interpolation_mode_name(options.interpolation.mode)},
+              {"interpolation_tolerance", fmt::format("{:g}", options.interpolation.tolerance)},
+              {"interpolation_spacing", std::to_string(options.interpolation.spacing)}};
   if (k.method == GatherMethod::kFpbgi) {
     c.params.push_back({"clusters", std::to_string(options.gather.clusters)});
     c.params.push_back({"epsilon", fmt::format("{:g}", options.gather.effective_epsilon())});
@@ -235,10 +255,10 @@ MethodConfig pbgi_config(const PbgiSweep& sweep, const std::string& build, const
   const bool default_point = k.surfels == sweep.default_target_surfels &&
                              k.sa == sweep.default_max_solid_angle &&
                              k.pixel_samples == sweep.pixel_samples;
-  c.is_default = default_point && k.main_payload && k.method == sweep.default_method &&
+  c.is_default = default_point && k.interpolation == 0 && k.main_payload && k.method == sweep.default_method &&
                  k.mb == sweep.default_microbuffer_resolution;
   c.equal_error_point = default_point;
-  c.default_curve = k.main_payload && k.method == sweep.default_method &&
+  c.default_curve = k.interpolation == 0 && k.main_payload && k.method == sweep.default_method &&
                     k.surfels == sweep.default_target_surfels && k.pixel_samples == sweep.pixel_samples;
   c.render = [options](const BenchInput& in, const BuiltState* built) {
     return render_pbgi(in, built, options);
@@ -285,11 +305,12 @@ MethodPlan pbgi_plan(const PbgiSweep& sweep) {
   for (uint64_t surfels : sweep.target_surfels) {
     const PayloadSpec& payload = sweep.payloads.front();
     plan.builds.push_back(pbgi_build(sweep, surfels, payload, &build));
-    for (GatherMethod m : sweep.methods)
-      for (uint32_t mb : sweep.microbuffer_resolutions)
-        for (float sa : sweep.max_solid_angles)
-          plan.configs.push_back(
-              pbgi_config(sweep, build, {m, surfels, payload, true, mb, sa, sweep.pixel_samples}));
+    for (size_t interp = 0; interp < sweep.interpolations.size(); ++interp)
+      for (GatherMethod m : sweep.methods)
+        for (uint32_t mb : sweep.microbuffer_resolutions)
+          for (float sa : sweep.max_solid_angles)
+            plan.configs.push_back(
+                pbgi_config(sweep, build, {m, surfels, payload, true, mb, sa, sweep.pixel_samples, interp}));
     if (surfels != sweep.default_target_surfels) continue;
     for (uint32_t px : sweep.extra_pixel_samples)
       plan.configs.push_back(pbgi_config(sweep, build,

@@ -8,6 +8,7 @@
 #include "client/bench/payload_spec.h"
 #include "server/gather/gather_options.h"
 #include "server/gather/surfel_bounce.h"
+#include "server/render/gather_lattice.h"
 
 #include <cstdint>
 #include <vector>
@@ -58,6 +59,10 @@ struct PbgiSweep {
   std::vector<uint32_t> extra_pixel_samples{4};
   uint32_t light_samples = 16;
   uint32_t surfel_light_samples = 16;
+  // Interpolation settings every gather setting is rendered with
+  // (server/render/gather_lattice.h); the first is the default's. More than
+  // one: each gets its own curve (names end in /interp-off or /tol<t>).
+  std::vector<InterpolationOptions> interpolations{InterpolationOptions{}};
   uint64_t seed = 1;
   // Light bounces every build puts into the surfels, with their bounce
   // gather and splatting (server/gather/surfel_bounce.h); the default, 1:

@@ -7,6 +7,8 @@
 #include "client/bench/bench_report.h"
 #include "client/bench/bench_runner.h"
 #include "client/cli/command.h"
+#include "server/render/gather_lattice.h"
+#include "storage/format/errors.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -35,6 +37,9 @@ struct BenchArgs {
   std::optional<uint32_t> bounces;
   std::optional<bool> bounce_splatting;
   std::optional<float> bounce_view_solid_angle;
+  std::optional<uint32_t> pixel_samples;
+  std::vector<std::string> interpolations;
+  std::vector<float> tolerances;
   bool quick = false;
   bool images = false;
   bool no_plot = false;
@@ -83,6 +88,29 @@ int run(const BenchArgs& args) {
     o.pbgi.extra_pixel_samples.clear();
     for (uint32_t px : *args.extra_pixel_samples)
       if (px != 0) o.pbgi.extra_pixel_samples.push_back(px);
+  }
+  if (args.pixel_samples) o.pbgi.pixel_samples = *args.pixel_samples;
+  if (!args.interpolations.empty() || !args.tolerances.empty()) {
+    // Each mode; "auto" once per tolerance (the library default if none given).
+    const std::vector<std::string> modes =
+        args.interpolations.empty() ? std::vector<std::string>{"auto"} : args.interpolations;
+    const std::vector<float> tolerances =
+        args.tolerances.empty() ? std::vector<float>{InterpolationOptions{}.tolerance} : args.tolerances;
+    o.pbgi.interpolations.clear();
+    for (const std::string& m : modes) {
+      const std::optional<InterpolationMode> mode = parse_interpolation_mode(m);
+      if (!mode) throw InvalidArgument("bench: --interpolation '" + m + "': expected off or auto");
+      InterpolationOptions i;
+      i.mode = *mode;
+      if (i.mode == InterpolationMode::kOff) {
+        o.pbgi.interpolations.push_back(i);
+        continue;
+      }
+      for (float t : tolerances) {
+        i.tolerance = t;
+        o.pbgi.interpolations.push_back(i);
+      }
+    }
   }
   o.save_images = args.images;
   o.plot = !args.no_plot;
@@ -138,6 +166,15 @@ const CommandRegistrar kRegistrar("bench", [](CLI::App& app, int* exit_code) {
                   "at each microbuffer (default derived,kmeans-sh:1024)")
       ->delimiter(',');
   cmd->add_option("--clusters", args->clusters, "FPBGI clusters per 1024 receivers (default 100)");
+  cmd->add_option("--pixel-samples", args->pixel_samples,
+                  "Camera rays per pixel of every PBGI render (default 1)");
+  cmd->add_option("--interpolation", args->interpolations,
+                  "Gather interpolation modes to sweep: off (a gather per camera sample), auto "
+                  "(adaptive lattice); the first is the default's (default auto)")
+      ->delimiter(',');
+  cmd->add_option("--tolerance", args->tolerances,
+                  "Interpolation tolerances to sweep with auto (default 0.1)")
+      ->delimiter(',');
   cmd->add_option("--epsilon", args->epsilon,
                   "FPBGI far/near split (default 0 = auto, 0.4 / microbuffer resolution)");
   cmd->add_option("--glossy-max-res", args->glossy_max_resolution,

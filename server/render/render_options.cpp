@@ -8,6 +8,7 @@ namespace pbgi {
 
 void RenderOptions::validate() const {
   gather.validate();
+  interpolation.validate();
   if (light_samples == 0 || light_samples > 4096) {
     throw InvalidArgument(
         fmt::format("render.light_samples = {}: must be in [1, 4096]", light_samples));

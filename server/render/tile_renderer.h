@@ -4,6 +4,8 @@
 #pragma once
 
 #include "server/gather/gather.h"
+#include "server/render/camera_sample.h"
+#include "server/render/gather_lattice.h"
 #include "server/scene/ray_scene.h"
 
 #include <cstdint>
@@ -21,9 +23,15 @@ struct TileRect {
 
 struct RenderOptions {
   GatherOptions gather;
-  uint32_t light_samples = 16;  // stratified shadow rays per pixel sample and light
+  // Stratified shadow rays per light: per camera sample with interpolation
+  // off; per pixel, spread over its camera samples (at least one each),
+  // with interpolation on.
+  uint32_t light_samples = 16;
   uint32_t pixel_samples = 1;   // camera rays per pixel (stratified)
   uint64_t seed = 1;
+  // Gathers at an adaptive lattice of pixel centres, interpolated to the
+  // camera samples (gather_lattice.h), or one gather per camera sample.
+  InterpolationOptions interpolation;
   void validate() const;        // throws pbgi::InvalidArgument
 };
 
@@ -37,13 +45,19 @@ struct RenderOptions {
 struct TileAovs {
   TileRect rect;
   std::vector<float> beauty, direct, indirect, albedo, ao;
+  uint64_t camera_samples = 0;  // traced in the tile (gathers: GatherCounters::receivers)
+
+  void resize(const TileRect& r);                           // zeroed layers for r
+  void store(size_t pixel, const PixelValue& sum, float scale);  // pixel = row-major index in rect
 };
 
-// The gather method comes from options.gather.method, per tile: PBGI
-// gathers each pixel sample as its row is traced; factorized PBGI traces
-// the whole tile first, then gathers its receivers in batches of 1024 (in
-// scan order) so that nearby receivers share their far light. The tile's
-// gatherers share one GatherCache.
+// With interpolation on (the default), the tile's camera samples are traced
+// first, then gathered at the adaptive lattice of gather_lattice.h. With it
+// off, every camera sample is gathered: PBGI gathers each pixel sample as
+// its row is traced; factorized PBGI traces the whole tile first, then
+// gathers its receivers in batches of 1024 (in scan order) so that nearby
+// receivers share their far light. The tile's gatherers share one
+// GatherCache.
 // `fog`: the scene's fog volume points (SceneSession::fog) for the
 // gathers; the rays' medium attenuates direct light.
 // Throws InvalidArgument if the tile is empty or outside the image,

@@ -1,0 +1,280 @@
+#include "server/render/interpolated_tile.h"
+
+#include "server/scene/camera_rays.h"
+#include "server/scene/rng.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <unordered_map>
+#include <vector>
+
+namespace pbgi {
+namespace {
+
+// A square cell of the lattice: pixels [x0, x0 + size) x [y0, y0 + size)
+// (clipped to the image), corners at those pixels' centres.
+struct Cell {
+  uint32_t x0 = 0, y0 = 0, size = 0;
+};
+
+// A lattice point: the receiver at a pixel's centre, and its gather.
+struct LatticePoint {
+  SurfaceSample sample;
+  GatherResult result;
+};
+
+class LatticeTile {
+ public:
+  LatticeTile(const RayScene& rays, const Camera& camera, uint32_t width, uint32_t height, const TileRect& rect,
+              const RenderOptions& options, const BatchGatherInput& gather, GatherCounters& counters)
+      : rays_(rays), camera_(camera), width_(width), height_(height), rect_(rect), options_(options),
+        gather_(gather), counters_(counters), spp_(options.pixel_samples) {
+    // The coarsest cells that overlap the tile, and every pixel they
+    // cover: decisions about a cell read all of its samples, also those
+    // outside the tile, so that the result does not depend on the split.
+    const uint32_t s = options.interpolation.spacing;
+    ext_ = TileRect{rect.x0 / s * s, rect.y0 / s * s, std::min((rect.x1 + s - 1) / s * s, width),
+                    std::min((rect.y1 + s - 1) / s * s, height)};
+  }
+
+  void render(TileAovs& out) {
+    trace_camera_samples();
+    refine();
+    shade(out);
+  }
+
+ private:
+  size_t ext_index(uint32_t x, uint32_t y) const {
+    return static_cast<size_t>(y - ext_.y0) * ext_.width() + (x - ext_.x0);
+  }
+  bool in_tile(uint32_t x, uint32_t y) const { return x >= rect_.x0 && x < rect_.x1 && y >= rect_.y0 && y < rect_.y1; }
+  uint64_t key(uint32_t x, uint32_t y) const { return static_cast<uint64_t>(y) * width_ + x; }
+  std::array<uint32_t, 2> corner_xs(const Cell& c) const { return {c.x0, std::min(c.x0 + c.size, width_ - 1)}; }
+  std::array<uint32_t, 2> corner_ys(const Cell& c) const { return {c.y0, std::min(c.y0 + c.size, height_ - 1)}; }
+  std::array<const LatticePoint*, 4> corners(const Cell& c) const {
+    const auto xs = corner_xs(c), ys = corner_ys(c);
+    return {&points_[index_.at(key(xs[0], ys[0]))], &points_[index_.at(key(xs[1], ys[0]))],
+            &points_[index_.at(key(xs[0], ys[1]))], &points_[index_.at(key(xs[1], ys[1]))]};
+  }
+
+  // 1. Every camera sample of the extended rect: direct light inside the
+  // tile (the pixel's shadow rays spread over its samples), none outside.
+  void trace_camera_samples() {
+    const size_t pixels = static_cast<size_t>(ext_.width()) * ext_.height();
+    samples_.resize(pixels * spp_);
+    offsets_.resize(pixels * spp_);
+    const uint32_t shadow_rays = std::max(1u, (options_.light_samples + spp_ - 1) / spp_);
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(ext_.y0, ext_.y1, 1), [&](const auto& rows) {
+      for (uint32_t y = rows.begin(); y != rows.end(); ++y) {
+        gather_.check_cancelled();
+        for (uint32_t x = ext_.x0; x < ext_.x1; ++x) {
+          const uint64_t pixel_id = key(x, y);
+          Rng rng(hash_ids(options_.seed, kPixelDomain, pixel_id));
+          const size_t i = ext_index(x, y) * spp_;
+          const uint32_t light = in_tile(x, y) ? shadow_rays : 0;
+          for (uint32_t k = 0; k < spp_; ++k) {
+            const Imath::V2f j = pixel_sample_offset(k, spp_, rng);
+            offsets_[i + k] = j;
+            const Ray ray = camera_ray(camera_, width_, height_, float(x) + j.x, float(y) + j.y);
+            samples_[i + k] = trace_sample(rays_, ray, light, hash_ids(options_.seed, kLightDomain, pixel_id, k));
+          }
+        }
+      }
+    });
+  }
+
+  // Traces and gathers the corners of `cells` not yet known.
+  void add_lattice_points(const std::vector<Cell>& cells) {
+    std::vector<uint64_t> fresh;
+    for (const Cell& c : cells) {
+      for (uint32_t y : corner_ys(c))
+        for (uint32_t x : corner_xs(c)) {
+          if (index_.emplace(key(x, y), uint32_t(points_.size() + fresh.size())).second) fresh.push_back(key(x, y));
+        }
+    }
+    const size_t first = points_.size();
+    points_.resize(first + fresh.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, fresh.size(), 64), [&](const auto& range) {
+      for (size_t i = range.begin(); i != range.end(); ++i) {
+        const uint32_t x = uint32_t(fresh[i] % width_), y = uint32_t(fresh[i] / width_);
+        const Ray ray = camera_ray(camera_, width_, height_, float(x) + 0.5f, float(y) + 0.5f);
+        SurfaceSample s = trace_sample(rays_, ray, 0, 0);
+        s.receiver.glossy = {};  // lattice points carry diffuse light only
+        points_[first + i].sample = s;
+      }
+    });
+    std::vector<Receiver> receivers;
+    std::vector<size_t> owner;
+    for (size_t i = first; i < points_.size(); ++i) {
+      if (!points_[i].sample.gathers) continue;
+      receivers.push_back(points_[i].sample.receiver);
+      owner.push_back(i);
+    }
+    std::vector<GatherResult> results(receivers.size());
+    gather_receivers(gather_, receivers, results, counters_);
+    for (size_t r = 0; r < owner.size(); ++r) points_[owner[r]].result = results[r];
+  }
+
+  // Must `cell` be split (gather_lattice.h)?
+  bool must_split(const Cell& cell) const {
+    const auto c = corners(cell);
+    bool any_surface = false;
+    const uint32_t x1 = std::min(cell.x0 + cell.size, width_), y1 = std::min(cell.y0 + cell.size, height_);
+    for (uint32_t y = cell.y0; y < y1; ++y) {
+      for (uint32_t x = cell.x0; x < x1; ++x) {
+        const size_t i = ext_index(x, y) * spp_;
+        for (uint32_t k = 0; k < spp_; ++k) {
+          const SurfaceSample& s = samples_[i + k];
+          if (!s.gathers || s.receiver.glossy.active()) continue;  // nothing to interpolate
+          any_surface = true;
+          for (const LatticePoint* p : c)
+            if (!may_interpolate(s, p->sample)) return true;
+        }
+      }
+    }
+    // Every sample may take every corner's value, so all four are surfaces.
+    return any_surface && corners_disagree({&c[0]->result, &c[1]->result, &c[2]->result, &c[3]->result},
+                                           options_.interpolation.tolerance);
+  }
+
+  // 2. Coarse to fine: gather the active cells' corners, split the cells
+  // that need it (keeping the children that overlap the tile).
+  void refine() {
+    leaf_.assign(static_cast<size_t>(rect_.width()) * rect_.height(), Cell{});
+    std::vector<Cell> active;
+    const uint32_t s0 = options_.interpolation.spacing;
+    for (uint32_t y = ext_.y0; y < ext_.y1; y += s0)
+      for (uint32_t x = ext_.x0; x < ext_.x1; x += s0) active.push_back({x, y, s0});
+    while (!active.empty()) {
+      add_lattice_points(active);
+      std::vector<char> split(active.size(), 0);
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, active.size(), 16), [&](const auto& range) {
+        for (size_t i = range.begin(); i != range.end(); ++i)
+          split[i] = active[i].size > 1 && must_split(active[i]) ? 1 : 0;
+      });
+      std::vector<Cell> next;
+      for (size_t i = 0; i < active.size(); ++i) {
+        const Cell& c = active[i];
+        if (!split[i]) {
+          mark_leaf(c);
+          continue;
+        }
+        const uint32_t h = c.size / 2;
+        for (uint32_t dy = 0; dy < 2; ++dy)
+          for (uint32_t dx = 0; dx < 2; ++dx) {
+            const Cell child{c.x0 + dx * h, c.y0 + dy * h, h};
+            // Children outside the image or the tile hold none of its pixels.
+            if (child.x0 >= std::min(rect_.x1, width_) || child.y0 >= std::min(rect_.y1, height_)) continue;
+            if (child.x0 + h <= rect_.x0 || child.y0 + h <= rect_.y0) continue;
+            next.push_back(child);
+          }
+      }
+      active = std::move(next);
+    }
+  }
+
+  void mark_leaf(const Cell& c) {
+    const uint32_t x0 = std::max(c.x0, rect_.x0), y0 = std::max(c.y0, rect_.y0);
+    const uint32_t x1 = std::min(c.x0 + c.size, rect_.x1), y1 = std::min(c.y0 + c.size, rect_.y1);
+    for (uint32_t y = y0; y < y1; ++y)
+      for (uint32_t x = x0; x < x1; ++x) leaf_[static_cast<size_t>(y - rect_.y0) * rect_.width() + (x - rect_.x0)] = c;
+  }
+
+  // The interpolated gather of sample k of pixel (x, y), or false if no
+  // corner of its cell may lend it a value.
+  bool interpolate(uint32_t x, uint32_t y, uint32_t k, GatherResult* out) const {
+    const size_t i = ext_index(x, y) * spp_ + k;
+    const SurfaceSample& s = samples_[i];
+    const Cell& cell = leaf_[static_cast<size_t>(y - rect_.y0) * rect_.width() + (x - rect_.x0)];
+    const auto c = corners(cell);
+    const auto xs = corner_xs(cell), ys = corner_ys(cell);
+    // Bilinear weights between the corners' pixel centres.
+    const auto fraction = [](float p, uint32_t a, uint32_t b) {
+      return b > a ? std::clamp((p - (float(a) + 0.5f)) / float(b - a), 0.f, 1.f) : 0.f;
+    };
+    const float fx = fraction(float(x) + offsets_[i].x, xs[0], xs[1]);
+    const float fy = fraction(float(y) + offsets_[i].y, ys[0], ys[1]);
+    const std::array<float, 4> bilinear{(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
+    std::array<float, 4> w{};
+    bool any = false;
+    for (int q = 0; q < 4; ++q) {
+      if (!may_interpolate(s, c[q]->sample)) continue;
+      // A small floor: a sample on a compatible corner's far side still
+      // takes its value rather than none.
+      w[q] = bilinear[q] + 1e-4f;
+      any = true;
+    }
+    if (!any) return false;
+    *out = mix_results({&c[0]->result, &c[1]->result, &c[2]->result, &c[3]->result}, w);
+    return true;
+  }
+
+  // 3. Each camera sample of the tile: interpolated, or gathered itself
+  // (a glossy lobe, or no corner to take a value from), then shaded.
+  void shade(TileAovs& out) {
+    const size_t tile_pixels = static_cast<size_t>(rect_.width()) * rect_.height();
+    std::vector<GatherResult> results(tile_pixels * spp_);
+    std::vector<char> own(tile_pixels * spp_, 0);
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(rect_.y0, rect_.y1, 1), [&](const auto& rows) {
+      for (uint32_t y = rows.begin(); y != rows.end(); ++y)
+        for (uint32_t x = rect_.x0; x < rect_.x1; ++x) {
+          const size_t t = (static_cast<size_t>(y - rect_.y0) * rect_.width() + (x - rect_.x0)) * spp_;
+          for (uint32_t k = 0; k < spp_; ++k) {
+            const SurfaceSample& s = samples_[ext_index(x, y) * spp_ + k];
+            if (!s.gathers) continue;
+            if (s.receiver.glossy.active() || !interpolate(x, y, k, &results[t + k])) own[t + k] = 1;
+          }
+        }
+    });
+    std::vector<Receiver> receivers;
+    std::vector<size_t> owner;
+    for (size_t t = 0; t < own.size(); ++t) {
+      if (!own[t]) continue;
+      const size_t p = t / spp_;
+      const uint32_t x = rect_.x0 + uint32_t(p % rect_.width()), y = rect_.y0 + uint32_t(p / rect_.width());
+      receivers.push_back(samples_[ext_index(x, y) * spp_ + t % spp_].receiver);
+      owner.push_back(t);
+    }
+    std::vector<GatherResult> gathered(receivers.size());
+    gather_receivers(gather_, receivers, gathered, counters_);
+    for (size_t r = 0; r < owner.size(); ++r) results[owner[r]] = gathered[r];
+
+    const float inv_spp = 1.f / float(spp_);
+    for (uint32_t y = rect_.y0; y < rect_.y1; ++y)
+      for (uint32_t x = rect_.x0; x < rect_.x1; ++x) {
+        const size_t p = static_cast<size_t>(y - rect_.y0) * rect_.width() + (x - rect_.x0);
+        PixelValue sum;
+        for (uint32_t k = 0; k < spp_; ++k)
+          sum.add(finish_sample(samples_[ext_index(x, y) * spp_ + k], results[p * spp_ + k]));
+        out.store(p, sum, inv_spp);
+      }
+  }
+
+  const RayScene& rays_;
+  const Camera& camera_;
+  const uint32_t width_, height_;
+  const TileRect rect_;
+  const RenderOptions& options_;
+  const BatchGatherInput& gather_;
+  GatherCounters& counters_;
+  const uint32_t spp_;
+  TileRect ext_;
+  std::vector<SurfaceSample> samples_;  // ext_ pixels x spp, row-major
+  std::vector<Imath::V2f> offsets_;     // each sample's offset in its pixel
+  std::unordered_map<uint64_t, uint32_t> index_;  // pixel key -> points_
+  std::vector<LatticePoint> points_;
+  std::vector<Cell> leaf_;  // per tile pixel: its smallest cell
+};
+
+}  // namespace
+
+void render_tile_interpolated(const RayScene& rays, const Camera& camera, uint32_t image_width,
+                              uint32_t image_height, const TileRect& rect, const RenderOptions& options,
+                              const BatchGatherInput& gather, TileAovs& out, GatherCounters& counters) {
+  LatticeTile(rays, camera, image_width, image_height, rect, options, gather, counters).render(out);
+}
+
+}  // namespace pbgi
