@@ -11,6 +11,7 @@
 #include "client/cli/build_flags.h"
 #include "client/cli/gather_flags.h"
 #include "client/cli/connection_flags.h"
+#include "client/cli/scene_warnings.h"
 #include "client/image/exr_image.h"
 #include "client/image/png_display.h"
 #include "client/lib/frame_renderer.h"
@@ -237,6 +238,7 @@ int run_render(const RenderArgs& args) {
       client::scene_request_path(args.scene), build,
       [&](const std::string& stage, float fraction) { progress.open(stage, fraction); });
   progress.open_done();
+  print_scene_warnings(info, stderr);
   const double open_seconds = seconds_since(start);
   const std::string camera = pick_camera(info, args.camera);
 

@@ -3,6 +3,7 @@
 // counters. Text, or the GetStatusResponse as JSON with --json.
 #include "client/cli/command.h"
 #include "client/cli/connection_flags.h"
+#include "client/cli/scene_warnings.h"
 #include "client/lib/pbgi_client.h"
 
 #include <google/protobuf/util/json_util.h>
@@ -65,6 +66,7 @@ int run_status(const StatusArgs& args) {
                 static_cast<unsigned long long>(i.surfel_count()), i.page_count(),
                 mib(scene.memory_bytes()).c_str(),
                 static_cast<unsigned long long>(scene.requests()), scene.idle_seconds());
+    print_scene_warnings(i, stdout, "      ");
   }
   for (const v1::OpenStatus& o : s.opening()) {
     std::printf("  opening %s: %s %.0f%%\n", o.scene_path().c_str(), o.stage().c_str(),

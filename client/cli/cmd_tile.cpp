@@ -5,6 +5,7 @@
 #include "client/cli/build_flags.h"
 #include "client/cli/gather_flags.h"
 #include "client/cli/connection_flags.h"
+#include "client/cli/scene_warnings.h"
 #include "client/image/exr_image.h"
 #include "client/lib/pbgi_client.h"
 #include "storage/format/errors.h"
@@ -51,6 +52,7 @@ int run_tile(const TileArgs& args) {
   // 1. Open (quietly: the statistics are this command's output).
   const v1::BuildOptions build = args.build.to_proto(args.width, args.height);
   const v1::SceneInfo info = client.open_scene(client::scene_request_path(args.scene), build);
+  print_scene_warnings(info, stderr);  // stdout holds the statistics
   std::string camera = args.camera;
   if (camera.empty()) {
     if (info.cameras_size() != 1) {

@@ -7,6 +7,7 @@
 #include "server/engine/build_key.h"
 #include "server/gather/page_views.h"
 #include "server/scene/render_origin.h"
+#include "server/scene/scene_bulk.h"
 #include "server/ingest/usd_ingest.h"
 #include "server/surfels/glossy_shading.h"
 #include "server/surfels/surfel_gloss_lookup.h"
@@ -85,6 +86,9 @@ std::unique_ptr<storage::PageSetReader> build_page_sets(
     const SceneSession& session, const OpenOptions& options, const EngineContext& ctx,
     const std::function<void(const std::string&, float)>& report) {
   const Scene& scene = *session.scene;
+  // The Morton cube spans the bulk: a far outlier must not coarsen the
+  // order of everything else (its surfels sort at the cube's edge).
+  const Box3f order_bounds = scene_bulk(scene).bounds;
   OpenOptions direct_options = options;
   direct_options.bounce.bounces = 1;
   fs::path dir = ctx.cache_dir / page_set_build_key(scene.content_hash, direct_options);
@@ -93,7 +97,7 @@ std::unique_ptr<storage::PageSetReader> build_page_sets(
     tree = build_or_join(dir, ctx, [&] {
       // 4. Surfels, sampled and shaded batch by batch, streamed into the
       //    page-set build (external sort by Morton code, bounded memory).
-      storage::PageSetBuilder builder(options.tree, dir.filename().string(), dir, scene.bounds());
+      storage::PageSetBuilder builder(options.tree, dir.filename().string(), dir, order_bounds);
       // Glossy senders' lobes are lit while their pages are written.
       const SceneGlossyShader glossy(*session.rays, options.surfels.light_samples, options.surfels.seed);
       builder.set_glossy_shader(&glossy);
@@ -135,7 +139,7 @@ std::unique_ptr<storage::PageSetReader> build_page_sets(
       gloss_found = {};
       next = build_or_join(dir, ctx, [&] {
         build_bounce_page_set(direct ? *direct : *tree, *tree, options.bounce, options.tree,
-                              dir.filename().string(), dir, scene.bounds(), glossy,
+                              dir.filename().string(), dir, order_bounds, glossy,
                               [&](float f) { report(stage, f); });
       });
       if (glossy.restore) {
@@ -200,8 +204,15 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
 
   // 1b. Render in a scene-local frame: positions near a far-away scene keep
   // their float precision (server/scene/render_origin.h). Gather requests
-  // arrive in world coordinates and are moved into this frame.
-  rebase_to_local_frame(*session->scene);
+  // arrive in world coordinates and are moved into this frame. Geometry
+  // floats cannot hold there is dropped with a warning (to the client in
+  // SceneInfo.warnings); far outliers change the frame and the Morton cube
+  // (scene_bulk.h), so they are part of the page set's identity.
+  Scene& model = *session->scene;
+  const size_t warned = model.warnings.size();
+  const LocalFrame frame = rebase_to_local_frame(model);
+  for (size_t i = warned; i < model.warnings.size(); ++i) spdlog::warn("{}: {}", model.source_path, model.warnings[i]);
+  if (frame.outliers) model.content_hash += "+bulk/1";
 
   // 2. Ray-tracing structure: needed for surfel shading and primary hits.
   session->rays = std::make_unique<RayScene>(*session->scene);

@@ -1,5 +1,7 @@
 #include "server/scene/auto_camera.h"
 
+#include "server/scene/scene_bulk.h"
+
 #include "storage/format/errors.h"
 
 #include <algorithm>
@@ -10,7 +12,7 @@
 namespace pbgi {
 
 Camera auto_camera(const Scene& scene, float aspect) {
-  Box3f box = scene.bounds();
+  Box3f box = scene_bulk(scene).bounds;  // not a far outlier's box
   for (const Volume& v : scene.volumes) box.extendBy(v.bounds);  // fog has no triangles
   return auto_camera(box, scene.up_axis, aspect);
 }

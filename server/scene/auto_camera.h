@@ -2,7 +2,8 @@
 // without a UsdGeom.Camera (or when the client asks for it).
 //
 // Default direction: the camera looks at the centre of the scene's bounds
-// (triangles and volumes) from
+// (the bulk's triangles, server/scene/scene_bulk.h -- not a far outlier's
+// box -- and volumes) from
 // azimuth kAutoCameraAzimuthDegrees (30 deg, from the stage's front axis
 // toward +X) and elevation kAutoCameraElevationDegrees (20 deg above the
 // horizon), in the stage's up-axis convention: with upAxis Y the front is

@@ -1,5 +1,6 @@
 #include "server/scene/ray_scene.h"
 
+#include "server/scene/scene_bulk.h"
 #include "server/scene/scene_validation.h"
 #include "storage/format/errors.h"
 
@@ -171,12 +172,15 @@ RayScene::RayScene(const Scene& scene) : scene_(scene), impl_(std::make_unique<I
   rtcCommitScene(impl_->scene);
   impl_->check(scene, "build the BVH");
 
-  // 5. The scene's extent for point_error(), and the worst offset for
-  // ray_epsilon().
+  // 5. The extent for point_error() -- the bulk's largest side, or an
+  // outlying triangle's if larger: it only has to bound one triangle's
+  // size, and a far outlier must not turn every offset into its distance
+  // (scene_bulk.h) -- and the worst offset for ray_epsilon().
   const Box3f b = scene.bounds();
   if (!b.isEmpty()) {
-    const V3f size = b.size();
-    impl_->extent = std::max({size.x, size.y, size.z});
+    const SceneBulk bulk = scene_bulk(scene);
+    const V3f size = bulk.bounds.size();
+    impl_->extent = std::max({size.x, size.y, size.z, bulk.outlying_extent});
     const V3f far(std::max(std::fabs(b.min.x), std::fabs(b.max.x)),
                   std::max(std::fabs(b.min.y), std::fabs(b.max.y)),
                   std::max(std::fabs(b.min.z), std::fabs(b.max.z)));

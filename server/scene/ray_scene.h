@@ -89,9 +89,11 @@ class RayScene {
 
   // Error bound for a point p computed on one of the scene's triangles by
   // interpolating its vertices when the triangle's own bound is not at hand
-  // (surfel positions, receivers): gamma(8) (|p| + the scene's extent) per
-  // component, which bounds |b0 p0| + |b1 p1| + |b2 p2| for any point of
-  // any triangle of the scene.
+  // (surfel positions, receivers): gamma(8) (|p| + extent) per component,
+  // where extent bounds any one triangle's size (the largest side of the
+  // scene's bulk or of an outlying triangle, server/scene/scene_bulk.h), so
+  // the bound covers |b0 p0| + |b1 p1| + |b2 p2| for any point of any
+  // triangle of the scene.
   V3f point_error(const V3f& p) const;
 
   // Origin for a ray leaving the surface point (p, error) with geometric

@@ -1,5 +1,10 @@
 #include "server/scene/render_origin.h"
 
+#include "server/scene/scene_bulk.h"
+#include "storage/format/errors.h"
+
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -19,19 +24,21 @@ void move_translation(M44f& m, const V3d& shift) {
   m[3][2] = t.z;
 }
 
-}  // namespace
-
-V3d render_origin_for(const Scene& scene) {
-  const Box3f b = scene.bounds();
+// The origin for a scene at `current` whose bulk has bounds `b`.
+V3d origin_for_bulk(const Box3f& b, const V3d& current) {
   if (b.isEmpty()) return V3d(0.0);
   const V3d lo(b.min.x, b.min.y, b.min.z), hi(b.max.x, b.max.y, b.max.z);
-  const V3d centre = scene.render_origin + 0.5 * (lo + hi);
+  const V3d centre = current + 0.5 * (lo + hi);
   const double side = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
   if (!(side > 0.0)) return centre;
   const double q = std::ldexp(1.0, int(std::ceil(std::log2(side))) - 4);
   return V3d(std::round(centre.x / q) * q, std::round(centre.y / q) * q,
              std::round(centre.z / q) * q);
 }
+
+}  // namespace
+
+V3d render_origin_for(const Scene& scene) { return origin_for_bulk(scene_bulk(scene).bounds, scene.render_origin); }
 
 void rebase_scene(Scene& scene, const V3d& origin) {
   const V3d shift = scene.render_origin - origin;
@@ -51,6 +58,18 @@ void rebase_scene(Scene& scene, const V3d& origin) {
   scene.render_origin = origin;
 }
 
-void rebase_to_local_frame(Scene& scene) { rebase_scene(scene, render_origin_for(scene)); }
+LocalFrame rebase_to_local_frame(Scene& scene) {
+  const SceneBulk bulk = scene_bulk(scene);
+  LocalFrame frame;
+  frame.origin = origin_for_bulk(bulk.bounds, scene.render_origin);
+  frame.outliers = bulk.has_outliers();
+  frame.dropped = drop_unrepresentable_geometry(scene, frame.origin, bulk.bounds);
+  if (frame.dropped.any() && scene.triangle_count() == 0) {
+    throw SceneError(fmt::format("{}: every triangle was dropped for float precision ({})", scene.source_path,
+                                 scene.warnings.empty() ? std::string() : scene.warnings.back()));
+  }
+  rebase_scene(scene, frame.origin);
+  return frame;
+}
 
 }  // namespace pbgi

@@ -14,15 +14,18 @@
 #pragma once
 
 #include "server/scene/scene.h"
+#include "server/scene/unrepresentable_geometry.h"
 
 namespace pbgi {
 
 using Imath::V3d;
 
-// A rendering origin for `scene`: the world-space centre of its bounds
-// (render_origin + local bounds), snapped to a multiple of a power of two
-// 1/16 of the bounds' largest side, so that it is exactly representable
-// and small edits of a scene keep it. Zero for an empty scene.
+// A rendering origin for `scene`: the world-space centre of the bounds of
+// its bulk (scene_bulk.h: the bounds, unless triangles lie far apart --
+// one outlier must not move the frame away from the rest of the scene),
+// snapped to a multiple of a power of two 1/16 of that box's largest side,
+// so that it is exactly representable and small edits of a scene keep it.
+// Zero for an empty scene.
 V3d render_origin_for(const Scene& scene);
 
 // Re-expresses the scene in the frame at world position `origin`: positions,
@@ -31,8 +34,19 @@ V3d render_origin_for(const Scene& scene);
 // becomes `origin`. Directions and normals are unchanged.
 void rebase_scene(Scene& scene, const V3d& origin);
 
-// rebase_scene(scene, render_origin_for(scene)).
-void rebase_to_local_frame(Scene& scene);
+// What rebase_to_local_frame() did.
+struct LocalFrame {
+  V3d origin{0.0, 0.0, 0.0};  // the scene's render_origin now
+  bool outliers = false;      // geometry lies apart from the bulk (scene_bulk.h)
+  DroppedGeometry dropped;    // what floats could not hold (warnings added)
+};
+
+// Moves the scene to its local frame: drops the geometry that floats cannot
+// represent there or in the frame it arrived in (unrepresentable_geometry.h,
+// a warning per prim in scene.warnings), then rebase_scene(scene,
+// render_origin_for(scene)). Throws SceneError (naming a dropped prim) if
+// nothing is left.
+LocalFrame rebase_to_local_frame(Scene& scene);
 
 // Local <-> world conversions of points.
 inline V3f to_local(const Scene& scene, const V3d& world) {

@@ -1,5 +1,7 @@
 #include "server/surfels/spacing_field.h"
 
+#include "server/scene/scene_bulk.h"
+
 #include "storage/format/errors.h"
 
 #include <fmt/format.h>
@@ -30,7 +32,8 @@ SpacingField::SpacingField(const Scene& scene, const SurfelOptions& o) : adaptiv
   offset_x_ = cam->horizontal_aperture_offset;
   offset_y_ = cam->vertical_aperture_offset;
   per_distance_ = film_w / focal_ / float(o.image_width) * o.pixel_footprint;
-  const V3f diag = scene.bounds().isEmpty() ? V3f(1.f) : scene.bounds().size();
+  const Box3f bulk = scene_bulk(scene).bounds;  // a far outlier must not set the floor
+  const V3f diag = bulk.isEmpty() ? V3f(1.f) : bulk.size();
   min_spacing_ = o.min_spacing > 0.f ? o.min_spacing : 1e-5f * diag.length();
   offscreen_ = o.offscreen_factor;
 }

@@ -36,7 +36,7 @@ struct SurfelOptions {
   uint32_t image_width = 1920;   // the image the spacing is for (pixel_angle)
   uint32_t image_height = 1080;
   float pixel_footprint = 1.f;   // surfel spacing in pixels
-  float min_spacing = 0.f;       // floor; 0 = 1e-5 x the scene's diagonal
+  float min_spacing = 0.f;       // floor; 0 = 1e-5 x the diagonal of the scene's bulk (server/scene/scene_bulk.h)
   float offscreen_factor = 4.f;  // spacing multiplier outside the frustum (>= 1)
   float frustum_margin = 0.1f;   // frustum widened by this fraction per side
 

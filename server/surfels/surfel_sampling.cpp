@@ -54,6 +54,7 @@
 // the surfel's area, so that the surfels of a mesh keep the texture's mean.
 #include "server/scene/rng.h"
 #include "server/scene/sample_patterns.h"
+#include "server/scene/scene_bulk.h"
 #include "server/scene/scene_validation.h"
 #include "server/scene/surface_colors.h"
 #include "server/surfels/coincident_surfaces.h"
@@ -276,7 +277,9 @@ void sample_uniform(const Scene& scene, const SurfelOptions& options, const Surf
 
   // 5. Coincident coplanar triangles, per soup (see the top of this file).
   const float tolerance = kCoplanarTolerance * float(spacing);
-  const Box3f bounds = scene.bounds();
+  // Plane offsets are measured from the bulk's centre: a far outlier's
+  // would leave the rest of the scene's offsets with its float steps.
+  const Box3f bounds = scene_bulk(scene).bounds;
   const CoincidentCover world_cover =
       soup_cover(scene.triangles, bounds.isEmpty() ? V3f(0.f) : bounds.center(), tolerance);
   const std::vector<CoincidentCover> covers = prototype_covers(scene, tolerance);

@@ -57,6 +57,20 @@ TEST(RenderOrigin, RebasingMovesEverythingTogetherAndExactly) {
   EXPECT_EQ(to_local(local, to_world(local, V3f(0.5f, -0.25f, 1.f))), V3f(0.5f, -0.25f, 1.f));
 }
 
+// One tiny triangle far away (issue 17): the frame stays at the scene's
+// centre (before, it moved to the centre of the bounds, halfway to the
+// outlier, where the scene collapsed into a few float steps).
+TEST(RenderOrigin, AFarOutlierDoesNotMoveTheOrigin) {
+  const float base = 1e5f;
+  const Scene near = far_scene(base);
+  for (const float outlier : {-1e5f, 1e10f, 1e20f}) {
+    Scene s = near;
+    const V3f o(outlier);
+    test::add_quad(s, o, o + V3f(0.1f, 0, 0), o + V3f(0.1f, 0.1f, 0), o + V3f(0, 0.1f, 0), 0, "/Far");
+    EXPECT_EQ(render_origin_for(s), render_origin_for(near)) << outlier;
+  }
+}
+
 TEST(RenderOrigin, EmptySceneKeepsTheWorldOrigin) {
   Scene s;
   EXPECT_EQ(render_origin_for(s), V3d(0.0));

@@ -26,6 +26,20 @@ inline uint32_t add_quad(Scene& scene, const V3f& p0, const V3f& p1, const V3f& 
   return mesh;
 }
 
+// One triangle a b c as a mesh of its own (material 0); returns the mesh index.
+inline uint32_t add_triangle(Scene& scene, const V3f& a, const V3f& b, const V3f& c, const std::string& path) {
+  TriangleSoup& t = scene.triangles;
+  const uint32_t base = static_cast<uint32_t>(t.positions.size());
+  const uint32_t mesh = static_cast<uint32_t>(t.mesh_paths.size());
+  t.positions.insert(t.positions.end(), {a, b, c});
+  t.indices.insert(t.indices.end(), {base, base + 1, base + 2});
+  t.material.push_back(0);
+  t.mesh.push_back(mesh);
+  t.mesh_paths.push_back(path);
+  t.double_sided.push_back(0);
+  return mesh;
+}
+
 // Axis-aligned square in the plane z = z0, centered at (cx, cy), normal +Z
 // (or -Z if `down`).
 inline uint32_t add_square_z(Scene& scene, float cx, float cy, float z0, float half,
@@ -43,6 +57,18 @@ inline uint32_t add_material(Scene& scene, const C3f& albedo, const C3f& emissio
   m.emission = emission;
   scene.materials.push_back(m);
   return static_cast<uint32_t>(scene.materials.size() - 1);
+}
+
+// Three unit-half-size squares around the origin (back wall z = -1, floor
+// y = -1, ceiling y = 1), one grey material: a small room of area 12.
+inline Scene small_room() {
+  Scene s;
+  s.source_path = "small_room";
+  const uint32_t m = add_material(s, {0.5f, 0.5f, 0.5f});
+  add_square_z(s, 0.f, 0.f, -1.f, 1.f, m, false, "/Back");
+  add_quad(s, {-1, -1, -1}, {-1, -1, 1}, {1, -1, 1}, {1, -1, -1}, m, "/Floor");
+  add_quad(s, {-1, 1, -1}, {1, 1, -1}, {1, 1, 1}, {-1, 1, 1}, m, "/Ceiling");
+  return s;
 }
 
 // A rect light centered at (cx, cy, z), unrotated: it emits toward -Z.
