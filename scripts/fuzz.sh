@@ -16,7 +16,7 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 SECONDS_PER_TARGET="${1:-60}"
 shift || true
 TARGETS=("$@")
-((${#TARGETS[@]})) || TARGETS=(fuzz_gather_request fuzz_page_reader fuzz_scene_stream fuzz_daemon_config)
+((${#TARGETS[@]})) || TARGETS=(fuzz_gather_request fuzz_page_reader fuzz_scene_stream fuzz_scene_entry fuzz_daemon_config)
 BUILD="${PBGI_FUZZ_BUILD_DIR:-$ROOT/build-fuzz}"
 CXX="${PBGI_FUZZ_CXX:-clang++-14}"
 CC="${PBGI_FUZZ_CC:-clang-14}"

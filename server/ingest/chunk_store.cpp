@@ -1,8 +1,10 @@
 #include "server/ingest/chunk_store.h"
 
 #include "pbgi/v1/scene.pb.h"
+#include "server/ingest/scene_entry.h"
 #include "server/volumes/scene_volumes.h"
 #include "storage/format/errors.h"
+#include "storage/format/format_version.h"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -22,12 +24,12 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Bumped whenever the entry layout or what is stored changes.
-// 2: materials carry specularColor, useSpecularWorkflow and ior.
-// 3: instanced geometry as prototypes + InstanceBatches (not flattened).
-constexpr int kStoreFormatVersion = 3;
+// Hashed into every key: a new entry format is a new set of keys, so an
+// older build's entries are never looked up (storage/format/format_version.h
+// lists the versions: 2 added specular inputs, 3 instancing, 4 the checksummed
+// frame with the dependencies inside).
+constexpr uint32_t kStoreFormatVersion = storage::kSceneEntryFormatV4;
 constexpr const char* kEntryExtension = ".pbgiscene";
-constexpr const char* kDepsExtension = ".deps";
 
 std::string hex_key(const std::string& text) {
   return fmt::format("{:016x}{:016x}", XXH64(text.data(), text.size(), 0),
@@ -110,23 +112,24 @@ pbgi::v1::LightDef::Kind light_kind(LightKind k) {
   return pbgi::v1::LightDef::KIND_UNSPECIFIED;
 }
 
-// Writes framed SceneChunks (4-byte little-endian length + message).
+// Writes framed SceneChunks (4-byte little-endian length + message) as an
+// entry's body.
 class FrameWriter {
  public:
-  explicit FrameWriter(std::ofstream& out) : out_(out) {}
+  explicit FrameWriter(SceneEntryWriter& out) : out_(out) {}
   void write(const pbgi::v1::SceneChunk& chunk) {
     const std::string data = chunk.SerializeAsString();
     const uint32_t n = static_cast<uint32_t>(data.size());
     const unsigned char prefix[4] = {static_cast<unsigned char>(n), static_cast<unsigned char>(n >> 8),
                                      static_cast<unsigned char>(n >> 16), static_cast<unsigned char>(n >> 24)};
-    out_.write(reinterpret_cast<const char*>(prefix), 4);
-    out_.write(data.data(), static_cast<std::streamsize>(data.size()));
+    out_.append(prefix, 4);
+    out_.append(data.data(), data.size());
     ++count_;
   }
   uint64_t count() const { return count_; }
 
  private:
-  std::ofstream& out_;
+  SceneEntryWriter& out_;
   uint64_t count_ = 0;
 };
 
@@ -186,7 +189,7 @@ uint64_t write_meshes(const TriangleSoup& soup, uint32_t prototype_id, const Chu
   return written;
 }
 
-void write_scene(const Scene& scene, const ChunkStoreOptions& options, std::ofstream& out) {
+void write_scene(const Scene& scene, const ChunkStoreOptions& options, SceneEntryWriter& out) {
   FrameWriter writer(out);
   pbgi::v1::SceneChunk chunk;
   pbgi::v1::SceneHeader* h = chunk.mutable_header();
@@ -312,9 +315,8 @@ std::string dependencies(const Scene& scene) {
   return out;
 }
 
-bool dependencies_unchanged(const fs::path& deps) {
-  std::ifstream in(deps);
-  if (!in) return false;
+bool dependencies_unchanged(const std::string& deps) {
+  std::istringstream in(deps);
   std::string line;
   while (std::getline(in, line)) {
     const size_t tab = line.find('\t');
@@ -329,7 +331,14 @@ void write_file_atomically(const fs::path& path, const std::function<void(std::o
   {
     std::ofstream out(temp, std::ios::binary | std::ios::trunc);
     if (!out) throw IoError(fmt::format("chunk store: cannot write '{}'", temp.string()));
-    fill(out);
+    try {
+      fill(out);
+    } catch (...) {
+      out.close();
+      std::error_code ec;
+      fs::remove(temp, ec);
+      throw;
+    }
     out.flush();
     if (!out) {
       std::error_code ec;
@@ -378,14 +387,23 @@ bool ChunkStore::contains(const std::string& key) const {
 void ChunkStore::remove(const std::string& key) const {
   std::error_code ec;
   fs::remove(entry_path(key), ec);
-  fs::remove(options_.directory / (key + kDepsExtension), ec);
 }
 
 void ChunkStore::save(const std::string& key, const Scene& scene) const {
-  // The sidecar first: an entry never exists without its dependencies.
-  const std::string deps = dependencies(scene);
-  write_file_atomically(options_.directory / (key + kDepsExtension), [&](std::ofstream& out) { out << deps; });
-  write_file_atomically(entry_path(key), [&](std::ofstream& out) { write_scene(scene, options_, out); });
+  const fs::path path = entry_path(key);
+  write_file_atomically(path, [&](std::ofstream& out) {
+    SceneEntryWriter entry(out, dependencies(scene));
+    write_scene(scene, options_, entry);
+    entry.finish(path.string());
+  });
+}
+
+// A damaged, foreign or undecodable entry is never served: removed, so the
+// caller ingests the scene again and saves a good one.
+static std::optional<Scene> drop_unreadable(const ChunkStore& store, const std::string& key, const Error& e) {
+  spdlog::warn("chunk store: entry {} is unreadable ({}): removed, re-ingesting", key, e.what());
+  store.remove(key);
+  return std::nullopt;
 }
 
 std::optional<Scene> ChunkStore::load(const std::string& key,
@@ -393,22 +411,30 @@ std::optional<Scene> ChunkStore::load(const std::string& key,
   const fs::path path = entry_path(key);
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) return std::nullopt;
-  if (!dependencies_unchanged(options_.directory / (key + kDepsExtension))) {
-    ::close(fd);
-    spdlog::info("chunk store: entry {} is stale (a volume file changed): re-ingesting", key);
-    remove(key);
-    return std::nullopt;
-  }
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
   Scene scene;
   try {
-    scene = decode_scene_stream(fd, path.string(), progress);
-  } catch (const SceneError& e) {
-    ::close(fd);
-    spdlog::warn("chunk store: entry {} is unreadable ({}): removed", key, e.what());
-    remove(key);
+    const SceneEntryHead head = read_scene_entry_head(fd, path.string());
+    if (!dependencies_unchanged(head.dependencies)) {
+      spdlog::info("chunk store: entry {} is stale (a volume file changed): re-ingesting", key);
+      remove(key);
+      return std::nullopt;
+    }
+    scene = read_scene_entry_body(fd, head, path.string(), progress);
+  } catch (const IoError& e) {
+    // The disk, not the entry: leave it for the next open.
+    spdlog::warn("chunk store: entry {} cannot be read now ({}): re-ingesting", key, e.what());
     return std::nullopt;
+  } catch (const CorruptionError& e) {
+    return drop_unreadable(*this, key, e);
+  } catch (const VersionError& e) {
+    return drop_unreadable(*this, key, e);
+  } catch (const SceneError& e) {  // behind a good checksum: a bug, still never served
+    return drop_unreadable(*this, key, e);
   }
-  ::close(fd);
   const std::string content_hash = scene.content_hash;
   if (!scene.volumes.empty()) {
     VolumeOptions reload;

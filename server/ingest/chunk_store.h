@@ -15,7 +15,13 @@
 // that change triangles (target edge length, subdivision cap, volume
 // adaptivity), the Draco options and the store format version. Files the
 // layers do not cover -- the .vdb files of volumes -- are listed with their
-// xxh64 in a sidecar; an entry whose dependencies changed is a miss.
+// xxh64 in the entry's head; an entry whose dependencies changed is a miss.
+//
+// Integrity. The file (server/ingest/scene_entry.h, storage/format/
+// FORMAT.md) has a magic, a format version and XXH3-64 checksums over every
+// byte; an entry that fails them -- a flipped bit, a truncation, an older
+// build's layout -- is removed and the scene ingested again, so a damaged
+// entry costs time, never different pixels.
 //
 // Error bound. Positions are quantized per chunk (at most
 // max_triangles_per_chunk triangles of one mesh and material): every
@@ -25,10 +31,10 @@
 // normal_bits (12: ~0.09 deg). uvs/colours: uv_bits / color_bits over their
 // range. A chunk whose uvs or colours are partly missing (NaN) stores none.
 //
-// Files: <directory>/<key>.pbgiscene (+ <key>.deps); written to a temporary
-// name and renamed, so readers never see partial entries and concurrent
-// writers of one key leave one complete entry. Thread-safe: every method is
-// const and touches only the entry's files.
+// Files: <directory>/<key>.pbgiscene; written to a temporary name and
+// renamed, so readers never see partial entries and concurrent writers of
+// one key leave one complete entry. Thread-safe: every method is const and
+// touches only the entry's file.
 #pragma once
 
 #include "server/ingest/draco_mesh.h"
@@ -62,11 +68,17 @@ class ChunkStore {
   // options (32 hex digits).
   std::string key(const std::string& content_hash, const IngestOptions& ingest) const;
 
-  // Writes the entry (replacing one with the same key). Throws IoError.
+  // Writes the entry (replacing one with the same key). Throws IoError;
+  // InvalidArgument for geometry Draco cannot code (non-finite values or
+  // spans beyond the float range, which decoded scenes never hold:
+  // server/ingest/coordinate_limit.h). Nothing is left behind on a throw.
   void save(const std::string& key, const Scene& scene) const;
 
   // The stored scene, or nullopt if there is no entry, a dependency changed
-  // or the entry is unreadable (a corrupt entry is removed, with a log line).
+  // or the entry is unreadable: damaged (CorruptionError), of another format
+  // version (VersionError) or undecodable -- then it is removed, with a log
+  // line naming the file, offset and checksums. A read error (IoError)
+  // leaves the entry in place. Exceptions of `progress` propagate.
   std::optional<Scene> load(const std::string& key,
                             const std::function<void(const std::string&, float)>& progress = {}) const;
 

@@ -1,5 +1,6 @@
 #include "server/ingest/draco_mesh.h"
 
+#include "server/ingest/coordinate_limit.h"
 #include "server/scene/scene_validation.h"
 #include "storage/format/errors.h"
 
@@ -7,8 +8,10 @@
 #include <draco/compression/encode.h>
 #include <draco/mesh/mesh.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <limits>
 #include <cstring>
 #include <fstream>
 #include <iterator>
@@ -46,6 +49,26 @@ void read_attribute(const draco::Mesh& mesh, draco::GeometryAttribute::Type type
   }
 }
 
+// Draco quantizes each attribute over max - min of its values, in float: a
+// NaN, an infinity or a span beyond the float range makes its quantized
+// values garbage, on which its entropy coder reads out of bounds (a crash,
+// not an error). Refused here, whatever the caller checked.
+template <typename T>
+void check_span(const std::vector<T>& values, const char* name) {
+  constexpr size_t kComponents = sizeof(T) / sizeof(float);
+  for (size_t k = 0; k < kComponents; ++k) {
+    float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+    for (const T& v : values) {
+      if (!std::isfinite(v[k]))
+        throw InvalidArgument(fmt::format("Draco mesh: a {} value is not finite ({})", name, v[k]));
+      lo = std::min(lo, v[k]);
+      hi = std::max(hi, v[k]);
+    }
+    if (!values.empty() && !std::isfinite(hi - lo))
+      throw InvalidArgument(fmt::format("Draco mesh: {} span [{:g}, {:g}], beyond the float range", name, lo, hi));
+  }
+}
+
 }  // namespace
 
 void DracoOptions::validate() const {
@@ -72,6 +95,10 @@ std::string encode_draco_mesh(const DracoMesh& m, const DracoOptions& options) {
     throw InvalidArgument("Draco mesh: per-vertex arrays differ in size from the positions");
   for (const uint32_t i : m.indices)
     if (i >= n) throw InvalidArgument(fmt::format("Draco mesh: index {} out of range ({} vertices)", i, n));
+  check_span(m.positions, "position");
+  check_span(m.normals, "normal");
+  check_span(m.uvs, "uv");
+  check_span(m.colors, "color");
 
   draco::Mesh mesh;
   mesh.set_num_points(static_cast<uint32_t>(n));
@@ -138,29 +165,38 @@ Scene read_draco_scene(const std::filesystem::path& path) {
   TriangleSoup& soup = scene.triangles;
   soup.mesh_paths.push_back("/" + stem);
   soup.double_sided.push_back(0);
+  soup.positions = std::move(mesh.positions);
+  soup.normals = std::move(mesh.normals);
+  soup.uvs = std::move(mesh.uvs);
+  soup.indices = std::move(mesh.indices);
+  // Points nothing downstream could use go first, with their triangles
+  // (server/ingest/coordinate_limit.h), as the stream decoder does.
+  const UnusableGeometry unusable = drop_unusable_geometry(soup, 0, 0);
+  if (unusable.any())
+    scene.warnings.push_back(fmt::format("{}: values that are not finite or exceed +-{:g}: {} points and the {} "
+                                         "triangles using them dropped, {} texture coordinates ignored ({})",
+                                         soup.mesh_paths[0], kMaxSceneCoordinate, unusable.vertices,
+                                         unusable.triangles, unusable.uvs, path.string()));
   // Drop degenerate triangles (as the USD reader does): no surface, NaN normals.
-  size_t dropped = 0;
-  for (size_t t = 0; t < mesh.indices.size(); t += 3) {
-    const V3f& a = mesh.positions[mesh.indices[t]];
-    const V3f& b = mesh.positions[mesh.indices[t + 1]];
-    const V3f& c = mesh.positions[mesh.indices[t + 2]];
-    if ((b - a).cross(c - a).length2() == 0.f || !std::isfinite(a.x + a.y + a.z + b.x + b.y + b.z + c.x + c.y + c.z)) {
+  size_t dropped = 0, kept = 0;
+  for (size_t t = 0; t < soup.indices.size(); t += 3) {
+    const V3f& a = soup.positions[soup.indices[t]];
+    const V3f& b = soup.positions[soup.indices[t + 1]];
+    const V3f& c = soup.positions[soup.indices[t + 2]];
+    if ((b - a).cross(c - a).length2() == 0.f) {
       ++dropped;
       continue;
     }
-    soup.indices.insert(soup.indices.end(), {mesh.indices[t], mesh.indices[t + 1], mesh.indices[t + 2]});
+    std::copy_n(soup.indices.begin() + t, 3, soup.indices.begin() + kept);
+    kept += 3;
   }
-  if (dropped) scene.warnings.push_back(fmt::format("{}: {} zero-area or non-finite triangles dropped ({})",
+  soup.indices.resize(kept);
+  if (dropped) scene.warnings.push_back(fmt::format("{}: {} zero-area triangles dropped ({})",
                                                     soup.mesh_paths[0], dropped, path.string()));
-  for (V3f& p : mesh.positions)
-    if (!std::isfinite(p.x + p.y + p.z)) p = V3f(0.f);  // unreferenced now
-  soup.positions = std::move(mesh.positions);
-  soup.normals = std::move(mesh.normals);
   for (V3f& n : soup.normals) {
     const float length = n.length();
     n = length > 0.f && std::isfinite(length) ? n / length : V3f(0.f, 0.f, 1.f);
   }
-  soup.uvs = std::move(mesh.uvs);
   soup.material.assign(soup.triangle_count(), 0);
   soup.mesh.assign(soup.triangle_count(), 0);
   if (soup.triangle_count() == 0) throw SceneError(fmt::format("cannot read scene '{}': the Draco mesh has no triangles", path.string()));

@@ -1,6 +1,7 @@
 #include "server/ingest/scene_stream_decoder.h"
 
 #include "pbgi/v1/scene.pb.h"
+#include "server/ingest/coordinate_limit.h"
 #include "server/ingest/draco_mesh.h"
 #include "server/ingest/subdiv_cage_message.h"
 #include "server/ingest/texture_loader.h"
@@ -16,10 +17,13 @@
 #include <cstring>
 #include <string_view>
 #include <limits>
+#include <map>
+#include <optional>
 #include <unordered_map>
 #include <utility>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 namespace pbgi {
 namespace {
@@ -29,6 +33,55 @@ namespace {
 // even for zero bytes (found by fuzz_scene_stream under UBSan).
 void copy_bytes(void* to, std::string_view from) {
   if (!from.empty()) std::memcpy(to, from.data(), from.size());
+}
+
+// Packed float32 normals that shading can use: finite, within the
+// coordinate limit and not zero (so they can be normalized).
+bool usable_normals(std::string_view bytes) {
+  for (size_t off = 0; off + sizeof(V3f) <= bytes.size(); off += sizeof(V3f)) {
+    V3f n;
+    std::memcpy(static_cast<void*>(&n), bytes.data() + off, sizeof n);
+    if (!usable_values(n) || (n.x == 0.f && n.y == 0.f && n.z == 0.f)) return false;
+  }
+  return true;
+}
+
+// What the decoder left out of one prim because of unusable values, said
+// once per prim when the scene is finished.
+struct DroppedGeometry {
+  UnusableGeometry geometry;
+  bool normals = false;     // a chunk's normals were unusable: shaded flat
+  size_t cages = 0;         // refined subdivision surfaces left out whole
+  size_t instances = 0;     // placements that would move it beyond the limit
+};
+
+std::string describe(const std::string& prim, const DroppedGeometry& d, const std::string& source) {
+  std::vector<std::string> parts;
+  const UnusableGeometry& g = d.geometry;
+  if (g.vertices > 0)
+    parts.push_back(fmt::format("{} points and the {} triangles using them dropped", g.vertices, g.triangles));
+  if (d.cages > 0) parts.push_back(fmt::format("{} refined surface(s) skipped", d.cages));
+  if (d.instances > 0) parts.push_back(fmt::format("{} instance(s) skipped", d.instances));
+  if (d.normals) parts.push_back("normals ignored (geometric normals used)");
+  if (g.uvs > 0) parts.push_back(fmt::format("{} texture coordinates ignored", g.uvs));
+  if (g.colors > 0) parts.push_back(fmt::format("{} vertex colours ignored", g.colors));
+  return fmt::format("{}: values that are not finite or exceed +-{:g}: {} ({})", prim, kMaxSceneCoordinate,
+                     fmt::join(parts, ", "), source);
+}
+
+// True if the prototype's bounds placed by `m` stay within the coordinate
+// limit (the corners bound an affine image of the box). An empty
+// prototype places nothing.
+bool placement_usable(const Box3f& bounds, const M44f& m) {
+  if (bounds.isEmpty()) return true;
+  for (int corner = 0; corner < 8; ++corner) {
+    const V3f p((corner & 1) ? bounds.max.x : bounds.min.x, (corner & 2) ? bounds.max.y : bounds.min.y,
+                (corner & 4) ? bounds.max.z : bounds.min.z);
+    V3f q;
+    m.multVecMatrix(p, q);
+    if (!usable_values(q)) return false;
+  }
+  return true;
 }
 
 static_assert(std::endian::native == std::endian::little,
@@ -134,6 +187,7 @@ struct SoupBuild {
   bool any_normals = false;
   bool any_without_normals = false;
   bool sealed = false;  // a prototype with instances: no more geometry
+  std::optional<Box3f> bounds;  // a sealed prototype's, for its placements
   std::unordered_map<std::string, uint32_t> mesh_index;
 };
 
@@ -182,6 +236,7 @@ class SceneAssembler {
 
   Scene finish(const FramePosition& at) {
     remap_materials(at);
+    for (const auto& [prim, d] : dropped_) scene_.warnings.push_back(describe(prim, d, source_));
     for (size_t i = 0; i < builds_.size(); ++i)
       if (builds_[i].any_normals && builds_[i].any_without_normals) expand_flat_chunks(i);
     // The triangles of a subdivision surface depend on the refinement
@@ -263,12 +318,10 @@ class SceneAssembler {
     // V3f is three packed floats (asserted above); its user-declared
     // assignment does not change the layout.
     copy_bytes(soup.positions.data() + base, pos);
-    for (size_t v = base; v < soup.positions.size(); ++v) {
-      const V3f& p = soup.positions[v];
-      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-        fail(at, fmt::format("mesh {}: vertex {} is not finite", prim, v - base));
-    }
-    const bool has_normals = !nrm.empty();
+    // Unusable normals (not finite, zero, beyond the coordinate limit): the
+    // chunk is shaded flat, as the reader does with such normals.
+    const bool has_normals = !nrm.empty() && usable_normals(nrm);
+    if (!nrm.empty() && !has_normals) dropped_[prim].normals = true;
     if (has_normals) {
       // Zero-fills the vertices of earlier chunks without normals, if any.
       soup.normals.resize(base + vertex_count);
@@ -293,16 +346,18 @@ class SceneAssembler {
         fail(at, fmt::format("mesh {}: index {} out of range ({} vertices in the chunk)", prim, soup.indices[i], vertex_count));
       soup.indices[i] += static_cast<uint32_t>(base);
     }
+    // Non-finite or absurd coordinates go here, before anything sees them.
+    count_dropped(prim, drop_unusable_geometry(soup, base, first_index));
 
-    const size_t triangles = index_count / 3;
+    const size_t triangles = (soup.indices.size() - first_index) / 3;
     soup.mesh.insert(soup.mesh.end(), triangles, mesh_index(target, prim, m.double_sided()));
     // Stream ids for now; remap_materials turns them into indices.
     soup.material.insert(soup.material.end(), triangles, m.material_id());
-    build.chunks.push_back({static_cast<uint32_t>(base), static_cast<uint32_t>(vertex_count), first_index, index_count,
-                       has_normals});
-    // SceneEnd counts what the writer could count: packed arrays, not the
-    // triangles inside Draco blobs.
-    if (chunk.draco().empty()) streamed_triangles_ += triangles;
+    build.chunks.push_back({static_cast<uint32_t>(base), static_cast<uint32_t>(soup.positions.size() - base),
+                            first_index, soup.indices.size() - first_index, has_normals});
+    // SceneEnd counts what the writer could count: packed arrays (dropped
+    // triangles included), not the triangles inside Draco blobs.
+    if (chunk.draco().empty()) streamed_triangles_ += index_count / 3;
   }
 
   pbgi::v1::MeshChunk expand_draco_chunk(const pbgi::v1::MeshChunk& chunk, const FramePosition& at) const {
@@ -333,9 +388,8 @@ class SceneAssembler {
       const float length = n.length();
       n = length > 0.f && std::isfinite(length) ? n / length : V3f(0.f, 0.f, 1.f);
     }
-    // A file's mesh is not checked by the reader: keep only finite points.
-    for (const V3f& p : d.positions)
-      if (!std::isfinite(p.x + p.y + p.z)) fail(at, fmt::format("mesh {}: non-finite Draco positions", chunk.prim_path()));
+    // A file's mesh is not checked by the reader: mesh() drops its
+    // unusable points like any chunk's.
     pbgi::v1::MeshChunk m;
     m.set_prim_path(chunk.prim_path());
     m.set_material_id(chunk.material_id());
@@ -367,6 +421,15 @@ class SceneAssembler {
     values.resize(base, missing);
     values.resize(base + count);
     copy_bytes(values.data() + base, bytes);
+  }
+
+  void count_dropped(const std::string& prim, const UnusableGeometry& g) {
+    if (!g.any()) return;
+    UnusableGeometry& total = dropped_[prim].geometry;
+    total.vertices += g.vertices;
+    total.triangles += g.triangles;
+    total.uvs += g.uvs;
+    total.colors += g.colors;
   }
 
   // builds_[0] and the world soup; builds_[k] and prototypes[k - 1].
@@ -408,13 +471,22 @@ class SceneAssembler {
     // The prototype's triangle count is now part of the numbering.
     if (builds_[it->second + 1].any_normals && builds_[it->second + 1].any_without_normals)
       expand_flat_chunks(it->second + 1);
-    builds_[it->second + 1].sealed = true;
+    SoupBuild& build = builds_[it->second + 1];
+    build.sealed = true;
+    if (!build.bounds) {
+      build.bounds.emplace();
+      for (const V3f& p : soup_at(it->second + 1).positions) build.bounds->extendBy(p);
+    }
     for (size_t off = 0; off < bytes.size(); off += kMatrixBytes) {
       float v[16];
       std::memcpy(v, bytes.data() + off, kMatrixBytes);
       for (float x : v)
         if (!std::isfinite(x)) fail(at, fmt::format("instances {}: non-finite transform", b.prim_path()));
       const M44f m(v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], v[10], v[11], v[12], v[13], v[14], v[15]);
+      if (!placement_usable(*build.bounds, m)) {
+        ++dropped_[b.prim_path()].instances;
+        continue;
+      }
       try {
         scene_.add_instance(it->second, m);
       } catch (const SceneError& e) {
@@ -458,6 +530,12 @@ class SceneAssembler {
     }
     for (std::string& w : refined.warnings) scene_.warnings.push_back(std::move(w));
     if (refined.triangle_count() == 0) return;  // every face a hole
+    // Refinement only averages cage points, but a cage beyond the limit
+    // stays beyond it: the surface is left out whole.
+    if (!std::all_of(refined.positions.begin(), refined.positions.end(), usable_values<V3f>)) {
+      ++dropped_[prim].cages;
+      return;
+    }
 
     const size_t target = soup_for(m.prototype_id(), prim, at);
     TriangleSoup& soup = soup_at(target);
@@ -679,6 +757,7 @@ class SceneAssembler {
   bool unknown_reported_ = false;
   std::unordered_map<uint32_t, uint32_t> material_index_;
   std::unordered_map<uint32_t, uint32_t> prototype_index_;  // stream id -> Scene::prototypes index
+  std::map<std::string, DroppedGeometry> dropped_;  // by prim path, for finish()'s warnings
   std::vector<SoupBuild> builds_ = std::vector<SoupBuild>(1);  // [0] world, [k] prototypes[k - 1]
 };
 

@@ -9,6 +9,14 @@
 // chunks are refined as they arrive (server/ingest/subdivision.h) and their
 // refinement options are appended to Scene::content_hash.
 //
+// Values nothing downstream could use (server/ingest/coordinate_limit.h:
+// not finite, or beyond +-1e9) never leave the decoder: triangles using
+// such a point are dropped with the point, such normals make their chunk
+// flat-shaded, such uvs/colours become "none", a refined surface or an
+// instance placement reaching beyond the limit is skipped. One warning per
+// prim names it and what was left out (Scene::warnings, which reach
+// clients); the scene itself is still read.
+//
 // Not thread-safe; use one decoder per stream.
 #pragma once
 

@@ -11,6 +11,23 @@ namespace pbgi::storage {
 
 uint64_t checksum64(const void* data, size_t size);
 
+// checksum64 of bytes that arrive in pieces (a file streamed through a
+// buffer): digest() equals checksum64 over all of them concatenated.
+// Not copyable; one stream per thread.
+class Checksum64Stream {
+ public:
+  Checksum64Stream();
+  ~Checksum64Stream();
+  Checksum64Stream(const Checksum64Stream&) = delete;
+  Checksum64Stream& operator=(const Checksum64Stream&) = delete;
+
+  void update(const void* data, size_t size);
+  uint64_t digest() const;
+
+ private:
+  void* state_;  // XXH3_state_t, kept out of this header
+};
+
 // "0x%016x": how checksums appear in error messages.
 std::string checksum_hex(uint64_t c);
 

@@ -17,6 +17,7 @@ constexpr uint32_t fourcc(const char (&s)[5]) {
 
 inline constexpr uint32_t kPageMagic = fourcc("PBGP");      // each page of pages.pbgp
 inline constexpr uint32_t kManifestMagic = fourcc("PBGM");  // manifest.pbgm
+inline constexpr uint32_t kSceneEntryMagic = fourcc("PBGS");  // <cache>/ingested/<key>.pbgiscene
 
 // Page layout versions.
 //   V1 (retired, refused): 32-byte header, topology array (64 B/node),
@@ -76,6 +77,17 @@ inline constexpr uint32_t kManifestFormatLatest = kManifestFormatV4;   // the ne
 //   3: glossy senders: surfels of glossy materials carry a specular lobe
 //      and pages may carry glossy radiance (V3 manifest, kPageFlagGlossy).
 inline constexpr uint32_t kPageSetFormatVersion = 3;
+
+// Ingested-scene entry versions (server/ingest/scene_entry.h).
+//   1-3 (refused): no frame -- the bare SceneChunk stream, dependencies in a
+//       .deps sidecar, nothing checksummed. Their keys differ (the version
+//       is hashed into them), so they are never looked up; a file of that
+//       kind under a current key fails the magic.
+//   V4: 32-byte head (magic, version, dependency and body sizes, body
+//       checksum), the dependency lines, the head's XXH3-64, then the
+//       SceneChunk stream whose XXH3-64 the head holds.
+inline constexpr uint32_t kSceneEntryFormatV4 = 4;
+constexpr bool is_known_scene_entry_format(uint32_t v) { return v == kSceneEntryFormatV4; }
 
 // V1 pages are no longer read: their page sets are rebuilt (the build key
 // changed with kPageSetFormatVersion), so a V1 page is a VersionError.

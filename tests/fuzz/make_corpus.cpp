@@ -1,11 +1,15 @@
 // Writes the seed corpora of the fuzz targets that need binary inputs made
 // by pbgi itself (tests/fuzz/make_corpus.sh adds the text and USD-reader
-// ones): valid requests, and the pages and manifest of a tiny page set.
+// ones): valid requests, the pages and manifest of a tiny page set, and
+// ingested-scene entries (.pbgiscene) of the scene streams in the corpus.
 // Usage: fuzz_make_corpus <corpus dir>
 #include "pbgi/v1/pbgi.pb.h"
+#include "server/ingest/chunk_store.h"
+#include "server/ingest/usd_ingest.h"
 #include "storage/pages/page_set.h"
 #include "storage/tree/surfel.h"
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -89,6 +93,28 @@ void pages(const fs::path& dir) {
   fs::remove_all(tmp);
 }
 
+// Each <stream dir>/*.stream (the USD reader's output) decoded and stored as
+// the chunk store stores it: Draco meshes, every chunk kind the scene has.
+void scene_entries(const fs::path& streams, const fs::path& dir) {
+  const fs::path tmp = fs::temp_directory_path() / ("pbgi-corpus-entries-" + std::to_string(::getpid()));
+  pbgi::ChunkStoreOptions options;
+  options.directory = tmp;
+  const pbgi::ChunkStore store(options);
+  fs::create_directories(dir);
+  for (const auto& e : fs::directory_iterator(streams)) {
+    if (e.path().extension() != ".stream") continue;
+    const int fd = ::open(e.path().c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) continue;
+    const pbgi::Scene scene = pbgi::decode_scene_stream(fd, e.path().filename().string());
+    ::close(fd);
+    const std::string key = e.path().stem().string();
+    store.save(key, scene);
+    fs::copy_file(store.entry_path(key), dir / (key + ".pbgiscene"), fs::copy_options::overwrite_existing);
+    std::printf("scene entry %s.pbgiscene: %ju bytes\n", key.c_str(), uintmax_t(fs::file_size(store.entry_path(key))));
+  }
+  fs::remove_all(tmp);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -99,5 +125,6 @@ int main(int argc, char** argv) {
   const fs::path root = argv[1];
   requests(root / "fuzz_gather_request");
   pages(root / "fuzz_page_reader");
+  scene_entries(root / "fuzz_scene_stream", root / "fuzz_scene_entry");
   return 0;
 }

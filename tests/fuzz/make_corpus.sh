@@ -5,14 +5,14 @@
 #                                          pages and manifest of a tiny page set)
 #   fuzz_daemon_config                     the example config and a few snippets
 #   fuzz_scene_stream                      the USD reader's output on the small test scenes
+#   fuzz_scene_entry                       those streams stored as .pbgiscene entries
+#                                          (fuzz_make_corpus, after the streams)
 # Usage: tests/fuzz/make_corpus.sh [BUILD_DIR]   (a build with fuzz_make_corpus built)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 BUILD=${1:-build}
 CORPUS=tests/fuzz/corpus
 PY=${PBGI_PYTHON:-.venv/bin/python3}
-
-"$BUILD/fuzz/fuzz_make_corpus" "$CORPUS"
 
 mkdir -p "$CORPUS/fuzz_daemon_config"
 cp config/pbgid.toml "$CORPUS/fuzz_daemon_config/pbgid_example.toml"
@@ -27,4 +27,6 @@ mkdir -p "$CORPUS/fuzz_scene_stream"
 for scene in scenes/cornell.usda scenes/subdiv_test.usda; do
   PYTHONPATH="$BUILD/python" "$PY" server/ingest/usd_reader.py "$scene" > "$CORPUS/fuzz_scene_stream/$(basename "$scene" .usda).stream"
 done
+
+"$BUILD/fuzz/fuzz_make_corpus" "$CORPUS"
 du -sh "$CORPUS"/*

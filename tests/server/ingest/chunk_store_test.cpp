@@ -6,9 +6,11 @@
 
 #include "pbgi/v1/scene.pb.h"
 #include "storage/format/errors.h"
+#include "tests/server/ingest/scene_frames.h"
 
 #include <fcntl.h>
 #include <gtest/gtest.h>
+#include <spdlog/spdlog.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -17,6 +19,9 @@
 #include <cmath>
 #include <fstream>
 #include <iostream>
+#include <iterator>
+#include <limits>
+#include <optional>
 
 namespace pbgi {
 namespace {
@@ -345,12 +350,7 @@ TEST(Draco, CorruptDracoMeshChunkIsASceneErrorNamingTheMesh) {
   const fs::path path = temp_dir() / "corrupt.stream";
   {
     std::ofstream out(path, std::ios::binary);
-    auto frame = [&](const pbgi::v1::SceneChunk& c) {
-      const std::string data = c.SerializeAsString();
-      const uint32_t n = static_cast<uint32_t>(data.size());
-      out.write(reinterpret_cast<const char*>(&n), 4);  // little-endian host (asserted by the decoder)
-      out << data;
-    };
+    auto frame = [&](const pbgi::v1::SceneChunk& c) { out << test::framed(c); };
     pbgi::v1::SceneChunk c;
     c.mutable_header()->set_content_hash("h");
     c.mutable_header()->set_meters_per_unit(1.0);
@@ -372,6 +372,226 @@ TEST(Draco, CorruptDracoMeshChunkIsASceneErrorNamingTheMesh) {
     EXPECT_NE(std::string(e.what()).find("/Broken"), std::string::npos) << e.what();
   }
   ::close(fd);
+}
+
+// Issue 17: positions spanning more than the float range made Draco's
+// entropy coder read out of bounds (a segfault in ComputeShannonEntropy,
+// taking the daemon down). The encoder refuses such values itself.
+TEST(Draco, ValuesSpanningMoreThanTheFloatRangeAreRefusedNotACrash) {
+  DracoMesh m;
+  m.positions = {V3f(3e38f, 0, 0), V3f(-3e38f, 3e38f, 0), V3f(0, 0, -3e38f)};
+  m.indices = {0, 1, 2};
+  EXPECT_THROW(encode_draco_mesh(m, DracoOptions{}), InvalidArgument);
+  m.positions = {V3f(0, 0, 0), V3f(1, 0, 0), V3f(0, std::numeric_limits<float>::infinity(), 0)};
+  EXPECT_THROW(encode_draco_mesh(m, DracoOptions{}), InvalidArgument);
+  m.positions = {V3f(0, 0, 0), V3f(1, 0, 0), V3f(0, 1, 0)};
+  m.uvs = {V2f(3e38f, 0), V2f(-3e38f, 0), V2f(0, 0)};
+  EXPECT_THROW(encode_draco_mesh(m, DracoOptions{}), InvalidArgument);
+  m.uvs.clear();
+  EXPECT_FALSE(encode_draco_mesh(m, DracoOptions{}).empty());
+}
+
+// The issue's scene, end to end: the huge triangle (as a plain mesh and as a
+// subdivision cage) is skipped with a warning naming its prim; the scene
+// opens, is stored and reopens from the store.
+TEST(ChunkStore, CoordinatesBeyondTheFloatRangeAreSkippedNotACrash) {
+  const fs::path dir = temp_dir() / "huge";
+  fs::create_directories(dir);
+  std::ofstream(dir / "huge.usda") << R"(#usda 1.0
+def Mesh "Huge"
+{
+    uniform token subdivisionScheme = "none"
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(3e38, 0, 0), (-3e38, 3e38, 0), (0, 0, -3e38)]
+}
+def Mesh "HugeCage"
+{
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(3e38, 0, 0), (-3e38, 3e38, 0), (0, 0, -3e38)]
+}
+def Mesh "Floor"
+{
+    uniform token subdivisionScheme = "none"
+    int[] faceVertexCounts = [4]
+    int[] faceVertexIndices = [0, 1, 2, 3]
+    point3f[] points = [(-5, 0, -5), (-5, 0, 5), (5, 0, 5), (5, 0, -5)]
+}
+)";
+  ChunkStoreOptions store_options;
+  store_options.directory = dir / "store";
+  const ChunkStore store(store_options);
+  bool from_store = true;
+  const Scene first = read_usd_scene_cached(dir / "huge.usda", IngestOptions{}, store, {}, &from_store);
+  EXPECT_FALSE(from_store);
+  const Scene second = read_usd_scene_cached(dir / "huge.usda", IngestOptions{}, store, {}, &from_store);
+  EXPECT_TRUE(from_store);
+  for (const Scene* s : {&first, &second}) {
+    const TriangleSoup& t = s->triangles;
+    ASSERT_EQ(t.triangle_count(), 2u);
+    for (size_t i = 0; i < t.triangle_count(); ++i) EXPECT_EQ(t.mesh_paths[t.mesh[i]], "/Floor");
+    for (const char* prim : {"/Huge: ", "/HugeCage: "})
+      EXPECT_TRUE(std::any_of(s->warnings.begin(), s->warnings.end(), [&](const std::string& w) {
+        return w.rfind(prim, 0) == 0 && w.find("exceed") != std::string::npos;
+      })) << prim << ::testing::PrintToString(s->warnings);
+  }
+  EXPECT_EQ(second.warnings, first.warnings);
+}
+
+// A small scene of every kind of chunk, made in memory (no reader).
+Scene flips_scene() {
+  Scene s;
+  s.source_path = "/scenes/flips.usda";
+  s.content_hash = "flips";
+  s.meters_per_unit = 1.0;
+  s.materials.resize(2);
+  s.materials[0].prim_path = "/Looks/Red";
+  s.materials[0].albedo = C3f(0.8f, 0.1f, 0.1f);
+  s.materials[1].prim_path = "/Looks/Lamp";
+  s.materials[1].emission = C3f(4.f, 4.f, 3.f);
+  TriangleSoup& t = s.triangles;
+  t.positions = {V3f(0, 0, 0), V3f(2, 0, 0), V3f(2, 2, 0), V3f(0, 2, 0), V3f(1, 1, 1), V3f(1.5f, 1, 1), V3f(1, 1.5f, 1)};
+  t.normals.assign(t.positions.size(), V3f(0, 0, 1));
+  t.uvs = {V2f(0, 0), V2f(1, 0), V2f(1, 1), V2f(0, 1), V2f(0, 0), V2f(1, 0), V2f(0, 1)};
+  t.indices = {0, 1, 2, 0, 2, 3, 4, 5, 6};
+  t.material = {0, 0, 1};
+  t.mesh = {0, 0, 1};
+  t.mesh_paths = {"/Floor", "/Lamp"};
+  t.double_sided = {0, 1};
+  s.prototypes.resize(1);
+  s.prototypes[0].prim_path = "/Proto";
+  TriangleSoup& p = s.prototypes[0].triangles;
+  p.positions = {V3f(0, 0, 0), V3f(0.5f, 0, 0), V3f(0, 0.5f, 0)};
+  p.indices = {0, 1, 2};
+  p.material = {0};
+  p.mesh = {0};
+  p.mesh_paths = {"/Proto/Tri"};
+  p.double_sided = {0};
+  M44f at;
+  at.setTranslation(V3f(3, 0, 0));
+  s.add_instance(0, at);
+  at.setTranslation(V3f(4, 0, 0));
+  s.add_instance(0, at);
+  Light l;
+  l.prim_path = "/Key";
+  l.radiance = C3f(5, 5, 5);
+  s.lights.push_back(l);
+  Camera c;
+  c.prim_path = "/Cam";
+  c.local_to_world.setTranslation(V3f(0, 0, 9));
+  s.cameras[c.prim_path] = c;
+  s.warnings = {"/Floor: a warning that must survive"};
+  return s;
+}
+
+std::string file_bytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// Issue 17: 6 of 17 single-bit flips in a stored entry loaded as a
+// different scene. Now every flip of every bit is refused and the entry
+// removed, so the caller ingests the scene again.
+TEST(ChunkStore, EverySingleBitFlipIsRefusedAndTheEntryRemoved) {
+  ChunkStoreOptions store_options;
+  store_options.directory = temp_dir() / "flips";
+  const ChunkStore store(store_options);
+  const std::string key = store.key("flips", IngestOptions{});
+  store.save(key, flips_scene());
+  const std::string pristine = file_bytes(store.entry_path(key));
+  const std::optional<Scene> loaded = store.load(key);
+  ASSERT_TRUE(loaded.has_value());
+  EXPECT_EQ(loaded->triangle_count(), 5u);
+  EXPECT_EQ(loaded->warnings, flips_scene().warnings);
+
+  // One warning per refused entry: thousands here.
+  struct QuietLog {
+    spdlog::level::level_enum was = spdlog::get_level();
+    QuietLog() { spdlog::set_level(spdlog::level::err); }
+    ~QuietLog() { spdlog::set_level(was); }
+  } quiet;
+  // Whatever else the store keeps beside the entry is restored before each
+  // flip, so that every load sees one flipped bit and nothing else.
+  std::vector<std::pair<fs::path, std::string>> files;
+  for (const auto& e : fs::directory_iterator(store_options.directory))
+    if (e.path() != store.entry_path(key)) files.emplace_back(e.path(), file_bytes(e.path()));
+  size_t served = 0;
+  std::vector<size_t> served_bits;
+  for (size_t bit = 0; bit < 8 * pristine.size(); ++bit) {
+    for (const auto& [path, bytes] : files) std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+    std::string damaged = pristine;
+    damaged[bit / 8] = char(damaged[bit / 8] ^ (1 << (bit % 8)));
+    std::ofstream(store.entry_path(key), std::ios::binary | std::ios::trunc) << damaged;
+    if (store.load(key).has_value()) {
+      ++served;
+      if (served_bits.size() < 10) served_bits.push_back(bit);
+      continue;
+    }
+    ASSERT_FALSE(store.contains(key)) << "bit " << bit << ": a refused entry is removed";
+  }
+  EXPECT_EQ(served, 0u) << "of " << 8 * pristine.size() << " flipped bits, e.g. "
+                        << ::testing::PrintToString(served_bits);
+}
+
+// Entries of older builds (a bare SceneChunk stream, no magic) and of
+// unknown versions are refused, never misread, and removed.
+TEST(ChunkStore, OtherLayoutsAndVersionsAreRefusedAndRemoved) {
+  ChunkStoreOptions store_options;
+  store_options.directory = temp_dir() / "layouts";
+  const ChunkStore store(store_options);
+  const std::string key = store.key("layouts", IngestOptions{});
+
+  pbgi::v1::SceneChunk c;
+  c.mutable_header()->set_content_hash("layouts");
+  c.mutable_header()->set_meters_per_unit(1.0);
+  std::string bare = test::framed(c);
+  c.Clear();
+  c.mutable_end()->set_chunk_count(1);
+  bare += test::framed(c);
+  std::ofstream(store.entry_path(key), std::ios::binary) << bare;
+  EXPECT_FALSE(store.load(key).has_value());
+  EXPECT_FALSE(store.contains(key));
+
+  store.save(key, flips_scene());
+  std::string entry = file_bytes(store.entry_path(key));
+  ASSERT_EQ(entry.substr(0, 4), "PBGS");
+  entry[4] = 5;  // format version 5 (little-endian u32 at offset 4)
+  std::ofstream(store.entry_path(key), std::ios::binary | std::ios::trunc) << entry;
+  EXPECT_FALSE(store.load(key).has_value());
+  EXPECT_FALSE(store.contains(key));
+}
+
+// The flip the issue measured in pixels (a material colour), through the
+// engine's entry point: the damaged entry is not served, the scene is
+// ingested again and equals the first read exactly.
+TEST(ChunkStore, ADamagedEntryIsIngestedAgainNotServed) {
+  const fs::path scene_path = temp_dir() / "damaged.usda";
+  std::ofstream(scene_path) << kStoredScene;
+  ChunkStoreOptions store_options;
+  store_options.directory = temp_dir() / "damaged";
+  const ChunkStore store(store_options);
+  bool from_store = true;
+  const Scene first = read_usd_scene_cached(scene_path, IngestOptions{}, store, {}, &from_store);
+  ASSERT_FALSE(from_store);
+  const fs::path entry = store.entry_path(store.key(usd_content_hash(scene_path, IngestOptions{}), IngestOptions{}));
+  // /Looks/Shiny's diffuseColor.y = 0.3f: field 2 of a Vec3 (tag 0x15), then the float.
+  std::string bytes = file_bytes(entry);
+  const float y = 0.3f;
+  const size_t at = bytes.find("\x15" + std::string(reinterpret_cast<const char*>(&y), 4));
+  ASSERT_NE(at, std::string::npos);
+  bytes[at + 1] = char(bytes[at + 1] ^ 1);  // the lowest mantissa bit: 0.3 -> 0.30000001
+  std::ofstream(entry, std::ios::binary | std::ios::trunc) << bytes;
+
+  const Scene again = read_usd_scene_cached(scene_path, IngestOptions{}, store, {}, &from_store);
+  EXPECT_FALSE(from_store);
+  ASSERT_EQ(again.materials.size(), first.materials.size());
+  for (size_t m = 0; m < first.materials.size(); ++m) EXPECT_EQ(again.materials[m].albedo, first.materials[m].albedo);
+  ASSERT_EQ(again.triangles.positions.size(), first.triangles.positions.size());
+  EXPECT_TRUE(std::equal(again.triangles.positions.begin(), again.triangles.positions.end(),
+                         first.triangles.positions.begin()));
+  read_usd_scene_cached(scene_path, IngestOptions{}, store, {}, &from_store);
+  EXPECT_TRUE(from_store) << "the rebuilt entry is stored";
 }
 
 TEST(ChunkStore, OptionsAreValidated) {

@@ -10,7 +10,10 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
+#include <limits>
 #include <thread>
 #include <vector>
 
@@ -356,6 +359,69 @@ TEST(SceneStreamDecoder, InstancingErrorsNameTheFrame) {
   torn.pop_back();
   expect_scene_error(head + frame(prototype_chunk(1, "/P")) + frame(instances_chunk(1, torn)) + frame(end_chunk(4, 0)),
                      {"not a multiple of 64"});
+}
+
+// Issue 17: a triangle spanning more than the float range crashed the
+// daemon in the chunk store's Draco encoder. The decoder lets no such value
+// through: the triangles using a non-finite or absurd point (beyond 1e9)
+// are dropped with the point, said once per prim; the rest of the mesh and
+// of the scene stays.
+TEST(SceneStreamDecoder, UnusableCoordinatesDropTheirTrianglesWithAWarning) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  SceneChunk huge;
+  auto* m = huge.mutable_mesh();
+  m->set_prim_path("/Huge");
+  // Vertices 0-2: the issue's triangle; 3-5 a good one; 6 NaN, used with 3, 4.
+  m->set_positions(bytes(std::vector<float>{3e38f, 0, 0, -3e38f, 3e38f, 0, 0, 0, -3e38f, 0, 0, 0, 1, 0, 0, 0, 1, 0,
+                                            nan, 0, 0}));
+  m->set_normals(bytes(std::vector<float>{0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1}));
+  m->set_uvs(bytes(std::vector<float>{0, 0, 1, 0, 0, 1, 0, 0, 1e30f, 0, 0, 1, 0, 0}));
+  m->set_indices(bytes(std::vector<uint32_t>{0, 1, 2, 3, 4, 5, 3, 4, 6}));
+  SceneChunk flat = triangle_chunk("/BadNormals", 0, true);
+  flat.mutable_mesh()->set_normals(bytes(std::vector<float>{0, 0, 1, 0, 0, 0, 0, 0, 1}));  // a zero normal
+  const std::string data = frame(header_chunk()) + frame(material_chunk(0, 1, 1, 1)) + frame(huge) +
+                           frame(triangle_chunk("/Good", 0, true)) + frame(flat) + frame(end_chunk(5, 5));
+  const Scene s = decode(data);
+  const TriangleSoup& t = s.triangles;
+  ASSERT_EQ(t.triangle_count(), 3u);  // /Huge's good triangle, /Good, /BadNormals
+  EXPECT_EQ(t.mesh_paths[t.mesh[0]], "/Huge");
+  for (const V3f& p : t.positions)
+    for (int k = 0; k < 3; ++k) EXPECT_LE(std::abs(p[k]), 1e9f) << p;
+  ASSERT_EQ(t.uvs.size(), t.positions.size());
+  EXPECT_TRUE(std::isnan(t.uvs[t.indices[1]].x)) << "uv 1e30 is none";
+  EXPECT_EQ(t.uvs[t.indices[0]], V2f(0, 0));
+  // /BadNormals is shaded flat: its vertices carry the geometric normal.
+  ASSERT_EQ(t.normals.size(), t.positions.size());
+  EXPECT_EQ(t.normals[t.indices[7]], V3f(0, 0, 1));
+  auto warned = [&](const std::string& prim, const std::string& what) {
+    return std::count_if(s.warnings.begin(), s.warnings.end(), [&](const std::string& w) {
+      return w.rfind(prim + ": ", 0) == 0 && w.find(what) != std::string::npos;
+    });
+  };
+  EXPECT_EQ(warned("/Huge", "4 points and the 2 triangles using them dropped"), 1) << ::testing::PrintToString(s.warnings);
+  EXPECT_EQ(warned("/Huge", "1 texture coordinates ignored"), 1);
+  EXPECT_EQ(warned("/BadNormals", "normals ignored"), 1);
+  EXPECT_EQ(warned("/Good", ""), 0);
+}
+
+// An instance that would place its prototype beyond the limit is skipped
+// (with a warning naming the instancer); the others stay.
+TEST(SceneStreamDecoder, InstancesPlacedBeyondTheLimitAreSkipped) {
+  SceneChunk proto_mesh = triangle_chunk("/Proto/Tri", 0, true);
+  proto_mesh.mutable_mesh()->set_prototype_id(1);
+  std::vector<float> placements = translations({10, 3e9f, 20});
+  placements[16 + 0] = 1e30f;  // the second one also scaled absurdly
+  const std::string data = frame(header_chunk()) + frame(material_chunk(0, 1, 1, 1)) + frame(prototype_chunk(1, "/Proto")) +
+                           frame(proto_mesh) + frame(instances_chunk(1, placements)) + frame(end_chunk(5, 1));
+  const Scene s = decode(data);
+  ASSERT_EQ(s.instances.size(), 2u);
+  EXPECT_EQ(s.triangle(1).position(1), V3f(21, 0, 0));
+  EXPECT_EQ(std::count_if(s.warnings.begin(), s.warnings.end(),
+                          [](const std::string& w) {
+                            return w.rfind("/Instancer: ", 0) == 0 && w.find("1 instance(s) skipped") != std::string::npos;
+                          }),
+            1)
+      << ::testing::PrintToString(s.warnings);
 }
 
 }  // namespace

@@ -45,6 +45,8 @@ TEST(ByteOrder, MagicsReadAsLetters) {
   EXPECT_EQ(std::string(reinterpret_cast<char*>(b), 4), "PBGP");
   store_le<uint32_t>(b, kManifestMagic);
   EXPECT_EQ(std::string(reinterpret_cast<char*>(b), 4), "PBGM");
+  store_le<uint32_t>(b, kSceneEntryMagic);
+  EXPECT_EQ(std::string(reinterpret_cast<char*>(b), 4), "PBGS");
 }
 
 TEST(ByteStream, RoundTripAndTruncation) {
@@ -79,6 +81,18 @@ TEST(Checksum, IsXxh3Of64Bits) {
   // XXH3_64bits of the empty input (seed 0), from the xxHash test vectors.
   EXPECT_EQ(checksum64("", 0), 0x2D06800538D394C2ull);
   EXPECT_EQ(checksum_hex(0x2D06800538D394C2ull), "0x2d06800538d394c2");
+}
+
+TEST(Checksum, StreamedInPiecesEqualsOneShot) {
+  std::vector<uint8_t> bytes(5000);
+  std::iota(bytes.begin(), bytes.end(), uint8_t(3));
+  Checksum64Stream empty;
+  EXPECT_EQ(empty.digest(), checksum64("", 0));
+  Checksum64Stream pieces;
+  for (size_t off = 0; off < bytes.size(); off += 777)
+    pieces.update(bytes.data() + off, std::min<size_t>(777, bytes.size() - off));
+  pieces.update(nullptr, 0);
+  EXPECT_EQ(pieces.digest(), checksum64(bytes.data(), bytes.size()));
 }
 
 std::vector<uint8_t> sample_page(uint32_t id, uint16_t version = kPageFormatCurrent) {
