@@ -27,8 +27,9 @@ using Clock = std::chrono::steady_clock;
 // Minutes of sampling on two cores: a build that is still running whenever
 // a test stops it (well inside the default limits).
 constexpr uint64_t kEndlessBuild = 20'000'000;
-// Far longer than any wait below: what a test sees happen within it is
-// what the daemon did, not a build that ended by itself.
+// How long a dropped build may take to be gone: far shorter than
+// kEndlessBuild takes, so what a test sees happen within it is the
+// daemon's doing, not a build that ended by itself.
 constexpr auto kCleanupLimit = std::chrono::seconds(10);
 
 // Polls `done` every 50 ms for up to `limit`.
