@@ -148,9 +148,12 @@ void Daemon::start() {
     ChunkStoreOptions store;
     store.directory = cache_dir / "ingested";
     context.ingested = std::make_shared<const ChunkStore>(store);
+    // Every build is bounded, whoever asks for it (--preload included).
+    context.max_surfels = options_.service.limits.max_surfels;
+    context.staging_quota = std::make_shared<storage::StagingQuota>(options_.staging_quota_bytes());
     opener_ = [context](const fs::path& path, const OpenOptions& options,
-                        const service::StageSelection& selection,
-                        const StageProgress& progress) -> std::shared_ptr<SceneSession> {
+                        const service::StageSelection& selection, const StageProgress& progress,
+                        const std::function<bool()>& cancelled) -> std::shared_ptr<SceneSession> {
       // Variants and a time code are part of the scene's content hash,
       // hence of its stored ingest, page set and scene_id.
       IngestOptions composition;
@@ -159,7 +162,7 @@ void Daemon::start() {
         composition.time_code = *selection.time_code;
         composition.use_time_code = true;
       }
-      return open_scene(path, options, context, progress, std::move(composition));
+      return open_scene(path, options, context, progress, std::move(composition), cancelled);
     };
   }
 

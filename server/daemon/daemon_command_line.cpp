@@ -17,9 +17,10 @@ CommandLine parse_command_line(int argc, const char* const* argv, const Environm
   // and the environment only if given, so that flags win.
   std::string config, listen, cache_dir, memory_budget, log_level, python;
   std::string tls_cert, tls_key, tls_client_ca, token_file, metrics_listen, log_format;
-  std::string scene_memory_budget;
+  std::string scene_memory_budget, staging_quota;
   std::vector<std::string> scene_roots, preload;
   uint32_t threads = 0, max_in_flight = 0, max_queued = 0;
+  uint64_t max_surfels = 0;
   double grace = 0;
   bool print_config = false, allow_insecure_remote = false;
 
@@ -57,6 +58,12 @@ CommandLine parse_command_line(int argc, const char* const* argv, const Environm
                                      "gathers/tiles computed at once (0 = 2 x threads)");
   auto* o_queued = app.add_option("--max-queued", max_queued,
                                   "more waiting; beyond, RESOURCE_EXHAUSTED + retry hint");
+  auto* o_max_surfels = app.add_option("--max-surfels", max_surfels,
+                                      "surfels one scene build may produce; more: RESOURCE_EXHAUSTED "
+                                      "(0 = no limit)");
+  auto* o_staging_quota = app.add_option("--staging-quota", staging_quota,
+                                         "disk the builds in progress may stage together, e.g. 32GiB "
+                                         "(0 = no limit)");
   app.add_flag("--print-config", print_config, "print the effective config as TOML and exit");
 
   CommandLine result;
@@ -98,6 +105,8 @@ CommandLine parse_command_line(int argc, const char* const* argv, const Environm
     if (o_metrics->count()) options.metrics_listen = metrics_listen;
     if (o_format->count()) options.log_format = log_format;
     if (o_scene_budget->count()) options.scene_memory_budget = scene_memory_budget;
+    if (o_max_surfels->count()) options.service.limits.max_surfels = max_surfels;
+    if (o_staging_quota->count()) options.staging_quota = staging_quota;
 
     options.validate();
     if (print_config) {

@@ -173,6 +173,10 @@ uint64_t DaemonOptions::scene_memory_budget_bytes() const {
   return parse_byte_size(scene_memory_budget, "scene_memory_budget");
 }
 
+uint64_t DaemonOptions::staging_quota_bytes() const {
+  return parse_byte_size(staging_quota, "staging_quota");
+}
+
 uint64_t DaemonOptions::max_message_bytes() const {
   return parse_byte_size(max_message_size, "limits.max_message_size");
 }
@@ -202,6 +206,7 @@ void DaemonOptions::validate() const {
     throw InvalidArgument(fmt::format("log_format '{}' is not text or json", log_format));
   }
   scene_memory_budget_bytes();
+  staging_quota_bytes();
   if (cache_dir.empty()) throw InvalidArgument("cache_dir is empty");
   if (memory_budget_bytes() < (1u << 20)) {
     throw InvalidArgument(fmt::format("memory_budget '{}' is below 1MiB", memory_budget));
@@ -255,6 +260,7 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
   top.read("allow_insecure_remote", out.allow_insecure_remote);
   top.read("shutdown_grace_seconds", out.shutdown_grace_seconds);
   top.read("scene_memory_budget", out.scene_memory_budget);
+  top.read("staging_quota", out.staging_quota);
   top.read("log_format", out.log_format);
   top.read("metrics_listen", out.metrics_listen);
 
@@ -342,6 +348,7 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
     limits.read("max_tiles_per_call", l.max_tiles_per_call);
     limits.read("max_in_flight", l.max_in_flight);
     limits.read("max_queued", l.max_queued);
+    limits.read("max_surfels", l.max_surfels);
     limits.reject_unknown();
   }
   top.reject_unknown();
@@ -389,6 +396,7 @@ std::string to_toml(const DaemonOptions& o) {
   out << "allow_insecure_remote = " << (o.allow_insecure_remote ? "true" : "false") << '\n';
   float_value("shutdown_grace_seconds", o.shutdown_grace_seconds);
   string_value("scene_memory_budget", o.scene_memory_budget);
+  string_value("staging_quota", o.staging_quota);
   string_value("log_format", o.log_format);
   string_value("metrics_listen", o.metrics_listen);
 
@@ -448,6 +456,7 @@ std::string to_toml(const DaemonOptions& o) {
   integer_value("max_tiles_per_call", l.max_tiles_per_call);
   integer_value("max_in_flight", l.max_in_flight);
   integer_value("max_queued", l.max_queued);
+  integer_value("max_surfels", l.max_surfels);
 
   out << "\n[security]\n";
   string_value("tls_cert", o.tls_cert);
@@ -502,7 +511,8 @@ bool operator==(const DaemonOptions& a, const DaemonOptions& b) {
          a.preload == b.preload && a.allow_insecure_remote == b.allow_insecure_remote &&
          a.shutdown_grace_seconds == b.shutdown_grace_seconds &&
          a.max_message_size == b.max_message_size &&
-         a.scene_memory_budget == b.scene_memory_budget && a.log_format == b.log_format &&
+         a.scene_memory_budget == b.scene_memory_budget && a.staging_quota == b.staging_quota &&
+         a.log_format == b.log_format && la.max_surfels == lb.max_surfels &&
          a.metrics_listen == b.metrics_listen && a.tls_cert == b.tls_cert &&
          a.tls_key == b.tls_key && a.tls_client_ca == b.tls_client_ca &&
          a.auth_token_file == b.auth_token_file && a.auth_token == b.auth_token &&

@@ -4,8 +4,8 @@
 //
 // TOML layout (config/pbgid.toml is a commented example):
 //   listen, scene_roots, cache_dir, memory_budget, scene_memory_budget,
-//   threads, log_level, log_format, python, preload, allow_insecure_remote,
-//   shutdown_grace_seconds, metrics_listen
+//   staging_quota, threads, log_level, log_format, python, preload,
+//   allow_insecure_remote, shutdown_grace_seconds, metrics_listen
 //   [security] tls_cert, tls_key, tls_client_ca, auth_token_file
 //   [gather]  microbuffer_resolution, max_solid_angle, ao_max_distance,
 //             light_samples, pixel_samples, method ("pbgi" | "fpbgi"),
@@ -15,7 +15,7 @@
 //             lut_sample_fraction, bounces, bounce_splatting,
 //             bounce_view_solid_angle                 (OpenScene defaults)
 //   [limits]  max_receivers, max_image_side, max_tile_pixels, max_message_size,
-//             max_tiles_per_call, max_in_flight, max_queued
+//             max_tiles_per_call, max_in_flight, max_queued, max_surfels
 // Unknown keys are errors (a typo must not silently use a default).
 #pragma once
 
@@ -52,6 +52,13 @@ struct DaemonOptions {
   // Whole scenes (geometry + ray structure, estimated) are unloaded least
   // recently used first above this; "0" = never.
   std::string scene_memory_budget = "0";
+  // What the staging directories of all builds in progress may hold on
+  // disk together (sort runs, pages being written), with K/M/G suffixes;
+  // "0" = no limit. A build that would pass it stops with
+  // RESOURCE_EXHAUSTED and removes what it staged. The default holds a
+  // build of limits.max_surfels' default (200 M surfels: ~96 B per surfel
+  // of sort runs and ~33 B per surfel of pages).
+  std::string staging_quota = "32GiB";
   // "text" or "json" (one JSON object per line, for log collectors).
   std::string log_format = "text";
   // "HOST:PORT" of the Prometheus text endpoint (GET /metrics); "" = none.
@@ -64,7 +71,9 @@ struct DaemonOptions {
   // The token itself, from PBGI_AUTH_TOKEN only (never written to a config
   // or printed); auth_token_file wins if both are set.
   std::string auth_token;
-  // On SIGTERM/SIGINT, in-flight requests get this long before cancellation.
+  // On SIGTERM/SIGINT, in-flight requests (scene builds included) get this
+  // long before they are cancelled; the daemon exits once they have
+  // stopped (within a batch of work). A second signal exits at once.
   double shutdown_grace_seconds = 10.0;
   // Largest gRPC message accepted or sent (a 1M-receiver Gather is 24 MB).
   std::string max_message_size = "64MiB";
@@ -78,6 +87,7 @@ struct DaemonOptions {
   uint64_t memory_budget_bytes() const;      // throws InvalidArgument
   uint64_t max_message_bytes() const;        // throws InvalidArgument
   uint64_t scene_memory_budget_bytes() const;  // throws InvalidArgument
+  uint64_t staging_quota_bytes() const;        // throws InvalidArgument
   bool tls() const { return !tls_cert.empty(); }
   // Checks every field; throws pbgi::InvalidArgument naming the key.
   void validate() const;

@@ -1,13 +1,17 @@
 // pbgid: the PBGI daemon. Thin: parse the command line, start the Daemon,
-// wait for SIGTERM/SIGINT, drain.
+// wait for SIGTERM/SIGINT, drain; a second signal during the drain exits at
+// once (what is left staged is removed by the next build, StagingDir).
 #include "server/daemon/daemon.h"
 #include "server/daemon/daemon_command_line.h"
 
 #include <spdlog/spdlog.h>
 
+#include <atomic>
 #include <csignal>
+#include <cstdlib>
 #include <cstring>
 #include <iostream>
+#include <thread>
 #include <pthread.h>
 
 int main(int argc, char** argv) {
@@ -38,7 +42,23 @@ int main(int argc, char** argv) {
         static_cast<int64_t>(options.shutdown_grace_seconds * 1000.0));
     spdlog::info("{}: draining for up to {} s", strsignal(signal_number),
                  options.shutdown_grace_seconds);
-    daemon.shutdown(grace);
+    // The drain runs on its own thread so that this one can take a second
+    // signal: the operator's (or the service manager's) "now".
+    std::atomic<bool> drained{false};
+    std::thread drain([&] {
+      daemon.shutdown(grace);
+      drained = true;
+    });
+    while (!drained) {
+      const timespec poll{0, 50'000'000};
+      const int again = sigtimedwait(&signals, nullptr, &poll);
+      if (again > 0) {
+        spdlog::warn("{} again: exiting without waiting for in-flight requests", strsignal(again));
+        spdlog::default_logger()->flush();
+        std::_Exit(128 + again);
+      }
+    }
+    drain.join();
     spdlog::info("stopped");
   } catch (const std::exception& e) {
     spdlog::critical("{}", e.what());

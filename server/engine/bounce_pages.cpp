@@ -1,5 +1,7 @@
 #include "server/engine/bounce_pages.h"
 
+#include "storage/format/errors.h"
+
 #include <Imath/ImathColor.h>
 
 #include <vector>
@@ -23,9 +25,11 @@ storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
                                         const Imath::Box3f& bounds,
                                         const BounceGlossy& glossy,
                                         const std::function<void(float)>& progress,
-                                        const std::function<bool()>& cancelled) {
+                                        const std::function<bool()>& cancelled,
+                                        std::shared_ptr<storage::StagingQuota> staging_quota) {
   options.validate();
   storage::PageSetBuilder builder(tree_options, build_key, dir, bounds);
+  builder.set_staging_quota(std::move(staging_quota));
   if (glossy.shader) builder.set_glossy_shader(glossy.shader);
   std::vector<Surfel> batch;
   std::vector<Imath::C3f> radiance;
@@ -53,6 +57,7 @@ storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
   }
   flush(pages);
   return builder.finish([&](float f) {
+    if (cancelled && cancelled()) throw Cancelled("bounce page set " + build_key + " cancelled while writing pages");
     if (progress) progress(0.9f + 0.1f * f);
   });
 }

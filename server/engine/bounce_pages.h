@@ -29,6 +29,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <span>
 #include <string>
 
@@ -45,7 +46,9 @@ struct BounceGlossy {
 // as PageSetBuilder does). `direct` is the bounce-1 set, `previous` the set
 // to gather from (equal to `direct` for bounce 2). `progress` gets
 // fractions in [0, 1] on this thread; `cancelled` is polled between
-// gather batches. Throws what the reader, the gather and the builder
+// gather batches and merge percents (Cancelled). What the build stages is
+// charged to `staging_quota` (null: no limit; PageSetBuilder::
+// set_staging_quota). Throws what the reader, the gather and the builder
 // throw (nothing is published then).
 storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
                                         const tree::TreeSource& previous,
@@ -56,6 +59,7 @@ storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
                                         const Imath::Box3f& bounds,
                                         const BounceGlossy& glossy = {},
                                         const std::function<void(float)>& progress = {},
-                                        const std::function<bool()>& cancelled = {});
+                                        const std::function<bool()>& cancelled = {},
+                                        std::shared_ptr<storage::StagingQuota> staging_quota = {});
 
 }  // namespace pbgi

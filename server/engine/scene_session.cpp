@@ -84,11 +84,12 @@ std::unique_ptr<storage::PageSetReader> build_or_join(const fs::path& dir, const
 // per extra bounce. Each is content-addressed, so what exists is reused.
 std::unique_ptr<storage::PageSetReader> build_page_sets(
     const SceneSession& session, const OpenOptions& options, const EngineContext& ctx,
-    const std::function<void(const std::string&, float)>& report) {
+    const std::function<void(const std::string&, float)>& report, const CancelledFn& cancelled) {
   const Scene& scene = *session.scene;
   // The Morton cube spans the bulk: a far outlier must not coarsen the
   // order of everything else (its surfels sort at the cube's edge).
   const Box3f order_bounds = scene_bulk(scene).bounds;
+  BuildGuard guard(scene.source_path, ctx.max_surfels, cancelled);
   OpenOptions direct_options = options;
   direct_options.bounce.bounces = 1;
   fs::path dir = ctx.cache_dir / page_set_build_key(scene.content_hash, direct_options);
@@ -96,17 +97,27 @@ std::unique_ptr<storage::PageSetReader> build_page_sets(
   if (!tree) {
     tree = build_or_join(dir, ctx, [&] {
       // 4. Surfels, sampled and shaded batch by batch, streamed into the
-      //    page-set build (external sort by Morton code, bounded memory).
+      //    page-set build (external sort by Morton code, bounded memory),
+      //    within the daemon's bounds and while a client waits for them.
+      guard.check_cancelled();
+      guard.check_expected(scene, options.surfels);
       storage::PageSetBuilder builder(options.tree, dir.filename().string(), dir, order_bounds);
+      builder.set_staging_quota(ctx.staging_quota);
       // Glossy senders' lobes are lit while their pages are written.
       const SceneGlossyShader glossy(*session.rays, options.surfels.light_samples, options.surfels.seed);
       builder.set_glossy_shader(&glossy);
       const SurfelGenerationStats generated =
           generate_surfels(scene, *session.rays, options.surfels,
-                           [&](std::span<const Surfel> batch) { builder.add(batch); },
+                           [&](std::span<const Surfel> batch) {
+                             guard.count(batch.size());
+                             builder.add(batch);
+                           },
                            [&](const char* s, float f) { report(s, f); });
       // 5. Tree pages, published atomically into the cache directory.
-      const storage::Manifest built = builder.finish([&](float f) { report("tree", f); });
+      const storage::Manifest built = builder.finish([&](float f) {
+        guard.check_cancelled();
+        report("tree", f);
+      });
       log_build(dir.filename().string(), generated, builder.report(), built.stats);
     });
   }
@@ -140,7 +151,7 @@ std::unique_ptr<storage::PageSetReader> build_page_sets(
       next = build_or_join(dir, ctx, [&] {
         build_bounce_page_set(direct ? *direct : *tree, *tree, options.bounce, options.tree,
                               dir.filename().string(), dir, order_bounds, glossy,
-                              [&](float f) { report(stage, f); });
+                              [&](float f) { report(stage, f); }, cancelled, ctx.staging_quota);
       });
       if (glossy.restore) {
         spdlog::info("page set {}: {} glossy senders' lobes restored, {} surfels found no triangle",
@@ -157,7 +168,7 @@ std::unique_ptr<storage::PageSetReader> build_page_sets(
 
 std::shared_ptr<SceneSession> open_scene(const fs::path& scene_path, const OpenOptions& options,
                                          const EngineContext& ctx, const StageProgress& progress,
-                                         IngestOptions composition) {
+                                         IngestOptions composition, const CancelledFn& cancelled) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   auto report = [&](const std::string& stage, float f) {
@@ -172,14 +183,19 @@ std::shared_ptr<SceneSession> open_scene(const fs::path& scene_path, const OpenO
   // Subdivision surfaces are refined until their edges are shorter than the
   // surfel spacing, never deeper (0: spacing derived later; a fixed level).
   ingest.target_edge_length = options.surfels.spacing;
-  const auto on_read = [&](const std::string& s, float f) { report("read:" + s, f); };
+  // The reader stops (its process killed) when this throws.
+  const BuildGuard guard(scene_path.string(), 0, cancelled);
+  const auto on_read = [&](const std::string& s, float f) {
+    guard.check_cancelled();
+    report("read:" + s, f);
+  };
   bool reused_ingest = false;
   auto scene = std::make_unique<Scene>(
       ctx.ingested ? read_usd_scene_cached(scene_path, ingest, *ctx.ingested, on_read, &reused_ingest)
                    : read_usd_scene(scene_path, ingest, on_read));
   for (const auto& w : scene->warnings) spdlog::warn("{}: {}", scene_path.string(), w);
   report("read", 1.f);
-  auto session = open_scene_model(std::move(scene), options, ctx, progress);
+  auto session = open_scene_model(std::move(scene), options, ctx, progress, cancelled);
   session->info.reused_ingest = reused_ingest;
   session->info.scene_path = scene_path.string();
   session->info.open_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
@@ -189,7 +205,8 @@ std::shared_ptr<SceneSession> open_scene(const fs::path& scene_path, const OpenO
 std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
                                                const OpenOptions& options,
                                                const EngineContext& ctx,
-                                               const StageProgress& progress) {
+                                               const StageProgress& progress,
+                                               const CancelledFn& cancelled) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   auto report = [&](const std::string& stage, float f) {
@@ -237,7 +254,7 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
   session->info.reused_cache = session->tree != nullptr;
   if (!session->tree) {
     fs::create_directories(ctx.cache_dir);
-    session->tree = build_page_sets(*session, options, ctx, report);
+    session->tree = build_page_sets(*session, options, ctx, report, cancelled);
   }
 
   session->info.scene_id = key;

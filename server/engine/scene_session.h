@@ -3,6 +3,7 @@
 // build options: ingest -> surfels -> tree pages (reused if already built).
 #pragma once
 
+#include "server/engine/build_guard.h"
 #include "server/gather/surfel_bounce.h"
 #include "server/gather/volume_points.h"
 #include "server/ingest/chunk_store.h"
@@ -12,6 +13,7 @@
 #include "server/surfels/surfel_options.h"
 #include "storage/cache/page_cache.h"
 #include "storage/pages/page_set.h"
+#include "storage/pages/staging_quota.h"
 #include "storage/tree/build_options.h"
 
 #include <filesystem>
@@ -56,6 +58,11 @@ struct EngineContext {
   // chunk_store.h) so that reopening an unchanged scene skips the USD
   // traversal and refinement; null = always ingest.
   std::shared_ptr<const ChunkStore> ingested;
+  // Bounds on every build, whoever asks (the daemon's limits.max_surfels
+  // and staging_quota): a build that would pass one stops with
+  // ResourceExhausted naming it and leaves nothing behind. 0 / null: none.
+  uint64_t max_surfels = 0;
+  std::shared_ptr<storage::StagingQuota> staging_quota;
 };
 
 using StageProgress = std::function<void(const std::string& stage, float fraction)>;
@@ -64,12 +71,16 @@ using StageProgress = std::function<void(const std::string& stage, float fractio
 // scene (or reuses it from ctx.ingested), samples and shades surfels, builds
 // or reuses the page set. `composition` carries the stage's variant
 // selections and time code; its python and target_edge_length are set here
-// (from ctx and the surfel spacing).
-// Throws SceneError / IoError / CorruptionError with the file at fault.
+// (from ctx and the surfel spacing). `cancelled` is polled while reading and
+// between build batches (build_guard.h): once true the open stops with
+// Cancelled, its reader process and staging directories removed.
+// Throws SceneError / IoError / CorruptionError with the file at fault,
+// ResourceExhausted past ctx's bounds, Cancelled.
 std::shared_ptr<SceneSession> open_scene(const std::filesystem::path& scene_path,
                                          const OpenOptions& options, const EngineContext& ctx,
                                          const StageProgress& progress = {},
-                                         IngestOptions composition = {});
+                                         IngestOptions composition = {},
+                                         const CancelledFn& cancelled = {});
 
 // The same pipeline from step 2 on, for a scene already in memory (built in
 // code by tests and benchmarks, or read by the caller). scene->content_hash
@@ -77,6 +88,7 @@ std::shared_ptr<SceneSession> open_scene(const std::filesystem::path& scene_path
 std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
                                                const OpenOptions& options,
                                                const EngineContext& ctx,
-                                               const StageProgress& progress = {});
+                                               const StageProgress& progress = {},
+                                               const CancelledFn& cancelled = {});
 
 }  // namespace pbgi

@@ -194,10 +194,14 @@ grpc::Status PbgiService::OpenScene(grpc::ServerContext* context,
     const std::filesystem::path path = roots_.resolve(request->scene_path());
     const OpenOptions options = decode_open_options(request->build(), options_.defaults.open);
     const StageSelection selection = decode_stage_selection(*request);
+    // A build asking for more surfels than the daemon allows is refused
+    // before the scene is read (a spacing is checked once it is).
+    BuildGuard::check_target(options.surfels, options_.limits.max_surfels);
 
-    // 2. Open (or join an open in flight), relaying progress.
+    // 2. Open (or join an open in flight), relaying progress. The build
+    //    stops once neither this client nor any other waits for it.
     OpenProgressRelay relay(writer);
-    auto cancelled = [context] { return context->IsCancelled(); };
+    auto cancelled = [context] { return context->IsCancelled() || past_deadline(*context); };
     std::shared_ptr<SceneSession> session = registry_->open(
         path, options, selection,
         [&](const std::string& stage, float fraction) { relay.report(stage, fraction); },

@@ -26,6 +26,13 @@ struct RequestLimits {
   uint32_t max_image_side = 16384;        // RenderTile image width / height
   uint64_t max_tile_pixels = 512 * 512;   // pixels per RenderTile tile
   uint32_t max_tiles_per_call = 4096;     // tiles per RenderTiles call
+  // Surfels one page-set build may produce, whoever asks (OpenScene or
+  // --preload); 0 = no limit. An OpenScene whose target_surfels or whose
+  // spacing over the scene's area asks for more gets RESOURCE_EXHAUSTED
+  // before any work; a camera-adaptive build is stopped once it passes it
+  // by 1% (server/engine/build_guard.h). The default admits twice the largest
+  // build measured (docs/out-of-core.md: 105 M surfels).
+  uint64_t max_surfels = 200'000'000;
   // Expensive calls (Gather, each tile) running at once; 0 = 2 x cores.
   uint32_t max_in_flight = 0;
   // More waiting for a slot; beyond: RESOURCE_EXHAUSTED + retry-after-ms.

@@ -12,6 +12,7 @@
 #include <exception>
 #include <mutex>
 #include <tuple>
+#include <vector>
 
 namespace pbgi::service {
 namespace {
@@ -46,7 +47,44 @@ struct SceneRegistry::Pending {
   bool done = false;
   std::shared_ptr<SceneSession> session;
   std::exception_ptr error;
+  // The callers still in open() for it, each by its `cancelled` (empty: one
+  // that never leaves). The open is abandoned once every one has left.
+  std::vector<const std::function<bool()>*> callers;
+
+  bool abandoned() {
+    std::lock_guard lock(mutex);
+    for (const std::function<bool()>* c : callers) {
+      if (!*c || !(*c)()) return false;
+    }
+    return true;
+  }
 };
+
+namespace {
+
+// A caller's place in Pending::callers for as long as it is in open().
+class CallerSeat {
+ public:
+  CallerSeat(std::mutex& mutex, std::vector<const std::function<bool()>*>& callers,
+             const std::function<bool()>& cancelled)
+      : mutex_(mutex), callers_(callers), cancelled_(&cancelled) {
+    std::lock_guard lock(mutex_);
+    callers_.push_back(cancelled_);
+  }
+  ~CallerSeat() {
+    std::lock_guard lock(mutex_);
+    callers_.erase(std::find(callers_.begin(), callers_.end(), cancelled_));
+  }
+  CallerSeat(const CallerSeat&) = delete;
+  CallerSeat& operator=(const CallerSeat&) = delete;
+
+ private:
+  std::mutex& mutex_;
+  std::vector<const std::function<bool()>*>& callers_;
+  const std::function<bool()>* cancelled_;
+};
+
+}  // namespace
 
 SceneRegistry::SceneRegistry(SceneOpener opener, RegistryOptions options)
     : opener_(std::move(opener)), options_(std::move(options)) {
@@ -66,6 +104,27 @@ std::shared_ptr<SceneSession> SceneRegistry::open(const std::filesystem::path& c
                                                   const StageSelection& selection,
                                                   const StageProgress& progress,
                                                   const std::function<bool()>& cancelled) {
+  for (;;) {
+    bool joined = false;
+    try {
+      return open_once(canonical_path, options, selection, progress, cancelled, joined);
+    } catch (const Cancelled&) {
+      // An open this caller joined was cancelled because its other callers
+      // left while this one stayed: it was forgotten, so the next attempt
+      // starts it again.
+      if (!joined || (cancelled && cancelled())) throw;
+      spdlog::info("the open of '{}' this request joined was cancelled by its other callers; opening again",
+                   canonical_path.string());
+    }
+  }
+}
+
+std::shared_ptr<SceneSession> SceneRegistry::open_once(const std::filesystem::path& canonical_path,
+                                                       const OpenOptions& options,
+                                                       const StageSelection& selection,
+                                                       const StageProgress& progress,
+                                                       const std::function<bool()>& cancelled,
+                                                       bool& joined) {
   const std::string key = canonical_path.string() + '\n' + open_options_key(options) + '\n' +
                           selection_key(selection);
 
@@ -98,10 +157,12 @@ std::shared_ptr<SceneSession> SceneRegistry::open(const std::filesystem::path& c
       runs_open = true;
     }
   }
+  joined = !runs_open;
 
   // 3a. First caller: run the open outside the registry lock, publishing
   //     progress to the waiters.
   if (runs_open) {
+    const CallerSeat seat(pending->mutex, pending->callers, cancelled);
     std::mutex progress_mutex;  // the engine may report from worker threads
     auto report = [&](const std::string& stage, float fraction) {
       {
@@ -119,7 +180,7 @@ std::shared_ptr<SceneSession> SceneRegistry::open(const std::filesystem::path& c
     std::shared_ptr<SceneSession> session;
     std::exception_ptr error;
     try {
-      session = opener_(canonical_path, options, selection, report);
+      session = opener_(canonical_path, options, selection, report, [&] { return pending->abandoned(); });
       if (!session) throw Error(fmt::format("opening '{}' returned no session", canonical_path.string()));
     } catch (...) {
       error = std::current_exception();
@@ -151,7 +212,9 @@ std::shared_ptr<SceneSession> SceneRegistry::open(const std::filesystem::path& c
   }
 
   // 3b. Someone else opens it: relay their progress until done. The wait
-  //     wakes up periodically only to notice a cancelled caller.
+  //     wakes up periodically only to notice a cancelled caller; while
+  //     seated, this caller keeps the open from being abandoned.
+  const CallerSeat seat(pending->mutex, pending->callers, cancelled);
   std::unique_lock lock(pending->mutex);
   uint64_t seen = 0;
   while (!pending->done) {

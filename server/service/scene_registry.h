@@ -4,6 +4,12 @@
 // even when several clients ask for it at the same time (the later callers
 // wait for the first open and see its progress).
 //
+// Cancellation: an open in flight goes on while any of its callers is still
+// there, and is cancelled (the opener's `cancelled` turns true; it stops
+// and removes what it staged) once every one of them has left: a
+// disconnect, a deadline, the daemon's shutdown. A caller without a
+// `cancelled` callback (the daemon's --preload) never leaves.
+//
 // Memory: a session's pages live in the shared, budgeted page cache; its
 // geometry and ray-tracing structure do not. With a scene memory budget,
 // opening a scene that takes the sessions' estimated total over it unloads
@@ -36,9 +42,13 @@ struct StageSelection {
 };
 
 // Opens one scene (the engine's open_scene in the daemon; a fake in tests).
+// `cancelled` turns true once no caller waits for the open any more; the
+// opener polls it (from the thread that called it) and throws
+// pbgi::Cancelled.
 using SceneOpener = std::function<std::shared_ptr<SceneSession>(
     const std::filesystem::path& path, const OpenOptions& options,
-    const StageSelection& selection, const StageProgress& progress)>;
+    const StageSelection& selection, const StageProgress& progress,
+    const std::function<bool()>& cancelled)>;
 
 // Estimated bytes of a session outside the page cache.
 using SessionMemory = std::function<uint64_t(const SceneSession&)>;
@@ -74,10 +84,13 @@ class SceneRegistry {
   // Returns the session of (canonical_path, options, selection), opening it
   // if no caller has yet. `progress` receives the stages of the open this
   // call runs or joins (possibly from other threads; calls are not
-  // concurrent). A waiting caller polls `cancelled` and throws
-  // pbgi::Cancelled once it returns true; the open itself goes on for the
-  // others. Errors of the open are rethrown to every caller waiting for it
-  // and are not cached: a later call tries again.
+  // concurrent). `cancelled` says that this caller has left (it is polled
+  // from other threads while this call runs: it must be thread-safe); the
+  // call then throws pbgi::Cancelled, and the open goes on only if other
+  // callers still wait for it. Errors of the open are rethrown to every
+  // caller waiting for it and are not cached: a later call tries again. A
+  // caller still there when an open it joined was cancelled (its other
+  // callers left) starts it again.
   std::shared_ptr<SceneSession> open(const std::filesystem::path& canonical_path,
                                      const OpenOptions& options,
                                      const StageSelection& selection,
@@ -115,6 +128,10 @@ class SceneRegistry {
     uint64_t memory_bytes = 0;
   };
   void evict_over_budget_locked(const std::string& keep_id);
+  std::shared_ptr<SceneSession> open_once(const std::filesystem::path& canonical_path,
+                                          const OpenOptions& options, const StageSelection& selection,
+                                          const StageProgress& progress,
+                                          const std::function<bool()>& cancelled, bool& joined);
 
   SceneOpener opener_;
   RegistryOptions options_;

@@ -33,6 +33,8 @@ grpc::StatusCode status_code_of(const std::exception_ptr& error) {
     return grpc::StatusCode::OUT_OF_RANGE;
   } catch (const Overloaded&) {
     return grpc::StatusCode::RESOURCE_EXHAUSTED;
+  } catch (const ResourceExhausted&) {
+    return grpc::StatusCode::RESOURCE_EXHAUSTED;
   } catch (const PermissionDenied&) {
     return grpc::StatusCode::PERMISSION_DENIED;
   } catch (const NotFound&) {

@@ -23,7 +23,8 @@ struct OutOfRange : Error {
 //   IoError          -> FAILED_PRECONDITION VersionError    -> FAILED_PRECONDITION
 //   CorruptionError  -> DATA_LOSS           Cancelled       -> CANCELLED
 //   OutOfRange       -> OUT_OF_RANGE        Overloaded      -> RESOURCE_EXHAUSTED
-//   std::bad_alloc   -> RESOURCE_EXHAUSTED  anything else   -> INTERNAL
+//   ResourceExhausted-> RESOURCE_EXHAUSTED  std::bad_alloc  -> RESOURCE_EXHAUSTED
+//   anything else    -> INTERNAL
 grpc::StatusCode status_code_of(const std::exception_ptr& error);
 
 // Status for `error` with message "<context>: <what()>".

@@ -29,5 +29,8 @@ struct NotFound : Error { using Error::Error; };
 struct SceneError : Error { using Error::Error; };
 // Work was cancelled by the caller (deadline or disconnect).
 struct Cancelled : Error { using Error::Error; };
+// Work would pass a limit set by whoever runs it, not by the request
+// (pbgid's limits.max_surfels, staging_quota): names the limit and its value.
+struct ResourceExhausted : Error { using Error::Error; };
 
 }  // namespace pbgi

@@ -27,6 +27,7 @@
 namespace pbgi::storage {
 
 class PageCache;
+class StagingQuota;
 
 struct PageSetStats {
   uint64_t surfel_count = 0;
@@ -130,6 +131,11 @@ class PageSetBuilder {
   // surfels keep only their diffuse radiance). Call before finish(); the
   // shader must outlive it.
   void set_glossy_shader(const GlossyShader* shader);
+  // Charges what the build writes into its staging directory (sort runs,
+  // pages, manifest) to `quota` (staging_quota.h; null, the default: no
+  // limit): add() and finish() throw ResourceExhausted, and the build
+  // leaves nothing behind, if a write would pass it. Call before add().
+  void set_staging_quota(std::shared_ptr<StagingQuota> quota);
 
   // Merges, builds the tree, writes pages and manifest, fsyncs and
   // publishes. `progress` gets increasing fractions in [0, 1] on this

@@ -49,8 +49,9 @@ double seconds_since(Clock::time_point t0) { return std::chrono::duration<double
 class PageWriter final : public tree::TreeletSink {
  public:
   // `glossy`: glossy senders' radiance is coded into the pages (null: none).
-  PageWriter(const fs::path& path, std::shared_ptr<const PayloadCodec> codec, GlossyPageEncoder* glossy)
-      : file_(File::create_new(path)), codec_(std::move(codec)), glossy_(glossy) {
+  PageWriter(const fs::path& path, std::shared_ptr<const PayloadCodec> codec, GlossyPageEncoder* glossy,
+             StagingUsage& usage)
+      : file_(File::create_new(path)), codec_(std::move(codec)), glossy_(glossy), usage_(usage) {
     buffer_.reserve(kWriteBufferBytes + 2 * kPageAlignment);
   }
 
@@ -80,6 +81,7 @@ class PageWriter final : public tree::TreeletSink {
 
  private:
   void flush() {
+    usage_.charge(buffer_.size(), file_.path());
     file_.write_all(buffer_);
     buffer_.clear();
   }
@@ -100,6 +102,7 @@ class PageWriter final : public tree::TreeletSink {
   File file_;
   std::shared_ptr<const PayloadCodec> codec_;
   GlossyPageEncoder* glossy_;
+  StagingUsage& usage_;
   tree::Page page_;
   std::vector<float> link_areas_;
   std::vector<PageExtent> table_;
@@ -144,7 +147,7 @@ struct PageSetBuilder::Impl {
 
   Impl(const tree::BuildOptions& o, std::string key, const fs::path& dir, const Imath::Box3f& bounds)
       : options(o), build_key(std::move(key)), frame(bounds), staging(checked(o, build_key, dir)) {
-    sorter.emplace(frame, options.sort_memory_bytes, staging.path());
+    sorter.emplace(frame, options.sort_memory_bytes, staging.path(), kDefaultSortFanIn, &staging.usage());
     if (may_quantize(options)) {
       const ShLutOptions lo = lut_options(options);
       lut_sample.emplace(lo.sample_fraction,
@@ -234,7 +237,7 @@ struct PageSetBuilder::Impl {
     if (glossy_wavelets) {
       glossy.emplace(*glossy_shader, GlossyPageOptions{options.glossy_resolution, options.wavelet_threshold});
     }
-    PageWriter pages(staging.path() / kPagesFileName, codec, glossy ? &*glossy : nullptr);
+    PageWriter pages(staging.path() / kPagesFileName, codec, glossy ? &*glossy : nullptr, staging.usage());
     tree::StreamingTreeBuilder tree(options, options.page_size, node_payloads ? 0 : codec->bytes_per_node(), pages,
                                     node_payloads ? &sizer : nullptr);
     sorter->drain([&](const Surfel& s, uint64_t code) { tree.add(s, code); },
@@ -269,8 +272,10 @@ struct PageSetBuilder::Impl {
     m.stats.page_count = stats.page_count;
     m.stats.max_depth = stats.max_depth;
     {
+      const std::vector<uint8_t> manifest = encode_manifest(m);
       File f = File::create_new(staging.path() / kManifestFileName);
-      f.write_all(encode_manifest(m));
+      staging.usage().charge(manifest.size(), f.path());
+      f.write_all(manifest);
       f.sync();
       f.close();
     }
@@ -293,6 +298,13 @@ PageSetBuilder::~PageSetBuilder() = default;
 void PageSetBuilder::add(std::span<const Surfel> surfels) { impl_->add(surfels); }
 
 void PageSetBuilder::set_glossy_shader(const GlossyShader* shader) { impl_->glossy_shader = shader; }
+
+void PageSetBuilder::set_staging_quota(std::shared_ptr<StagingQuota> quota) {
+  if (impl_->staging.usage().held() > 0) {
+    throw InvalidArgument("page set builder: set_staging_quota() after bytes were written");
+  }
+  impl_->staging.usage().set_quota(std::move(quota));
+}
 
 Manifest PageSetBuilder::finish(const std::function<void(float)>& progress) { return impl_->finish(progress); }
 

@@ -109,6 +109,7 @@ void StagingDir::publish() {
     }
   }
   published_ = true;
+  usage_.release_all();
   sync_directory(parent_of(final_));
 }
 

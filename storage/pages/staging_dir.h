@@ -5,7 +5,13 @@
 // directory that is not published is removed by the destructor; one left by
 // a process that was killed is removed by the next StagingDir created in
 // the same parent directory (remove_stale()).
+//
+// Bytes written into the directory are charged to its usage() (a share of
+// a StagingQuota, staging_quota.h) and released when it is published or
+// removed.
 #pragma once
+
+#include "storage/pages/staging_quota.h"
 
 #include <filesystem>
 
@@ -32,16 +38,20 @@ class StagingDir {
   static size_t remove_stale(const std::filesystem::path& parent);
 
   const std::filesystem::path& path() const { return staging_; }
+  // What the directory holds against a staging quota (none by default).
+  StagingUsage& usage() { return usage_; }
 
   // fsyncs the staging directory, renames it to the final one (refusing to
   // replace anything: InvalidArgument if the final directory appeared in
   // the meantime), then fsyncs the parent so the rename is durable.
+  // Releases usage().
   void publish();
 
  private:
   std::filesystem::path final_;
   std::filesystem::path staging_;
   bool published_ = false;
+  StagingUsage usage_;
 };
 
 }  // namespace pbgi::storage

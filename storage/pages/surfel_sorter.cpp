@@ -3,6 +3,7 @@
 #include "storage/format/checksum.h"
 #include "storage/format/errors.h"
 #include "storage/pages/file_io.h"
+#include "storage/pages/staging_quota.h"
 
 #include <tbb/parallel_sort.h>
 
@@ -57,8 +58,9 @@ constexpr size_t kMaxBlockRecords = 16384;  // ~1.3 MB: enough to make reads seq
 
 class RunWriter {
  public:
-  RunWriter(const fs::path& path, size_t block_records)
-      : file_(File::create_new(path)), block_records_(block_records) {}
+  // `usage` (may be null) is charged before each block is written.
+  RunWriter(const fs::path& path, size_t block_records, StagingUsage* usage)
+      : file_(File::create_new(path)), block_records_(block_records), usage_(usage) {}
 
   // Writes `records` as blocks of at most block_records.
   void write(std::span<const Record> records) {
@@ -69,6 +71,7 @@ class RunWriter {
       const uint64_t count = block.size(), sum = checksum64(bytes.data(), bytes.size());
       std::memcpy(header, &count, 8);
       std::memcpy(header + 8, &sum, 8);
+      if (usage_) usage_->charge(kBlockHeaderBytes + bytes.size(), file_.path());
       file_.write_all(header);
       file_.write_all(bytes);
       bytes_ += kBlockHeaderBytes + bytes.size();
@@ -80,6 +83,7 @@ class RunWriter {
  private:
   File file_;
   size_t block_records_;
+  StagingUsage* usage_;
   uint64_t bytes_ = 0;
 };
 
@@ -136,11 +140,13 @@ struct SurfelSorter::Impl {
   struct Run {
     fs::path path;
     uint64_t records = 0;
+    uint64_t bytes = 0;
   };
 
   tree::MortonFrame frame;
   uint64_t memory;
   fs::path dir;
+  StagingUsage* usage;  // may be null
   size_t block_records;
   uint32_t fan_in;
   size_t capacity;  // records in the run buffer
@@ -150,8 +156,8 @@ struct SurfelSorter::Impl {
   SortStats stats;
   bool drained = false;
 
-  Impl(const tree::MortonFrame& f, uint64_t mem, fs::path d, uint32_t max_fan_in)
-      : frame(f), memory(mem), dir(std::move(d)) {
+  Impl(const tree::MortonFrame& f, uint64_t mem, fs::path d, uint32_t max_fan_in, StagingUsage* u)
+      : frame(f), memory(mem), dir(std::move(d)), usage(u) {
     if (memory < 64 * 1024) throw InvalidArgument("sort memory of " + std::to_string(memory) + " bytes: at least 64 KiB");
     max_fan_in = std::max<uint32_t>(max_fan_in, 2);
     // Merge memory: fan_in input blocks and one output block.
@@ -162,7 +168,10 @@ struct SurfelSorter::Impl {
 
   ~Impl() {
     std::error_code ec;  // best effort
-    for (const Run& r : runs) fs::remove(r.path, ec);
+    for (const Run& r : runs) {
+      fs::remove(r.path, ec);
+      if (usage) usage->release(r.bytes);
+    }
   }
 
   void note_peak(uint64_t bytes) { stats.peak_bytes = std::max(stats.peak_bytes, bytes); }
@@ -177,9 +186,10 @@ struct SurfelSorter::Impl {
     if (buffer.empty()) return;
     tbb::parallel_sort(buffer.begin(), buffer.end());
     Run run{next_run_path(), buffer.size()};
-    RunWriter w(run.path, block_records);
+    RunWriter w(run.path, block_records, usage);
     w.write(buffer);
     w.close();
+    run.bytes = w.bytes();
     stats.run_bytes += w.bytes();
     ++stats.runs;
     runs.push_back(std::move(run));
@@ -225,7 +235,10 @@ struct SurfelSorter::Impl {
       tick();
     }
     readers.clear();
-    for (const Run& r : inputs) fs::remove(r.path);
+    for (const Run& r : inputs) {
+      fs::remove(r.path);
+      if (usage) usage->release(r.bytes);
+    }
   }
 
   void drain(const std::function<void(const Surfel&, uint64_t)>& emit, const std::function<void(float)>& progress) {
@@ -273,7 +286,7 @@ struct SurfelSorter::Impl {
       runs.erase(runs.begin(), runs.begin() + fan_in);
       Run out{next_run_path(), 0};
       {
-        RunWriter w(out.path, block_records);
+        RunWriter w(out.path, block_records, usage);
         std::vector<Record> block;
         block.reserve(block_records);
         merge(inputs, [&](const Record& r) {
@@ -285,6 +298,7 @@ struct SurfelSorter::Impl {
         }, tick);
         w.write(block);
         w.close();
+        out.bytes = w.bytes();
         stats.run_bytes += w.bytes();
         for (const Run& r : inputs) out.records += r.records;
       }
@@ -301,8 +315,8 @@ struct SurfelSorter::Impl {
 };
 
 SurfelSorter::SurfelSorter(const tree::MortonFrame& frame, uint64_t memory_bytes, fs::path run_dir,
-                           uint32_t max_fan_in)
-    : impl_(std::make_unique<Impl>(frame, memory_bytes, std::move(run_dir), max_fan_in)) {}
+                           uint32_t max_fan_in, StagingUsage* usage)
+    : impl_(std::make_unique<Impl>(frame, memory_bytes, std::move(run_dir), max_fan_in, usage)) {}
 
 SurfelSorter::~SurfelSorter() = default;
 

@@ -28,6 +28,11 @@
 
 namespace pbgi::storage {
 
+class StagingUsage;
+
+// Runs merged at once unless a caller asks for fewer.
+inline constexpr uint32_t kDefaultSortFanIn = 64;
+
 struct SortStats {
   uint64_t surfels = 0;
   uint32_t runs = 0;           // runs written to disk (0: sorted in memory)
@@ -39,9 +44,12 @@ struct SortStats {
 class SurfelSorter {
  public:
   // `memory_bytes` >= 64 KiB. `max_fan_in` (>= 2) caps the runs merged at
-  // once (tests lower it to force several passes).
+  // once (tests lower it to force several passes). `usage` (may be null;
+  // must outlive the sorter) is charged for each block before it is
+  // written to a run file (ResourceExhausted past its quota) and released
+  // as run files are deleted.
   SurfelSorter(const tree::MortonFrame& frame, uint64_t memory_bytes, std::filesystem::path run_dir,
-               uint32_t max_fan_in = 64);
+               uint32_t max_fan_in = kDefaultSortFanIn, StagingUsage* usage = nullptr);
   ~SurfelSorter();  // deletes remaining run files
   SurfelSorter(const SurfelSorter&) = delete;
   SurfelSorter& operator=(const SurfelSorter&) = delete;

@@ -11,7 +11,8 @@
 //     clean error, nothing left behind, the previous page set intact;
 //   - clients leaving (cancel, deadline) in the middle of a RenderTile or a
 //     Gather: the daemon stops working on it (its CPU time stops growing),
-//     and one leaving an OpenScene stream does not break the open.
+//     and one leaving an OpenScene stream leaves the scene openable (the
+//     build it left is cancelled: build_cancellation_test.cpp).
 #include "storage/pages/page_set.h"
 #include "tests/reliability/reliability_env.h"
 
@@ -35,12 +36,6 @@ using Clock = std::chrono::steady_clock;
 // inside it), small enough for CI.
 constexpr uint64_t kBigBuild = 400000;
 constexpr uint64_t kSmallBuild = 20000;
-
-client::ClientOptions no_retry() {
-  client::ClientOptions o;
-  o.max_attempts = 1;
-  return o;
-}
 
 bool all_finite(const client::Frame& f) {
   for (float v : f.beauty) {
@@ -424,9 +419,9 @@ TEST_F(ClientLeaves, CancelledGatherStopsTheWork) {
   expect_work_stopped("cancelled Gather");
 }
 
-// The open goes on when its client leaves (another client may be waiting
-// for the same scene, and the page set is worth having): the next client
-// gets the scene, and the daemon serves normally.
+// A build whose only client leaves is cancelled and cleaned up
+// (build_cancellation_test.cpp); the next client gets the scene built
+// anew, and the daemon serves normally.
 TEST_F(ClientLeaves, LeavingAnOpenSceneStreamKeepsTheBuildUsable) {
   auto channel = grpc::CreateChannel(daemon->address(), grpc::InsecureChannelCredentials());
   auto stub = v1::Pbgi::NewStub(channel);

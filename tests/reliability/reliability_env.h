@@ -35,6 +35,13 @@ inline v1::BuildOptions build_with(uint64_t target_surfels) {
   return b;
 }
 
+// One attempt per call: a test sees the daemon's answer, not a retry's.
+inline client::ClientOptions no_retry() {
+  client::ClientOptions o;
+  o.max_attempts = 1;
+  return o;
+}
+
 inline v1::GatherOptions fast_gather() {
   v1::GatherOptions o;
   o.set_light_samples(4);

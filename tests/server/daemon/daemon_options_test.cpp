@@ -91,7 +91,9 @@ DaemonOptions non_default_options() {
   o.service.limits.max_tiles_per_call = 17;
   o.service.limits.max_in_flight = 3;
   o.service.limits.max_queued = 5;
+  o.service.limits.max_surfels = 1'000'000;
   o.scene_memory_budget = "6GiB";
+  o.staging_quota = "100GiB";
   o.log_format = "json";
   o.metrics_listen = "127.0.0.1:9464";
   o.tls_cert = "/etc/pbgi/server.crt";
@@ -181,6 +183,9 @@ TEST(DaemonOptions, ValidateChecksValuesByName) {
   o = DaemonOptions();
   o.service.defaults.render.gather.microbuffer_resolution = 1;
   EXPECT_THROW(o.validate(), InvalidArgument);
+  o = DaemonOptions();
+  o.staging_quota = "a lot";
+  EXPECT_THROW(o.validate(), InvalidArgument);
   EXPECT_NO_THROW(DaemonOptions().validate());
   EXPECT_EQ(DaemonOptions().memory_budget_bytes(), 2ull << 30);
 }
@@ -247,13 +252,17 @@ TEST(DaemonCommandLine, FlagsWinOverEnvironmentOverFile) {
 }
 
 TEST(DaemonCommandLine, PrintConfigPrintsEffectiveToml) {
-  ParsedRun r = run({"--print-config", "--memory-budget", "3GiB", "--listen", "unix:/tmp/p.sock"},
+  ParsedRun r = run({"--print-config", "--memory-budget", "3GiB", "--listen", "unix:/tmp/p.sock",
+                     "--max-surfels", "5000000", "--staging-quota", "8GiB"},
               fake_env({}));
   EXPECT_FALSE(r.result.options);
   EXPECT_EQ(r.result.exit_code, 0);
   const DaemonOptions printed = parse_daemon_config(r.out, "printed");
   EXPECT_EQ(printed.memory_budget, "3GiB");
   EXPECT_EQ(printed.listen, "unix:/tmp/p.sock");
+  EXPECT_EQ(printed.service.limits.max_surfels, 5'000'000u);
+  EXPECT_EQ(printed.staging_quota, "8GiB");
+  EXPECT_EQ(printed.staging_quota_bytes(), 8ull << 30);
 }
 
 TEST(DaemonCommandLine, ConfigErrorsExitWithMessage) {

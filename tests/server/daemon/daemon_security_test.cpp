@@ -52,7 +52,7 @@ class DaemonSecurityTest : public ::testing::Test {
   }
   service::SceneOpener opener() {
     return [](const fs::path& path, const OpenOptions&, const service::StageSelection&,
-              const StageProgress&) {
+              const StageProgress&, const std::function<bool()>&) {
       return testing::fake_session(path.string(), "id-" + path.stem().string());
     };
   }

@@ -32,7 +32,8 @@ class DaemonTest : public ::testing::Test {
     options.log_level = "warn";
   }
   service::SceneOpener opener() {
-    return [this](const fs::path& path, const OpenOptions&, const service::StageSelection&, const StageProgress&) {
+    return [this](const fs::path& path, const OpenOptions&, const service::StageSelection&,
+                  const StageProgress&, const std::function<bool()>&) {
       ++opens;
       return testing::fake_session(path.string(), "id-" + path.stem().string());
     };

@@ -52,7 +52,7 @@ TEST(DaemonOperations, PrometheusEndpointCountsRequestsByRpcAndStatus) {
   options.log_level = "error";
   options.metrics_listen = "127.0.0.1:0";
   Daemon daemon(options, [](const fs::path& path, const OpenOptions&,
-                            const service::StageSelection&, const StageProgress&) {
+                            const service::StageSelection&, const StageProgress&, const std::function<bool()>&) {
     return testing::fake_session(path.string(), "id-a");
   });
   daemon.start();

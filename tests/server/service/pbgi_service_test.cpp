@@ -30,7 +30,7 @@ class PbgiServiceTest : public ::testing::Test {
     std::ofstream(root / "lit.usda") << "#usda 1.0\n";
     auto registry = std::make_shared<SceneRegistry>(
         [this](const fs::path& path, const OpenOptions& options, const StageSelection& selection,
-               const StageProgress& progress) -> std::shared_ptr<SceneSession> {
+               const StageProgress& progress, const std::function<bool()>&) -> std::shared_ptr<SceneSession> {
           int n;
           {
             // The handler runs on a gRPC thread; the test reads on its own

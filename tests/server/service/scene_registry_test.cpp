@@ -1,5 +1,6 @@
 // The registry opens each (path, options) once, even under concurrent
-// requests, does not cache failures, and lets a waiting caller give up.
+// requests, does not cache failures, lets a waiting caller give up, and
+// cancels an open once every caller waiting for it has left.
 #include "server/service/scene_registry.h"
 
 #include "storage/format/errors.h"
@@ -8,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
 #include <future>
 #include <latch>
 #include <thread>
@@ -20,7 +22,7 @@ TEST(SceneRegistry, SameKeyOpensOnceUnderConcurrency) {
   std::promise<void> release;
   std::shared_future<void> released = release.get_future().share();
   SceneRegistry registry([&](const std::filesystem::path& path, const OpenOptions&, const StageSelection&,
-                             const StageProgress& progress) {
+                             const StageProgress& progress, const std::function<bool()>&) {
     ++opens;
     progress("ingest", 0.5f);
     released.wait();  // hold the open until every caller has been started
@@ -51,7 +53,7 @@ TEST(SceneRegistry, SameKeyOpensOnceUnderConcurrency) {
 TEST(SceneRegistry, DifferentOptionsOrPathsAreDifferentSessions) {
   int opens = 0;
   SceneRegistry registry([&](const std::filesystem::path& path, const OpenOptions&, const StageSelection&,
-                             const StageProgress&) {
+                             const StageProgress&, const std::function<bool()>&) {
     return testing::fake_session(path, "id-" + std::to_string(++opens));
   });
   OpenOptions small;
@@ -72,7 +74,7 @@ TEST(SceneRegistry, DifferentOptionsOrPathsAreDifferentSessions) {
 TEST(SceneRegistry, FailuresAreRethrownAndNotCached) {
   int opens = 0;
   SceneRegistry registry([&](const std::filesystem::path& path, const OpenOptions&, const StageSelection&,
-                             const StageProgress&) -> std::shared_ptr<SceneSession> {
+                             const StageProgress&, const std::function<bool()>&) -> std::shared_ptr<SceneSession> {
     if (++opens == 1) throw SceneError("'/scenes/a.usda': prim </World/Bad>: broken");
     return testing::fake_session(path, "id");
   });
@@ -84,7 +86,7 @@ TEST(SceneRegistry, FailuresAreRethrownAndNotCached) {
 
 TEST(SceneRegistry, CallerRunningTheOpenSeesItsProgress) {
   SceneRegistry registry([&](const std::filesystem::path& path, const OpenOptions&, const StageSelection&,
-                             const StageProgress& progress) {
+                             const StageProgress& progress, const std::function<bool()>&) {
     progress("ingest", 0.f);
     progress("surfels", 1.f);
     return testing::fake_session(path, "id");
@@ -98,7 +100,7 @@ TEST(SceneRegistry, WaiterCanBeCancelled) {
   std::promise<void> in_open, release;
   std::shared_future<void> released = release.get_future().share();
   SceneRegistry registry([&](const std::filesystem::path& path, const OpenOptions&, const StageSelection&,
-                             const StageProgress&) {
+                             const StageProgress&, const std::function<bool()>&) {
     in_open.set_value();
     released.wait();
     return testing::fake_session(path, "id");
@@ -111,6 +113,130 @@ TEST(SceneRegistry, WaiterCanBeCancelled) {
   EXPECT_NE(registry.find("id"), nullptr) << "the open itself went on";
 }
 
+// An opener that runs until it is cancelled (Cancelled) or `finish` is set.
+SceneOpener open_until_cancelled(std::latch& in_open, std::atomic<bool>& finish,
+                                 std::atomic<bool>& saw_cancel) {
+  return [&](const std::filesystem::path& path, const OpenOptions&, const StageSelection&,
+             const StageProgress&, const std::function<bool()>& cancelled) {
+    in_open.count_down();
+    while (!finish) {
+      if (cancelled()) {
+        saw_cancel = true;
+        throw Cancelled("open of " + path.string() + " cancelled");
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    return testing::fake_session(path, "id");
+  };
+}
+
+// Regression (issue 17): an open went on after its only client had gone.
+TEST(SceneRegistry, OpenIsCancelledWhenItsOnlyCallerLeaves) {
+  std::latch in_open(1);
+  std::atomic<bool> finish{false}, saw_cancel{false}, gone{false};
+  SceneRegistry registry(open_until_cancelled(in_open, finish, saw_cancel));
+  std::exception_ptr error;
+  std::thread caller([&] {
+    try {
+      registry.open("/a.usda", OpenOptions(), {}, [&] { return gone.load(); });
+    } catch (...) {
+      error = std::current_exception();
+    }
+  });
+  in_open.wait();
+  gone = true;
+  caller.join();
+  EXPECT_TRUE(saw_cancel) << "the opener was told to stop";
+  ASSERT_TRUE(error);
+  EXPECT_THROW(std::rethrow_exception(error), Cancelled);
+  EXPECT_TRUE(registry.opening().empty());
+  EXPECT_TRUE(registry.list().empty()) << "a cancelled open is not cached";
+}
+
+TEST(SceneRegistry, SharedOpenGoesOnWhileAnyCallerStaysAndStopsWhenAllLeave) {
+  for (const bool second_leaves : {false, true}) {
+    SCOPED_TRACE(second_leaves ? "both callers leave" : "the second caller stays");
+    std::latch in_open(1);
+    std::atomic<bool> finish{false}, saw_cancel{false}, first_gone{false}, second_gone{false};
+    std::atomic<int> first_polls{0}, second_polls{0};
+    SceneRegistry registry(open_until_cancelled(in_open, finish, saw_cancel));
+    std::exception_ptr first_error, second_error;
+    std::shared_ptr<SceneSession> second_session;
+    std::thread first([&] {
+      try {
+        registry.open("/a.usda", OpenOptions(), {}, [&] {
+          ++first_polls;
+          return first_gone.load();
+        });
+      } catch (...) {
+        first_error = std::current_exception();
+      }
+    });
+    in_open.wait();
+    std::thread second([&] {
+      try {
+        second_session = registry.open("/a.usda", OpenOptions(), {}, [&] {
+          ++second_polls;
+          return second_gone.load();
+        });
+      } catch (...) {
+        second_error = std::current_exception();
+      }
+    });
+    while (second_polls == 0) std::this_thread::yield();  // polled once seated
+    first_gone = true;
+    // Two more polls of the first caller: the opener asked at least once
+    // with the first caller gone and the second still there.
+    for (const int polls = first_polls; first_polls < polls + 2;) std::this_thread::yield();
+    EXPECT_FALSE(saw_cancel) << "cancelled although a caller still waits";
+    if (second_leaves) {
+      second_gone = true;
+    } else {
+      finish = true;
+    }
+    first.join();
+    second.join();
+    EXPECT_EQ(saw_cancel.load(), second_leaves);
+    if (second_leaves) {
+      ASSERT_TRUE(second_error);
+      EXPECT_THROW(std::rethrow_exception(second_error), Cancelled);
+      EXPECT_TRUE(registry.list().empty());
+    } else {
+      EXPECT_FALSE(second_error);
+      ASSERT_NE(second_session, nullptr);
+      EXPECT_EQ(second_session->info.scene_id, "id");
+    }
+  }
+}
+
+// A caller still there when the open it joined was cancelled (by callers
+// that left before it was seated) is not failed: it opens again.
+TEST(SceneRegistry, CallerStillThereRestartsAnOpenItsOtherCallersCancelled) {
+  std::latch in_open(1);
+  std::atomic<int> opens{0};
+  std::atomic<bool> waiter_seated{false};
+  SceneRegistry registry([&](const std::filesystem::path& path, const OpenOptions&, const StageSelection&,
+                             const StageProgress&, const std::function<bool()>&) -> std::shared_ptr<SceneSession> {
+    if (++opens == 1) {
+      in_open.count_down();
+      while (!waiter_seated) std::this_thread::yield();
+      throw Cancelled("every caller seen so far left");
+    }
+    return testing::fake_session(path, "id");
+  });
+  std::thread first([&] {
+    EXPECT_THROW(registry.open("/a.usda", OpenOptions(), {}, [] { return true; }), Cancelled);
+  });
+  in_open.wait();
+  const auto session = registry.open("/a.usda", OpenOptions(), {}, [&] {
+    waiter_seated = true;
+    return false;
+  });
+  first.join();
+  ASSERT_NE(session, nullptr);
+  EXPECT_EQ(opens, 2);
+}
+
 TEST(SceneRegistry, EvictsLeastRecentlyUsedScenesOverTheMemoryBudget) {
   int opens = 0;
   RegistryOptions options;
@@ -118,7 +244,7 @@ TEST(SceneRegistry, EvictsLeastRecentlyUsedScenesOverTheMemoryBudget) {
   options.memory_of = [](const SceneSession&) -> uint64_t { return 1000; };
   SceneRegistry registry(
       [&](const std::filesystem::path& path, const OpenOptions&, const StageSelection&,
-          const StageProgress&) {
+          const StageProgress&, const std::function<bool()>&) {
         ++opens;
         return testing::fake_session(path, "id-" + path.stem().string());
       },
@@ -143,7 +269,7 @@ TEST(SceneRegistry, EvictsLeastRecentlyUsedScenesOverTheMemoryBudget) {
   // A scene larger than the whole budget still opens (alone).
   options.scene_memory_budget = 500;
   SceneRegistry small([&](const std::filesystem::path& path, const OpenOptions&,
-                          const StageSelection&, const StageProgress&) {
+                          const StageSelection&, const StageProgress&, const std::function<bool()>&) {
     return testing::fake_session(path, "id-" + path.stem().string());
   }, options);
   EXPECT_NE(small.open("/s/a.usda", {}), nullptr);
@@ -154,7 +280,7 @@ TEST(SceneRegistry, EvictsLeastRecentlyUsedScenesOverTheMemoryBudget) {
 TEST(SceneRegistry, UnloadForgetsTheSessionAndItsKey) {
   int opens = 0;
   SceneRegistry registry([&](const std::filesystem::path& path, const OpenOptions&,
-                             const StageSelection&, const StageProgress&) {
+                             const StageSelection&, const StageProgress&, const std::function<bool()>&) {
     ++opens;
     return testing::fake_session(path, "id-" + std::to_string(opens));
   });
