@@ -3,6 +3,7 @@
 #include "pbgi/v1/scene.pb.h"
 #include "server/volumes/scene_volumes.h"
 #include "storage/format/errors.h"
+#include "storage/pages/cache_files.h"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -327,6 +328,7 @@ bool dependencies_unchanged(const fs::path& deps) {
 void write_file_atomically(const fs::path& path, const std::function<void(std::ofstream&)>& fill) {
   const fs::path temp = path.string() + fmt::format(".tmp-{}-{}", getpid(), std::hash<std::string>{}(path.string()));
   {
+    storage::create_private_file(temp);  // 0600: the entry is the whole scene
     std::ofstream out(temp, std::ios::binary | std::ios::trunc);
     if (!out) throw IoError(fmt::format("chunk store: cannot write '{}'", temp.string()));
     fill(out);
@@ -355,9 +357,8 @@ void ChunkStoreOptions::validate() const {
 
 ChunkStore::ChunkStore(ChunkStoreOptions options) : options_(std::move(options)) {
   options_.validate();
-  std::error_code ec;
-  fs::create_directories(options_.directory, ec);
-  if (ec) throw IoError(fmt::format("chunk store: cannot create '{}': {}", options_.directory.string(), ec.message()));
+  storage::create_private_directories(options_.directory);
+  storage::remove_stale_temporaries(options_.directory);  // writes of crashed daemons
 }
 
 std::string ChunkStore::key(const std::string& content_hash, const IngestOptions& ingest) const {
@@ -389,7 +390,8 @@ void ChunkStore::save(const std::string& key, const Scene& scene) const {
 }
 
 std::optional<Scene> ChunkStore::load(const std::string& key,
-                                      const std::function<void(const std::string&, float)>& progress) const {
+                                      const std::function<void(const std::string&, float)>& progress,
+                                      const AssetRoots& roots) const {
   const fs::path path = entry_path(key);
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) return std::nullopt;
@@ -401,7 +403,9 @@ std::optional<Scene> ChunkStore::load(const std::string& key,
   }
   Scene scene;
   try {
-    scene = decode_scene_stream(fd, path.string(), progress);
+    TextureLoadOptions textures;
+    textures.roots = roots;
+    scene = decode_scene_stream(fd, path.string(), progress, {}, textures);
   } catch (const SceneError& e) {
     ::close(fd);
     spdlog::warn("chunk store: entry {} is unreadable ({}): removed", key, e.what());
@@ -413,6 +417,7 @@ std::optional<Scene> ChunkStore::load(const std::string& key,
   if (!scene.volumes.empty()) {
     VolumeOptions reload;
     reload.mesh_level_sets = false;  // their triangles were stored
+    reload.roots = roots;
     load_scene_volumes(scene, reload);
   }
   scene.content_hash = content_hash;
@@ -425,7 +430,7 @@ std::optional<Scene> ChunkStore::load(const std::string& key,
 Scene read_usd_scene_cached(const fs::path& path, const IngestOptions& options, const ChunkStore& store,
                             const std::function<void(const std::string&, float)>& progress, bool* from_store) {
   const std::string key = store.key(usd_content_hash(path, options), options);
-  if (std::optional<Scene> stored = store.load(key, progress)) {
+  if (std::optional<Scene> stored = store.load(key, progress, options.asset_roots)) {
     if (from_store) *from_store = true;
     return std::move(*stored);
   }
@@ -440,7 +445,7 @@ Scene read_usd_scene_cached(const fs::path& path, const IngestOptions& options, 
   // The first open serves the stored (Draco-quantized) scene too, so that
   // what a daemon renders never depends on whether the store had the entry:
   // a restart or a replica reading the entry renders identical pixels.
-  if (std::optional<Scene> stored = store.load(key)) return std::move(*stored);
+  if (std::optional<Scene> stored = store.load(key, {}, options.asset_roots)) return std::move(*stored);
   return scene;
 }
 

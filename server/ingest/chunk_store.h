@@ -53,7 +53,8 @@ struct ChunkStoreOptions {
 class ChunkStore {
  public:
   // Throws InvalidArgument for bad options, IoError if the directory
-  // cannot be created.
+  // cannot be created (0700; entries are written 0600). Removes the
+  // temporaries of crashed writers (storage/pages/cache_files.h).
   explicit ChunkStore(ChunkStoreOptions options);
 
   const ChunkStoreOptions& options() const { return options_; }
@@ -67,8 +68,11 @@ class ChunkStore {
 
   // The stored scene, or nullopt if there is no entry, a dependency changed
   // or the entry is unreadable (a corrupt entry is removed, with a log line).
+  // The textures and OpenVDB files it names are read again, confined to
+  // `roots` (PermissionDenied as in read_usd_scene).
   std::optional<Scene> load(const std::string& key,
-                            const std::function<void(const std::string&, float)>& progress = {}) const;
+                            const std::function<void(const std::string&, float)>& progress = {},
+                            const AssetRoots& roots = {}) const;
 
   bool contains(const std::string& key) const;
   void remove(const std::string& key) const;
