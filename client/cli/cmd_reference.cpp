@@ -3,6 +3,7 @@
 // beauty, direct, indirect, indirect1, albedo, ao), optionally with a PNG of
 // the beauty through the OCIO display transform.
 #include "client/cli/command.h"
+#include "client/cli/output_paths.h"
 #include "client/image/exr_image.h"
 #include "client/image/png_display.h"
 #include "server/ingest/usd_ingest.h"
@@ -91,6 +92,7 @@ image::ExrImage to_exr(const ReferenceImage& r) {
 
 int run(const ReferenceArgs& args) {
   const auto start = std::chrono::steady_clock::now();
+  check_output_file(args.out, "--out");  // before minutes of path tracing
   // 1. Scene and camera.
   const Scene scene = read_usd_scene(args.scene, IngestOptions{});
   const Camera& camera = pick_camera(scene, args.camera);

@@ -12,6 +12,7 @@
 #include "client/cli/gather_flags.h"
 #include "client/cli/connection_flags.h"
 #include "client/cli/scene_warnings.h"
+#include "client/cli/output_paths.h"
 #include "client/image/exr_image.h"
 #include "client/image/png_display.h"
 #include "client/lib/frame_renderer.h"
@@ -223,8 +224,18 @@ image::ExrImage to_exr(const client::Frame& frame, const RenderArgs& args,
   return img;
 }
 
+// The PNG path of `args` ("" with --no-png).
+std::string png_path_of(const RenderArgs& args) {
+  if (args.no_png) return {};
+  return args.png.empty() ? std::filesystem::path(args.out).replace_extension(".png").string() : args.png;
+}
+
 int run_render(const RenderArgs& args) {
   const auto start = Clock::now();
+  // 0. Where the images go, before the scene is opened and rendered.
+  check_output_file(args.out, "--out");
+  const std::string png_path = png_path_of(args);
+  if (!png_path.empty()) check_output_file(png_path, "--png");
   client::ClientOptions client_options = args.connection.client_options();
   client_options.call_deadline =
       std::chrono::milliseconds(static_cast<int64_t>(args.tile_deadline * 1000));
@@ -292,16 +303,13 @@ int run_render(const RenderArgs& args) {
   image::ExrWriteOptions exr_options;
   exr_options.pixel_type = args.half ? image::ExrPixelType::Half : image::ExrPixelType::Float;
   image::write_exr(args.out, img, exr_options);
-  std::string png_path;
-  if (!args.no_png) {
-    png_path = args.png.empty()
-                   ? std::filesystem::path(args.out).replace_extension(".png").string()
-                   : args.png;
+  // The EXR holds every tile: the sidecar is done with, whatever the PNG does.
+  sidecar.remove();
+  if (!png_path.empty()) {
     image::DisplayOptions display;
     display.exposure = args.exposure;
     image::write_png(png_path, img, "", display);
   }
-  sidecar.remove();
 
   // 4. Report.
   std::printf("scene   %s (id %s, %llu triangles, %llu surfels%s%s)\n", info.scene_path().c_str(),

@@ -55,6 +55,8 @@ int64_t retry_after_ms(const grpc::ClientContext& context) {
   return ec == std::errc() && ms >= 0 ? ms : -1;
 }
 
+}  // namespace
+
 std::shared_ptr<grpc::Channel> make_channel(const std::string& target,
                                             const ClientOptions& options) {
   grpc::ChannelArguments args;
@@ -71,6 +73,8 @@ std::shared_ptr<grpc::Channel> make_channel(const std::string& target,
   args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, static_cast<int>(options.max_backoff.count()));
   return grpc::CreateCustomChannel(target, channel_credentials(options), args);
 }
+
+namespace {
 
 std::chrono::milliseconds jittered(std::chrono::milliseconds backoff) {
   thread_local std::minstd_rand rng{std::random_device{}()};

@@ -141,4 +141,9 @@ TileImage decode_tile(const v1::RenderTileResponse& response);
 // Adds "unix:" to a bare filesystem path ("/tmp/pbgid.sock", "./cache/pbgid.sock").
 std::string normalize_address(const std::string& address);
 
+// The channel PbgiClient uses for `target` (already normalized): TLS and
+// reconnect backoff from `options` (the token is per call, not here).
+// Throws IoError / InvalidArgument for unreadable or inconsistent TLS files.
+std::shared_ptr<grpc::Channel> make_channel(const std::string& target, const ClientOptions& options);
+
 }  // namespace pbgi::client

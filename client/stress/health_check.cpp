@@ -69,14 +69,20 @@ HealthStatus decode_health_response(const std::string& bytes) {
 }
 
 HealthReply check_health(const std::string& address, const std::string& service,
-                         std::chrono::milliseconds timeout) {
+                         std::chrono::milliseconds timeout, const client::ClientOptions& connection) {
   HealthReply reply;
-  auto channel =
-      grpc::CreateChannel(client::normalize_address(address), grpc::InsecureChannelCredentials());
+  std::shared_ptr<grpc::Channel> channel;
+  try {
+    channel = client::make_channel(client::normalize_address(address), connection);
+  } catch (const Error& e) {
+    reply.detail = e.what();
+    return reply;
+  }
   grpc::GenericStub stub(channel);
   grpc::ClientContext context;
   context.set_deadline(std::chrono::system_clock::now() + timeout);
   context.set_wait_for_ready(false);
+  if (!connection.token.empty()) context.AddMetadata("authorization", "Bearer " + connection.token);
 
   const std::string request = encode_health_request(service);
   grpc::Slice slice(request);

@@ -4,6 +4,8 @@
 // encoded by hand over a generic stub, so no copy of health.proto is needed.
 #pragma once
 
+#include "client/lib/pbgi_client.h"
+
 #include <chrono>
 #include <string>
 
@@ -23,9 +25,12 @@ struct HealthReply {
 };
 
 // Asks `address` about `service` ("" = the whole server; pbgid also
-// registers "pbgi.v1.Pbgi"). Never throws for a failed call.
+// registers "pbgi.v1.Pbgi") over the channel `connection` describes (TLS
+// for a TLS daemon; its token is sent too, though pbgid's health service
+// answers without one). Never throws for a failed call; unreadable TLS
+// files are Unreachable with the reason.
 HealthReply check_health(const std::string& address, const std::string& service,
-                         std::chrono::milliseconds timeout);
+                         std::chrono::milliseconds timeout, const client::ClientOptions& connection = {});
 
 const char* health_status_name(HealthStatus status);
 

@@ -2,17 +2,21 @@
 
 #include "pbgi_build_config.h"
 #include "server/daemon/listen_address.h"
+#include "server/daemon/tls_credentials.h"
+#include "server/engine/cache_cleanup.h"
 #include "server/engine/scene_session.h"
 #include "server/ingest/usd_ingest.h"
 #include "server/service/pbgi_service.h"
 #include "server/service/prometheus_text.h"
 #include "storage/cache/page_cache.h"
 #include "storage/format/errors.h"
+#include "storage/pages/cache_files.h"
 
 #include <fmt/format.h>
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
+#include <grpcpp/impl/server_builder_option.h>
 #include <grpcpp/resource_quota.h>
 #include <spdlog/pattern_formatter.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
@@ -23,8 +27,6 @@
 
 #include <cerrno>
 #include <cstring>
-#include <fstream>
-#include <sstream>
 #include <thread>
 
 namespace fs = std::filesystem;
@@ -73,30 +75,22 @@ class JsonEscapedMessage final : public spdlog::custom_flag_formatter {
   }
 };
 
-std::string read_pem(const std::string& path, const char* what) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw IoError(fmt::format("cannot read {} '{}'", what, path));
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (text.str().find("-----BEGIN") == std::string::npos) {
-    throw InvalidArgument(fmt::format("{} '{}' is not a PEM file", what, path));
+// gRPC server reflection on this server, or not. Linking grpc++_reflection
+// registers its plugin for every server of the process (a static
+// initializer): this option removes it, then adds it back if wanted.
+class ReflectionOption final : public grpc::ServerBuilderOption {
+ public:
+  explicit ReflectionOption(bool enabled) : enabled_(enabled) {}
+  void UpdateArguments(grpc::ChannelArguments*) override {}
+  void UpdatePlugins(std::vector<std::unique_ptr<grpc::ServerBuilderPlugin>>* plugins) override {
+    const std::string name = grpc::reflection::ProtoServerReflectionPlugin().name();
+    std::erase_if(*plugins, [&](const auto& plugin) { return plugin->name() == name; });
+    if (enabled_) plugins->push_back(std::make_unique<grpc::reflection::ProtoServerReflectionPlugin>());
   }
-  return text.str();
-}
 
-std::shared_ptr<grpc::ServerCredentials> server_credentials(const DaemonOptions& options) {
-  if (!options.tls()) return grpc::InsecureServerCredentials();
-  grpc::SslServerCredentialsOptions ssl;
-  ssl.pem_key_cert_pairs.push_back({read_pem(options.tls_key, "security.tls_key"),
-                                    read_pem(options.tls_cert, "security.tls_cert")});
-  if (!options.tls_client_ca.empty()) {
-    ssl.pem_root_certs = read_pem(options.tls_client_ca, "security.tls_client_ca");
-    ssl.client_certificate_request = GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
-  } else {
-    ssl.client_certificate_request = GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE;
-  }
-  return grpc::SslServerCredentials(ssl);
-}
+ private:
+  bool enabled_;
+};
 
 }  // namespace
 
@@ -135,11 +129,19 @@ void Daemon::start() {
   }
 
   // 3. Page cache and the engine's context.
-  std::error_code ec;
+  //    The cache holds whole scenes: created 0700 (cache_files.h); what
+  //    crashed runs left in it goes.
   const fs::path cache_dir = fs::absolute(options_.cache_dir);
-  fs::create_directories(cache_dir, ec);
-  if (ec) throw IoError(fmt::format("cannot create cache_dir '{}': {}", cache_dir.string(), ec.message()));
+  try {
+    storage::create_private_directories(cache_dir);
+  } catch (const IoError& e) {
+    throw IoError(fmt::format("cache_dir: {}", e.what()));
+  }
+  clean_cache_directory(cache_dir);
   cache_ = std::make_shared<storage::PageCache>(options_.memory_budget_bytes());
+  // Every file an opened scene resolves is confined to the scene roots.
+  std::vector<fs::path> roots(options_.scene_roots.begin(), options_.scene_roots.end());
+  const service::SceneRoots scene_roots(roots);
   if (!opener_) {
     EngineContext context;
     context.cache_dir = cache_dir;
@@ -151,12 +153,13 @@ void Daemon::start() {
     // Every build is bounded, whoever asks for it (--preload included).
     context.max_surfels = options_.service.limits.max_surfels;
     context.staging_quota = std::make_shared<storage::StagingQuota>(options_.staging_quota_bytes());
-    opener_ = [context](const fs::path& path, const OpenOptions& options,
-                        const service::StageSelection& selection, const StageProgress& progress,
-                        const std::function<bool()>& cancelled) -> std::shared_ptr<SceneSession> {
+    opener_ = [context, scene_roots](const fs::path& path, const OpenOptions& options,
+                                     const service::StageSelection& selection, const StageProgress& progress,
+                                     const std::function<bool()>& cancelled) -> std::shared_ptr<SceneSession> {
       // Variants and a time code are part of the scene's content hash,
       // hence of its stored ingest, page set and scene_id.
       IngestOptions composition;
+      composition.asset_roots = scene_roots.assets();
       composition.variant_selections = selection.variant_selections;
       if (selection.time_code) {
         composition.time_code = *selection.time_code;
@@ -167,7 +170,6 @@ void Daemon::start() {
   }
 
   // 4. The service, with its credentials check and status sources.
-  std::vector<fs::path> roots(options_.scene_roots.begin(), options_.scene_roots.end());
   if (roots.empty()) spdlog::warn("no scene roots configured: every OpenScene will be refused");
   service::ServiceRuntime runtime;
   std::string token = options_.auth_token;
@@ -186,7 +188,7 @@ void Daemon::start() {
     service_options.limits.max_in_flight = 2 * threads;
   }
   service_ = std::make_shared<service::PbgiService>(
-      service_options, service::SceneRoots(roots),
+      service_options, scene_roots,
       std::make_shared<service::SceneRegistry>(opener_, registry_options), std::move(runtime));
 
   // 5. Listen.
@@ -196,8 +198,10 @@ void Daemon::start() {
     spdlog::warn("listening on {} with plaintext gRPC (allow_insecure_remote)", listen.grpc_uri());
   }
   grpc::EnableDefaultHealthCheckService(true);
-  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
+  // Reflection lists every method and message: with a token it would be
+  // the one service open without one, so it is served only without.
+  builder.SetOption(std::make_unique<ReflectionOption>(!service::BearerAuth(token).enabled()));
   int bound_port = 0;
   builder.AddListeningPort(listen.grpc_uri(), server_credentials(options_), &bound_port);
   builder.RegisterService(service_.get());
@@ -249,9 +253,9 @@ void Daemon::start() {
   if (!options_.metrics_listen.empty()) {
     const ListenAddress metrics = parse_listen_address(options_.metrics_listen);
     auto service = service_;
-    metrics_ = std::make_unique<MetricsHttpServer>(metrics.host, metrics.port, [service] {
-      return service::prometheus_text(service->status(), service->metrics());
-    });
+    metrics_ = std::make_unique<MetricsHttpServer>(
+        metrics.host, metrics.port,
+        [service] { return service::prometheus_text(service->status(), service->metrics()); }, token);
     spdlog::info("metrics on http://{}:{}/metrics", metrics.host, metrics_->port());
   }
 

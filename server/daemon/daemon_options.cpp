@@ -9,7 +9,9 @@
 #include <toml++/toml.h>
 
 #include <array>
+#include <cerrno>
 #include <charconv>
+#include <cstring>
 #include <cstdlib>
 #include <fstream>
 #include <limits>
@@ -201,6 +203,16 @@ void DaemonOptions::validate() const {
     if (metrics.kind != ListenAddress::Kind::Tcp) {
       throw InvalidArgument(fmt::format("metrics_listen '{}' must be HOST:PORT", metrics_listen));
     }
+    // Off loopback the metrics (scene paths, load) need the bearer token,
+    // unless plaintext without one was allowed explicitly.
+    const bool token = !auth_token.empty() || !auth_token_file.empty();
+    if (!metrics.is_loopback() && !token && !allow_insecure_remote) {
+      throw InvalidArgument(fmt::format(
+          "metrics_listen '{}' is not a loopback address and no bearer token is configured; set "
+          "security.auth_token_file (or PBGI_AUTH_TOKEN), listen on 127.0.0.1, or set "
+          "allow_insecure_remote",
+          metrics_listen));
+    }
   }
   if (log_format != "text" && log_format != "json") {
     throw InvalidArgument(fmt::format("log_format '{}' is not text or json", log_format));
@@ -357,7 +369,7 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
 
 DaemonOptions load_daemon_config(const fs::path& file, DaemonOptions base) {
   std::ifstream in(file, std::ios::binary);
-  if (!in) throw IoError(fmt::format("cannot read config file '{}'", file.string()));
+  if (!in) throw IoError(fmt::format("cannot read config file '{}': {}", file.string(), std::strerror(errno)));
   std::ostringstream text;
   text << in.rdbuf();
   if (in.bad()) throw IoError(fmt::format("error reading config file '{}'", file.string()));
@@ -477,6 +489,15 @@ void apply_environment(DaemonOptions& o, const Environment& env) {
     const char* value = env(name);
     return value && *value ? value : nullptr;
   };
+  // Set but empty would silently turn authentication off: refuse.
+  for (const char* name : {"PBGI_AUTH_TOKEN", "PBGI_AUTH_TOKEN_FILE"}) {
+    const char* value = env(name);
+    if (value && !*value) {
+      throw InvalidArgument(fmt::format("environment {} is set but empty: unset it to run without a "
+                                        "bearer token, or give the token",
+                                        name));
+    }
+  }
   if (const char* v = get("PBGI_LISTEN")) o.listen = v;
   if (const char* v = get("PBGI_SCENE_ROOTS")) {
     o.scene_roots.clear();

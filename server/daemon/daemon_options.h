@@ -62,6 +62,8 @@ struct DaemonOptions {
   // "text" or "json" (one JSON object per line, for log collectors).
   std::string log_format = "text";
   // "HOST:PORT" of the Prometheus text endpoint (GET /metrics); "" = none.
+  // With a bearer token /metrics needs it; off loopback one is required
+  // unless allow_insecure_remote.
   std::string metrics_listen;
   // [security] PEM files. With tls_cert + tls_key the daemon speaks TLS;
   // with tls_client_ca as well it requires client certificates signed by it.
@@ -69,7 +71,8 @@ struct DaemonOptions {
   // A file (mode 0600) holding the bearer token every call must carry.
   std::string auth_token_file;
   // The token itself, from PBGI_AUTH_TOKEN only (never written to a config
-  // or printed); auth_token_file wins if both are set.
+  // or printed); auth_token_file wins if both are set. PBGI_AUTH_TOKEN (or
+  // PBGI_AUTH_TOKEN_FILE) set but empty is an error, not "no token".
   std::string auth_token;
   // On SIGTERM/SIGINT, in-flight requests (scene builds included) get this
   // long before they are cancelled; the daemon exits once they have

@@ -1,5 +1,6 @@
 #include "server/daemon/metrics_http.h"
 
+#include "server/service/bearer_auth.h"
 #include "storage/format/errors.h"
 
 #include <fmt/format.h>
@@ -12,6 +13,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cstring>
 
@@ -30,6 +32,28 @@ void send_all(int fd, const std::string& data) {
   }
 }
 
+// The value of the request head's Authorization header ("" if absent).
+std::string authorization_of(const std::string& head) {
+  size_t line = head.find('\n');
+  while (line != std::string::npos) {
+    const size_t start = line + 1;
+    const size_t end = head.find('\n', start);
+    std::string field = head.substr(start, end == std::string::npos ? std::string::npos : end - start);
+    if (!field.empty() && field.back() == '\r') field.pop_back();
+    const size_t colon = field.find(':');
+    if (colon != std::string::npos) {
+      std::string name = field.substr(0, colon);
+      for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      if (name == "authorization") {
+        const size_t value = field.find_first_not_of(' ', colon + 1);
+        return value == std::string::npos ? std::string() : field.substr(value);
+      }
+    }
+    line = end;
+  }
+  return {};
+}
+
 std::string response(int code, const char* reason, const char* type, const std::string& body) {
   return fmt::format("HTTP/1.0 {} {}\r\nContent-Type: {}\r\nContent-Length: {}\r\n"
                      "Connection: close\r\n\r\n{}",
@@ -38,8 +62,9 @@ std::string response(int code, const char* reason, const char* type, const std::
 
 }  // namespace
 
-MetricsHttpServer::MetricsHttpServer(const std::string& host, uint16_t port, Provider provider)
-    : provider_(std::move(provider)) {
+MetricsHttpServer::MetricsHttpServer(const std::string& host, uint16_t port, Provider provider,
+                                     std::string bearer_token)
+    : provider_(std::move(provider)), token_(std::move(bearer_token)) {
   addrinfo hints{};
   hints.ai_family = AF_UNSPEC;
   hints.ai_socktype = SOCK_STREAM;
@@ -115,7 +140,11 @@ void MetricsHttpServer::answer(int connection) {
     const size_t end = line.find(' ', 4);
     path = line.substr(4, end == std::string::npos ? std::string::npos : end - 4);
   }
-  if (path == "/metrics") {
+  if (path == "/metrics" && !token_.empty() &&
+      !service::constant_time_equal(authorization_of(head), "Bearer " + token_)) {
+    send_all(connection, response(401, "Unauthorized", "text/plain",
+                                  "GET /metrics needs 'Authorization: Bearer <token>'\n"));
+  } else if (path == "/metrics") {
     send_all(connection, response(200, "OK", "text/plain; version=0.0.4; charset=utf-8",
                                   provider_()));
   } else if (path == "/healthz") {

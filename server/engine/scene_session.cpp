@@ -1,5 +1,6 @@
 #include "server/engine/scene_session.h"
 
+#include "server/engine/cache_cleanup.h"
 #include "server/engine/scene_fog.h"
 #include "server/surfels/surfel_samplers.h"
 
@@ -13,6 +14,7 @@
 #include "server/surfels/surfel_gloss_lookup.h"
 #include "server/surfels/surfels.h"
 #include "storage/format/errors.h"
+#include "storage/pages/cache_files.h"
 
 #include <spdlog/spdlog.h>
 
@@ -33,7 +35,7 @@ std::unique_ptr<storage::PageSetReader> try_open_existing(const fs::path& dir,
   try {
     return std::make_unique<storage::PageSetReader>(dir, ctx.cache, gather::attach_view);
   } catch (const Error& e) {
-    const auto aside = fs::path(dir.string() + ".corrupt-" +
+    const auto aside = fs::path(dir.string() + std::string(kCorruptPageSetSuffix) +
                                 std::to_string(std::chrono::system_clock::now().time_since_epoch().count()));
     spdlog::warn("page set {} failed verification ({}); moving it to {} and rebuilding",
                  dir.string(), e.what(), aside.string());
@@ -253,7 +255,7 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
   session->tree = try_open_existing(ctx.cache_dir / key, ctx);
   session->info.reused_cache = session->tree != nullptr;
   if (!session->tree) {
-    fs::create_directories(ctx.cache_dir);
+    storage::create_private_directories(ctx.cache_dir);
     session->tree = build_page_sets(*session, options, ctx, report, cancelled);
   }
 

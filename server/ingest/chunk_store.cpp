@@ -5,6 +5,7 @@
 #include "server/volumes/scene_volumes.h"
 #include "storage/format/errors.h"
 #include "storage/format/format_version.h"
+#include "storage/pages/cache_files.h"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -329,6 +330,7 @@ bool dependencies_unchanged(const std::string& deps) {
 void write_file_atomically(const fs::path& path, const std::function<void(std::ofstream&)>& fill) {
   const fs::path temp = path.string() + fmt::format(".tmp-{}-{}", getpid(), std::hash<std::string>{}(path.string()));
   {
+    storage::create_private_file(temp);  // 0600: the entry is the whole scene
     std::ofstream out(temp, std::ios::binary | std::ios::trunc);
     if (!out) throw IoError(fmt::format("chunk store: cannot write '{}'", temp.string()));
     try {
@@ -364,9 +366,8 @@ void ChunkStoreOptions::validate() const {
 
 ChunkStore::ChunkStore(ChunkStoreOptions options) : options_(std::move(options)) {
   options_.validate();
-  std::error_code ec;
-  fs::create_directories(options_.directory, ec);
-  if (ec) throw IoError(fmt::format("chunk store: cannot create '{}': {}", options_.directory.string(), ec.message()));
+  storage::create_private_directories(options_.directory);
+  storage::remove_stale_temporaries(options_.directory);  // writes of crashed daemons
 }
 
 std::string ChunkStore::key(const std::string& content_hash, const IngestOptions& ingest) const {
@@ -407,7 +408,8 @@ static std::optional<Scene> drop_unreadable(const ChunkStore& store, const std::
 }
 
 std::optional<Scene> ChunkStore::load(const std::string& key,
-                                      const std::function<void(const std::string&, float)>& progress) const {
+                                      const std::function<void(const std::string&, float)>& progress,
+                                      const AssetRoots& roots) const {
   const fs::path path = entry_path(key);
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) return std::nullopt;
@@ -423,7 +425,9 @@ std::optional<Scene> ChunkStore::load(const std::string& key,
       remove(key);
       return std::nullopt;
     }
-    scene = read_scene_entry_body(fd, head, path.string(), progress);
+    TextureLoadOptions textures;
+    textures.roots = roots;
+    scene = read_scene_entry_body(fd, head, path.string(), progress, textures);
   } catch (const IoError& e) {
     // The disk, not the entry: leave it for the next open.
     spdlog::warn("chunk store: entry {} cannot be read now ({}): re-ingesting", key, e.what());
@@ -439,6 +443,7 @@ std::optional<Scene> ChunkStore::load(const std::string& key,
   if (!scene.volumes.empty()) {
     VolumeOptions reload;
     reload.mesh_level_sets = false;  // their triangles were stored
+    reload.roots = roots;
     load_scene_volumes(scene, reload);
   }
   scene.content_hash = content_hash;
@@ -451,7 +456,7 @@ std::optional<Scene> ChunkStore::load(const std::string& key,
 Scene read_usd_scene_cached(const fs::path& path, const IngestOptions& options, const ChunkStore& store,
                             const std::function<void(const std::string&, float)>& progress, bool* from_store) {
   const std::string key = store.key(usd_content_hash(path, options), options);
-  if (std::optional<Scene> stored = store.load(key, progress)) {
+  if (std::optional<Scene> stored = store.load(key, progress, options.asset_roots)) {
     if (from_store) *from_store = true;
     return std::move(*stored);
   }
@@ -466,7 +471,7 @@ Scene read_usd_scene_cached(const fs::path& path, const IngestOptions& options, 
   // The first open serves the stored (Draco-quantized) scene too, so that
   // what a daemon renders never depends on whether the store had the entry:
   // a restart or a replica reading the entry renders identical pixels.
-  if (std::optional<Scene> stored = store.load(key)) return std::move(*stored);
+  if (std::optional<Scene> stored = store.load(key, {}, options.asset_roots)) return std::move(*stored);
   return scene;
 }
 

@@ -59,7 +59,8 @@ struct ChunkStoreOptions {
 class ChunkStore {
  public:
   // Throws InvalidArgument for bad options, IoError if the directory
-  // cannot be created.
+  // cannot be created (0700; entries are written 0600). Removes the
+  // temporaries of crashed writers (storage/pages/cache_files.h).
   explicit ChunkStore(ChunkStoreOptions options);
 
   const ChunkStoreOptions& options() const { return options_; }
@@ -78,9 +79,12 @@ class ChunkStore {
   // or the entry is unreadable: damaged (CorruptionError), of another format
   // version (VersionError) or undecodable -- then it is removed, with a log
   // line naming the file, offset and checksums. A read error (IoError)
-  // leaves the entry in place. Exceptions of `progress` propagate.
+  // leaves the entry in place. Exceptions of `progress` propagate. The
+  // textures and OpenVDB files it names are read again, confined to
+  // `roots` (PermissionDenied as in read_usd_scene).
   std::optional<Scene> load(const std::string& key,
-                            const std::function<void(const std::string&, float)>& progress = {}) const;
+                            const std::function<void(const std::string&, float)>& progress = {},
+                            const AssetRoots& roots = {}) const;
 
   bool contains(const std::string& key) const;
   void remove(const std::string& key) const;

@@ -24,8 +24,11 @@ _PROGRESS_INTERVAL_S = 0.1
 class ChunkStream:
     """Writes SceneChunk frames to a binary file object (not thread-safe)."""
 
-    def __init__(self, out):
+    def __init__(self, out, roots=None):
         self._out = out
+        # AssetRoots (asset_roots.py): every file path a chunk carries is
+        # checked here, the one place all chunks pass, before it is sent.
+        self._roots = roots
         self._reported = set()
         self._last_progress = 0.0
         self.chunk_count = 0  # every frame written, as SceneEnd reports it
@@ -40,6 +43,8 @@ class ChunkStream:
     def write(self, chunk):
         if self.prototype_id and chunk.WhichOneof("body") in ("mesh", "subdiv_cage"):
             getattr(chunk, chunk.WhichOneof("body")).prototype_id = self.prototype_id
+        if self._roots is not None:
+            self._roots.check_chunk(chunk)
         data = chunk.SerializeToString()
         self._out.write(_LENGTH.pack(len(data)))
         self._out.write(data)

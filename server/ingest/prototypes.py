@@ -26,6 +26,7 @@ callers expand instances into world-space triangles as before.
 import numpy as np
 from pxr import Gf, Usd, UsdGeom, UsdShade
 
+from asset_roots import OutsideRoots
 from chunk_stream import ERROR, WARNING
 from gprim_triangles import read_implicit, read_mesh
 from implicit_shapes import is_implicit
@@ -118,6 +119,8 @@ class PrototypeTable:
                     relative = relative_transform(self.xforms, gprim, root)
                     triangles += reader(gprim, relative, self.time, self.materials, self.emitter,
                                         self.stream) or 0
+                except OutsideRoots:  # the whole read is refused
+                    raise
                 except Exception as e:  # one bad gprim must not lose the prototype
                     self.stream.diagnostic(ERROR, str(gprim.GetPath()),
                                            f"skipped: {type(e).__name__}: {e}", kind="prim-failed")

@@ -77,7 +77,9 @@ SceneEntryHead read_scene_entry_head(int fd, const std::string& path);
 
 // Checks the body against head.body_checksum, then decodes it (moving fd's
 // offset). Exceptions of `progress` propagate (that is how callers cancel).
+// Textures are loaded with `textures` (their roots confine them).
 Scene read_scene_entry_body(int fd, const SceneEntryHead& head, const std::string& path,
-                            const SceneStreamDecoder::Progress& progress = {});
+                            const SceneStreamDecoder::Progress& progress = {},
+                            const TextureLoadOptions& textures = {});
 
 }  // namespace pbgi

@@ -763,8 +763,12 @@ class SceneAssembler {
 
 }  // namespace
 
-SceneStreamDecoder::SceneStreamDecoder(std::string source_name, Progress progress, SubdivisionOptions subdivision)
-    : source_(std::move(source_name)), progress_(std::move(progress)), subdivision_(subdivision) {
+SceneStreamDecoder::SceneStreamDecoder(std::string source_name, Progress progress, SubdivisionOptions subdivision,
+                                       TextureLoadOptions textures)
+    : source_(std::move(source_name)),
+      progress_(std::move(progress)),
+      subdivision_(subdivision),
+      textures_(std::move(textures)) {
   subdivision_.validate();
 }
 
@@ -832,7 +836,7 @@ Scene SceneStreamDecoder::decode(int fd) {
   Scene scene = assembler.finish(at);
   // Textures and dome maps the stream names, each file once; unreadable
   // ones become warnings and the constants the reader sent stand in.
-  load_scene_textures(scene);
+  load_scene_textures(scene, textures_);
   validate_scene(scene);
   return scene;
 }

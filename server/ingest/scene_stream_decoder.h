@@ -21,6 +21,7 @@
 #pragma once
 
 #include "server/ingest/subdivision.h"
+#include "server/ingest/texture_loader.h"
 #include "server/scene/scene.h"
 
 #include <cstdint>
@@ -45,9 +46,11 @@ class SceneStreamDecoder {
  public:
   using Progress = std::function<void(const std::string& stage, float fraction)>;
 
-  // `source_name` names the stream in every error (the scene file).
+  // `source_name` names the stream in every error (the scene file);
+  // `textures` loads the images the stream names (and confines them).
   // Throws InvalidArgument for invalid subdivision options.
-  SceneStreamDecoder(std::string source_name, Progress progress = {}, SubdivisionOptions subdivision = {});
+  SceneStreamDecoder(std::string source_name, Progress progress = {}, SubdivisionOptions subdivision = {},
+                     TextureLoadOptions textures = {});
 
   // Reads fd to EOF. Throws SceneError naming the source, the frame index
   // and its byte offset (and the prim for bad mesh/light/camera data).
@@ -66,6 +69,7 @@ class SceneStreamDecoder {
   std::string source_;
   Progress progress_;
   SubdivisionOptions subdivision_;
+  TextureLoadOptions textures_;
   bool eof_ = false;
   SceneStreamStats stats_;
 };

@@ -262,6 +262,18 @@ class Loader {
   size_t files_ = 0;
 };
 
+// Before anything is read: a scene naming one file outside is refused whole.
+void check_confined(const Scene& scene, const AssetRoots& roots) {
+  const auto check = [&](const std::string& file, const std::string& owner, const char* input) {
+    if (!file.empty()) roots.check(file, fmt::format("{}: the {} texture", owner, input));
+  };
+  for (const Material& m : scene.materials) {
+    check(m.albedo_texture.file, m.prim_path, "diffuseColor");
+    check(m.emission_texture.file, m.prim_path, "emissiveColor");
+  }
+  for (const Light& l : scene.lights) check(l.texture_file, l.prim_path, "dome");
+}
+
 bool names_files(const Scene& scene) {
   for (const Material& m : scene.materials)
     if (!m.albedo_texture.file.empty() || !m.emission_texture.file.empty()) return true;
@@ -275,6 +287,7 @@ bool names_files(const Scene& scene) {
 void load_scene_textures(Scene& scene, const TextureLoadOptions& options) {
   // Scenes without images do not touch OpenColorIO at all.
   if (!names_files(scene)) return;
+  check_confined(scene, options.roots);
   Loader loader(scene, options);
   for (Material& m : scene.materials) {
     loader.bind(m.albedo_texture, m.prim_path, "diffuseColor");

@@ -20,8 +20,13 @@
 // constant colour the reader sent (the texture's fallback, or grey) is
 // used. A dome without its map keeps its constant radiance. Not
 // thread-safe; run once per scene.
+//
+// Confinement: with TextureLoadOptions::roots confined, every file is
+// checked before any is read; one outside the roots throws PermissionDenied
+// naming the material or light (never the file).
 #pragma once
 
+#include "server/scene/asset_roots.h"
 #include "server/scene/scene.h"
 
 #include <memory>
@@ -35,6 +40,8 @@ struct TextureLoadOptions {
   // srgb_texture and scene_linear in it) the sRGB decode is built in code
   // from the same OCIO transform, with a warning.
   std::string ocio_config;
+  // Directories the image files must lie below (default: anywhere).
+  AssetRoots roots;
 };
 
 void load_scene_textures(Scene& scene, const TextureLoadOptions& options = {});

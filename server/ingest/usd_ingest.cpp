@@ -65,7 +65,26 @@ VolumeOptions volume_options(const IngestOptions& options) {
   VolumeOptions v;
   v.target_edge_length = options.target_edge_length;
   v.adaptivity = options.volume_adaptivity;
+  v.roots = options.asset_roots;
   return v;
+}
+
+TextureLoadOptions texture_options(const IngestOptions& options) {
+  TextureLoadOptions t;
+  t.roots = options.asset_roots;
+  return t;
+}
+
+// The reader's exit code for a scene that uses a file outside the roots
+// (usd_reader.py); its last stderr line says what used it.
+constexpr int kReaderOutsideRoots = 5;
+
+std::string refusal_of(const std::string& log) {
+  // Only the reader's own refusal line: other output (USD's warnings) is
+  // not repeated to a client that may not see the filesystem.
+  const size_t at = log.rfind("refused: ");
+  if (at == std::string::npos) return "it uses a file outside the scene roots";
+  return trimmed(log.substr(at + 9, log.find('\n', at) - at - 9));
 }
 
 }  // namespace
@@ -81,8 +100,8 @@ SubdivisionOptions subdivision_options(const IngestOptions& options) {
 
 Scene decode_scene_stream(int fd, const std::string& source_name,
                           const std::function<void(const std::string&, float)>& progress,
-                          const SubdivisionOptions& subdivision) {
-  return SceneStreamDecoder(source_name, progress, subdivision).decode(fd);
+                          const SubdivisionOptions& subdivision, const TextureLoadOptions& textures) {
+  return SceneStreamDecoder(source_name, progress, subdivision, textures).decode(fd);
 }
 
 namespace {
@@ -129,11 +148,12 @@ Scene run_usd_reader(const std::filesystem::path& path, const IngestOptions& opt
     argv.push_back(fmt::format("--variant={}={}", target, selection));
   }
   if (options.flatten_instances) argv.push_back("--flatten-instances");  // also for the hash: another stream
+  for (const std::filesystem::path& root : options.asset_roots.roots()) argv.push_back("--scene-root=" + root.string());
   if (hash_only) argv.push_back("--hash-only");
   ReaderProcess reader(argv, reader_environment());
 
   // 3. Decode its stream; on a rejected stream stop the reader.
-  SceneStreamDecoder decoder(path.string(), progress, subdivision);
+  SceneStreamDecoder decoder(path.string(), progress, subdivision, texture_options(options));
   std::optional<Scene> scene;
   std::string stream_error;
   try {
@@ -152,6 +172,8 @@ Scene run_usd_reader(const std::filesystem::path& path, const IngestOptions& opt
   const std::string log = trimmed(reader.stderr_tail());
 
   // 4. The reader's own failure explains a broken stream best.
+  if (!exit.killed_by_us && !exit.signaled && exit.code == kReaderOutsideRoots)
+    throw PermissionDenied(fmt::format("scene '{}' refused: {}", path.string(), refusal_of(log)));
   if (!exit.killed_by_us && (exit.signaled || exit.code != 0) && (stream_error.empty() || decoder.reached_eof())) {
     throw SceneError(fmt::format("cannot read scene '{}': the USD reader {}{}{}", path.string(), describe(exit),
                                  log.empty() ? "" : ": ", log));
@@ -195,6 +217,7 @@ std::string file_digest(const std::filesystem::path& path) {
 
 Scene read_usd_scene(const std::filesystem::path& path, const IngestOptions& options,
                      const std::function<void(const std::string&, float)>& progress) {
+  options.asset_roots.check(path, fmt::format("scene '{}'", path.string()));
   const std::string extension = lowercase_extension(path);
   if (extension == ".vdb") return read_vdb_scene(path, volume_options(options));
   if (extension == ".drc") return read_draco_scene(path);
@@ -208,6 +231,7 @@ Scene read_usd_scene(const std::filesystem::path& path, const IngestOptions& opt
 }
 
 std::string usd_content_hash(const std::filesystem::path& path, const IngestOptions& options) {
+  options.asset_roots.check(path, fmt::format("scene '{}'", path.string()));
   const std::string extension = lowercase_extension(path);
   if (extension == ".vdb" || extension == ".drc") return extension.substr(1) + "-file:" + file_digest(path);
   return run_usd_reader(path, options, {}, /*hash_only=*/true).content_hash;

@@ -4,6 +4,8 @@
 #pragma once
 
 #include "server/ingest/subdivision.h"
+#include "server/ingest/texture_loader.h"
+#include "server/scene/asset_roots.h"
 #include "server/scene/scene.h"
 
 #include <filesystem>
@@ -47,13 +49,23 @@ struct IngestOptions {
   // target_edge_length (above; 0 = the grid's voxel) with this
   // volumeToMesh adaptivity in [0, 1] (server/volumes/scene_volumes.h).
   double volume_adaptivity = 0.0;
+  // Every file the scene resolves -- the scene itself, its layers
+  // (sublayers, references, payloads), textures, dome maps, OpenVDB and
+  // Draco files -- must lie below one of these directories after symlinks
+  // are resolved (server/scene/asset_roots.h), else the read throws
+  // PermissionDenied naming what used the file, never the file, before
+  // the file is read. Default: anywhere (local tools); the daemon passes
+  // its scene roots. Not part of the content hash: it decides whether a
+  // scene is read, not what it reads as.
+  AssetRoots asset_roots;
 };
 
 // The refinement options read_usd_scene uses for `options`.
 SubdivisionOptions subdivision_options(const IngestOptions& options);
 
 // Throws SceneError naming the file (and prim) if the scene cannot be read,
-// IoError if the reader process cannot be started.
+// IoError if the reader process cannot be started, PermissionDenied if it
+// uses a file outside options.asset_roots.
 //
 // Besides USD (.usd/.usda/.usdc/.usdz, read by the reader process), the
 // path may name an OpenVDB file (.vdb: server/volumes/scene_volumes.h) or a
@@ -72,9 +84,10 @@ Scene read_usd_scene(const std::filesystem::path& path, const IngestOptions& opt
 std::string usd_content_hash(const std::filesystem::path& path, const IngestOptions& options);
 
 // Decodes a framed SceneChunk stream from a file descriptor into a Scene
-// (exposed for tests and fuzzing). Throws SceneError on malformed input.
+// (exposed for tests and fuzzing). Throws SceneError on malformed input,
+// PermissionDenied for an image outside textures.roots.
 Scene decode_scene_stream(int fd, const std::string& source_name,
                           const std::function<void(const std::string&, float)>& progress = {},
-                          const SubdivisionOptions& subdivision = {});
+                          const SubdivisionOptions& subdivision = {}, const TextureLoadOptions& textures = {});
 
 }  // namespace pbgi

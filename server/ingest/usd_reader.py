@@ -3,6 +3,7 @@
 
     usd_reader.py SCENE [--time CODE] [--max-triangles-per-chunk N]
                   [--variant /PRIM:SET=SELECTION ...] [--hash-only] [--flatten-instances]
+                  [--scene-root DIR ...]
 
 Opens SCENE with Pixar's USD (pxr) and writes the scene as framed SceneChunk
 messages (proto/pbgi/v1/scene.proto; 4-byte little-endian length + bytes)
@@ -15,8 +16,14 @@ errors go to stderr.
 The daemon (server/ingest/usd_ingest.cpp) runs this with PYTHONPATH holding
 the generated protobuf package (<build>/python/pbgi/v1/scene_pb2.py).
 
+With --scene-root, every file the scene uses must lie below one of the
+roots (asset_roots.py), else the read stops before the file is read or its
+path sent.
+
 Exit codes: 0 success; 2 the scene cannot be opened (or bad arguments);
-3 an unexpected failure while reading; 4 the daemon closed the pipe.
+3 an unexpected failure while reading; 4 the daemon closed the pipe;
+5 the scene uses a file outside the scene roots (the message names what
+uses it, never the file).
 """
 import argparse
 import hashlib
@@ -34,6 +41,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 try:
     from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdShade, UsdSkel, UsdVol
 
+    from asset_roots import AssetRoots, OutsideRoots, check_layer_graph, check_used_layers
     from camera_defs import camera_def
     from chunk_stream import ERROR, WARNING, ChunkStream
     from draco_refs import draco_arc_files, draco_chunks
@@ -98,6 +106,9 @@ def _parse_args(argv):
     parser.add_argument("--flatten-instances", action="store_true",
                         help="expand native instances and PointInstancers into world-space "
                              "triangles instead of prototypes + InstanceBatches")
+    parser.add_argument("--scene-root", action="append", default=[], metavar="DIR",
+                        help="confine every file the scene uses to these directories "
+                             "(repeatable; none = unconfined)")
     args = parser.parse_args(argv)
     if args.max_triangles_per_chunk < 1:
         parser.error("--max-triangles-per-chunk must be >= 1")
@@ -174,8 +185,10 @@ def report_variants(stage, variants, stream):
                                   "set contributes nothing", kind=f"variant:{variant_set}")
 
 
-def open_stage(path, variants=()):
-    """Returns (stage, None) or (None, error message naming the file)."""
+def open_stage(path, variants=(), roots=None):
+    """Returns (stage, None) or (None, error message naming the file).
+    Raises OutsideRoots if the scene uses a layer outside `roots`."""
+    roots = roots or AssetRoots()
     if not os.path.exists(path):
         return None, f"cannot read scene '{path}': no such file"
     if os.path.isdir(path):
@@ -183,6 +196,8 @@ def open_stage(path, variants=()):
     if not os.access(path, os.R_OK):
         return None, f"cannot read scene '{path}': permission denied"
     try:
+        # Held while the stage composes, so that it reuses these layers.
+        held = check_layer_graph(path, roots, Sdf) if roots.confined else []  # noqa: F841
         session = variant_session_layer(variants)
         if session is None:
             stage = Usd.Stage.Open(path, Usd.Stage.LoadAll)
@@ -193,6 +208,8 @@ def open_stage(path, variants=()):
         return None, f"cannot read scene '{path}': {_usd_error_text(e)}"
     if stage is None:
         return None, f"cannot read scene '{path}': USD could not open it"
+    if roots.confined:
+        check_used_layers(stage, roots)
     return stage, None
 
 
@@ -200,8 +217,9 @@ class SceneReader:
     """One traversal of a stage, writing chunks to a ChunkStream."""
 
     def __init__(self, stage, time, stream, max_triangles_per_chunk, draco_prims=None,
-                 flatten_instances=False):
+                 flatten_instances=False, roots=None):
         self.draco_prims = draco_prims or {}  # prim path -> .drc files it references
+        self.roots = roots or AssetRoots()
         self.stage = stage
         self.time = time
         self.stream = stream
@@ -223,6 +241,8 @@ class SceneReader:
             try:
                 if self._read_prim(prim) == "prune":
                     prims.PruneChildren()
+            except OutsideRoots:  # not a bad prim: the whole read is refused
+                raise
             except Exception as e:  # one bad prim must not lose the scene
                 self._prim_failed(prim, e)
         if self.prototypes is not None:
@@ -239,6 +259,8 @@ class SceneReader:
             try:
                 if self._read_prim(prim, geometry=False) == "prune":
                     prims.PruneChildren()
+            except OutsideRoots:
+                raise
             except Exception as e:
                 self._prim_failed(prim, e)
 
@@ -246,6 +268,8 @@ class SceneReader:
         """The .drc files the prim references, as Draco MeshChunks."""
         if matrix is None:
             matrix = Gf.Matrix4d(1.0)
+        for file in self.draco_prims[path]:  # checked before its bytes are read
+            self.roots.check(file, f"prim {path}: a Draco file it references")
         double_sided = prim.IsA(UsdGeom.Gprim) and \
             bool(UsdGeom.Gprim(prim).GetDoubleSidedAttr().Get(self.time))
         chunks, problems = draco_chunks(path, self.draco_prims[path], matrix,
@@ -364,14 +388,22 @@ def _write_header(stage, path, time, stream, flatten_instances):
     stream.write(chunk)
 
 
-def _report_composition_errors(stage, stream):
+_ASSET_IN_ERROR = re.compile(r"@([^@:]+)(?::SDF_FORMAT_ARGS[^@]*)?@")
+
+
+def _report_composition_errors(stage, stream, roots):
     """Reports USD's composition errors; returns {prim path: [.drc files]}
     for the arcs to Draco files, which the traversal reads instead
-    (draco_refs.py)."""
+    (draco_refs.py). An error about a file outside the roots (an arc that
+    could not be opened) refuses the read: reported, its message would
+    tell the client what exists outside."""
     draco = {}
     for error in stage.GetCompositionErrors():
         site = getattr(error, "rootSite", None)
         prim_path = str(site.path) if site is not None and hasattr(site, "path") else ""
+        for asset in _ASSET_IN_ERROR.findall(str(error)):
+            if os.path.isabs(asset):
+                roots.check(asset, f"the file of a composition arc of {prim_path or 'the stage'}")
         files = draco_arc_files(str(error)) if prim_path.startswith("/") else []
         if files:
             draco.setdefault(prim_path, []).extend(files)
@@ -388,7 +420,11 @@ def main(argv):
                      "must hold <build>/python and the interpreter must have usd-core", 2)
 
     imported = clock.monotonic()
-    stage, error = open_stage(args.scene, args.variants)
+    roots = AssetRoots(args.scene_root)
+    try:
+        stage, error = open_stage(args.scene, args.variants, roots)
+    except OutsideRoots as e:
+        return _fail(f"scene '{args.scene}' refused: {e}", 5)
     if error:
         return _fail(error, 2)
     opened = clock.monotonic()
@@ -399,7 +435,7 @@ def main(argv):
     else:
         time = Usd.TimeCode(0.0)
 
-    stream = ChunkStream(out)
+    stream = ChunkStream(out, roots)
     stream.stage = stage
     try:
         _write_header(stage, args.scene, time, stream, args.flatten_instances)
@@ -407,10 +443,10 @@ def main(argv):
             stream.end()
             out.close()
             return 0
-        draco_prims = _report_composition_errors(stage, stream)
+        draco_prims = _report_composition_errors(stage, stream, roots)
         report_variants(stage, args.variants, stream)
         SceneReader(stage, time, stream, args.max_triangles_per_chunk, draco_prims,
-                    args.flatten_instances).run()
+                    args.flatten_instances, roots).run()
         stream.end()
         out.close()
         done = clock.monotonic()
@@ -421,6 +457,8 @@ def main(argv):
     except BrokenPipeError:
         # The daemon stopped reading (cancelled or rejected the stream).
         os._exit(4)
+    except OutsideRoots as e:
+        return _fail(f"scene '{args.scene}' refused: {e}", 5)
     except Exception as e:
         traceback.print_exc(limit=-5, file=sys.stderr)
         return _fail(f"failed while reading scene '{args.scene}': {_one_line(e)}", 3)

@@ -1,10 +1,10 @@
 #include "server/service/bearer_auth.h"
 
+#include "server/service/secret_files.h"
+
 #include "storage/format/errors.h"
 
 #include <fmt/format.h>
-
-#include <sys/stat.h>
 
 #include <fstream>
 
@@ -53,15 +53,7 @@ grpc::Status BearerAuth::check(const grpc::ServerContext& context) const {
 }
 
 std::string read_token_file(const std::filesystem::path& file) {
-  struct stat st {};
-  if (::stat(file.c_str(), &st) != 0) {
-    throw IoError(fmt::format("cannot read token file '{}'", file.string()));
-  }
-  if (st.st_mode & 077) {
-    throw InvalidArgument(fmt::format(
-        "token file '{}' is readable by other users (mode {:o}); chmod 600 it", file.string(),
-        st.st_mode & 0777));
-  }
+  check_secret_file_mode(file, "token file");
   std::ifstream in(file);
   if (!in) throw IoError(fmt::format("cannot read token file '{}'", file.string()));
   std::string line;

@@ -19,7 +19,9 @@ namespace pbgi::service {
 // Immutable after construction; thread-safe.
 class BearerAuth {
  public:
-  // An empty token disables the check (every call is accepted).
+  // An empty token disables the check (every call is accepted): the
+  // daemon refuses to start with a token that is set but empty
+  // (daemon_options.h), so this means "no token configured".
   explicit BearerAuth(std::string token = {});
 
   bool enabled() const { return !token_.empty(); }
@@ -41,7 +43,8 @@ bool constant_time_equal(std::string_view a, std::string_view b);
 // Reads a token file: its first line, surrounding whitespace removed.
 // Throws IoError naming the file if it cannot be read, InvalidArgument if
 // the token is empty, and refuses a file that other users may read
-// (mode & 077), naming the path: a shared token is no secret.
+// (check_secret_file_mode, secret_files.h), naming the path: a shared token
+// is no secret.
 std::string read_token_file(const std::filesystem::path& file);
 
 }  // namespace pbgi::service

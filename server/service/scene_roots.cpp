@@ -21,31 +21,16 @@ std::string join_paths(const std::vector<fs::path>& paths) {
 
 }  // namespace
 
-SceneRoots::SceneRoots(const std::vector<fs::path>& roots) {
-  for (const fs::path& root : roots) {
-    std::error_code ec;
-    fs::path canonical = fs::canonical(root, ec);
-    if (ec) throw IoError(fmt::format("scene root '{}': {}", root.string(), ec.message()));
-    if (!fs::is_directory(canonical, ec)) {
-      throw IoError(fmt::format("scene root '{}' is not a directory", root.string()));
-    }
-    roots_.push_back(std::move(canonical));
-  }
-}
-
-bool SceneRoots::contains(const fs::path& canonical) const {
-  for (const fs::path& root : roots_) {
-    // Component-wise prefix test: "/scenes-private" is not inside "/scenes".
-    auto [root_end, path_it] =
-        std::mismatch(root.begin(), root.end(), canonical.begin(), canonical.end());
-    if (root_end == root.end() && path_it != canonical.end()) return true;
-  }
-  return false;
-}
+SceneRoots::SceneRoots(const std::vector<fs::path>& roots) : roots_(roots) {}
 
 fs::path SceneRoots::resolve(const std::string& requested) const {
   if (requested.empty()) throw InvalidArgument("scene_path is empty");
-  if (roots_.empty()) {
+  if (requested.find('\0') != std::string::npos) {
+    // The kernel would open only the part before the NUL: another file.
+    throw InvalidArgument(fmt::format("scene_path '{}' contains a NUL byte",
+                                      requested.substr(0, requested.find('\0'))));
+  }
+  if (roots().empty()) {
     throw PermissionDenied(fmt::format(
         "scene path '{}' refused: the daemon has no scene roots (start it with --scene-root)",
         requested));
@@ -56,10 +41,9 @@ fs::path SceneRoots::resolve(const std::string& requested) const {
   if (request.is_absolute()) {
     candidates.push_back(request);
   } else {
-    for (const fs::path& root : roots_) candidates.push_back(root / request);
+    for (const fs::path& root : roots()) candidates.push_back(root / request);
   }
 
-  fs::path denied;    // first candidate that resolved outside the roots
   fs::path missing;   // first candidate inside a root that does not exist
   for (const fs::path& candidate : candidates) {
     std::error_code ec;
@@ -71,10 +55,7 @@ fs::path SceneRoots::resolve(const std::string& requested) const {
       throw InvalidArgument(
           fmt::format("scene path '{}' cannot be resolved: {}", requested, ec.message()));
     }
-    if (!contains(resolved)) {
-      if (denied.empty()) denied = resolved;
-      continue;
-    }
+    if (!roots_.contains(resolved)) continue;
     fs::file_status status = fs::status(resolved, ec);
     if (ec || !fs::exists(status)) {
       if (missing.empty()) missing = resolved;
@@ -90,8 +71,10 @@ fs::path SceneRoots::resolve(const std::string& requested) const {
     throw NotFound(fmt::format("scene '{}' not found (looked for '{}')", requested,
                                missing.string()));
   }
-  throw PermissionDenied(fmt::format("scene path '{}' resolves to '{}', outside the scene roots [{}]",
-                                     requested, denied.string(), join_paths(roots_)));
+  // Where it resolved to is not said: a symlink's target outside the roots
+  // would disclose the filesystem there.
+  throw PermissionDenied(fmt::format("scene path '{}' is outside the scene roots [{}]", requested,
+                                     join_paths(roots())));
 }
 
 }  // namespace pbgi::service

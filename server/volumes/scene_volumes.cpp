@@ -149,6 +149,8 @@ void load_scene_volumes(Scene& scene, const VolumeOptions& options) {
   if (!(options.target_edge_length >= 0.f) || !std::isfinite(options.target_edge_length))
     throw InvalidArgument(fmt::format("volume target edge length {} must be finite and >= 0", options.target_edge_length));
   if (scene.volumes.empty()) return;
+  for (const Volume& v : scene.volumes)
+    options.roots.check(v.file, fmt::format("volume {}: the OpenVDB file of field '{}'", v.prim_path, v.field));
   initialize_openvdb();
 
   std::map<std::string, std::unique_ptr<VdbFile>> files;
@@ -211,6 +213,7 @@ void load_scene_volumes(Scene& scene, const VolumeOptions& options) {
 }
 
 Scene read_vdb_scene(const std::filesystem::path& path, const VolumeOptions& options) {
+  options.roots.check(path, fmt::format("scene '{}'", path.string()));
   initialize_openvdb();
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec))

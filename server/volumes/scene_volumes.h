@@ -19,6 +19,7 @@
 // Not thread-safe for one Scene; different Scenes may load concurrently.
 #pragma once
 
+#include "server/scene/asset_roots.h"
 #include "server/scene/scene.h"
 
 #include <filesystem>
@@ -37,16 +38,21 @@ struct VolumeOptions {
   // content hash is left alone -- for scenes whose meshes were stored
   // already (server/ingest/chunk_store.h).
   bool mesh_level_sets = true;
+  // Directories the .vdb files must lie below (default: anywhere).
+  AssetRoots roots;
 };
 
 // Loads the grid of every entry of scene.volumes (as the reader sent them)
-// and meshes the level sets. Throws InvalidArgument for bad options only.
+// and meshes the level sets. Throws InvalidArgument for bad options,
+// PermissionDenied naming the volume and field (never the file) if a file
+// lies outside options.roots -- every file is checked before any is read.
 void load_scene_volumes(Scene& scene, const VolumeOptions& options = {});
 
 // A .vdb file given directly: one volume per float grid, named
 // "/<grid name>" (non-identifier characters replaced by '_'), identity
 // transform, one grey diffuse material. Throws SceneError naming the file
-// if it cannot be opened or holds no float grid.
+// if it cannot be opened or holds no float grid, PermissionDenied if it
+// lies outside options.roots.
 Scene read_vdb_scene(const std::filesystem::path& path, const VolumeOptions& options = {});
 
 }  // namespace pbgi

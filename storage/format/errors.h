@@ -23,6 +23,10 @@ struct InvalidArgument : Error { using Error::Error; };
 // What a caller asked to create exists already (a page set directory that
 // another build published first: content-addressed, so it is the same).
 struct AlreadyExists : InvalidArgument { using InvalidArgument::InvalidArgument; };
+// A path lies outside what the caller may use: a scene, or a file a scene
+// names, outside the daemon's scene roots (names what used it, never where
+// the path leads: that would disclose the filesystem outside).
+struct PermissionDenied : Error { using Error::Error; };
 // A named thing (scene, camera, page set) does not exist.
 struct NotFound : Error { using Error::Error; };
 // Input scene could not be read (names the file and prim).

@@ -27,7 +27,7 @@ File File::open_read(const std::filesystem::path& path) {
 }
 
 File File::create_new(const std::filesystem::path& path) {
-  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
   if (fd < 0) fail("cannot create", path.string(), errno);
   return File(fd, path.string());
 }

@@ -15,7 +15,8 @@ class File {
  public:
   // Opens an existing file for reading. NotFound if it does not exist.
   static File open_read(const std::filesystem::path& path);
-  // Creates a new file for writing; fails if it exists (O_EXCL).
+  // Creates a new file for writing, mode 0600 (cache_files.h); fails if
+  // it exists (O_EXCL).
   static File create_new(const std::filesystem::path& path);
 
   File(File&& o) noexcept;

@@ -1,19 +1,18 @@
 #include "storage/pages/staging_dir.h"
 
 #include "storage/format/errors.h"
+#include "storage/pages/cache_files.h"
 #include "storage/pages/file_io.h"
 
 #include <fcntl.h>
-#include <signal.h>
 #include <stdio.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
-#include <limits>
 #include <random>
-#include <regex>
 #include <system_error>
 
 namespace pbgi::storage {
@@ -46,36 +45,18 @@ void StagingDir::check_target(const fs::path& final_dir) {
   }
 }
 
-size_t StagingDir::remove_stale(const fs::path& parent) {
-  // <anything>.tmp-<pid>-<16 lowercase hex>, as the constructor names them.
-  static const std::regex kName(R"(.+\.tmp-([0-9]+)-[0-9a-f]{16})");
-  size_t removed = 0;
-  std::error_code ec;
-  for (fs::directory_iterator it(parent, ec), end; !ec && it != end; it.increment(ec)) {
-    const std::string name = it->path().filename().string();
-    std::smatch m;
-    if (!std::regex_match(name, m, kName)) continue;
-    const long long pid = std::stoll(m[1].str());
-    if (pid <= 0 || pid > std::numeric_limits<pid_t>::max() || pid == ::getpid()) continue;
-    // ESRCH: no such process. EPERM means it exists (another user's).
-    if (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;
-    std::error_code rm;
-    if (fs::remove_all(it->path(), rm) > 0 && !rm) ++removed;
-  }
-  return removed;
-}
+size_t StagingDir::remove_stale(const fs::path& parent) { return remove_stale_temporaries(parent); }
 
 StagingDir::StagingDir(fs::path final_dir) : final_(without_trailing_slash(std::move(final_dir))) {
   check_target(final_);
   remove_stale(parent_of(final_));
-  std::error_code ec;
   std::random_device rd;
   char suffix[64];
   std::snprintf(suffix, sizeof suffix, ".tmp-%d-%08x%08x", static_cast<int>(::getpid()), rd(), rd());
   staging_ = fs::path(final_.string() + suffix);
-  if (!fs::create_directory(staging_, ec) || ec) {
-    throw IoError("cannot create staging directory " + staging_.string() + ": " +
-                  (ec ? ec.message() : std::string("it already exists")));
+  // 0700: the page set holds the scene's geometry (storage/pages/cache_files.h).
+  if (::mkdir(staging_.c_str(), 0700) != 0) {
+    throw IoError("cannot create staging directory " + staging_.string() + ": " + std::strerror(errno));
   }
 }
 

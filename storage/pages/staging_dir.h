@@ -34,7 +34,8 @@ class StagingDir {
   // could clean up. Staging directories of live processes (this one
   // included) are left alone. The parent is assumed to be used by one host
   // (process ids are host-local). Returns how many were removed; errors
-  // are ignored (the next build tries again).
+  // are ignored (the next build tries again). The staging directory is
+  // created 0700 (cache_files.h; remove_stale_temporaries does the work).
   static size_t remove_stale(const std::filesystem::path& parent);
 
   const std::filesystem::path& path() const { return staging_; }

@@ -214,6 +214,41 @@ TEST(DaemonOptions, EnvironmentOverridesDefaults) {
   EXPECT_THROW(apply_environment(o, fake_env({{"PBGI_MEMORY_BUDGET", "x"}})), InvalidArgument);
 }
 
+TEST(DaemonOptions, AnEmptyAuthTokenIsRefusedNotAuthenticationOff) {
+  for (const char* variable : {"PBGI_AUTH_TOKEN", "PBGI_AUTH_TOKEN_FILE"}) {
+    DaemonOptions o;
+    try {
+      apply_environment(o, fake_env({{variable, ""}}));
+      ADD_FAILURE() << variable << "= accepted: the daemon would run without authentication";
+    } catch (const InvalidArgument& e) {
+      EXPECT_NE(std::string(e.what()).find(variable), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(DaemonOptions, MetricsOffLoopbackNeedATokenOrExplicitPermission) {
+  DaemonOptions o;
+  o.metrics_listen = "127.0.0.1:0";
+  EXPECT_NO_THROW(o.validate());
+  o.metrics_listen = "0.0.0.0:9100";
+  EXPECT_THROW(o.validate(), InvalidArgument) << "metrics open to the network without a token";
+  o.auth_token = "t";
+  EXPECT_NO_THROW(o.validate());
+  o.auth_token.clear();
+  o.allow_insecure_remote = true;
+  EXPECT_NO_THROW(o.validate());
+}
+
+TEST(DaemonOptions, AMissingConfigFileSaysWhy) {
+  testing::TempDir tmp;
+  try {
+    load_daemon_config(tmp.path() / "missing.toml");
+    ADD_FAILURE() << "a missing config file was read";
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("No such file"), std::string::npos) << e.what();
+  }
+}
+
 struct ParsedRun {
   CommandLine result;
   std::string out, err;

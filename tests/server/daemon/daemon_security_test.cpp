@@ -5,10 +5,12 @@
 #include "server/daemon/daemon.h"
 
 #include "client/lib/pbgi_client.h"
+#include "client/stress/health_check.h"
 #include "storage/format/errors.h"
 #include "tests/server/service/fake_sessions.h"
 #include "tests/server/service/temp_dir.h"
 
+#include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
@@ -133,6 +135,91 @@ TEST_F(DaemonSecurityTest, TlsWithBearerTokenEndToEnd) {
   EXPECT_EQ(client.list_scenes().size(), 1u);
 }
 
+TEST_F(DaemonSecurityTest, HealthCheckOverTlsWithAToken) {
+  Daemon daemon(options, opener());
+  daemon.start();
+  // What `pbgi health --tls-ca ca.crt --token ...` runs (the container's
+  // HEALTHCHECK and the Kubernetes probes).
+  const stress::HealthReply reply =
+      stress::check_health(daemon.address(), "pbgi.v1.Pbgi", std::chrono::seconds(5), client_options(kToken));
+  EXPECT_EQ(reply.status, stress::HealthStatus::Serving) << reply.detail;
+  EXPECT_EQ(stress::check_health(daemon.address(), "", std::chrono::seconds(5), client_options("")).status,
+            stress::HealthStatus::Serving)
+      << "the health service needs no token";
+  EXPECT_EQ(stress::check_health(daemon.address(), "", std::chrono::seconds(2)).status,
+            stress::HealthStatus::Unreachable)
+      << "plaintext cannot reach a TLS daemon";
+}
+
+// A ServerReflectionInfo call listing the services: its status.
+grpc::Status list_services_by_reflection(const std::string& address, const ClientOptions& connection) {
+  grpc::GenericStub stub(client::make_channel(address, connection));
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(5));
+  grpc::CompletionQueue cq;
+  void* tag = nullptr;
+  bool ok = false;
+  auto call = stub.PrepareCall(&context, "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo", &cq);
+  call->StartCall(reinterpret_cast<void*>(1));
+  cq.Next(&tag, &ok);
+  // ServerReflectionRequest { string list_services = 7; } = "*".
+  const std::string request = std::string("\x3a\x01*", 3);
+  grpc::Slice slice(request);
+  call->Write(grpc::ByteBuffer(&slice, 1), reinterpret_cast<void*>(2));
+  cq.Next(&tag, &ok);
+  call->WritesDone(reinterpret_cast<void*>(3));
+  cq.Next(&tag, &ok);
+  grpc::ByteBuffer response;
+  call->Read(&response, reinterpret_cast<void*>(4));
+  cq.Next(&tag, &ok);
+  grpc::Status status;
+  call->Finish(&status, reinterpret_cast<void*>(5));
+  cq.Next(&tag, &ok);
+  cq.Shutdown();
+  while (cq.Next(&tag, &ok)) {
+  }
+  return status;
+}
+
+TEST_F(DaemonSecurityTest, ReflectionIsServedOnlyWithoutAToken) {
+  {
+    Daemon daemon(options, opener());
+    daemon.start();
+    EXPECT_EQ(list_services_by_reflection(daemon.address(), client_options(kToken)).error_code(),
+              grpc::StatusCode::UNIMPLEMENTED)
+        << "reflection would be the one service open without the token";
+  }
+  options.auth_token_file = "";
+  Daemon open_daemon(options, opener());
+  open_daemon.start();
+  const grpc::Status status = list_services_by_reflection(open_daemon.address(), client_options(""));
+  EXPECT_TRUE(status.ok()) << status.error_message();
+}
+
+// The real opener (USD reader process): a scene inside the root whose
+// sublayer lies outside is PERMISSION_DENIED, and the answer does not say
+// where the sublayer is.
+TEST_F(DaemonSecurityTest, AScenePullingInALayerOutsideTheRootsIsPermissionDenied) {
+  fs::create_directories(tmp.path() / "private");
+  std::ofstream(tmp.path() / "private" / "secret.usda")
+      << "#usda 1.0\ndef Mesh \"Secret\"\n{\n    int[] faceVertexCounts = [3]\n"
+         "    int[] faceVertexIndices = [0, 1, 2]\n    point3f[] points = [(0,0,0), (1,0,0), (0,1,0)]\n}\n";
+  std::ofstream(tmp.path() / "scenes" / "escape.usda")
+      << "#usda 1.0\n(\n    subLayers = [@" << (tmp.path() / "private" / "secret.usda").string() << "@]\n)\n";
+  options.listen = "";
+  options.tls_cert = options.tls_key = "";
+  options.auth_token_file = "";
+  Daemon daemon(options);  // the engine's opener
+  daemon.start();
+  std::string message;
+  EXPECT_EQ(code_of([&] { PbgiClient(daemon.address(), client_options("", "")).open_scene("escape.usda"); },
+                    &message),
+            grpc::StatusCode::PERMISSION_DENIED)
+      << message;
+  EXPECT_NE(message.find("outside the scene roots"), std::string::npos) << message;
+  EXPECT_EQ(message.find("private"), std::string::npos) << "discloses the outside path: " << message;
+}
+
 TEST_F(DaemonSecurityTest, MutualTlsRequiresAClientCertificateFromTheCa) {
   options.tls_client_ca = (pki / "ca.crt").string();
   Daemon daemon(options, opener());
@@ -201,6 +288,32 @@ TEST_F(DaemonSecurityTest, BadCredentialsFilesFailTheStart) {
   options.tls_key = (pki / "missing.key").string();
   Daemon daemon(options, opener());
   EXPECT_THROW(daemon.start(), IoError);
+}
+
+TEST_F(DaemonSecurityTest, ATlsKeyOthersCanReadFailsTheStart) {
+  fs::permissions(pki / "server.key", fs::perms::group_read | fs::perms::others_read, fs::perm_options::add);
+  Daemon daemon(options, opener());
+  try {
+    daemon.start();
+    FAIL() << "a world-readable TLS key was accepted";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("tls_key"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("644"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(DaemonSecurityTest, AKeyOfAnotherCertificateIsReportedAsSuch) {
+  options.tls_key = (pki / "client.key").string();  // a valid key, not the server certificate's
+  Daemon daemon(options, opener());
+  try {
+    daemon.start();
+    FAIL() << "a mismatched TLS key was accepted";
+  } catch (const InvalidArgument& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("does not match"), std::string::npos) << message;
+    EXPECT_NE(message.find("client.key"), std::string::npos) << message;
+    EXPECT_EQ(message.find("address in use"), std::string::npos) << message;
+  }
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include "storage/format/errors.h"
 #include "tests/server/service/fake_sessions.h"
 #include "tests/server/service/temp_dir.h"
+#include "tests/storage/pages/dead_process.h"
 
 #include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
@@ -118,6 +119,34 @@ TEST_F(DaemonTest, PreloadErrorsFailTheStart) {
   options.preload = {"missing.usda"};
   Daemon daemon(options, opener());
   EXPECT_THROW(daemon.start(), NotFound);
+}
+
+TEST_F(DaemonTest, TheCacheDirectoryIsPrivateAndLeftoversOfCrashedRunsGoAtStart) {
+  const pid_t dead = testing::dead_process_id();
+  const fs::path cache = options.cache_dir;
+  fs::create_directories(cache);
+  const fs::path staging = cache / ("0123abcd.tmp-" + std::to_string(dead) + "-0123456789abcdef");
+  const fs::path corrupt = cache / "4567cdef.corrupt-1700000000";
+  const fs::path live = cache / "89abcdef.tmp-1-0123456789abcdef";  // pid 1 runs
+  for (const fs::path& dir : {staging, corrupt, live}) {
+    fs::create_directories(dir);
+    std::ofstream(dir / "pages.pbgp") << "x";
+  }
+  Daemon daemon(options, opener());
+  daemon.start();
+  EXPECT_FALSE(fs::exists(staging)) << "staging directory of a dead build";
+  EXPECT_FALSE(fs::exists(corrupt)) << "corrupt page set moved aside by an earlier run";
+  EXPECT_TRUE(fs::exists(live)) << "a running process' staging directory";
+
+  // A cache directory the daemon creates is 0700 whatever the umask.
+  const fs::path fresh = tmp.path() / "fresh" / "cache";
+  options.cache_dir = fresh.string();
+  options.listen = "unix:" + (tmp.path() / "fresh.sock").string();
+  const mode_t previous = ::umask(022);
+  Daemon second(options, opener());
+  second.start();
+  ::umask(previous);
+  EXPECT_EQ(fs::status(fresh).permissions(), fs::perms::owner_all);
 }
 
 TEST_F(DaemonTest, InvalidOptionsFailTheStart) {

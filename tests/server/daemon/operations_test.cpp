@@ -22,8 +22,9 @@ namespace fs = std::filesystem;
 namespace pbgi::daemon {
 namespace {
 
-// One HTTP/1.0 request to 127.0.0.1:port; the whole response.
-std::string http_get(uint16_t port, const std::string& path) {
+// One HTTP/1.0 request to 127.0.0.1:port (with extra header lines); the
+// whole response.
+std::string http_get(uint16_t port, const std::string& path, const std::string& headers = "") {
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
   sockaddr_in address{};
   address.sin_family = AF_INET;
@@ -33,13 +34,32 @@ std::string http_get(uint16_t port, const std::string& path) {
     ::close(fd);
     return "connect failed";
   }
-  const std::string request = "GET " + path + " HTTP/1.0\r\n\r\n";
+  const std::string request = "GET " + path + " HTTP/1.0\r\n" + headers + "\r\n";
   ::send(fd, request.data(), request.size(), 0);
   std::string response;
   char buffer[4096];
   for (ssize_t n; (n = ::recv(fd, buffer, sizeof buffer, 0)) > 0;) response.append(buffer, n);
   ::close(fd);
   return response;
+}
+
+TEST(DaemonOperations, WithABearerTokenMetricsNeedIt) {
+  testing::TempDir tmp;
+  DaemonOptions options;
+  options.cache_dir = (tmp.path() / "cache").string();
+  options.log_level = "error";
+  options.metrics_listen = "127.0.0.1:0";
+  options.auth_token = "metrics-token";
+  Daemon daemon(options, [](const fs::path& path, const OpenOptions&, const service::StageSelection&,
+                            const StageProgress&) { return testing::fake_session(path.string(), "id"); });
+  daemon.start();
+  EXPECT_EQ(http_get(daemon.metrics_port(), "/metrics").rfind("HTTP/1.0 401", 0), 0u);
+  EXPECT_EQ(http_get(daemon.metrics_port(), "/metrics", "Authorization: Bearer wrong\r\n").rfind("HTTP/1.0 401", 0),
+            0u);
+  EXPECT_EQ(http_get(daemon.metrics_port(), "/metrics", "authorization: Bearer metrics-token\r\n")
+                .rfind("HTTP/1.0 200 OK", 0),
+            0u);
+  EXPECT_EQ(http_get(daemon.metrics_port(), "/healthz").rfind("HTTP/1.0 200 OK", 0), 0u) << "probes need no token";
 }
 
 TEST(DaemonOperations, PrometheusEndpointCountsRequestsByRpcAndStatus) {

@@ -74,6 +74,24 @@ TEST_F(SceneRootsTest, RefusesPathsOutsideEveryRoot) {
   expect_throw<PermissionDenied>(roots, (tmp.path() / "scenes-evil" / "c.usda").string());
 }
 
+TEST_F(SceneRootsTest, RefusalsDoNotDiscloseWhereASymlinkLeads) {
+  SceneRoots roots({root});
+  const std::string outside = fs::canonical(tmp.path() / "outside").string();
+  for (const char* request : {"escape.usda", "outside-dir/secret.usda", "outside-dir/nothing.usda"}) {
+    const std::string message = expect_throw<PermissionDenied>(roots, request);
+    EXPECT_NE(message.find(request), std::string::npos) << message;
+    EXPECT_EQ(message.find(outside), std::string::npos) << "discloses the symlink's target: " << message;
+  }
+}
+
+TEST_F(SceneRootsTest, NulInTheRequestIsRefused) {
+  SceneRoots roots({root});
+  // The kernel would open "a.usda": the request named something else.
+  const std::string message = expect_throw<InvalidArgument>(roots, std::string("a.usda\0../../x", 15));
+  EXPECT_NE(message.find("NUL"), std::string::npos) << message;
+  expect_throw<InvalidArgument>(roots, std::string("\0", 1));
+}
+
 TEST_F(SceneRootsTest, MissingInsideIsNotFound) {
   SceneRoots roots({root});
   const std::string message = expect_throw<NotFound>(roots, "missing.usda");
