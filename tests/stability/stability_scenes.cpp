@@ -1,6 +1,7 @@
 #include "tests/stability/stability_scenes.h"
 
 #include "server/scene/render_origin.h"
+#include "server/scene/sample_patterns.h"
 
 #include <algorithm>
 #include <cmath>
@@ -89,9 +90,15 @@ uint32_t SceneBuilder::metal(const C3f& color, float roughness) {
   return id;
 }
 
+uint32_t SceneBuilder::begin_prototype(const std::string& path) {
+  scene_.prototypes.push_back({path, {}});
+  soup_ = &scene_.prototypes.back().triangles;
+  return static_cast<uint32_t>(scene_.prototypes.size() - 1);
+}
+
 void SceneBuilder::triangle(const V3f& p0, const V3f& p1, const V3f& p2, uint32_t material,
                             const std::string& path) {
-  TriangleSoup& t = scene_.triangles;
+  TriangleSoup& t = *soup_;
   const auto base = static_cast<uint32_t>(t.positions.size());
   const auto mesh = static_cast<uint32_t>(t.mesh_paths.size());
   t.positions.insert(t.positions.end(), {p0, p1, p2});
@@ -104,7 +111,7 @@ void SceneBuilder::triangle(const V3f& p0, const V3f& p1, const V3f& p2, uint32_
 
 void SceneBuilder::quad(const V3f& p0, const V3f& p1, const V3f& p2, const V3f& p3,
                         uint32_t material, const std::string& path, bool double_sided) {
-  TriangleSoup& t = scene_.triangles;
+  TriangleSoup& t = *soup_;
   const auto base = static_cast<uint32_t>(t.positions.size());
   const auto mesh = static_cast<uint32_t>(t.mesh_paths.size());
   t.positions.insert(t.positions.end(), {p0, p1, p2, p3});
@@ -171,6 +178,14 @@ void SceneBuilder::distant_light(const V3f& direction, const C3f& irradiance) {
   l.kind = LightKind::Distant;
   l.local_to_world = frame(x, z.cross(x), z, V3f(0, 0, 0));
   l.radiance = irradiance;
+  scene_.lights.push_back(l);
+}
+
+void SceneBuilder::dome_light(const C3f& radiance) {
+  Light l;
+  l.prim_path = "/Lights/dome" + std::to_string(scene_.lights.size());
+  l.kind = LightKind::Dome;
+  l.radiance = radiance;
   scene_.lights.push_back(l);
 }
 
@@ -253,6 +268,68 @@ Scene sunlit_room() {
   return b.take();
 }
 
+namespace {
+
+// Axis-aligned box [lo, hi] as six quads facing out (or in).
+void shell(SceneBuilder& b, const V3f& lo, const V3f& hi, bool inward, uint32_t material,
+           const std::string& path, bool double_sided) {
+  const V3f c[8] = {{lo.x, lo.y, lo.z}, {hi.x, lo.y, lo.z}, {hi.x, hi.y, lo.z}, {lo.x, hi.y, lo.z},
+                    {lo.x, lo.y, hi.z}, {hi.x, lo.y, hi.z}, {hi.x, hi.y, hi.z}, {lo.x, hi.y, hi.z}};
+  // Faces counter-clockwise seen from outside (facing out).
+  const int f[6][4] = {{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 4, 7, 3}, {1, 2, 6, 5}, {0, 1, 5, 4}, {3, 7, 6, 2}};
+  const char* names[6] = {"/back", "/front", "/left", "/right", "/floor", "/ceiling"};
+  for (int i = 0; i < 6; ++i) {
+    const V3f& p0 = c[f[i][0]];
+    const V3f& p1 = c[f[i][1]];
+    const V3f& p2 = c[f[i][2]];
+    const V3f& p3 = c[f[i][3]];
+    if (inward)
+      b.quad(p0, p3, p2, p1, material, path + names[i], double_sided);
+    else
+      b.quad(p0, p1, p2, p3, material, path + names[i], double_sided);
+  }
+}
+
+}  // namespace
+
+double open_ground_radiance() {
+  const double cos_sun = -kOutdoorSunDirection.y;
+  return kGroundAlbedo / kPi * (kOutdoorSunIrradiance * cos_sun + kPi * kOutdoorSkyRadiance);
+}
+
+Scene closed_room(const ClosedRoom& room) {
+  SceneBuilder b("closed-room");
+  const uint32_t ground = b.material({kGroundAlbedo, kGroundAlbedo, kGroundAlbedo});
+  const uint32_t white = b.material(kWhite);
+  const float t = room.shells == 2 ? room.thickness : 0.f;
+  b.quad({-20, 0, -20}, {-20, 0, 20}, {20, 0, 20}, {20, 0, -20}, ground, "/ground");
+  // The room stands on the ground: its outer floor lies on the ground plane.
+  shell(b, {-2, t, -2}, {2, 4 + t, 2}, true, white, "/room/inner", room.double_sided);
+  if (room.shells == 2)
+    shell(b, {-2 - t, 0, -2 - t}, {2 + t, 4 + 2 * t, 2 + t}, false, white, "/room/outer",
+          room.double_sided);
+  b.distant_light(kOutdoorSunDirection, {kOutdoorSunIrradiance, kOutdoorSunIrradiance,
+                                         kOutdoorSunIrradiance});
+  b.dome_light({kOutdoorSkyRadiance, kOutdoorSkyRadiance, kOutdoorSkyRadiance});
+  b.camera("/Inside", {1.8f, 0.3f + t, 1.8f}, {-2, 3.2f + t, -2}, 14.f);
+  b.camera("/Outside", {6, 1.5f, 8}, {8, 0, 2}, 35.f);
+  return b.take();
+}
+
+Scene thin_lit_panel() {
+  SceneBuilder b("thin-lit-panel");
+  const uint32_t white = b.material(kWhite);
+  const float h = 0.005f;
+  b.quad({-2, 0, -4}, {-2, 0, 4}, {2, 0, 4}, {2, 0, -4}, white, "/floor");
+  // The lit face looks at -Z, the dark face at +Z.
+  b.quad({-2, 0, -h}, {-2, 3, -h}, {2, 3, -h}, {2, 0, -h}, white, "/panel/lit");
+  b.quad({-2, 0, h}, {2, 0, h}, {2, 3, h}, {-2, 3, h}, white, "/panel/dark");
+  b.rect_light({0, 1.5f, -0.5f}, {0, 0, 1}, 0.5f, 0.5f, {40, 40, 40});
+  b.camera("/Dark", {0, 1.2f, 3.5f}, {0, 0.6f, 0}, 20.f);
+  b.camera("/Lit", {0, 1.2f, -3.5f}, {0, 0.6f, 0}, 20.f);
+  return b.take();
+}
+
 Scene tiny_emitter_floor() {
   SceneBuilder b("tiny-emitter");
   const uint32_t floor = b.material({kTinyEmitterFloorAlbedo, kTinyEmitterFloorAlbedo,
@@ -298,6 +375,18 @@ Scene cornell_with_duplicate_floor() {
   b.quad({-1, 0, -1}, {-1, 0, 1}, {1, 0, 1}, {1, 0, -1}, m.white, "/copy/floor");
   b.quad({-0.5f, 0, -0.8f}, {-0.5f, 0, 0.9f}, {0.9f, 0, 0.9f}, {0.9f, 0, -0.8f}, m.white,
          "/copy/floor_part");
+  return b.take();
+}
+
+Scene cornell_with_instanced_floor_copies() {
+  SceneBuilder b("cornell-instanced-floor");
+  const CornellMaterials m = add_cornell(b);
+  b.rect_light({0, 1.98f, 0}, {0, -1, 0}, 0.5f, 0.4f, {40, 40, 40});
+  const uint32_t floor = b.begin_prototype("/Prototypes/floor");
+  b.quad({-1, 0, -1}, {-1, 0, 1}, {1, 0, 1}, {1, 0, -1}, m.white, "/Prototypes/floor/mesh");
+  b.end_prototype();
+  b.instance(floor, M44f());
+  b.instance(floor, M44f());
   return b.take();
 }
 

@@ -37,6 +37,8 @@ class SceneBuilder {
   // Distant light travelling along `direction` with irradiance `irradiance`
   // on a surface facing it.
   void distant_light(const V3f& direction, const C3f& irradiance);
+  // A constant dome (a uniform sky) of `radiance`.
+  void dome_light(const C3f& radiance);
   // Places everything added so far (geometry, lights, cameras) `offset`
   // away in world space, in double precision, and stores the scene in a
   // local frame around it (render_origin.h): what an ingest that computes
@@ -47,10 +49,19 @@ class SceneBuilder {
   // float gives -- positions quantized to the float spacing at `offset`.
   void translate_in_float(const V3f& offset);
 
+  // Starts a prototype; quad() and triangle() add to it until
+  // end_prototype(). Returns its index.
+  uint32_t begin_prototype(const std::string& path);
+  void end_prototype() { soup_ = &scene_.triangles; }
+  void instance(uint32_t prototype, const M44f& local_to_world) {
+    scene_.add_instance(prototype, local_to_world);
+  }
+
   Scene take() { return std::move(scene_); }
 
  private:
   Scene scene_;
+  TriangleSoup* soup_ = &scene_.triangles;  // where quad() and triangle() add
 };
 
 // The Cornell box of scenes/cornell.usda rebuilt in code (the boxes are
@@ -73,6 +84,37 @@ Scene thin_wall_rooms(float wall_thickness);
 // (the sun) shines through it onto the floor. Camera /Camera.
 Scene sunlit_room();
 
+// A closed 4 m room standing on a 40 x 40 ground plane under a sun and a
+// sky (outdoor_sun_and_sky()); nothing of the outside can be seen or lit
+// from inside. Walls, floor and ceiling are `shells` quads each: 2 = an
+// outer shell facing out and an inner one facing in, `thickness` apart
+// (the room's inner space is [-2, 2] x [0, 4] x [-2, 2] either way); 1 =
+// the inner faces alone, zero thickness. `double_sided` makes every quad
+// of the room two-faced. /Inside looks from one corner to the opposite
+// upper corner (walls, floor and ceiling); /Outside looks at the sunlit
+// ground beside the room.
+struct ClosedRoom {
+  float thickness = 0.02f;
+  int shells = 2;
+  bool double_sided = false;
+};
+Scene closed_room(const ClosedRoom& room);
+// The sun and the sky of closed_room(), and the radiance of its ground
+// (albedo kGroundAlbedo) where nothing shades it: the exterior level.
+inline const V3f kOutdoorSunDirection = V3f(0.4f, -1.f, 0.3f).normalized();
+inline constexpr float kOutdoorSunIrradiance = 8.f;
+inline constexpr float kOutdoorSkyRadiance = 0.4f;
+inline constexpr float kGroundAlbedo = 0.5f;
+double open_ground_radiance();
+
+// A 4 x 3 panel 1 cm thick (two quads facing apart) standing across a 4 x 8
+// floor; a rect light 0.5 from its front face lights it. /Dark looks at
+// the back face and the floor behind it, which no path of the reference
+// (one bounce) reaches: the light's hemisphere passes over and beside the
+// panel, the lit floor is coplanar with the dark one. /Lit looks at the
+// lit side.
+Scene thin_lit_panel();
+
 // A 2 cm emissive square facing down at height 1 above a large floor, with
 // the power of the Cornell box's rect light; nothing else. /Camera sees
 // the floor, not the emitter. Its exact image is known (point source).
@@ -89,6 +131,11 @@ Scene cornell_with_degenerates();
 // The Cornell box with its floor twice more: one whole copy and one partial
 // overlap (coplanar, same facing, same material).
 Scene cornell_with_duplicate_floor();
+
+// The Cornell box with its floor twice more as two instances of a floor
+// prototype placed where the floor is (a kitbashed set's copies, split
+// across instances and the world soup).
+Scene cornell_with_instanced_floor_copies();
 
 // The Cornell box with a copy of the back wall facing into the wall.
 Scene cornell_with_reversed_copy();

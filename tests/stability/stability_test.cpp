@@ -27,6 +27,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 namespace pbgi::stability {
 namespace {
@@ -65,6 +66,12 @@ constexpr double kDegenerateShiftBound = 0.003;
 void report(const char* what, double value, double bound) {
   std::printf("[ measured ] %-40s %.4g (bound %.4g)\n", what, value, bound);
   ::testing::Test::RecordProperty(what, std::to_string(value));
+}
+
+std::string fmt_distance(double d) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.0e", d);
+  return buf;
 }
 
 void expect_finite(const Aovs& a, const char* what) {
@@ -115,6 +122,9 @@ TEST(Stability, ThinWallDoesNotLeakLight) {
   EXPECT_LE(err, 0.05);
 }
 
+// Against the suite's 1024-spp reference, whose own noise here is 0.166
+// (against 16384 spp): the bound guards against gross errors only; the
+// converged comparison is LightLeak.DISABLED_RoomLitThroughOneWindow*.
 TEST(Stability, SunlitRoomBehindWindow) {
   const double err = indirect_error(sunlit_room(), "/Camera", "sunlit room");
   report("sunlit room: relative RMSE", err, 0.25);
@@ -129,20 +139,21 @@ TEST(Stability, SunlitRoomBehindWindow) {
 // 32 ulps of the largest coordinate (0.38 units), the indirect AOV moved by
 // ~40% in both (PBGI 0.45 relative RMSE against the reference, reference
 // 0.39 against itself at the origin).
-TEST(Stability, CornellBoxFarFromTheOrigin) {
-  const Imath::V3d offset(1e5, 1e5, 1e5);
+void expect_far_box_renders_as_near(double distance) {
+  const Imath::V3d offset(distance, distance, distance);
+  const std::string at = " at " + fmt_distance(distance);
   const Scene near = cornell_box();
   const Scene far = cornell_box(offset);
   // The local frame is the box's centre, not the world origin.
-  EXPECT_EQ(far.render_origin, Imath::V3d(1e5, 1e5 + 1.0, 1e5));
+  EXPECT_EQ(far.render_origin, Imath::V3d(distance, distance + 1.0, distance));
   EXPECT_LT(far.bounds().max.length(), 3.f);
   RenderSettings settings;
   const Aovs pbgi_near = render_pbgi(near, "/Camera", settings);
   const Aovs pbgi_far = render_pbgi(far, "/Camera", settings);
   const Aovs ref_near = render_path(near, "/Camera", settings);
   const Aovs ref_far = render_path(far, "/Camera", settings);
-  expect_finite(pbgi_far, "far PBGI");
-  expect_finite(ref_far, "far reference");
+  expect_finite(pbgi_far, ("far PBGI" + at).c_str());
+  expect_finite(ref_far, ("far reference" + at).c_str());
 
   const double near_err = relative_rmse(pbgi_near.indirect, ref_near.indirect);
   const double far_err = relative_rmse(pbgi_far.indirect, ref_near.indirect);
@@ -150,16 +161,22 @@ TEST(Stability, CornellBoxFarFromTheOrigin) {
   const double ref_shift = relative_rmse(ref_far.indirect, ref_near.indirect);
   const double direct_shift = relative_rmse(pbgi_far.direct, pbgi_near.direct);
   report("cornell at origin: relative RMSE", near_err, kCornellNearBound);
-  report("cornell at 1e5: relative RMSE", far_err, kCornellFarBound);
-  report("cornell PBGI 1e5 vs origin", shift, kCornellShiftBound);
-  report("cornell PBGI direct 1e5 vs origin", direct_shift, kCornellDirectShiftBound);
-  report("cornell reference 1e5 vs origin", ref_shift, kCornellRefShiftBound);
+  report(("cornell" + at + ": relative RMSE").c_str(), far_err, kCornellFarBound);
+  report(("cornell PBGI" + at + " vs origin").c_str(), shift, kCornellShiftBound);
+  report(("cornell PBGI direct" + at + " vs origin").c_str(), direct_shift, kCornellDirectShiftBound);
+  report(("cornell reference" + at + " vs origin").c_str(), ref_shift, kCornellRefShiftBound);
   EXPECT_LE(near_err, kCornellNearBound);
   EXPECT_LE(far_err, kCornellFarBound);
   EXPECT_LE(shift, kCornellShiftBound);
   EXPECT_LE(direct_shift, kCornellDirectShiftBound);
   EXPECT_LE(ref_shift, kCornellRefShiftBound);
 }
+
+TEST(Stability, CornellBoxFarFromTheOrigin) { expect_far_box_renders_as_near(1e5); }
+
+// Ten times farther: float world coordinates there are 1/16 apart (3% of
+// the box), so only the local frame keeps the image.
+TEST(Stability, CornellBoxAMillionUnitsFromTheOrigin) { expect_far_box_renders_as_near(1e6); }
 
 // The same box moved 1e5 in float world coordinates, as an ingest without
 // a local frame would store it: vertices snap to the 1/128 float grid there
@@ -295,6 +312,24 @@ TEST(Stability, CoplanarReversedCopy) {
   EXPECT_LE(err, 0.13);
 }
 
+// A Cornell box with copies of its floor renders as the box without them
+// (the daemon's uniform sampler): against the reference and against the
+// plain box. Returns the reference.
+Aovs expect_copies_count_once(const Scene& dup, const std::string& what) {
+  const Aovs ref = render_path(dup, "/Camera", RenderSettings{});
+  const RenderSettings uniform;
+  const Aovs pbgi_dup = render_pbgi(dup, "/Camera", uniform);
+  const Aovs pbgi_plain = render_pbgi(cornell_box(), "/Camera", uniform);
+  expect_finite(pbgi_dup, what.c_str());
+  const double err = relative_rmse(pbgi_dup.indirect, ref.indirect);
+  const double shift = relative_rmse(pbgi_dup.indirect, pbgi_plain.indirect);
+  report((what + ": relative RMSE").c_str(), err, kDuplicateFloorBound);
+  report((what + " vs none (PBGI)").c_str(), shift, kDuplicateFloorShiftBound);
+  EXPECT_LE(err, kDuplicateFloorBound) << what;
+  EXPECT_LE(shift, kDuplicateFloorShiftBound) << what;
+  return ref;
+}
+
 TEST(Stability, CoplanarDuplicateFloor) {
   // Two more copies of the floor in its plane (three layers in part of
   // it). The path tracer sees one surface; both surfel samplers count the
@@ -305,19 +340,7 @@ TEST(Stability, CoplanarDuplicateFloor) {
   // the uniform sampler, 0.48 with the Poisson one; the floor and the
   // boxes' lower faces too bright).
   const Scene dup = cornell_with_duplicate_floor();
-  const Aovs ref = render_path(dup, "/Camera", RenderSettings{});
-  // The daemon's (uniform) sampler, against the reference and against the
-  // box without copies.
-  const RenderSettings uniform;
-  const Aovs pbgi_dup = render_pbgi(dup, "/Camera", uniform);
-  const Aovs pbgi_plain = render_pbgi(cornell_box(), "/Camera", uniform);
-  expect_finite(pbgi_dup, "duplicate floor");
-  const double err = relative_rmse(pbgi_dup.indirect, ref.indirect);
-  const double shift = relative_rmse(pbgi_dup.indirect, pbgi_plain.indirect);
-  report("coplanar duplicate floor: relative RMSE", err, kDuplicateFloorBound);
-  report("duplicate floor vs none (PBGI)", shift, kDuplicateFloorShiftBound);
-  EXPECT_LE(err, kDuplicateFloorBound);
-  EXPECT_LE(shift, kDuplicateFloorShiftBound);
+  const Aovs ref = expect_copies_count_once(dup, "coplanar duplicate floor");
   // The Poisson sampler, against the reference.
   RenderSettings poisson;
   poisson.sampler = SurfelSampler::kPoisson;
@@ -325,6 +348,17 @@ TEST(Stability, CoplanarDuplicateFloor) {
   const double poisson_err = relative_rmse(pbgi_poisson.indirect, ref.indirect);
   report("coplanar duplicate floor (Poisson): relative RMSE", poisson_err, kDuplicateFloorBound);
   EXPECT_LE(poisson_err, kDuplicateFloorBound);
+}
+
+// The floor twice more as two instances of a floor prototype lying on the
+// world floor: copies split across instances and the world soup must count
+// once, as copies within one soup do (CoplanarDuplicateFloor). Fails
+// today: the samplers find coincident pieces within one soup only (the
+// world soup, or one prototype), so every instance's copy counts (measured
+// 0.569 against the reference, 0.535 against the box without copies; a
+// single copy 0.093 and 0.012). Disabled until the cover spans soups.
+TEST(Stability, DISABLED_CoplanarCopiesAcrossInstances) {
+  expect_copies_count_once(cornell_with_instanced_floor_copies(), "instanced floor copies");
 }
 
 TEST(Stability, GrazingReceivers) {
