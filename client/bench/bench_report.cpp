@@ -27,6 +27,7 @@ void write_aov(JsonWriter& w, const AovError& a) {
   w.field("rmse", a.error.rmse);
   w.field("psnr", a.error.psnr);
   w.field("rel_mse", a.error.rel_mse);
+  w.field("rel_rmse", a.error.rel_rmse);
   w.field("bias", a.error.bias);
   w.field("pdiff_pixels", a.pdiff_pixels);
   w.field("pdiff_fraction", a.pdiff_fraction);
@@ -229,7 +230,7 @@ std::string bench_csv(const BenchResult& r) {
   out += ",is_default,build_seconds,render_seconds,total_seconds,build_cpu_seconds,"
          "render_cpu_seconds,total_cpu_seconds";
   for (const char* aov : {"indirect", "beauty"})
-    out += fmt::format(",{0}_mse,{0}_rmse,{0}_psnr,{0}_relmse,{0}_pdiff_pixels,{0}_pdiff_fraction",
+    out += fmt::format(",{0}_mse,{0}_rmse,{0}_psnr,{0}_relmse,{0}_relrmse,{0}_pdiff_pixels,{0}_pdiff_fraction",
                        aov);
   out += ",pareto_indirect,pareto_beauty\n";
 
@@ -245,8 +246,8 @@ std::string bench_csv(const BenchResult& r) {
                        num(row.build_cpu_seconds), num(row.render_cpu_seconds),
                        num(row.total_cpu_seconds));
     for (const AovError* a : {&row.indirect, &row.beauty})
-      out += fmt::format(",{},{},{},{},{},{}", num(a->error.mse), num(a->error.rmse),
-                         num(a->error.psnr), num(a->error.rel_mse), a->pdiff_pixels,
+      out += fmt::format(",{},{},{},{},{},{},{}", num(a->error.mse), num(a->error.rmse),
+                         num(a->error.psnr), num(a->error.rel_mse), num(a->error.rel_rmse), a->pdiff_pixels,
                          num(a->pdiff_fraction));
     out += fmt::format(",{},{}\n", row.pareto_indirect ? 1 : 0, row.pareto_beauty ? 1 : 0);
   }

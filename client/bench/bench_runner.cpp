@@ -147,9 +147,9 @@ BenchRow run_config(const MethodConfig& c, const BenchInput& in, const BuiltStat
   row.beauty = measure(aovs.beauty, ref.beauty, in.width, in.height, c.name + " beauty");
   if (o.save_images) save_image(o.out_dir / "images" / (file_name_of(c.name) + ".exr"), in.width, in.height, aovs);
   if (o.log)
-    o.log(fmt::format("{}: render {:.3f} s ({:.3f} s CPU), indirect MSE {:.4g}, beauty MSE {:.4g}{}",
+    o.log(fmt::format("{}: render {:.3f} s ({:.3f} s CPU), indirect MSE {:.4g} (rel RMSE {:.4f}), beauty MSE {:.4g}{}",
                       c.name, row.render_seconds, row.render_cpu_seconds, row.indirect.error.mse,
-                      row.beauty.error.mse, [&] {
+                      row.indirect.error.rel_rmse, row.beauty.error.mse, [&] {
                         std::string s;
                         for (const auto& [k, v] : aovs.stats) s += fmt::format(", {} {}", k, v);
                         return s;

@@ -40,6 +40,7 @@ struct BenchArgs {
   std::optional<uint32_t> pixel_samples;
   std::vector<std::string> interpolations;
   std::vector<float> tolerances;
+  std::optional<uint32_t> spacing;
   bool quick = false;
   bool images = false;
   bool no_plot = false;
@@ -112,6 +113,8 @@ int run(const BenchArgs& args) {
       }
     }
   }
+  if (args.spacing)
+    for (InterpolationOptions& i : o.pbgi.interpolations) i.spacing = *args.spacing;
   o.save_images = args.images;
   o.plot = !args.no_plot;
   if (!args.quiet) o.log = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
@@ -172,6 +175,8 @@ const CommandRegistrar kRegistrar("bench", [](CLI::App& app, int* exit_code) {
                   "Gather interpolation modes to sweep: off (a gather per camera sample), auto "
                   "(adaptive lattice); the first is the default's (default auto)")
       ->delimiter(',');
+  cmd->add_option("--interpolation-spacing", args->spacing,
+                  "Coarsest interpolation cell in pixels, a power of two (default 8)");
   cmd->add_option("--tolerance", args->tolerances,
                   "Interpolation tolerances to sweep with auto (default 0.1)")
       ->delimiter(',');

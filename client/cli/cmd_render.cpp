@@ -320,6 +320,12 @@ int run_render(const RenderArgs& args) {
   std::printf("render  %.2f s (%ux%u, %u tiles, %zu resumed, %u in flight, %llu nodes visited)\n",
               render_seconds, frame.width, frame.height, frame.tiles, resumed_tiles, args.jobs,
               static_cast<unsigned long long>(frame.stats.nodes_visited()));
+  if (frame.stats.pixels() > 0) {
+    const double pixels = double(frame.stats.pixels());
+    std::printf("gathers %.3f per pixel (%llu gathers, %.3g camera samples per pixel)\n",
+                double(frame.stats.receivers()) / pixels, static_cast<unsigned long long>(frame.stats.receivers()),
+                double(frame.stats.camera_samples()) / pixels);
+  }
   std::printf("total   %.2f s\n", seconds_since(start));
   std::printf("wrote   %s\n", args.out.c_str());
   if (!png_path.empty()) std::printf("wrote   %s\n", png_path.c_str());

@@ -95,17 +95,22 @@ int run_tile(const TileArgs& args) {
     std::printf(
         "{\"scene_id\": \"%s\", \"tile\": [%u, %u, %u, %u], \"receivers\": %llu, "
         "\"nodes_visited\": %llu, \"nodes_rasterized\": %llu, \"surfels_raycast\": %llu, "
+        "\"camera_samples\": %llu, \"pixels\": %llu, "
         "\"seconds\": %.6f, \"round_trip_seconds\": %.6f, \"out\": \"%s\"}\n",
         info.scene_id().c_str(), tile.tile.x0(), tile.tile.y0(), tile.tile.x1(), tile.tile.y1(),
         static_cast<unsigned long long>(s.receivers()),
         static_cast<unsigned long long>(s.nodes_visited()),
         static_cast<unsigned long long>(s.nodes_rasterized()),
-        static_cast<unsigned long long>(s.surfels_raycast()), s.seconds(), round_trip,
+        static_cast<unsigned long long>(s.surfels_raycast()),
+        static_cast<unsigned long long>(s.camera_samples()), static_cast<unsigned long long>(s.pixels()),
+        s.seconds(), round_trip,
         args.out.c_str());
   } else {
     std::printf("tile               %u,%u,%u,%u of %ux%u\n", tile.tile.x0(), tile.tile.y0(),
                 tile.tile.x1(), tile.tile.y1(), args.width, args.height);
-    std::printf("receivers          %llu\n", static_cast<unsigned long long>(s.receivers()));
+    std::printf("receivers          %llu (gathers; %.3f per pixel)\n", static_cast<unsigned long long>(s.receivers()),
+                s.pixels() ? double(s.receivers()) / double(s.pixels()) : 0.0);
+    std::printf("camera samples     %llu\n", static_cast<unsigned long long>(s.camera_samples()));
     std::printf("nodes visited      %llu\n", static_cast<unsigned long long>(s.nodes_visited()));
     std::printf("nodes rasterized   %llu\n", static_cast<unsigned long long>(s.nodes_rasterized()));
     std::printf("surfels ray-cast   %llu\n", static_cast<unsigned long long>(s.surfels_raycast()));

@@ -21,6 +21,14 @@ void GatherArgs::add_to(CLI::App* cmd) {
                   "glossy lobes: share of a cell's importance that follows incoming radiance, "
                   "0 = the lobe alone [0.5]")
       ->check(CLI::Range(0.f, 1.f));
+  cmd->add_option("--interpolation", interpolation,
+                  "RenderTile: gather at an adaptive lattice and interpolate (auto) or gather every "
+                  "camera sample (off) [auto]")
+      ->check(CLI::IsMember({"off", "auto"}));
+  cmd->add_option("--interpolation-tolerance", interpolation_tolerance,
+                  "largest relative disagreement of gathers that is interpolated, (0, 1] [0.1]");
+  cmd->add_option("--interpolation-spacing", interpolation_spacing,
+                  "coarsest interpolation cell in pixels, a power of two <= 64 [8]");
 }
 
 v1::GatherOptions GatherArgs::to_proto() const {
@@ -38,6 +46,10 @@ v1::GatherOptions GatherArgs::to_proto() const {
   o.set_glossy_max_resolution(glossy_max_resolution);
   o.set_glossy_importance(glossy_importance);
   if (glossy_radiance_weight) o.set_glossy_radiance_weight(*glossy_radiance_weight);
+  if (interpolation == "off") o.set_interpolation(v1::GatherOptions::INTERPOLATION_OFF);
+  if (interpolation == "auto") o.set_interpolation(v1::GatherOptions::INTERPOLATION_AUTO);
+  if (interpolation_tolerance) o.set_interpolation_tolerance(*interpolation_tolerance);
+  o.set_interpolation_spacing(interpolation_spacing);
   return o;
 }
 

@@ -27,10 +27,14 @@ struct GatherArgs {
   uint32_t glossy_max_resolution = 0;
   float glossy_importance = 0.f;
   std::optional<float> glossy_radiance_weight;  // unset = the daemon's default
+  std::string interpolation;                    // "off" or "auto"; "" = the daemon's default
+  std::optional<float> interpolation_tolerance;  // unset = the daemon's default
+  uint32_t interpolation_spacing = 0;
 
   // Adds --mb-res, --max-solid-angle, --ao-max-distance, --light-samples,
   // --pixel-samples, --method, --clusters, --epsilon, --hdr-refine,
-  // --glossy-max-res, --glossy-importance.
+  // --glossy-max-res, --glossy-importance, --glossy-radiance-weight,
+  // --interpolation, --interpolation-tolerance, --interpolation-spacing.
   void add_to(CLI::App* cmd);
 
   // The request message; the daemon validates the values and names the

@@ -27,6 +27,8 @@ void add_stats(const v1::GatherStats& s, v1::GatherStats* total) {
   total->set_nodes_rasterized(total->nodes_rasterized() + s.nodes_rasterized());
   total->set_surfels_raycast(total->surfels_raycast() + s.surfels_raycast());
   total->set_seconds(total->seconds() + s.seconds());
+  total->set_camera_samples(total->camera_samples() + s.camera_samples());
+  total->set_pixels(total->pixels() + s.pixels());
 }
 
 }  // namespace

@@ -14,7 +14,7 @@ ErrorMetrics error_metrics(const float* test, const float* reference, size_t cou
                           std::to_string(options.rel_mse_epsilon) + ")");
   ErrorMetrics m;
   // Double sums: images have millions of values of very different size.
-  double se = 0, rel = 0, diff = 0, st = 0, sr = 0;
+  double se = 0, rel = 0, diff = 0, st = 0, sr = 0, sr2 = 0;
   double peak = -std::numeric_limits<double>::infinity();
   for (size_t i = 0; i < count; ++i) {
     const double t = test[i], r = reference[i];
@@ -28,6 +28,7 @@ ErrorMetrics error_metrics(const float* test, const float* reference, size_t cou
     diff += d;
     st += t;
     sr += r;
+    sr2 += r * r;
     if (r > peak) peak = r;
     ++m.values;
   }
@@ -36,6 +37,7 @@ ErrorMetrics error_metrics(const float* test, const float* reference, size_t cou
   m.mse = se / n;
   m.rmse = std::sqrt(m.mse);
   m.rel_mse = rel / n;
+  m.rel_rmse = sr2 > 0.0 ? std::sqrt(se / sr2) : (se > 0.0 ? std::numeric_limits<double>::infinity() : 0.0);
   m.bias = diff / n;
   m.mean_test = st / n;
   m.mean_reference = sr / n;

@@ -33,6 +33,9 @@ struct ErrorMetrics {
   uint64_t values = 0;     // finite values compared
   uint64_t nonfinite = 0;  // values skipped (NaN/inf in either image)
   double mse = 0, rmse = 0, rel_mse = 0, bias = 0;
+  // RMSE relative to the reference's root mean square, sqrt(sum d^2 /
+  // sum r^2): one number for "how far off" whatever the image's scale.
+  double rel_rmse = 0;
   double psnr = std::numeric_limits<double>::quiet_NaN();
   double peak = 0;           // max reference value (PSNR's peak)
   double mean_test = 0, mean_reference = 0;

@@ -303,6 +303,15 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
     gather.read("glossy_importance", r.gather.glossy_importance);
     gather.read("glossy_radiance_weight", r.gather.glossy_radiance_weight);
     gather.read("bent_normal", r.gather.bent_normal);
+    std::string interpolation = interpolation_mode_name(r.interpolation.mode);
+    gather.read("interpolation", interpolation);
+    const std::optional<InterpolationMode> mode = parse_interpolation_mode(interpolation);
+    if (!mode)
+      throw InvalidArgument(
+          fmt::format("{}: [gather] interpolation = \"{}\": expected \"off\" or \"auto\"", source, interpolation));
+    r.interpolation.mode = *mode;
+    gather.read("interpolation_tolerance", r.interpolation.tolerance);
+    gather.read("interpolation_spacing", r.interpolation.spacing);
     gather.reject_unknown();
   }
   if (const toml::table* table = top.table("build")) {
@@ -427,6 +436,9 @@ std::string to_toml(const DaemonOptions& o) {
   float32_value("glossy_importance", r.gather.glossy_importance);
   float32_value("glossy_radiance_weight", r.gather.glossy_radiance_weight);
   bool_value("bent_normal", r.gather.bent_normal);
+  string_value("interpolation", interpolation_mode_name(r.interpolation.mode));
+  float32_value("interpolation_tolerance", r.interpolation.tolerance);
+  integer_value("interpolation_spacing", r.interpolation.spacing);
 
   const OpenOptions& b = o.service.defaults.open;
   out << "\n[build]\n";
@@ -549,6 +561,9 @@ bool operator==(const DaemonOptions& a, const DaemonOptions& b) {
          ra.gather.glossy_importance == rb.gather.glossy_importance &&
          ra.gather.glossy_radiance_weight == rb.gather.glossy_radiance_weight &&
          ra.gather.bent_normal == rb.gather.bent_normal &&
+         ra.interpolation.mode == rb.interpolation.mode &&
+         ra.interpolation.tolerance == rb.interpolation.tolerance &&
+         ra.interpolation.spacing == rb.interpolation.spacing &&
          oa.surfels.spacing == ob.surfels.spacing && oa.surfels.sampler == ob.surfels.sampler &&
          oa.surfels.camera == ob.surfels.camera && oa.surfels.image_width == ob.surfels.image_width &&
          oa.surfels.image_height == ob.surfels.image_height &&

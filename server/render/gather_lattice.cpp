@@ -59,14 +59,16 @@ bool may_interpolate(const SurfaceSample& s, const SurfaceSample& corner) {
   return along <= kMaxPlaneSlope * d.length() + 1e-6f * std::max(corner.depth, 1.f);
 }
 
-bool corners_disagree(const std::array<const GatherResult*, 4>& corners, float tolerance) {
+bool corners_disagree(std::span<const GatherResult* const> corners, float tolerance) {
+  if (corners.size() < 2) return false;
   float lum[4], mean_lum = 0.f, mean_ao = 0.f;
-  for (int i = 0; i < 4; ++i) {
+  const float share = 1.f / float(corners.size());
+  for (size_t i = 0; i < corners.size(); ++i) {
     lum[i] = luminance(corners[i]->irradiance);
-    mean_lum += 0.25f * lum[i];
-    mean_ao += 0.25f * corners[i]->ao;
+    mean_lum += share * lum[i];
+    mean_ao += share * corners[i]->ao;
   }
-  for (int i = 0; i < 4; ++i) {
+  for (size_t i = 0; i < corners.size(); ++i) {
     if (std::fabs(lum[i] - mean_lum) > tolerance * mean_lum) return true;
     if (std::fabs(corners[i]->ao - mean_ao) > tolerance) return true;
   }

@@ -10,11 +10,12 @@
 // The lattice is a quadtree of square cells: a cell of side s has its
 // corners at the pixel centres (x0, y0) .. (x0 + s, y0 + s) (clamped to the
 // image). A cell is split into four while s > 1 and
-//   - a camera sample inside it may not take a corner's value
+//   - a camera sample inside it may take no corner's value
 //     (may_interpolate(): another mesh, a normal turned by more than ~18
-//     degrees, or off the corner's tangent plane: a depth step), or
-//   - its corners' gathers disagree by more than the tolerance
-//     (corners_disagree()).
+//     degrees, or off the corner's tangent plane: a depth step), or only
+//     one corner's while the cell is wider than 4 pixels, or
+//   - the corners a sample may take values from disagree by more than the
+//     tolerance (corners_disagree()).
 // A sample then takes the bilinear mix of the corners of its smallest cell
 // that it may take values from; a sample that may take none (at s = 1,
 // across an edge inside a pixel) and a sample with a glossy lobe (its gather
@@ -29,6 +30,7 @@
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 
@@ -59,8 +61,10 @@ struct InterpolationOptions {
 // near corner's tangent plane (relative to their distance).
 bool may_interpolate(const SurfaceSample& s, const SurfaceSample& corner);
 
-// Do the four corner gathers of a cell disagree by more than `tolerance`?
-bool corners_disagree(const std::array<const GatherResult*, 4>& corners, float tolerance);
+// Do these corner gathers of a cell (those a sample may take values from)
+// disagree by more than `tolerance`: a luminance off their mean by more than
+// tolerance x the mean, or an AO off by more than tolerance?
+bool corners_disagree(std::span<const GatherResult* const> corners, float tolerance);
 
 // The mix of the corners' results with these weights (sum > 0): irradiance
 // and AO are averaged, the bent normal renormalized.

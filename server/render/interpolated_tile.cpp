@@ -8,6 +8,8 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
+#include <span>
 #include <unordered_map>
 #include <vector>
 
@@ -20,6 +22,22 @@ struct Cell {
   uint32_t x0 = 0, y0 = 0, size = 0;
 };
 
+// A sample that may take the value of one corner only (across an edge from
+// the others) takes it as a constant in cells up to this side, in pixels;
+// wider cells are split. Irradiance along one surface varies slowly on this
+// scale; refining every edge down to single pixels made edges most of the
+// gathers.
+constexpr uint32_t kMaxSingleCornerCell = 4;
+// A corner on another surface is next to a sample (a crease between them)
+// when their distance is at most this many times what their distance on
+// the image means at the sample's depth; farther, the image shows a depth
+// step between them.
+constexpr float kCreaseSlack = 3.f;
+// A corner the sample may take a value from is at most this many times as
+// far in the scene as on the image (a surface seen at less than ~15
+// degrees from grazing is split further).
+constexpr float kMaxStretch = 4.f;
+
 // A lattice point: the receiver at a pixel's centre, and its gather.
 struct LatticePoint {
   SurfaceSample sample;
@@ -31,7 +49,9 @@ class LatticeTile {
   LatticeTile(const RayScene& rays, const Camera& camera, uint32_t width, uint32_t height, const TileRect& rect,
               const RenderOptions& options, const BatchGatherInput& gather, GatherCounters& counters)
       : rays_(rays), camera_(camera), width_(width), height_(height), rect_(rect), options_(options),
-        gather_(gather), counters_(counters), spp_(options.pixel_samples) {
+        gather_(gather), counters_(counters), spp_(options.pixel_samples),
+        // Radians per pixel across the image (a pinhole's, at its centre).
+        pixel_angle_(camera.horizontal_aperture / camera.focal_length / float(width)) {
     // The coarsest cells that overlap the tile, and every pixel they
     // cover: decisions about a cell read all of its samples, also those
     // outside the tile, so that the result does not depend on the split.
@@ -118,10 +138,29 @@ class LatticeTile {
     for (size_t r = 0; r < owner.size(); ++r) points_[owner[r]].result = results[r];
   }
 
-  // Must `cell` be split (gather_lattice.h)?
+  // How far apart sample k of pixel (x, y) and the lattice point at pixel
+  // (cx, cy) are in the scene against on the image (at the sample's depth):
+  // about 1 on a surface facing the camera, more on one seen at a grazing
+  // angle or across a depth step.
+  float stretch(uint32_t x, uint32_t y, uint32_t k, uint32_t cx, uint32_t cy, const SurfaceSample& corner) const {
+    const size_t i = ext_index(x, y) * spp_ + k;
+    const SurfaceSample& s = samples_[i];
+    const float dx = float(x) + offsets_[i].x - (float(cx) + 0.5f);
+    const float dy = float(y) + offsets_[i].y - (float(cy) + 0.5f);
+    const float screen = (std::sqrt(dx * dx + dy * dy) + 1.f) * pixel_angle_ * s.depth;
+    return (s.receiver.position - corner.receiver.position).length() / screen;
+  }
+
+  // Must `cell` be split (gather_lattice.h)? Each surface sample's mask of
+  // the corners it may take values from decides: none; a corner it may not
+  // take from that lies on a surface next to it (a crease, where irradiance
+  // changes fast; a corner beyond a depth step, behind or in front, does
+  // not count); a single corner in a cell wider than kMaxSingleCornerCell;
+  // or corners that disagree.
   bool must_split(const Cell& cell) const {
     const auto c = corners(cell);
-    bool any_surface = false;
+    const auto xs = corner_xs(cell), ys = corner_ys(cell);
+    bool mask_seen[16] = {};
     const uint32_t x1 = std::min(cell.x0 + cell.size, width_), y1 = std::min(cell.y0 + cell.size, height_);
     for (uint32_t y = cell.y0; y < y1; ++y) {
       for (uint32_t x = cell.x0; x < x1; ++x) {
@@ -129,15 +168,40 @@ class LatticeTile {
         for (uint32_t k = 0; k < spp_; ++k) {
           const SurfaceSample& s = samples_[i + k];
           if (!s.gathers || s.receiver.glossy.active()) continue;  // nothing to interpolate
-          any_surface = true;
-          for (const LatticePoint* p : c)
-            if (!may_interpolate(s, p->sample)) return true;
+          unsigned mask = 0;
+          for (unsigned q = 0; q < 4; ++q) {
+            const SurfaceSample& corner = c[q]->sample;
+            if (!corner.gathers) continue;
+            const float stretch = this->stretch(x, y, k, xs[q & 1], ys[q >> 1], corner);
+            if (may_interpolate(s, corner)) {
+              // A grazing surface: the cell spans much more of the scene
+              // than of the image, and irradiance along it need not be
+              // linear; split down to where it is.
+              if (stretch > kMaxStretch && cell.size > 1) return true;
+              mask |= 1u << q;
+            } else if (stretch <= kCreaseSlack) {
+              return true;  // a crease next to the sample
+            }
+          }
+          mask_seen[mask] = true;
         }
       }
     }
-    // Every sample may take every corner's value, so all four are surfaces.
-    return any_surface && corners_disagree({&c[0]->result, &c[1]->result, &c[2]->result, &c[3]->result},
-                                           options_.interpolation.tolerance);
+    if (mask_seen[0]) return true;
+    for (unsigned mask = 1; mask < 16; ++mask) {
+      if (!mask_seen[mask]) continue;
+      if (std::popcount(mask) == 1) {
+        if (cell.size > kMaxSingleCornerCell) return true;
+        continue;
+      }
+      std::array<const GatherResult*, 4> group{};
+      size_t m = 0;
+      for (unsigned q = 0; q < 4; ++q)
+        if (mask & (1u << q)) group[m++] = &c[q]->result;
+      if (corners_disagree(std::span<const GatherResult* const>(group.data(), m), options_.interpolation.tolerance))
+        return true;
+    }
+    return false;
   }
 
   // 2. Coarse to fine: gather the active cells' corners, split the cells
@@ -201,7 +265,10 @@ class LatticeTile {
     std::array<float, 4> w{};
     bool any = false;
     for (int q = 0; q < 4; ++q) {
-      if (!may_interpolate(s, c[q]->sample)) continue;
+      // Not across an edge, nor along a grazing surface even within a pixel
+      // (its footprint spans too much of the scene to be linear).
+      if (!may_interpolate(s, c[q]->sample) || stretch(x, y, k, xs[q & 1], ys[q >> 1], c[q]->sample) > kMaxStretch)
+        continue;
       // A small floor: a sample on a compatible corner's far side still
       // takes its value rather than none.
       w[q] = bilinear[q] + 1e-4f;
@@ -261,6 +328,7 @@ class LatticeTile {
   const BatchGatherInput& gather_;
   GatherCounters& counters_;
   const uint32_t spp_;
+  const float pixel_angle_;
   TileRect ext_;
   std::vector<SurfaceSample> samples_;  // ext_ pixels x spp, row-major
   std::vector<Imath::V2f> offsets_;     // each sample's offset in its pixel

@@ -50,6 +50,15 @@ RenderOptions decode_render_options(const v1::GatherOptions& proto,
   out.gather = decode_gather_options(proto, defaults.gather);
   out.light_samples = or_default(proto.light_samples(), defaults.light_samples);
   out.pixel_samples = or_default(proto.pixel_samples(), defaults.pixel_samples);
+  switch (proto.interpolation()) {
+    case v1::GatherOptions::INTERPOLATION_OFF: out.interpolation.mode = InterpolationMode::kOff; break;
+    case v1::GatherOptions::INTERPOLATION_AUTO: out.interpolation.mode = InterpolationMode::kAuto; break;
+    case v1::GatherOptions::INTERPOLATION_DEFAULT: break;
+    default:
+      throw InvalidArgument(fmt::format("GatherOptions.interpolation = {}: unknown", int(proto.interpolation())));
+  }
+  if (proto.has_interpolation_tolerance()) out.interpolation.tolerance = proto.interpolation_tolerance();
+  out.interpolation.spacing = or_default(proto.interpolation_spacing(), defaults.interpolation.spacing);
   out.validate();
   return out;
 }
@@ -150,6 +159,11 @@ v1::GatherOptions encode_render_options(const RenderOptions& options) {
   proto.set_bent_normal(options.gather.bent_normal);
   proto.set_light_samples(options.light_samples);
   proto.set_pixel_samples(options.pixel_samples);
+  proto.set_interpolation(options.interpolation.mode == InterpolationMode::kOff
+                              ? v1::GatherOptions::INTERPOLATION_OFF
+                              : v1::GatherOptions::INTERPOLATION_AUTO);
+  proto.set_interpolation_tolerance(options.interpolation.tolerance);
+  proto.set_interpolation_spacing(options.interpolation.spacing);
   return proto;
 }
 

@@ -406,6 +406,8 @@ void PbgiService::render_one(grpc::ServerContext* context, const TileJob& job,
   response->set_albedo(pack_aov(aovs.albedo, 3 * pixels, "albedo"));
   response->set_ao(pack_aov(aovs.ao, pixels, "ao"));
   set_stats(counters, seconds, response->mutable_stats());
+  response->mutable_stats()->set_camera_samples(aovs.camera_samples);
+  response->mutable_stats()->set_pixels(pixels);
 }
 
 grpc::Status PbgiService::RenderTile(grpc::ServerContext* context,

@@ -6,6 +6,8 @@
 #include "server/render/tile_renderer.h"
 #include "storage/format/errors.h"
 
+#include <gtest/gtest.h>
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -69,11 +71,22 @@ Aovs PbgiScene::render(const std::string& camera) const {
   RenderOptions ro;
   ro.gather = s.gather;
   ro.pixel_samples = s.pixel_samples;
+  ro.interpolation = s.interpolation;
+  const Camera& cam = camera_of(*session_->scene, camera);
   const auto t0 = std::chrono::steady_clock::now();
-  TileAovs t = render_tile(*session_->rays, *session_->tree, camera_of(*session_->scene, camera),
-                           s.width, s.height, {0, 0, s.width, s.height}, ro);
+  TileAovs t = render_tile(*session_->rays, *session_->tree, cam, s.width, s.height, {0, 0, s.width, s.height}, ro);
   std::printf("[ timing   ] %s%s: PBGI render %.2f s\n", session_->scene->source_path.c_str(),
               camera.c_str(), seconds_since(t0));
+  if (ro.interpolation.mode == InterpolationMode::kOff) {
+    RenderOptions interpolated = ro;
+    interpolated.interpolation = InterpolationOptions{};
+    const TileAovs i = render_tile(*session_->rays, *session_->tree, cam, s.width, s.height,
+                                   {0, 0, s.width, s.height}, interpolated);
+    const double err = relative_rmse(i.indirect, t.indirect);
+    std::printf("[ measured ] %s%s: interpolated vs per-sample indirect %.4g (bound %g)\n",
+                session_->scene->source_path.c_str(), camera.c_str(), err, s.interpolation_bound);
+    EXPECT_LE(err, s.interpolation_bound) << session_->scene->source_path << camera;
+  }
   Aovs out{std::move(t.beauty), std::move(t.direct), std::move(t.indirect)};
   dump_aovs(dump_name(*session_->scene, camera, "pbgi"), out, s);
   return out;

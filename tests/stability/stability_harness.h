@@ -4,6 +4,7 @@
 #pragma once
 
 #include "server/gather/gather_options.h"
+#include "server/render/gather_lattice.h"
 #include "server/scene/scene.h"
 #include "server/surfels/surfel_options.h"
 
@@ -37,7 +38,18 @@ struct RenderSettings {
   uint64_t reference_seed = 7;
   // Light bounces the PBGI build puts into the surfels (BounceOptions).
   uint32_t bounces = 1;
+  // The bounds of the cases are those of one gather per camera sample (the
+  // gather's own stability). Every render is also made with the
+  // interpolating renderer (the product's default), whose indirect layer
+  // must stay within kInterpolationBound (relative RMSE) of it.
+  InterpolationOptions interpolation{InterpolationMode::kOff};
+  double interpolation_bound = 0.06;  // kInterpolationBound unless a case says why
 };
+
+// Interpolated against per-sample gathers, indirect relative RMSE, on every
+// case of the suite unless it says why not (measured: 0.042-0.055 at
+// 32 x 32, where an 8-pixel cell is a quarter of the image).
+inline constexpr double kInterpolationBound = 0.06;
 
 // Pixel-interleaved RGB AOVs, row-major.
 struct Aovs {

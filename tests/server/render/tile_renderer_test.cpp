@@ -76,8 +76,10 @@ TEST(RenderTile, EmptyTreeGivesZeroIndirect) {
   const RayScene rays(s);
   const EmptyTree tree;
   GatherCounters counters;
+  RenderOptions per_sample;  // one gather per camera sample, counted below
+  per_sample.interpolation.mode = InterpolationMode::kOff;
   const TileAovs out =
-      render_tile(rays, tree, *s.find_camera("/cam"), kSize, kSize, whole(), RenderOptions(), &counters);
+      render_tile(rays, tree, *s.find_camera("/cam"), kSize, kSize, whole(), per_sample, &counters);
   ASSERT_EQ(out.beauty.size(), 3u * kSize * kSize);
   ASSERT_EQ(out.ao.size(), 1u * kSize * kSize);
   for (size_t i = 0; i < out.ao.size(); ++i) {
@@ -229,8 +231,12 @@ TEST(RenderTile, GlossyMaterialsReflectIndirectLightTowardsTheCamera) {
   Scene s = red_wall_scene();
   const tree::MemoryTree tree = direct_light_tree(s);
   const RayScene matte_rays(s);
+  // Per-sample gathers: the matte pixel's AO is its own gather's, as the
+  // metal's is (a glossy sample always gathers itself).
+  RenderOptions per_sample;
+  per_sample.interpolation.mode = InterpolationMode::kOff;
   const TileAovs matte = render_tile(matte_rays, tree, *s.find_camera("/cam"), kSize, kSize,
-                                     kRedSidePixel, RenderOptions());
+                                     kRedSidePixel, per_sample);
   // The floor turned into a rough metal: diffuse lobe 0, F0 = albedo.
   Material& floor = s.materials[0];  // floor_scene's first material
   ASSERT_EQ(floor.albedo.x, kAlbedo);
@@ -239,7 +245,7 @@ TEST(RenderTile, GlossyMaterialsReflectIndirectLightTowardsTheCamera) {
   const RayScene metal_rays(s);
   GatherCounters counters;
   const TileAovs metal = render_tile(metal_rays, tree, *s.find_camera("/cam"), kSize, kSize,
-                                     kRedSidePixel, RenderOptions(), &counters);
+                                     kRedSidePixel, per_sample, &counters);
   EXPECT_EQ(counters.glossy_receivers, 1u);
   EXPECT_GT(metal.indirect[0], 0.01f * matte.indirect[0]);
   EXPECT_GT(metal.indirect[0], 3.f * metal.indirect[1]);  // it reflects the red wall
