@@ -21,6 +21,8 @@ void GatherArgs::add_to(CLI::App* cmd) {
                   "glossy lobes: share of a cell's importance that follows incoming radiance, "
                   "0 = the lobe alone [0.5]")
       ->check(CLI::Range(0.f, 1.f));
+  cmd->add_flag("--hide-dome", hide_dome,
+                "camera rays that miss the scene are black instead of showing its dome light");
 }
 
 v1::GatherOptions GatherArgs::to_proto() const {
@@ -38,6 +40,7 @@ v1::GatherOptions GatherArgs::to_proto() const {
   o.set_glossy_max_resolution(glossy_max_resolution);
   o.set_glossy_importance(glossy_importance);
   if (glossy_radiance_weight) o.set_glossy_radiance_weight(*glossy_radiance_weight);
+  if (hide_dome) o.set_dome_visible(false);
   return o;
 }
 

@@ -27,10 +27,12 @@ struct GatherArgs {
   uint32_t glossy_max_resolution = 0;
   float glossy_importance = 0.f;
   std::optional<float> glossy_radiance_weight;  // unset = the daemon's default
+  bool hide_dome = false;  // GatherOptions.dome_visible = false; unset = the daemon's default
 
   // Adds --mb-res, --max-solid-angle, --ao-max-distance, --light-samples,
   // --pixel-samples, --method, --clusters, --epsilon, --hdr-refine,
-  // --glossy-max-res, --glossy-importance.
+  // --glossy-max-res, --glossy-importance, --glossy-radiance-weight,
+  // --hide-dome.
   void add_to(CLI::App* cmd);
 
   // The request message; the daemon validates the values and names the

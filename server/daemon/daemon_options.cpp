@@ -285,6 +285,7 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
     gather.read("glossy_importance", r.gather.glossy_importance);
     gather.read("glossy_radiance_weight", r.gather.glossy_radiance_weight);
     gather.read("bent_normal", r.gather.bent_normal);
+    gather.read("dome_visible", r.dome_visible);
     gather.reject_unknown();
   }
   if (const toml::table* table = top.table("build")) {
@@ -317,6 +318,7 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
     build.read("bounces", o.bounce.bounces);
     build.read("bounce_splatting", o.bounce.splatting);
     build.read("bounce_view_solid_angle", o.bounce.view_solid_angle);
+    build.read("default_light", o.default_light);
     build.reject_unknown();
   }
   if (const toml::table* table = top.table("fog")) {
@@ -407,6 +409,7 @@ std::string to_toml(const DaemonOptions& o) {
   float32_value("glossy_importance", r.gather.glossy_importance);
   float32_value("glossy_radiance_weight", r.gather.glossy_radiance_weight);
   bool_value("bent_normal", r.gather.bent_normal);
+  bool_value("dome_visible", r.dome_visible);
 
   const OpenOptions& b = o.service.defaults.open;
   out << "\n[build]\n";
@@ -431,6 +434,7 @@ std::string to_toml(const DaemonOptions& o) {
   integer_value("bounces", b.bounce.bounces);
   out << "bounce_splatting = " << (b.bounce.splatting ? "true" : "false") << '\n';
   float32_value("bounce_view_solid_angle", b.bounce.view_solid_angle);
+  bool_value("default_light", b.default_light);
 
   out << "\n[fog]\n";
   float32_value("extinction_per_density", b.fog.extinction_per_density);
@@ -517,7 +521,8 @@ bool operator==(const DaemonOptions& a, const DaemonOptions& b) {
          ra.gather.glossy_max_resolution == rb.gather.glossy_max_resolution &&
          ra.gather.glossy_importance == rb.gather.glossy_importance &&
          ra.gather.glossy_radiance_weight == rb.gather.glossy_radiance_weight &&
-         ra.gather.bent_normal == rb.gather.bent_normal &&
+         ra.gather.bent_normal == rb.gather.bent_normal && ra.dome_visible == rb.dome_visible &&
+         oa.default_light == ob.default_light &&
          oa.surfels.spacing == ob.surfels.spacing && oa.surfels.sampler == ob.surfels.sampler &&
          oa.surfels.camera == ob.surfels.camera && oa.surfels.image_width == ob.surfels.image_width &&
          oa.surfels.image_height == ob.surfels.image_height &&

@@ -16,7 +16,8 @@ The daemon (server/ingest/usd_ingest.cpp) runs this with PYTHONPATH holding
 the generated protobuf package (<build>/python/pbgi/v1/scene_pb2.py).
 
 Exit codes: 0 success; 2 the scene cannot be opened (or bad arguments);
-3 an unexpected failure while reading; 4 the daemon closed the pipe.
+3 an unexpected failure while reading; 4 the daemon closed the pipe; 5 a
+--variant selects nothing (no such prim, variant set or variant).
 """
 import argparse
 import hashlib
@@ -54,6 +55,7 @@ except ImportError as e:  # reported by main() with a clear message
 # caches keyed by the content hash are invalidated.
 READER_VERSION = "pbgi-usd-reader/4"  # 4: instances as prototypes + InstanceBatches
 _HASH_BLOCK = 1 << 20
+EXIT_BAD_SELECTION = 5
 
 
 def _claim_stdout():
@@ -156,22 +158,23 @@ def variant_session_layer(variants):
     return layer
 
 
-def report_variants(stage, variants, stream):
-    """One WARNING per requested selection that selects nothing."""
+def variant_problems(stage, variants):
+    """One message per requested selection that selects nothing (no such
+    prim, variant set or variant), naming what the stage has instead."""
+    problems = []
     for path, variant_set, selection in variants:
         prim = stage.GetPrimAtPath(path)
-        where = f"variant selection {variant_set}={selection}"
+        where = f"{path}: variant selection {variant_set}={selection}"
         if not prim or not prim.IsDefined():  # our own `over` alone defines nothing
-            stream.diagnostic(WARNING, path, f"{where}: no such prim", kind=f"variant:{variant_set}")
+            problems.append(f"{where}: no such prim")
         elif not prim.GetVariantSets().HasVariantSet(variant_set):
             names = ", ".join(prim.GetVariantSets().GetNames()) or "none"
-            stream.diagnostic(WARNING, path, f"{where}: the prim has no variant set "
-                              f"'{variant_set}' (it has: {names})", kind=f"variant:{variant_set}")
+            problems.append(f"{where}: the prim has no variant set '{variant_set}' (it has: {names})")
         else:
             names = prim.GetVariantSets().GetVariantSet(variant_set).GetVariantNames()
             if selection not in names:
-                stream.diagnostic(WARNING, path, f"{where}: not one of {', '.join(names)}; the "
-                                  "set contributes nothing", kind=f"variant:{variant_set}")
+                problems.append(f"{where}: not one of {', '.join(names)}")
+    return problems
 
 
 def open_stage(path, variants=()):
@@ -391,6 +394,11 @@ def main(argv):
     stage, error = open_stage(args.scene, args.variants)
     if error:
         return _fail(error, 2)
+    # A selection that selects nothing is a bad request, refused before the
+    # hash (so also when the daemon only asks whether the scene changed).
+    bad_variants = variant_problems(stage, args.variants)
+    if bad_variants:
+        return _fail("; ".join(bad_variants), EXIT_BAD_SELECTION)
     opened = clock.monotonic()
     if args.time is not None:
         time = Usd.TimeCode(args.time)
@@ -408,7 +416,6 @@ def main(argv):
             out.close()
             return 0
         draco_prims = _report_composition_errors(stage, stream)
-        report_variants(stage, args.variants, stream)
         SceneReader(stage, time, stream, args.max_triangles_per_chunk, draco_prims,
                     args.flatten_instances).run()
         stream.end()

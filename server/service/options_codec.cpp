@@ -50,6 +50,7 @@ RenderOptions decode_render_options(const v1::GatherOptions& proto,
   out.gather = decode_gather_options(proto, defaults.gather);
   out.light_samples = or_default(proto.light_samples(), defaults.light_samples);
   out.pixel_samples = or_default(proto.pixel_samples(), defaults.pixel_samples);
+  if (proto.has_dome_visible()) out.dome_visible = proto.dome_visible();
   out.validate();
   return out;
 }
@@ -88,6 +89,7 @@ OpenOptions decode_open_options(const v1::BuildOptions& proto, const OpenOptions
   if (proto.has_glossy_roughness()) out.surfels.glossy_roughness = proto.glossy_roughness();
   out.tree.glossy_resolution = or_default(proto.glossy_resolution(), defaults.tree.glossy_resolution);
   if (proto.has_wavelet_threshold()) out.tree.wavelet_threshold = proto.wavelet_threshold();
+  if (proto.has_default_light()) out.default_light = proto.default_light();
   if (proto.has_fog()) {
     const v1::FogOptions& f = proto.fog();
     out.fog.extinction_per_density = or_default(f.extinction_per_density(), defaults.fog.extinction_per_density);
@@ -150,6 +152,7 @@ v1::GatherOptions encode_render_options(const RenderOptions& options) {
   proto.set_bent_normal(options.gather.bent_normal);
   proto.set_light_samples(options.light_samples);
   proto.set_pixel_samples(options.pixel_samples);
+  proto.set_dome_visible(options.dome_visible);
   return proto;
 }
 
@@ -175,6 +178,7 @@ v1::BuildOptions encode_open_options(const OpenOptions& options) {
   proto.set_glossy_roughness(options.surfels.glossy_roughness);
   proto.set_glossy_resolution(options.tree.glossy_resolution);
   proto.set_wavelet_threshold(options.tree.wavelet_threshold);
+  proto.set_default_light(options.default_light);
   v1::FogOptions& fog = *proto.mutable_fog();
   fog.set_extinction_per_density(options.fog.extinction_per_density);
   fog.set_albedo(options.fog.albedo.x);  // grey, as the config
@@ -189,14 +193,16 @@ std::string open_options_key(const OpenOptions& o) {
   // so distinct values never share a key.
   return fmt::format(
       "spacing={};target={};light={};seed={};leaf={};leaf_format={};page={};payload={};lut={};lut_fraction={};"
-      "bounces={},{},{};sampler={};camera={};image={}x{};footprint={};glossy={},{},{};fog={},{},{},{},{},{},{}",
+      "bounces={},{},{};sampler={};camera={};image={}x{};footprint={};glossy={},{},{};fog={},{},{},{},{},{},{};"
+      "default_light={}",
       o.surfels.spacing, o.surfels.target_surfels, o.surfels.light_samples, o.surfels.seed,
       o.tree.leaf_size, storage::to_string(o.tree.leaf_format), o.tree.page_size,
       tree::to_string(o.tree.payload_codec), o.tree.lut_entries, o.tree.lut_sample_fraction, o.bounce.bounces,
       o.bounce.splatting, o.bounce.view_solid_angle, to_string(o.surfels.sampler), o.surfels.camera,
       o.surfels.image_width, o.surfels.image_height, o.surfels.pixel_footprint, o.surfels.glossy_roughness,
       o.tree.glossy_resolution, o.tree.wavelet_threshold, o.fog.extinction_per_density, o.fog.albedo.x,
-      o.fog.albedo.y, o.fog.albedo.z, o.fog.step_voxels, o.fog.light_samples, o.fog.max_block_voxels);
+      o.fog.albedo.y, o.fog.albedo.z, o.fog.step_voxels, o.fog.light_samples, o.fog.max_block_voxels,
+      o.default_light);
 }
 
 v1::SceneInfo encode_scene_info(const SceneSession& session) {
