@@ -41,6 +41,7 @@ try:
     from gprim_triangles import read_implicit, read_mesh
     from implicit_shapes import is_implicit
     from light_defs import is_light, light_def, matrix_floats
+    from materialx_looks import MaterialXLooks, mtlx_error_files
     from pbgi.v1 import scene_pb2
     from point_instancers import read_point_instancer
     from preview_materials import MaterialTable
@@ -53,7 +54,7 @@ except ImportError as e:  # reported by main() with a clear message
 
 # Bumped whenever the reader's output for the same input changes, so that
 # caches keyed by the content hash are invalidated.
-READER_VERSION = "pbgi-usd-reader/4"  # 4: instances as prototypes + InstanceBatches
+READER_VERSION = "pbgi-usd-reader/5"  # 5: MaterialX documents read (materialx_looks.py)
 _HASH_BLOCK = 1 << 20
 EXIT_BAD_SELECTION = 5
 
@@ -123,8 +124,14 @@ def parse_variant(text):
 def content_hash(stage, time_code, flatten_instances=False):
     """sha256 over every layer the stage used (file bytes; exported text for
     anonymous layers), order- and location-independent, plus the time code
-    (and whether instances are flattened: a different stream)."""
+    (and whether instances are flattened: a different stream), and the
+    MaterialX documents read in place of layers (materialx_looks.py)."""
     digests = []
+    documents = {f for e in stage.GetCompositionErrors() for f in mtlx_error_files(str(e))}
+    for document in sorted(documents):
+        if os.path.isfile(document):
+            with open(document, "rb") as f:
+                digests.append(hashlib.sha256(f.read()).hexdigest())
     for layer in stage.GetUsedLayers():
         h = hashlib.sha256()
         real = layer.realPath
@@ -209,7 +216,7 @@ class SceneReader:
         self.time = time
         self.stream = stream
         self.xforms = UsdGeom.XformCache(time)
-        self.materials = MaterialTable(stream, time)
+        self.materials = MaterialTable(stream, time, MaterialXLooks(stream))
         self.emitter = TriangleEmitter(stream, max_triangles_per_chunk)
         # None: instances are expanded through instance proxies (flattened).
         self.prototypes = None if flatten_instances else \
@@ -378,6 +385,8 @@ def _report_composition_errors(stage, stream):
         files = draco_arc_files(str(error)) if prim_path.startswith("/") else []
         if files:
             draco.setdefault(prim_path, []).extend(files)
+            continue
+        if mtlx_error_files(str(error)):  # the Material's look is read from the document
             continue
         stream.diagnostic(WARNING, prim_path, f"composition: {_one_line(error)}")
     return draco
