@@ -14,7 +14,8 @@
 namespace pbgi::bench {
 
 struct BenchOptions {
-  // Camera prim path; "" = the scene's only camera.
+  // Camera prim path or "auto"; "" = the scene's only camera, auto without any
+  // (server/scene/auto_camera.h, resolve_camera).
   std::string camera;
   // Image size in pixels (1..4096 each).
   uint32_t width = 128;

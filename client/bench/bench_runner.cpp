@@ -9,6 +9,7 @@
 #include "client/image/exr_image.h"
 #include "client/metrics/perceptual_diff.h"
 #include "server/ingest/usd_ingest.h"
+#include "server/scene/auto_camera.h"
 #include "server/volumes/fog_field.h"
 #include "storage/format/errors.h"
 
@@ -27,20 +28,6 @@ using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
-const Camera& pick_camera(const Scene& scene, const std::string& path) {
-  if (!path.empty()) {
-    if (const Camera* c = scene.find_camera(path)) return *c;
-  } else if (scene.cameras.size() == 1) {
-    return scene.cameras.begin()->second;
-  }
-  std::string known;
-  for (const auto& [name, camera] : scene.cameras) known += (known.empty() ? "" : ", ") + name;
-  throw NotFound(fmt::format("{}: {} (cameras in the scene: {})", scene.source_path,
-                             path.empty() ? "several cameras, pass --camera"
-                                          : "no camera '" + path + "'",
-                             known.empty() ? "none" : known));
 }
 
 void create_dir(const fs::path& dir) {
@@ -262,7 +249,7 @@ BenchResult run_bench(const Scene& scene, const BenchOptions& o) {
   // 1. Options, camera, directories, ray structure.
   o.validate();
   const MethodPlan plan = bench_plan(o);
-  const Camera& camera = pick_camera(scene, o.camera);
+  const Camera camera = resolve_camera(scene, o.camera, float(o.width) / float(o.height));
   const fs::path work_dir = o.work_dir.empty() ? o.out_dir / "work" : o.work_dir;
   create_dir(o.out_dir);
   create_dir(work_dir);

@@ -2,6 +2,7 @@
 
 #include "server/engine/scene_session.h"
 #include "server/render/tile_renderer.h"
+#include "server/scene/auto_camera.h"
 #include "storage/format/errors.h"
 
 #include <fmt/format.h>
@@ -97,13 +98,12 @@ RenderedAovs render_pbgi(const BenchInput& input, const BuiltState* built,
   // The session renders in its scene-local frame (open_scene_model rebases
   // the scene, server/scene/render_origin.h): the camera must be the
   // session's copy, moved with the geometry, not the world-space one.
-  const Camera* camera = s.scene->find_camera(input.camera.prim_path);
-  if (!camera)
-    throw NotFound(fmt::format("bench: camera {} missing from the PBGI session's scene",
-                               input.camera.prim_path));
+  // (The auto camera is framed again, on the session's bounds.)
+  const Camera camera =
+      resolve_camera(*s.scene, input.camera.prim_path, float(input.width) / float(input.height));
   const TileRect whole{0, 0, input.width, input.height};
   GatherCounters counters;
-  TileAovs t = render_tile(*s.rays, *s.tree, *camera, input.width, input.height, whole, options, &counters);
+  TileAovs t = render_tile(*s.rays, *s.tree, camera, input.width, input.height, whole, options, &counters);
   const double pixels = double(input.width) * input.height;
   return {std::move(t.beauty), std::move(t.direct), std::move(t.indirect),
           {{"gathers_per_pixel", fmt::format("{:.4g}", double(counters.receivers) / pixels)},

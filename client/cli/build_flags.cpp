@@ -68,6 +68,9 @@ void BuildArgs::add_to(CLI::App* cmd) {
       ->check(CLI::PositiveNumber);
   cmd->add_option("--fog-albedo", fog_albedo, "fog grids: grey single-scattering albedo, 0 = absorbing [0.8]")
       ->check(CLI::Range(0.f, 1.f));
+  cmd->add_flag("--default-light", default_light,
+                "a scene without any light gets a grey dome and a key light, so that it can be "
+                "looked at (else it renders black, with a warning)");
 }
 
 v1::BuildOptions BuildArgs::to_proto(uint32_t image_width, uint32_t image_height) const {
@@ -81,6 +84,7 @@ v1::BuildOptions BuildArgs::to_proto(uint32_t image_width, uint32_t image_height
   build.set_bounces(bounces);
   if (bounce_splatting) build.set_bounce_splatting(*bounce_splatting);
   if (bounce_view_solid_angle) build.set_bounce_view_solid_angle(*bounce_view_solid_angle);
+  if (default_light) build.set_default_light(true);
   build.set_sampler(sampler);
   build.set_spacing_camera(spacing_camera);
   build.set_pixel_footprint(pixel_footprint);

@@ -135,7 +135,7 @@ const CommandRegistrar kRegistrar("bench", [](CLI::App& app, int* exit_code) {
   CLI::App* cmd = app.add_subcommand(
       "bench", "Speed against error: PBGI settings and path-tracer spp vs a converged reference");
   cmd->add_option("scene", args->scene, "USD scene file")->required();
-  cmd->add_option("--camera", args->camera, "Camera prim path (default: the only camera)");
+  cmd->add_option("--camera,-c", args->camera, "Camera prim path, or auto: the scene framed (default: the only camera; auto without any)");
   cmd->add_option("--out-dir,-o", args->out_dir, "Directory for bench.json/.csv/.png")
       ->capture_default_str();
   cmd->add_option("--cache-dir", args->cache_dir,

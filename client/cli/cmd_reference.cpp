@@ -7,6 +7,8 @@
 #include "client/image/exr_image.h"
 #include "client/image/png_display.h"
 #include "server/ingest/usd_ingest.h"
+#include "server/scene/auto_camera.h"
+#include "server/scene/default_lights.h"
 #include "server/reference/path_tracer.h"
 #include "server/volumes/fog_field.h"
 #include "storage/format/errors.h"
@@ -32,6 +34,7 @@ struct ReferenceArgs {
   bool png_all = false;
   bool half = false;
   bool hide_lights = false;
+  bool default_light = false;
   bool quiet = false;
 };
 
@@ -65,20 +68,6 @@ class ProgressBar {
   int quarter_ = 0;
 };
 
-const Camera& pick_camera(const Scene& scene, const std::string& path) {
-  if (!path.empty()) {
-    if (const Camera* c = scene.find_camera(path)) return *c;
-  } else if (scene.cameras.size() == 1) {
-    return scene.cameras.begin()->second;
-  }
-  std::string known;
-  for (const auto& [name, _] : scene.cameras) known += (known.empty() ? "" : ", ") + name;
-  throw NotFound(fmt::format("{}: {} (cameras in the scene: {})", scene.source_path,
-                             path.empty() ? "several cameras, pass --camera"
-                                          : "no camera '" + path + "'",
-                             known.empty() ? "none" : known));
-}
-
 image::ExrImage to_exr(const ReferenceImage& r) {
   image::ExrImage img(r.width, r.height);
   img.set_rgb("", r.beauty);
@@ -94,8 +83,16 @@ int run(const ReferenceArgs& args) {
   const auto start = std::chrono::steady_clock::now();
   check_output_file(args.out, "--out");  // before minutes of path tracing
   // 1. Scene and camera.
-  const Scene scene = read_usd_scene(args.scene, IngestOptions{});
-  const Camera& camera = pick_camera(scene, args.camera);
+  Scene scene = read_usd_scene(args.scene, IngestOptions{});
+  // The daemon's rule (scene_session.cpp): a scene without light gets the
+  // default lights if asked, else a warning.
+  if (!scene_has_light(scene)) {
+    if (args.default_light) add_default_lights(scene);
+    else scene.warnings.push_back(no_light_warning());
+  }
+  for (const std::string& w : scene.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  const Camera camera =
+      resolve_camera(scene, args.camera, float(args.render.width) / float(args.render.height));
   const double load_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
@@ -155,7 +152,7 @@ const CommandRegistrar kRegistrar("reference", [](CLI::App& app, int* exit_code)
   CLI::App* cmd = app.add_subcommand(
       "reference", "Render an unbiased path-traced reference (multi-layer EXR of the AOVs)");
   cmd->add_option("scene", args->scene, "USD scene file")->required();
-  cmd->add_option("--camera", args->camera, "Camera prim path (default: the only camera)");
+  cmd->add_option("--camera,-c", args->camera, "Camera prim path, or auto: the scene framed (default: the only camera; auto without any)");
   cmd->add_option("--out,-o", args->out, "Output EXR")->capture_default_str();
   cmd->add_option("--width", args->render.width, "Image width")->capture_default_str();
   cmd->add_option("--height", args->render.height, "Image height")->capture_default_str();
@@ -180,6 +177,8 @@ const CommandRegistrar kRegistrar("reference", [](CLI::App& app, int* exit_code)
   cmd->add_flag("--camera-fog", args->render.fog_on_camera_rays,
                 "Fog attenuates and scatters along camera rays too (the daemon's images have none there)");
   cmd->add_flag("--hide-lights", args->hide_lights, "Camera rays do not see area lights");
+  cmd->add_flag("--default-light", args->default_light,
+                "A scene without any light gets a grey dome and a key light (as pbgid's)");
   cmd->add_flag("--png", args->png, "Also write <out>.png of the beauty (sRGB display)");
   cmd->add_flag("--png-all", args->png_all, "Also write <out>.<aov>.png for every AOV");
   cmd->add_flag("--half", args->half, "Store half floats (smaller, less exact)");

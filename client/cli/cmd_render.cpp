@@ -11,6 +11,8 @@
 #include "client/cli/build_flags.h"
 #include "client/cli/gather_flags.h"
 #include "client/cli/connection_flags.h"
+#include "client/cli/open_progress.h"
+#include "client/cli/scene_flags.h"
 #include "client/cli/scene_warnings.h"
 #include "client/cli/output_paths.h"
 #include "client/image/exr_image.h"
@@ -54,6 +56,7 @@ struct RenderArgs {
   // 0 = the daemon's default.
   GatherArgs gather;
   BuildArgs build;
+  SceneArgs composition;  // variants, time code
 };
 
 // Thrown from the tile callback to end a render early (--max-new-tiles).
@@ -155,25 +158,11 @@ double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-// Progress lines on stderr: redrawn in place on a terminal, a line per
-// quarter otherwise (so logs stay readable).
+// Tile progress on stderr: redrawn in place on a terminal, a line per
+// quarter otherwise (so logs stay readable). The open's is open_progress.h.
 class Progress {
  public:
   explicit Progress(bool quiet) : quiet_(quiet), tty_(isatty(fileno(stderr)) != 0) {}
-
-  void open(const std::string& stage, float fraction) {
-    if (quiet_) return;
-    if (tty_) {
-      std::fprintf(stderr, "\ropen: %-24s %3.0f%% ", stage.c_str(), 100.f * fraction);
-    } else if (stage != last_stage_) {
-      std::fprintf(stderr, "open: %s\n", stage.c_str());
-    }
-    last_stage_ = stage;
-    std::fflush(stderr);
-  }
-  void open_done() {
-    if (!quiet_ && tty_ && !last_stage_.empty()) std::fputc('\n', stderr);
-  }
 
   void tiles(uint32_t done, uint32_t total, double seconds) {
     if (quiet_) return;
@@ -195,19 +184,8 @@ class Progress {
 
  private:
   bool quiet_, tty_;
-  std::string last_stage_;
   int quarter_ = 0;
 };
-
-std::string pick_camera(const v1::SceneInfo& info, const std::string& requested) {
-  if (!requested.empty()) return requested;
-  if (info.cameras_size() == 1) return info.cameras(0);
-  std::string known;
-  for (const std::string& c : info.cameras()) known += (known.empty() ? "" : ", ") + c;
-  throw InvalidArgument(fmt::format("scene '{}' has {} cameras: pass --camera ({})",
-                                    info.scene_path(), info.cameras_size(),
-                                    known.empty() ? "none" : known));
-}
 
 image::ExrImage to_exr(const client::Frame& frame, const RenderArgs& args,
                        const v1::SceneInfo& info, const std::string& camera) {
@@ -244,14 +222,14 @@ int run_render(const RenderArgs& args) {
   Progress progress(args.quiet);
 
   // 1. Open the scene (or join it if the daemon has it open already).
-  const v1::BuildOptions build = args.build.to_proto(args.width, args.height);
-  const v1::SceneInfo info = client.open_scene(
-      client::scene_request_path(args.scene), build,
-      [&](const std::string& stage, float fraction) { progress.open(stage, fraction); });
-  progress.open_done();
+  const v1::OpenSceneRequest open_request =
+      args.composition.request(client::scene_request_path(args.scene), args.build.to_proto(args.width, args.height));
+  OpenProgressPrinter open_progress(stderr, isatty(fileno(stderr)) != 0, args.quiet);
+  const v1::SceneInfo info = client.open_scene(open_request, std::ref(open_progress));
+  open_progress.done();
   print_scene_warnings(info, stderr);
   const double open_seconds = seconds_since(start);
-  const std::string camera = pick_camera(info, args.camera);
+  const std::string camera = client::camera_for(info, args.camera);
 
   // 2. Render every tile.
   client::FrameRequest request;
@@ -345,21 +323,23 @@ const CommandRegistrar kRegistrar{"render", [](CLI::App& app, int* exit_code) {
   cmd->add_option("--retries", args->retries,
                   "retries per tile on UNAVAILABLE / RESOURCE_EXHAUSTED, with back-off")
       ->capture_default_str()->check(CLI::Range(0, 100));
-  cmd->add_option("--camera", args->camera, "camera prim path (default: the only camera)");
+  cmd->add_option("--camera,-c", args->camera, "camera prim path, or auto: the scene framed (default: the only camera; auto without any)");
   cmd->add_option("--width", args->width, "image width")->capture_default_str();
   cmd->add_option("--height", args->height, "image height")->capture_default_str();
   cmd->add_option("--tile", args->tile, "tile size in pixels")->capture_default_str()
       ->check(CLI::Range(1u, 512u));
-  cmd->add_option("--jobs", args->jobs, "tile requests in flight")->capture_default_str()
+  cmd->add_option("--jobs,-j", args->jobs, "tile requests in flight")->capture_default_str()
       ->check(CLI::Range(1u, 256u));
-  cmd->add_option("--out", args->out, "multi-layer EXR output")->capture_default_str();
+  cmd->add_option("--out,-o", args->out, "multi-layer EXR output")->capture_default_str();
   cmd->add_option("--png", args->png, "PNG of the beauty (default: --out with .png)");
   cmd->add_flag("--no-png", args->no_png, "do not write the PNG");
   cmd->add_option("--exposure", args->exposure, "PNG exposure in stops");
   cmd->add_flag("--half", args->half, "store the EXR as half floats");
-  cmd->add_flag("--quiet", args->quiet, "no progress on stderr");
+  cmd->add_flag("--quiet,-q", args->quiet, "no progress on stderr");
   cmd->add_option("--tile-deadline", args->tile_deadline, "seconds allowed per tile request")
       ->capture_default_str();
+  // Which composition of the stage: variant selections, time code.
+  args->composition.add_to(cmd);
   // Gather options; 0 = the daemon's default (shown in brackets).
   args->gather.add_to(cmd);
   // Build options (they select which tree the daemon builds or reuses).

@@ -156,7 +156,7 @@ const CommandRegistrar registrar("stress", [](CLI::App& app, int* exit_code) {
                   "Daemon address (unix:PATH or HOST:PORT); repeat for replicas (round robin)")
       ->required();
   cmd->add_option("--scene", args->scene, "Scene to open (path as the daemon resolves it)")->required();
-  cmd->add_option("--camera", args->camera, "Camera prim (default: the scene's only camera)");
+  cmd->add_option("--camera,-c", args->camera, "Camera prim (default: the scene's only camera)");
   cmd->add_option("--clients", args->clients, "Concurrent clients")->check(CLI::Range(1u, 4096u));
   cmd->add_option("--duration", args->duration, "Length of the load: 30s, 10m, 1h");
   cmd->add_option("--image", args->image, "Image size WxH the random tiles are cut from");

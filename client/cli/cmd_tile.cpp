@@ -5,6 +5,7 @@
 #include "client/cli/build_flags.h"
 #include "client/cli/gather_flags.h"
 #include "client/cli/connection_flags.h"
+#include "client/cli/scene_flags.h"
 #include "client/cli/scene_warnings.h"
 #include "client/image/exr_image.h"
 #include "client/lib/pbgi_client.h"
@@ -29,6 +30,7 @@ struct TileArgs {
   bool json = false;
   GatherArgs gather;
   BuildArgs build;
+  SceneArgs composition;  // variants, time code
 };
 
 // "x0,y0,x1,y1" -> Tile; throws InvalidArgument naming the flag.
@@ -50,17 +52,11 @@ int run_tile(const TileArgs& args) {
   client::PbgiClient client(args.connection.server, args.connection.client_options());
 
   // 1. Open (quietly: the statistics are this command's output).
-  const v1::BuildOptions build = args.build.to_proto(args.width, args.height);
-  const v1::SceneInfo info = client.open_scene(client::scene_request_path(args.scene), build);
+  const v1::OpenSceneRequest open_request =
+      args.composition.request(client::scene_request_path(args.scene), args.build.to_proto(args.width, args.height));
+  const v1::SceneInfo info = client.open_scene(open_request, {});
   print_scene_warnings(info, stderr);  // stdout holds the statistics
-  std::string camera = args.camera;
-  if (camera.empty()) {
-    if (info.cameras_size() != 1) {
-      throw InvalidArgument(fmt::format("scene '{}' has {} cameras: pass --camera",
-                                        info.scene_path(), info.cameras_size()));
-    }
-    camera = info.cameras(0);
-  }
+  const std::string camera = client::camera_for(info, args.camera);
 
   // 2. One tile.
   v1::RenderTileRequest request;
@@ -126,13 +122,14 @@ const CommandRegistrar kRegistrar{"tile", [](CLI::App& app, int* exit_code) {
                                              "print its gather statistics");
   cmd->add_option("scene", args->scene, "USD scene")->required();
   args->connection.add_to(cmd);
-  cmd->add_option("--camera", args->camera, "camera prim path (default: the only camera)");
+  cmd->add_option("--camera,-c", args->camera, "camera prim path, or auto: the scene framed (default: the only camera; auto without any)");
   cmd->add_option("--width", args->width, "image width")->capture_default_str();
   cmd->add_option("--height", args->height, "image height")->capture_default_str();
   cmd->add_option("--tile-rect", args->rect, "x0,y0,x1,y1 (x1, y1 exclusive)")
       ->capture_default_str();
-  cmd->add_option("--out", args->out, "EXR of the tile")->capture_default_str();
+  cmd->add_option("--out,-o", args->out, "EXR of the tile")->capture_default_str();
   cmd->add_flag("--json", args->json, "statistics as one JSON object");
+  args->composition.add_to(cmd);
   args->gather.add_to(cmd);
   args->build.add_to(cmd);
   cmd->callback([args, exit_code] { *exit_code = run_tile(*args); });

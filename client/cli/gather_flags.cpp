@@ -29,6 +29,8 @@ void GatherArgs::add_to(CLI::App* cmd) {
                   "largest relative disagreement of gathers that is interpolated, (0, 1] [0.1]");
   cmd->add_option("--interpolation-spacing", interpolation_spacing,
                   "coarsest interpolation cell in pixels, a power of two <= 64 [8]");
+  cmd->add_flag("--hide-dome", hide_dome,
+                "camera rays that miss the scene are black instead of showing its dome light");
 }
 
 v1::GatherOptions GatherArgs::to_proto() const {
@@ -50,6 +52,7 @@ v1::GatherOptions GatherArgs::to_proto() const {
   if (interpolation == "auto") o.set_interpolation(v1::GatherOptions::INTERPOLATION_AUTO);
   if (interpolation_tolerance) o.set_interpolation_tolerance(*interpolation_tolerance);
   o.set_interpolation_spacing(interpolation_spacing);
+  if (hide_dome) o.set_dome_visible(false);
   return o;
 }
 

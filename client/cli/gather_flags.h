@@ -30,11 +30,13 @@ struct GatherArgs {
   std::string interpolation;                    // "off" or "auto"; "" = the daemon's default
   std::optional<float> interpolation_tolerance;  // unset = the daemon's default
   uint32_t interpolation_spacing = 0;
+  bool hide_dome = false;  // GatherOptions.dome_visible = false; unset = the daemon's default
 
   // Adds --mb-res, --max-solid-angle, --ao-max-distance, --light-samples,
   // --pixel-samples, --method, --clusters, --epsilon, --hdr-refine,
   // --glossy-max-res, --glossy-importance, --glossy-radiance-weight,
-  // --interpolation, --interpolation-tolerance, --interpolation-spacing.
+  // --interpolation, --interpolation-tolerance, --interpolation-spacing,
+  // --hide-dome.
   void add_to(CLI::App* cmd);
 
   // The request message; the daemon validates the values and names the

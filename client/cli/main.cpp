@@ -1,9 +1,12 @@
 // pbgi: the command-line client. Thin: each subcommand lives in cmd_*.cpp.
 #include "client/cli/command.h"
+#include "client/cli/subcommand_suggestion.h"
+#include "pbgi_build_config.h"
 
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <exception>
 
 namespace pbgi::cli {
@@ -15,12 +18,27 @@ std::vector<std::pair<std::string, CommandSetup>>& command_registry() {
 
 int main(int argc, char** argv) {
   CLI::App app{"pbgi: point-based global illumination client tools"};
+  app.set_version_flag("--version", std::string("pbgi ") + PBGI_VERSION);
   app.require_subcommand(1);
   int exit_code = 0;
   auto& registry = pbgi::cli::command_registry();
   std::sort(registry.begin(), registry.end(),
             [](const auto& a, const auto& b) { return a.first < b.first; });
-  for (auto& [name, setup] : registry) setup(app, &exit_code);
+  std::vector<std::string> names;
+  for (auto& [name, setup] : registry) {
+    setup(app, &exit_code);
+    names.push_back(name);
+  }
+  // A first word that names no subcommand: say which one was meant, rather
+  // than CLI11's "A subcommand is required".
+  if (argc > 1 && argv[1][0] != '-' && std::find(names.begin(), names.end(), argv[1]) == names.end()) {
+    const std::string guess = pbgi::cli::suggest_subcommand(argv[1], names);
+    std::string all;
+    for (const std::string& n : names) all += (all.empty() ? "" : ", ") + n;
+    std::fprintf(stderr, "pbgi: unknown subcommand '%s'%s\nsubcommands: %s (pbgi --help)\n", argv[1],
+                 guess.empty() ? "" : ("; did you mean '" + guess + "'?").c_str(), all.c_str());
+    return static_cast<int>(CLI::ExitCodes::ExtrasError);
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

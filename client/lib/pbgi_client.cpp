@@ -100,6 +100,16 @@ std::string scene_request_path(const std::string& scene_argument) {
   return scene_argument;
 }
 
+std::string camera_for(const v1::SceneInfo& info, const std::string& requested) {
+  if (!requested.empty()) return requested;
+  if (info.cameras_size() == 0) return kAutoCamera;
+  if (info.cameras_size() == 1) return info.cameras(0);
+  std::string known;
+  for (const std::string& c : info.cameras()) known += c + ", ";
+  throw InvalidArgument("scene '" + info.scene_path() + "' has " + std::to_string(info.cameras_size()) +
+                        " cameras: pass --camera (" + known + kAutoCamera + ")");
+}
+
 PbgiClient::PbgiClient(const std::string& address, ClientOptions options)
     : address_(normalize_address(address)),
       options_(options),

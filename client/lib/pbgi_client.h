@@ -134,6 +134,15 @@ class PbgiClient {
 // looks relative paths up below its scene roots).
 std::string scene_request_path(const std::string& scene_argument);
 
+// RenderTile(s)Request.camera naming the daemon's auto camera: the scene's
+// bounds framed for the image's aspect (docs/protocol.md).
+inline constexpr const char* kAutoCamera = "auto";
+
+// The camera to request: `requested` if set, else the scene's only camera,
+// else kAutoCamera for a scene without any. Throws InvalidArgument naming
+// the cameras when the scene has several and none was requested.
+std::string camera_for(const v1::SceneInfo& info, const std::string& requested);
+
 // A RenderTileResponse as a TileImage; throws CorruptionError if an AOV
 // does not have the tile's size.
 TileImage decode_tile(const v1::RenderTileResponse& response);

@@ -312,6 +312,7 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
     r.interpolation.mode = *mode;
     gather.read("interpolation_tolerance", r.interpolation.tolerance);
     gather.read("interpolation_spacing", r.interpolation.spacing);
+    gather.read("dome_visible", r.dome_visible);
     gather.reject_unknown();
   }
   if (const toml::table* table = top.table("build")) {
@@ -344,6 +345,7 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
     build.read("bounces", o.bounce.bounces);
     build.read("bounce_splatting", o.bounce.splatting);
     build.read("bounce_view_solid_angle", o.bounce.view_solid_angle);
+    build.read("default_light", o.default_light);
     build.reject_unknown();
   }
   if (const toml::table* table = top.table("fog")) {
@@ -439,6 +441,7 @@ std::string to_toml(const DaemonOptions& o) {
   string_value("interpolation", interpolation_mode_name(r.interpolation.mode));
   float32_value("interpolation_tolerance", r.interpolation.tolerance);
   integer_value("interpolation_spacing", r.interpolation.spacing);
+  bool_value("dome_visible", r.dome_visible);
 
   const OpenOptions& b = o.service.defaults.open;
   out << "\n[build]\n";
@@ -463,6 +466,7 @@ std::string to_toml(const DaemonOptions& o) {
   integer_value("bounces", b.bounce.bounces);
   out << "bounce_splatting = " << (b.bounce.splatting ? "true" : "false") << '\n';
   float32_value("bounce_view_solid_angle", b.bounce.view_solid_angle);
+  bool_value("default_light", b.default_light);
 
   out << "\n[fog]\n";
   float32_value("extinction_per_density", b.fog.extinction_per_density);
@@ -564,6 +568,8 @@ bool operator==(const DaemonOptions& a, const DaemonOptions& b) {
          ra.interpolation.mode == rb.interpolation.mode &&
          ra.interpolation.tolerance == rb.interpolation.tolerance &&
          ra.interpolation.spacing == rb.interpolation.spacing &&
+         ra.gather.bent_normal == rb.gather.bent_normal && ra.dome_visible == rb.dome_visible &&
+         oa.default_light == ob.default_light &&
          oa.surfels.spacing == ob.surfels.spacing && oa.surfels.sampler == ob.surfels.sampler &&
          oa.surfels.camera == ob.surfels.camera && oa.surfels.image_width == ob.surfels.image_width &&
          oa.surfels.image_height == ob.surfels.image_height &&

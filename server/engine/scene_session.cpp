@@ -7,6 +7,7 @@
 #include "server/engine/bounce_pages.h"
 #include "server/engine/build_key.h"
 #include "server/gather/page_views.h"
+#include "server/scene/default_lights.h"
 #include "server/scene/render_origin.h"
 #include "server/scene/scene_bulk.h"
 #include "server/ingest/usd_ingest.h"
@@ -220,6 +221,18 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
   options.fog.validate();
   auto session = std::make_shared<SceneSession>();
   session->scene = std::move(scene);
+  Scene& model = *session->scene;
+
+  // 1a. A scene nothing lights renders black: light it if asked, else say so.
+  if (!scene_has_light(model)) {
+    if (options.default_light) {
+      add_default_lights(model);
+      model.content_hash += "+default-light/1";
+    } else {
+      model.warnings.push_back(no_light_warning());
+      spdlog::warn("{}: {}", model.source_path, model.warnings.back());
+    }
+  }
 
   // 1b. Render in a scene-local frame: positions near a far-away scene keep
   // their float precision (server/scene/render_origin.h). Gather requests
@@ -227,7 +240,6 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
   // floats cannot hold there is dropped with a warning (to the client in
   // SceneInfo.warnings); far outliers change the frame and the Morton cube
   // (scene_bulk.h), so they are part of the page set's identity.
-  Scene& model = *session->scene;
   const size_t warned = model.warnings.size();
   const LocalFrame frame = rebase_to_local_frame(model);
   for (size_t i = warned; i < model.warnings.size(); ++i) spdlog::warn("{}: {}", model.source_path, model.warnings[i]);

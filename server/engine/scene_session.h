@@ -28,6 +28,10 @@ struct OpenOptions {
   tree::BuildOptions tree;
   BounceOptions bounce;  // light bounces carried by the surfels (default 1: direct only)
   FogOptions fog;        // fog grids in light transport (server/volumes/fog_options.h)
+  // A scene without any light gets server/scene/default_lights.h's dome and
+  // key light (part of the page set's identity); false (default): it gets
+  // a warning instead.
+  bool default_light = false;
 };
 
 struct SceneSessionInfo {

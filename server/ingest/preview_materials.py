@@ -14,7 +14,9 @@ stand-in (used where the image cannot be read or a mesh has no st) is the
 input's own authored value, else the texture's authored fallback, else mid
 grey (albedo) or the UsdPreviewSurface default.
 
-Materials without a UsdPreviewSurface but with a MaterialX surface
+Materials that reference a MaterialX document (.mtlx, which usd-core
+cannot compose) are read from it by materialx_looks.py. Materials without
+a UsdPreviewSurface but with a MaterialX surface authored in USD
 (outputs:mtlx:surface: standard_surface, open_pbr_surface, gltf_pbr) are
 mapped best-effort to base colour, roughness, metalness and emission from
 constant inputs, with one WARNING naming what was approximated.
@@ -134,9 +136,10 @@ class MaterialTable:
     """Resolves and de-duplicates materials; writes a MaterialDef the first
     time each distinct material is used (before any mesh refers to it)."""
 
-    def __init__(self, stream, time):
+    def __init__(self, stream, time, looks=None):
         self._stream = stream
         self._time = time
+        self._looks = looks  # MaterialXLooks: Materials that reference a .mtlx document
         self._ids = {}
         self._by_id = {}  # material id -> Resolved
         # Resolved values of materials that do not read gprim primvars.
@@ -226,6 +229,9 @@ class MaterialTable:
         surface = material.ComputeSurfaceSource()
         shader = surface[0] if surface else None
         if not shader or shader.GetShaderId() != "UsdPreviewSurface":
+            from_document = self._looks.resolve(material.GetPrim()) if self._looks else None
+            if from_document is not None:
+                return from_document
             mtlx = material.ComputeSurfaceSource("mtlx")
             if mtlx and mtlx[0] and mtlx[0].GetShaderId() in _MTLX:
                 return self._resolve_materialx(mtlx[0], path)

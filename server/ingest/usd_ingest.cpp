@@ -106,6 +106,9 @@ Scene decode_scene_stream(int fd, const std::string& source_name,
 
 namespace {
 
+// usd_reader.py's exit status for a --variant that selects nothing.
+constexpr int kReaderBadSelection = 6;
+
 // Runs the USD reader on `path` and decodes its stream; with `hash_only`
 // the reader stops after the header (the content hash).
 Scene run_usd_reader(const std::filesystem::path& path, const IngestOptions& options,
@@ -171,9 +174,17 @@ Scene run_usd_reader(const std::filesystem::path& path, const IngestOptions& opt
       reader.wait(decoder.reached_eof() ? std::chrono::milliseconds::max() : kRejectedStreamGrace);
   const std::string log = trimmed(reader.stderr_tail());
 
-  // 4. The reader's own failure explains a broken stream best.
+  // 4. The reader's own failure explains a broken stream best. A variant
+  // selection that selects nothing is the request's fault, not the scene's.
   if (!exit.killed_by_us && !exit.signaled && exit.code == kReaderOutsideRoots)
     throw PermissionDenied(fmt::format("scene '{}' refused: {}", path.string(), refusal_of(log)));
+  if (!exit.killed_by_us && !exit.signaled && exit.code == kReaderBadSelection) {
+    // The reader's last line says which (USD may have logged before it).
+    const std::string prefix = "usd_reader: ";
+    const size_t at = log.rfind(prefix);
+    const std::string why = at == std::string::npos ? log : log.substr(at + prefix.size());
+    throw InvalidArgument(fmt::format("scene '{}': {}", path.string(), why.substr(0, why.find('\n'))));
+  }
   if (!exit.killed_by_us && (exit.signaled || exit.code != 0) && (stream_error.empty() || decoder.reached_eof())) {
     throw SceneError(fmt::format("cannot read scene '{}': the USD reader {}{}{}", path.string(), describe(exit),
                                  log.empty() ? "" : ": ", log));

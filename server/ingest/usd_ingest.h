@@ -26,8 +26,10 @@ struct IngestOptions {
   // stage is composed, so they win over the file's selections (payloads
   // inside unselected variants are never loaded). Key: "<prim path>:<variant
   // set>", e.g. "/Car:color"; value: the variant name. A selection that
-  // selects nothing (no such prim, set or variant) is a warning naming the
-  // prim. The selections are part of Scene::content_hash.
+  // selects nothing (no such prim, set or variant) is refused: read_usd_scene
+  // and usd_content_hash throw InvalidArgument naming each such selection
+  // and what the stage has instead. The selections are part of
+  // Scene::content_hash.
   std::map<std::string, std::string> variant_selections;
   uint32_t max_triangles_per_chunk = 65536;
   // Native instances and PointInstancers arrive as prototypes (geometry

@@ -23,7 +23,8 @@ path sent.
 Exit codes: 0 success; 2 the scene cannot be opened (or bad arguments);
 3 an unexpected failure while reading; 4 the daemon closed the pipe;
 5 the scene uses a file outside the scene roots (the message names what
-uses it, never the file).
+uses it, never the file); 6 a --variant selects nothing (no such prim,
+variant set or variant).
 """
 import argparse
 import hashlib
@@ -48,6 +49,7 @@ try:
     from gprim_triangles import read_implicit, read_mesh
     from implicit_shapes import is_implicit
     from light_defs import is_light, light_def, matrix_floats
+    from materialx_looks import MaterialXLooks, mtlx_error_files
     from pbgi.v1 import scene_pb2
     from point_instancers import read_point_instancer
     from preview_materials import MaterialTable
@@ -60,8 +62,10 @@ except ImportError as e:  # reported by main() with a clear message
 
 # Bumped whenever the reader's output for the same input changes, so that
 # caches keyed by the content hash are invalidated.
-READER_VERSION = "pbgi-usd-reader/4"  # 4: instances as prototypes + InstanceBatches
+READER_VERSION = "pbgi-usd-reader/5"  # 5: MaterialX documents read (materialx_looks.py)
 _HASH_BLOCK = 1 << 20
+EXIT_OUTSIDE_ROOTS = 5
+EXIT_BAD_SELECTION = 6
 
 
 def _claim_stdout():
@@ -132,8 +136,14 @@ def parse_variant(text):
 def content_hash(stage, time_code, flatten_instances=False):
     """sha256 over every layer the stage used (file bytes; exported text for
     anonymous layers), order- and location-independent, plus the time code
-    (and whether instances are flattened: a different stream)."""
+    (and whether instances are flattened: a different stream), and the
+    MaterialX documents read in place of layers (materialx_looks.py)."""
     digests = []
+    documents = {f for e in stage.GetCompositionErrors() for f in mtlx_error_files(str(e))}
+    for document in sorted(documents):
+        if os.path.isfile(document):
+            with open(document, "rb") as f:
+                digests.append(hashlib.sha256(f.read()).hexdigest())
     for layer in stage.GetUsedLayers():
         h = hashlib.sha256()
         real = layer.realPath
@@ -167,22 +177,23 @@ def variant_session_layer(variants):
     return layer
 
 
-def report_variants(stage, variants, stream):
-    """One WARNING per requested selection that selects nothing."""
+def variant_problems(stage, variants):
+    """One message per requested selection that selects nothing (no such
+    prim, variant set or variant), naming what the stage has instead."""
+    problems = []
     for path, variant_set, selection in variants:
         prim = stage.GetPrimAtPath(path)
-        where = f"variant selection {variant_set}={selection}"
+        where = f"{path}: variant selection {variant_set}={selection}"
         if not prim or not prim.IsDefined():  # our own `over` alone defines nothing
-            stream.diagnostic(WARNING, path, f"{where}: no such prim", kind=f"variant:{variant_set}")
+            problems.append(f"{where}: no such prim")
         elif not prim.GetVariantSets().HasVariantSet(variant_set):
             names = ", ".join(prim.GetVariantSets().GetNames()) or "none"
-            stream.diagnostic(WARNING, path, f"{where}: the prim has no variant set "
-                              f"'{variant_set}' (it has: {names})", kind=f"variant:{variant_set}")
+            problems.append(f"{where}: the prim has no variant set '{variant_set}' (it has: {names})")
         else:
             names = prim.GetVariantSets().GetVariantSet(variant_set).GetVariantNames()
             if selection not in names:
-                stream.diagnostic(WARNING, path, f"{where}: not one of {', '.join(names)}; the "
-                                  "set contributes nothing", kind=f"variant:{variant_set}")
+                problems.append(f"{where}: not one of {', '.join(names)}")
+    return problems
 
 
 def open_stage(path, variants=(), roots=None):
@@ -224,7 +235,7 @@ class SceneReader:
         self.time = time
         self.stream = stream
         self.xforms = UsdGeom.XformCache(time)
-        self.materials = MaterialTable(stream, time)
+        self.materials = MaterialTable(stream, time, MaterialXLooks(stream))
         self.emitter = TriangleEmitter(stream, max_triangles_per_chunk)
         # None: instances are expanded through instance proxies (flattened).
         self.prototypes = None if flatten_instances else \
@@ -408,6 +419,8 @@ def _report_composition_errors(stage, stream, roots):
         if files:
             draco.setdefault(prim_path, []).extend(files)
             continue
+        if mtlx_error_files(str(error)):  # the Material's look is read from the document
+            continue
         stream.diagnostic(WARNING, prim_path, f"composition: {_one_line(error)}")
     return draco
 
@@ -424,9 +437,14 @@ def main(argv):
     try:
         stage, error = open_stage(args.scene, args.variants, roots)
     except OutsideRoots as e:
-        return _fail(f"scene '{args.scene}' refused: {e}", 5)
+        return _fail(f"scene '{args.scene}' refused: {e}", EXIT_OUTSIDE_ROOTS)
     if error:
         return _fail(error, 2)
+    # A selection that selects nothing is a bad request, refused before the
+    # hash (so also when the daemon only asks whether the scene changed).
+    bad_variants = variant_problems(stage, args.variants)
+    if bad_variants:
+        return _fail("; ".join(bad_variants), EXIT_BAD_SELECTION)
     opened = clock.monotonic()
     if args.time is not None:
         time = Usd.TimeCode(args.time)
@@ -443,8 +461,10 @@ def main(argv):
             stream.end()
             out.close()
             return 0
-        draco_prims = _report_composition_errors(stage, stream, roots)
-        report_variants(stage, args.variants, stream)
+3 an unexpected failure while reading; 4 the daemon closed the pipe;
+5 the scene uses a file outside the scene roots (the message names what
+uses it, never the file); 6 a --variant selects nothing (no such prim,
+variant set or variant).
         SceneReader(stage, time, stream, args.max_triangles_per_chunk, draco_prims,
                     args.flatten_instances, roots).run()
         stream.end()
@@ -458,7 +478,7 @@ def main(argv):
         # The daemon stopped reading (cancelled or rejected the stream).
         os._exit(4)
     except OutsideRoots as e:
-        return _fail(f"scene '{args.scene}' refused: {e}", 5)
+        return _fail(f"scene '{args.scene}' refused: {e}", EXIT_OUTSIDE_ROOTS)
     except Exception as e:
         traceback.print_exc(limit=-5, file=sys.stderr)
         return _fail(f"failed while reading scene '{args.scene}': {_one_line(e)}", 3)

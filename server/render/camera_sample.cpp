@@ -2,6 +2,7 @@
 
 #include "server/scene/brdf.h"
 #include "server/scene/direct_lighting.h"
+#include "server/scene/dome_light.h"
 #include "server/scene/light_sampling.h"
 #include "server/scene/sample_patterns.h"
 #include "server/scene/surface_colors.h"
@@ -33,7 +34,8 @@ Imath::V2f pixel_sample_offset(uint32_t k, uint32_t spp, Rng& rng) {
   return spp == 1 ? Imath::V2f(0.5f, 0.5f) : stratified_sample(k, spp, rng);
 }
 
-SurfaceSample trace_sample(const RayScene& rays, const Ray& ray, uint32_t light_samples, uint64_t light_seed) {
+SurfaceSample trace_sample(const RayScene& rays, const Ray& ray, uint32_t light_samples, uint64_t light_seed,
+                           bool dome_visible) {
   SurfaceSample out;
   PixelValue& v = out.value;
   const Scene& scene = rays.scene();
@@ -48,8 +50,10 @@ SurfaceSample trace_sample(const RayScene& rays, const Ray& ray, uint32_t light_
     v.ao = 1.f;
     return out;
   }
-  // 2. Miss: black, fully accessible.
+  // 2. Miss: the dome behind the scene (the sky), or black; fully
+  // accessible. The dome is seen past the far clip too: it is at infinity.
   if (!hit.valid()) {
+    if (dome_visible) v.beauty = v.direct = environment_radiance(scene, ray.direction.normalized());
     v.ao = 1.f;
     return out;
   }

@@ -56,8 +56,10 @@ struct SurfaceSample {
 
 // Traces `ray`: the first hit within the camera's clipping range, an emitter
 // in front of it, and the hit's direct light with `light_samples` shadow
-// rays per light (none if 0: a sample that only places a receiver).
-SurfaceSample trace_sample(const RayScene& rays, const Ray& ray, uint32_t light_samples, uint64_t light_seed);
+// rays per light (none if 0: a sample that only places a receiver). A ray
+// that hits nothing sees the scene's DomeLights if `dome_visible`.
+SurfaceSample trace_sample(const RayScene& rays, const Ray& ray, uint32_t light_samples, uint64_t light_seed,
+                           bool dome_visible = true);
 
 // Adds the indirect light of a gather to a traced sample.
 PixelValue finish_sample(const SurfaceSample& s, const GatherResult& g);

@@ -99,7 +99,8 @@ class LatticeTile {
             const Imath::V2f j = pixel_sample_offset(k, spp_, rng);
             offsets_[i + k] = j;
             const Ray ray = camera_ray(camera_, width_, height_, float(x) + j.x, float(y) + j.y);
-            samples_[i + k] = trace_sample(rays_, ray, light, hash_ids(options_.seed, kLightDomain, pixel_id, k));
+            samples_[i + k] = trace_sample(rays_, ray, light, hash_ids(options_.seed, kLightDomain, pixel_id, k),
+                                          options_.dome_visible);
           }
         }
       }

@@ -23,7 +23,7 @@ namespace {
 // light from the gather.
 PixelValue shade_sample(const RayScene& rays, Gatherer& gatherer, const Ray& ray,
                         const RenderOptions& options, uint64_t light_seed) {
-  const SurfaceSample s = trace_sample(rays, ray, options.light_samples, light_seed);
+  const SurfaceSample s = trace_sample(rays, ray, options.light_samples, light_seed, options.dome_visible);
   if (!s.gathers) return s.value;
   return finish_sample(s, gatherer.gather(s.receiver));
 }
@@ -119,7 +119,8 @@ TileAovs render_tile(const RayScene& rays, const tree::TreeSource& tree, const C
           for (uint32_t k = 0; k < spp; ++k) {
             const Ray ray = sample_ray(camera, image_width, image_height, x, y, k, options, rng);
             samples[i * spp + k] = trace_sample(rays, ray, options.light_samples,
-                                                hash_ids(options.seed, kLightDomain, pixel_id, k));
+                                                hash_ids(options.seed, kLightDomain, pixel_id, k),
+                                                options.dome_visible);
           }
         }
       }

@@ -32,6 +32,9 @@ struct RenderOptions {
   // Gathers at an adaptive lattice of pixel centres, interpolated to the
   // camera samples (gather_lattice.h), or one gather per camera sample.
   InterpolationOptions interpolation;
+  // Camera rays that escape the scene see its DomeLights (beauty and
+  // direct); false: black there.
+  bool dome_visible = true;
   void validate() const;        // throws pbgi::InvalidArgument
 };
 

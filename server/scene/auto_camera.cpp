@@ -61,4 +61,15 @@ Camera auto_camera(const Box3f& bounds, const std::string& up_axis, float aspect
   return c;
 }
 
+Camera resolve_camera(const Scene& scene, const std::string& path, float aspect) {
+  if (const Camera* c = scene.find_camera(path)) return *c;
+  if (path == kAutoCameraPath || (path.empty() && scene.cameras.empty())) return auto_camera(scene, aspect);
+  if (path.empty() && scene.cameras.size() == 1) return scene.cameras.begin()->second;
+  std::string known;
+  for (const auto& [name, camera] : scene.cameras) known += name + ", ";
+  throw NotFound(fmt::format("{}: {} (cameras in the scene: {}{})", scene.source_path,
+                             path.empty() ? "several cameras, pass --camera" : "no camera '" + path + "'",
+                             known, kAutoCameraPath));
+}
+
 }  // namespace pbgi

@@ -35,4 +35,16 @@ Camera auto_camera(const Scene& scene, float aspect);
 // The same for given bounds and up axis ("Y" or "Z"; anything else is Y).
 Camera auto_camera(const Box3f& bounds, const std::string& up_axis, float aspect);
 
+// The camera a request names, for an image of `aspect` (width / height):
+//   a prim path        that camera of the scene;
+//   "auto"             the auto camera (unless the scene has a camera prim
+//                      of that name, which wins);
+//   ""                 the scene's only camera, or the auto camera if it has
+//                      none.
+// Every client (render, tile, reference, bench, the Python client) resolves
+// names this way, so a scene without a camera renders with no flag. Throws
+// NotFound naming the scene's cameras for an unknown path or for "" with
+// several cameras; InvalidArgument for a bad aspect.
+Camera resolve_camera(const Scene& scene, const std::string& path, float aspect);
+
 }  // namespace pbgi

@@ -59,6 +59,7 @@ RenderOptions decode_render_options(const v1::GatherOptions& proto,
   }
   if (proto.has_interpolation_tolerance()) out.interpolation.tolerance = proto.interpolation_tolerance();
   out.interpolation.spacing = or_default(proto.interpolation_spacing(), defaults.interpolation.spacing);
+  if (proto.has_dome_visible()) out.dome_visible = proto.dome_visible();
   out.validate();
   return out;
 }
@@ -97,6 +98,7 @@ OpenOptions decode_open_options(const v1::BuildOptions& proto, const OpenOptions
   if (proto.has_glossy_roughness()) out.surfels.glossy_roughness = proto.glossy_roughness();
   out.tree.glossy_resolution = or_default(proto.glossy_resolution(), defaults.tree.glossy_resolution);
   if (proto.has_wavelet_threshold()) out.tree.wavelet_threshold = proto.wavelet_threshold();
+  if (proto.has_default_light()) out.default_light = proto.default_light();
   if (proto.has_fog()) {
     const v1::FogOptions& f = proto.fog();
     out.fog.extinction_per_density = or_default(f.extinction_per_density(), defaults.fog.extinction_per_density);
@@ -164,6 +166,7 @@ v1::GatherOptions encode_render_options(const RenderOptions& options) {
                               : v1::GatherOptions::INTERPOLATION_AUTO);
   proto.set_interpolation_tolerance(options.interpolation.tolerance);
   proto.set_interpolation_spacing(options.interpolation.spacing);
+  proto.set_dome_visible(options.dome_visible);
   return proto;
 }
 
@@ -189,6 +192,7 @@ v1::BuildOptions encode_open_options(const OpenOptions& options) {
   proto.set_glossy_roughness(options.surfels.glossy_roughness);
   proto.set_glossy_resolution(options.tree.glossy_resolution);
   proto.set_wavelet_threshold(options.tree.wavelet_threshold);
+  proto.set_default_light(options.default_light);
   v1::FogOptions& fog = *proto.mutable_fog();
   fog.set_extinction_per_density(options.fog.extinction_per_density);
   fog.set_albedo(options.fog.albedo.x);  // grey, as the config
@@ -203,14 +207,16 @@ std::string open_options_key(const OpenOptions& o) {
   // so distinct values never share a key.
   return fmt::format(
       "spacing={};target={};light={};seed={};leaf={};leaf_format={};page={};payload={};lut={};lut_fraction={};"
-      "bounces={},{},{};sampler={};camera={};image={}x{};footprint={};glossy={},{},{};fog={},{},{},{},{},{},{}",
+      "bounces={},{},{};sampler={};camera={};image={}x{};footprint={};glossy={},{},{};fog={},{},{},{},{},{},{};"
+      "default_light={}",
       o.surfels.spacing, o.surfels.target_surfels, o.surfels.light_samples, o.surfels.seed,
       o.tree.leaf_size, storage::to_string(o.tree.leaf_format), o.tree.page_size,
       tree::to_string(o.tree.payload_codec), o.tree.lut_entries, o.tree.lut_sample_fraction, o.bounce.bounces,
       o.bounce.splatting, o.bounce.view_solid_angle, to_string(o.surfels.sampler), o.surfels.camera,
       o.surfels.image_width, o.surfels.image_height, o.surfels.pixel_footprint, o.surfels.glossy_roughness,
       o.tree.glossy_resolution, o.tree.wavelet_threshold, o.fog.extinction_per_density, o.fog.albedo.x,
-      o.fog.albedo.y, o.fog.albedo.z, o.fog.step_voxels, o.fog.light_samples, o.fog.max_block_voxels);
+      o.fog.albedo.y, o.fog.albedo.z, o.fog.step_voxels, o.fog.light_samples, o.fog.max_block_voxels,
+      o.default_light);
 }
 
 v1::SceneInfo encode_scene_info(const SceneSession& session) {

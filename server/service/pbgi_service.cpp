@@ -3,6 +3,7 @@
 #include "server/service/parallel_gather.h"
 #include "server/service/process_memory.h"
 #include "server/service/receiver_codec.h"
+#include "server/scene/auto_camera.h"
 #include "server/scene/render_origin.h"
 #include "server/service/status_mapping.h"
 #include "storage/format/errors.h"
@@ -128,7 +129,7 @@ class OpenProgressRelay {
 // The checked, call-wide parts of a RenderTile(s) request.
 struct PbgiService::TileJob {
   std::shared_ptr<SceneSession> session;
-  const Camera* camera = nullptr;
+  Camera camera;  // a copy: "auto" is made per request
   uint32_t width = 0, height = 0;
   RenderOptions options;
 };
@@ -343,16 +344,6 @@ PbgiService::TileJob PbgiService::prepare_tiles(const std::string& scene_id,
   // 1. Scene and camera.
   job.session = find_session(scene_id);
   if (camera.empty()) throw InvalidArgument("camera is empty");
-  const auto it = job.session->scene->cameras.find(camera);
-  if (it == job.session->scene->cameras.end()) {
-    std::string known;
-    for (const auto& [path, cam] : job.session->scene->cameras) {
-      known += (known.empty() ? "" : ", ") + path;
-    }
-    throw NotFound(fmt::format("camera '{}' not found in scene '{}' (cameras: {})", camera,
-                               job.session->info.scene_path, known.empty() ? "none" : known));
-  }
-  job.camera = &it->second;
 
   // 2. Image size and options.
   const uint32_t max_side = options_.limits.max_image_side;
@@ -360,6 +351,8 @@ PbgiService::TileJob PbgiService::prepare_tiles(const std::string& scene_id,
     throw InvalidArgument(fmt::format("image size {}x{} must be between 1 and {} on each side",
                                       width, height, max_side));
   }
+  // A camera prim, or "auto": framed for this image's aspect (auto_camera.h).
+  job.camera = resolve_camera(*job.session->scene, camera, float(width) / float(height));
   job.width = width;
   job.height = height;
   job.options = decode_render_options(options, options_.defaults.render);
@@ -394,7 +387,7 @@ void PbgiService::render_one(grpc::ServerContext* context, const TileJob& job,
   const AdmissionGate::Ticket slot = gate_.enter(context->deadline(), cancelled);
   const auto start = Clock::now();
   GatherCounters counters;
-  const TileAovs aovs = render_tile(*job.session->rays, *job.session->tree, *job.camera,
+  const TileAovs aovs = render_tile(*job.session->rays, *job.session->tree, job.camera,
                                     job.width, job.height, rect, job.options, &counters,
                                     cancelled, job.session->fog);
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();

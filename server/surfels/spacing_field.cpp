@@ -1,5 +1,6 @@
 #include "server/surfels/spacing_field.h"
 
+#include "server/scene/auto_camera.h"
 #include "server/scene/scene_bulk.h"
 
 #include "storage/format/errors.h"
@@ -12,11 +13,15 @@
 namespace pbgi {
 
 SpacingField::SpacingField(const Scene& scene, const SurfelOptions& o) : adaptive_(true) {
-  const Camera* cam = scene.find_camera(o.camera);
-  if (!cam) {
-    throw InvalidArgument(fmt::format("{}: surfels.camera = \"{}\": no such camera in the scene", scene.source_path,
-                                      o.camera));
+  // A camera prim or "auto", the view a render of a scene without cameras gets.
+  const float aspect = o.image_width > 0 && o.image_height > 0 ? float(o.image_width) / float(o.image_height) : 1.f;
+  Camera resolved;
+  try {
+    resolved = resolve_camera(scene, o.camera, aspect);
+  } catch (const NotFound& e) {
+    throw InvalidArgument(fmt::format("surfels.camera = \"{}\": {}", o.camera, e.what()));
   }
+  const Camera* cam = &resolved;
   if (!(cam->focal_length > 0.f) || !(cam->horizontal_aperture > 0.f)) {
     throw InvalidArgument(fmt::format("{}: camera {} has focal length {} and aperture {}: cannot derive a spacing",
                                       scene.source_path, o.camera, cam->focal_length, cam->horizontal_aperture));

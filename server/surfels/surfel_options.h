@@ -27,7 +27,7 @@ struct SurfelOptions {
   uint64_t target_surfels = 200000;
 
   // Camera-adaptive spacing (Poisson sampler only): a camera prim path of
-  // the scene, "" = absolute spacing. The spacing at a point p is then
+  // the scene or "auto" (server/scene/auto_camera.h), "" = absolute spacing. The spacing at a point p is then
   //   max(min_spacing, |p - eye| * pixel_angle * pixel_footprint)
   // inside the camera's frustum widened by frustum_margin, and that times
   // offscreen_factor outside it, so the scene gets the density the image

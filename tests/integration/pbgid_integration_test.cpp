@@ -411,6 +411,56 @@ TEST_F(Integration, CliRenderWritesExrAndPng) {
   EXPECT_EQ(std::string(signature, 8), std::string("\x89PNG\r\n\x1a\n", 8)) << png;
 }
 
+// An asset as DCCs export it (no camera, no light, a variant set) renders
+// with no flag but the scene: framed by the auto camera, with a warning
+// that nothing lights it; --default-light lights it; variant selections
+// that select nothing are refused, naming what the stage has.
+TEST_F(Integration, BareAssetRendersWithAutoCameraAndWarnings) {
+  const fs::path asset = kSourceDir / "scenes" / "bare_asset.usda";
+  const fs::path dir = daemon->dir() / "bare";
+  fs::create_directories(dir);
+  const std::vector<std::string> common = {"--server", daemon->address(), "--width", "32", "--height", "24",
+                                           "--light-samples", "4", "--target-surfels", "20000",
+                                           "--build-light-samples", "4", "-q"};
+  auto render = [&](std::vector<std::string> extra, const std::string& name, std::string* text) {
+    std::vector<std::string> args = {"render", asset.string(), "-o", (dir / name).string()};
+    args.insert(args.end(), common.begin(), common.end());
+    args.insert(args.end(), extra.begin(), extra.end());
+    return run_cli(args, dir, text);
+  };
+  auto sum = [](const image::ExrImage& img, const char* channel) {
+    double total = 0;
+    for (float v : img.channel(channel)) total += v;
+    return total;
+  };
+
+  std::string text;
+  ASSERT_EQ(render({}, "dark.exr", &text), 0) << text;
+  EXPECT_NE(text.find("warning: the scene has no light"), std::string::npos) << text;
+  const image::ExrImage dark = image::read_exr((dir / "dark.exr").string());
+  EXPECT_GT(sum(dark, "albedo.R"), 0.0) << "the auto camera sees the asset";
+  EXPECT_EQ(sum(dark, "G"), 0.0) << "nothing lights it";
+  const std::string auto_camera = dark.attributes().at("pbgi/camera");
+  EXPECT_EQ(auto_camera, "auto");
+
+  ASSERT_EQ(render({"--default-light", "--variant", "/Asset:color=blue"}, "lit.exr", &text), 0) << text;
+  EXPECT_EQ(text.find("no light"), std::string::npos) << text;
+  const image::ExrImage lit = image::read_exr((dir / "lit.exr").string());
+  EXPECT_GT(sum(lit, "G"), 0.0) << "the default lights light it";
+  EXPECT_GT(sum(lit, "albedo.B"), sum(dark, "albedo.B")) << "the blue variant was selected";
+
+  ASSERT_NE(render({"--variant", "/Asset:color=green", "--variant", "/Nope:color=red"}, "bad.exr", &text), 0);
+  EXPECT_NE(text.find("/Asset: variant selection color=green: not one of blue, red"), std::string::npos) << text;
+  EXPECT_NE(text.find("/Nope: variant selection color=red: no such prim"), std::string::npos) << text;
+  v1::OpenSceneRequest request;
+  request.set_scene_path(asset.string());
+  *request.mutable_build() = small_build();
+  (*request.mutable_variant_selections())["/Asset:look"] = "red";
+  std::string message;
+  EXPECT_EQ(code_of([&] { client->open_scene(request, {}); }, &message), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(message.find("the prim has no variant set 'look' (it has: color)"), std::string::npos) << message;
+}
+
 TEST_F(Integration, OneMillisecondDeadlineIsHonoured) {
   client::ClientOptions hurried;
   hurried.call_deadline = std::chrono::milliseconds(1);

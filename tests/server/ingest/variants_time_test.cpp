@@ -116,21 +116,28 @@ TEST(Variants, FileSelectionByDefaultRequestWinsNestedSetsWork) {
   EXPECT_NE(blue.content_hash, by_file.content_hash);
 }
 
-TEST(Variants, SelectionsThatSelectNothingAreWarnings) {
+TEST(Variants, SelectionsThatSelectNothingAreRefusedNamingThem) {
   IngestOptions options;
   options.variant_selections["/Car:color"] = "green";
   options.variant_selections["/Car:size"] = "big";
   options.variant_selections["/NoSuchPrim:color"] = "red";
-  const Scene s = read_usd_scene(scene_path(), options);
-  EXPECT_FALSE(has_mesh(s, "/Car/Body"));  // an unknown variant contributes nothing
-  const auto warned = [&](const std::string& start, const std::string& text) {
-    return std::any_of(s.warnings.begin(), s.warnings.end(), [&](const std::string& w) {
-      return w.rfind(start, 0) == 0 && w.find(text) != std::string::npos;
-    });
-  };
-  EXPECT_TRUE(warned("/Car: ", "color=green: not one of blue, red"));
-  EXPECT_TRUE(warned("/Car: ", "no variant set 'size'"));
-  EXPECT_TRUE(warned("/NoSuchPrim: ", "no such prim"));
+  // The full read and the hash-only read a chunk store starts with both refuse.
+  for (const bool hash_only : {false, true}) {
+    try {
+      if (hash_only) usd_content_hash(scene_path(), options);
+      else read_usd_scene(scene_path(), options);
+      ADD_FAILURE() << "a selection that selects nothing was accepted (hash_only " << hash_only << ")";
+    } catch (const InvalidArgument& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("/Car: variant selection color=green: not one of blue, red"), std::string::npos) << what;
+      EXPECT_NE(what.find("/Car: variant selection size=big: the prim has no variant set 'size'"), std::string::npos)
+          << what;
+      EXPECT_NE(what.find("/NoSuchPrim: variant selection color=red: no such prim"), std::string::npos) << what;
+    }
+  }
+  // One good selection is still good.
+  options.variant_selections = {{"/Car:color", "blue"}};
+  EXPECT_NO_THROW(read_usd_scene(scene_path(), options));
 }
 
 TEST(Variants, MalformedKeysAreRejected) {

@@ -137,6 +137,34 @@ TEST(RenderTile, MissIsBlackAndUnoccluded) {
   for (float v : out.ao) EXPECT_EQ(v, 1.f);
 }
 
+// Escaping camera rays see the dome (the sky behind an outdoor scene),
+// in beauty and direct, unless the render options hide it.
+TEST(RenderTile, MissSeesTheDomeUnlessHidden) {
+  Scene s = floor_scene();
+  s.cameras["/cam"].local_to_world.makeIdentity();
+  s.cameras["/cam"].local_to_world.setTranslation(V3f(0, 0, -1));  // under the floor, facing away
+  Light dome;
+  dome.kind = LightKind::Dome;
+  dome.prim_path = "/sky";
+  dome.radiance = C3f(0.2f, 0.3f, 0.4f);
+  s.lights.push_back(dome);
+  const RayScene rays(s);
+  const EmptyTree tree;
+  RenderOptions options;
+  const TileAovs seen = render_tile(rays, tree, s.cameras["/cam"], kSize, kSize, {0, 0, 4, 4}, options);
+  for (size_t i = 0; i < seen.ao.size(); ++i) {
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_FLOAT_EQ(seen.beauty[3 * i + c], dome.radiance[c]) << i;
+      EXPECT_FLOAT_EQ(seen.direct[3 * i + c], dome.radiance[c]) << i;
+      EXPECT_EQ(seen.albedo[3 * i + c], 0.f);
+    }
+    EXPECT_EQ(seen.ao[i], 1.f);
+  }
+  options.dome_visible = false;
+  const TileAovs hidden = render_tile(rays, tree, s.cameras["/cam"], kSize, kSize, {0, 0, 4, 4}, options);
+  for (float v : hidden.beauty) EXPECT_EQ(v, 0.f);
+}
+
 TEST(RenderTile, CameraSeesOnlyWithinItsClippingRange) {
   // An occluder (albedo 0.2) at z = 2 over the floor (albedo 0.5) at z = 0;
   // the camera at z = 3 looks down the axis, so the center pixel's ray hits
