@@ -461,10 +461,7 @@ def main(argv):
             stream.end()
             out.close()
             return 0
-3 an unexpected failure while reading; 4 the daemon closed the pipe;
-5 the scene uses a file outside the scene roots (the message names what
-uses it, never the file); 6 a --variant selects nothing (no such prim,
-variant set or variant).
+        draco_prims = _report_composition_errors(stage, stream, roots)
         SceneReader(stage, time, stream, args.max_triangles_per_chunk, draco_prims,
                     args.flatten_instances, roots).run()
         stream.end()

@@ -367,7 +367,7 @@ TEST(Stability, DISABLED_CoplanarCopiesAcrossInstances) {
 TEST(Stability, GrazingReceivers) {
   // A floor 5 cm under the camera: a pixel spans metres of it. Interpolated
   // pixels differ from per-sample gathers by 0.136 (relative RMSE) here, the
-  // suite's worst case (a known limit, docs/gather.md "Interpolation").
+  // suite's worst case (a known limit, docs/interpolation.md).
   RenderSettings settings;
   settings.interpolation_bound = 0.15;
   const double err = indirect_error(grazing_floor(), "/Camera", "grazing", settings);
