@@ -8,7 +8,7 @@
 #include "client/bench/payload_spec.h"
 #include "server/gather/gather_options.h"
 #include "server/gather/surfel_bounce.h"
-#include "server/render/gather_lattice.h"
+#include "server/render/tile_renderer.h"
 
 #include <cstdint>
 #include <vector>
@@ -50,13 +50,12 @@ struct PbgiSweep {
       PayloadSpec{tree::PayloadCodecOption::kQuantizedSh, 1024}};
   // RenderOptions of every PBGI render (camera rays per pixel, shadow rays
   // per pixel sample and light) and SurfelOptions::light_samples of builds.
-  uint32_t pixel_samples = 1;
+  uint32_t pixel_samples = RenderOptions{}.pixel_samples;
   // Extra renders of the default configuration with more camera rays per
-  // pixel (each one gathers). With one ray through the
-  // pixel centre, the beauty's error against the pixel-averaged reference
-  // is mostly aliasing of edges and of lights seen by the camera; these
-  // show what antialiasing costs.
-  std::vector<uint32_t> extra_pixel_samples{4};
+  // pixel. The beauty's error against the pixel-averaged reference is
+  // mostly aliasing of edges and of lights seen by the camera; these show
+  // what more antialiasing costs.
+  std::vector<uint32_t> extra_pixel_samples{16};
   uint32_t light_samples = 16;
   uint32_t surfel_light_samples = 16;
   // Interpolation settings every gather setting is rendered with

@@ -158,7 +158,7 @@ const CommandRegistrar kRegistrar("bench", [](CLI::App& app, int* exit_code) {
       ->delimiter(',');
   cmd->add_option("--extra-pixel-samples", args->extra_pixel_samples,
                   "Extra renders of the default PBGI configuration with this many camera rays "
-                  "per pixel (default 4; 0 = none)")
+                  "per pixel (default 16; 0 = none)")
       ->delimiter(',');
   cmd->add_option("--methods", args->methods,
                   "Gather methods, each over every PBGI setting: pbgi, fpbgi (default pbgi,fpbgi)")
@@ -170,7 +170,7 @@ const CommandRegistrar kRegistrar("bench", [](CLI::App& app, int* exit_code) {
       ->delimiter(',');
   cmd->add_option("--clusters", args->clusters, "FPBGI clusters per 1024 receivers (default 100)");
   cmd->add_option("--pixel-samples", args->pixel_samples,
-                  "Camera rays per pixel of every PBGI render (default 1)");
+                  "Camera rays per pixel of every PBGI render (default 4)");
   cmd->add_option("--interpolation", args->interpolations,
                   "Gather interpolation modes to sweep: off (a gather per camera sample), auto "
                   "(adaptive lattice); the first is the default's (default auto)")

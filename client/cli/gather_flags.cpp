@@ -7,7 +7,7 @@ void GatherArgs::add_to(CLI::App* cmd) {
   cmd->add_option("--max-solid-angle", max_solid_angle, "cut threshold, sr [0.03]");
   cmd->add_option("--ao-max-distance", ao_max_distance, "AO distance, 0 = unbounded");
   cmd->add_option("--light-samples", light_samples, "shadow rays per pixel and light [16]");
-  cmd->add_option("--pixel-samples", pixel_samples, "camera rays per pixel [1]");
+  cmd->add_option("--pixel-samples", pixel_samples, "camera rays per pixel [4]");
   cmd->add_option("--method", method, "gather: pbgi or fpbgi [pbgi]")
       ->check(CLI::IsMember({"pbgi", "fpbgi"}));
   cmd->add_option("--clusters", clusters, "FPBGI clusters per 1024 receivers [100]");

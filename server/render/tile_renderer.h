@@ -27,7 +27,10 @@ struct RenderOptions {
   // off; per pixel, spread over its camera samples (at least one each),
   // with interpolation on.
   uint32_t light_samples = 16;
-  uint32_t pixel_samples = 1;   // camera rays per pixel (stratified)
+  // Camera rays per pixel (stratified). 4 antialiases edges; with
+  // interpolation they share the lattice's gathers, so they cost camera
+  // and shadow rays only (docs/interpolation.md).
+  uint32_t pixel_samples = 4;
   uint64_t seed = 1;
   // Gathers at an adaptive lattice of pixel centres, interpolated to the
   // camera samples (gather_lattice.h), or one gather per camera sample.

@@ -51,7 +51,9 @@ TEST(DaemonOperations, WithABearerTokenMetricsNeedIt) {
   options.metrics_listen = "127.0.0.1:0";
   options.auth_token = "metrics-token";
   Daemon daemon(options, [](const fs::path& path, const OpenOptions&, const service::StageSelection&,
-                            const StageProgress&) { return testing::fake_session(path.string(), "id"); });
+                            const StageProgress&, const std::function<bool()>&) {
+    return testing::fake_session(path.string(), "id");
+  });
   daemon.start();
   EXPECT_EQ(http_get(daemon.metrics_port(), "/metrics").rfind("HTTP/1.0 401", 0), 0u);
   EXPECT_EQ(http_get(daemon.metrics_port(), "/metrics", "Authorization: Bearer wrong\r\n").rfind("HTTP/1.0 401", 0),
