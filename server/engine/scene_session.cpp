@@ -183,9 +183,12 @@ std::shared_ptr<SceneSession> open_scene(const fs::path& scene_path, const OpenO
   // 1. Read the USD scene in the reader process.
   IngestOptions ingest = std::move(composition);
   if (!ctx.python.empty()) ingest.python = ctx.python;
-  // Subdivision surfaces are refined until their edges are shorter than the
-  // surfel spacing, never deeper (0: spacing derived later; a fixed level).
+  // Subdivision surfaces are refined until their triangles are within a
+  // fraction of the surfel spacing of the limit surface (0: spacing derived
+  // later from the area; each mesh is bounded by the spacing it would get
+  // alone).
   ingest.target_edge_length = options.surfels.spacing;
+  ingest.target_surfels = options.surfels.target_surfels;
   // The reader stops (its process killed) when this throws.
   const BuildGuard guard(scene_path.string(), 0, cancelled);
   const auto on_read = [&](const std::string& s, float f) {

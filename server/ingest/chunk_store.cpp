@@ -2,6 +2,7 @@
 
 #include "pbgi/v1/scene.pb.h"
 #include "server/ingest/scene_entry.h"
+#include "server/ingest/subdivision.h"
 #include "server/volumes/scene_volumes.h"
 #include "storage/format/errors.h"
 #include "storage/format/format_version.h"
@@ -372,8 +373,10 @@ ChunkStore::ChunkStore(ChunkStoreOptions options) : options_(std::move(options))
 
 std::string ChunkStore::key(const std::string& content_hash, const IngestOptions& ingest) const {
   const DracoOptions& d = options_.draco;
-  return hex_key(fmt::format("pbgi-chunk-store/{}|{}|edge={}|maxlevel={}|adaptivity={}|draco={},{},{},{},{}",
-                             kStoreFormatVersion, content_hash, ingest.target_edge_length,
+  // The refined triangles of subdivision surfaces depend on the algorithm.
+  return hex_key(fmt::format("pbgi-chunk-store/{}|{}|edge={}|surfels={}|subdiv={}|maxlevel={}|adaptivity={}|draco={},{},{},{},{}",
+                             kStoreFormatVersion, content_hash, ingest.target_edge_length, ingest.target_surfels,
+                             kSubdivisionAlgorithmVersion,
                              ingest.max_subdivision_level, ingest.volume_adaptivity, d.position_bits, d.normal_bits,
                              d.uv_bits, d.color_bits, d.preserve_order));
 }

@@ -191,10 +191,6 @@ struct SoupBuild {
   std::unordered_map<std::string, uint32_t> mesh_index;
 };
 
-// Version of the refinement algorithm, folded into the content hash of
-// scenes with subdivision surfaces; bump when refined triangles change.
-constexpr int kSubdivisionAlgorithmVersion = 1;
-
 // Builds the Scene from chunks in stream order.
 class SceneAssembler {
  public:
@@ -242,8 +238,9 @@ class SceneAssembler {
     // The triangles of a subdivision surface depend on the refinement
     // options too: two reads with different targets must not share caches.
     if (cage_count_ > 0)
-      scene_.content_hash += fmt::format("+subdiv/{}(target={},default={},max={},faces={})",
+      scene_.content_hash += fmt::format("+subdiv/{}(target={},surfels={},deviation={},default={},max={},faces={})",
                                          kSubdivisionAlgorithmVersion, subdivision_.target_edge_length,
+                                         subdivision_.target_surfels, subdivision_.max_deviation_fraction,
                                          subdivision_.default_level, subdivision_.max_level,
                                          subdivision_.max_refined_faces);
     return std::move(scene_);

@@ -5,6 +5,7 @@
 
 #include <opensubdiv/far/primvarRefiner.h>
 #include <opensubdiv/far/topologyRefiner.h>
+#include <opensubdiv/sdc/crease.h>
 
 #include <algorithm>
 #include <cmath>
@@ -80,6 +81,39 @@ double longest_edge(const SubdivCage& cage) {
     first += n;
   }
   return std::sqrt(longest);
+}
+
+// Levels until every semi-sharp crease and corner has decayed to smooth
+// (uniform creasing: one unit of sharpness per level). Before that, the
+// limit masks treat them as still sharp, so what Limit returns and what
+// limit_deviation measures is not yet the limit surface.
+uint32_t semi_sharp_levels(const SubdivCage& cage) {
+  float sharpest = 0.f;
+  for (const std::vector<float>* values : {&cage.crease_sharpnesses, &cage.corner_sharpnesses})
+    for (const float s : *values)
+      if (Sdc::Crease::IsSemiSharp(s)) sharpest = std::max(sharpest, s);
+  return static_cast<uint32_t>(std::min(std::ceil(sharpest), float(kMaxSubdivisionLevel)));
+}
+
+// Area of the cage's faces (holes left out), each by Newell's normal: the
+// surface the surfels will cover, near enough for a spacing estimate.
+double cage_area(const SubdivCage& cage) {
+  std::vector<bool> hole(cage.face_vertex_counts.size(), false);
+  for (const uint32_t f : cage.hole_indices) hole[f] = true;
+  double area = 0.0;
+  size_t first = 0;
+  for (size_t f = 0; f < cage.face_vertex_counts.size(); ++f) {
+    const uint32_t n = cage.face_vertex_counts[f];
+    Vec3d normal;
+    for (uint32_t k = 0; k < n && !hole[f]; ++k) {
+      const V3f& a = cage.positions[cage.face_vertex_indices[first + k]];
+      const V3f& b = cage.positions[cage.face_vertex_indices[first + (k + 1) % n]];
+      normal += cross(Vec3d{a.x, a.y, a.z}, Vec3d{b.x, b.y, b.z});
+    }
+    area += 0.5 * normal.length();
+    first += n;
+  }
+  return area;
 }
 
 // Newell's normal of a face of the last level: its direction is the face's
@@ -252,6 +286,34 @@ class LimitMeshBuilder {
   std::vector<Vec3d> sector_sums_;
 };
 
+// The cage refined uniformly to `level`, with full topology at the last
+// level (Limit needs the neighbourhood of every vertex).
+std::unique_ptr<Far::TopologyRefiner> refine_uniformly(const SubdivCage& cage, int level,
+                                                       std::vector<std::string>& warnings) {
+  std::unique_ptr<Far::TopologyRefiner> refiner = create_topology_refiner(cage, warnings);
+  if (level > 0) {
+    Far::TopologyRefiner::UniformOptions uniform(level);
+    uniform.fullTopologyInLastLevel = true;
+    refiner->RefineUniform(uniform);
+  }
+  return refiner;
+}
+
+// The cage's points interpolated level by level to the refiner's last level.
+std::vector<Point> last_level_points(const SubdivCage& cage, const Far::TopologyRefiner& refiner,
+                                     const Far::PrimvarRefiner& primvars) {
+  std::vector<Point> points(cage.positions.size()), next;
+  for (size_t i = 0; i < points.size(); ++i) points[i] = {cage.positions[i].x, cage.positions[i].y, cage.positions[i].z};
+  for (int l = 1; l <= refiner.GetMaxLevel(); ++l) {
+    next.resize(refiner.GetLevel(l).GetNumVertices());
+    primvars.Interpolate(l, points, next);
+    points.swap(next);
+  }
+  return points;
+}
+
+Point midpoint(const Point& a, const Point& b) { return {0.5 * (a.x + b.x), 0.5 * (a.y + b.y), 0.5 * (a.z + b.z)}; }
+
 }  // namespace
 
 void SubdivisionOptions::validate() const {
@@ -263,7 +325,56 @@ void SubdivisionOptions::validate() const {
   if (default_level > max_level)
     throw InvalidArgument(
         fmt::format("subdivision default_level {} exceeds max_level {}", default_level, max_level));
+  if (!std::isfinite(max_deviation_fraction) || max_deviation_fraction < 0.f)
+    throw InvalidArgument(fmt::format("subdivision max_deviation_fraction must be finite and >= 0, got {}",
+                                      max_deviation_fraction));
   if (max_refined_faces == 0) throw InvalidArgument("subdivision max_refined_faces must be > 0");
+}
+
+double limit_deviation(const SubdivCage& cage, uint32_t level) {
+  validate_cage(cage);
+  if (level + 1 > kMaxSubdivisionLevel)
+    throw InvalidArgument(fmt::format("{}: limit_deviation of level {} needs level {}, deeper than {}",
+                                      cage.prim_path, level, level + 1, kMaxSubdivisionLevel));
+  // One level deeper than the triangles measured: its vertices are the
+  // limit at their vertices, edge midpoints and face centres.
+  std::vector<std::string> ignored;  // reported when the cage is refined for real
+  const std::unique_ptr<Far::TopologyRefiner> refiner = refine_uniformly(cage, int(level) + 1, ignored);
+  const Far::PrimvarRefiner primvars(*refiner);
+  std::vector<Point> limit(refiner->GetLevel(int(level) + 1).GetNumVertices());
+  primvars.Limit(last_level_points(cage, *refiner, primvars), limit);
+
+  const Far::TopologyLevel& coarse = refiner->GetLevel(int(level));
+  auto corner = [&](Far::Index v) -> const Point& { return limit[coarse.GetVertexChildVertex(v)]; };
+  double worst = 0.0;
+  for (int e = 0; e < coarse.GetNumEdges(); ++e) {
+    const Far::ConstIndexArray faces = coarse.GetEdgeFaces(e);
+    if (std::all_of(faces.begin(), faces.end(), [&](Far::Index f) { return coarse.IsFaceHole(f); })) continue;
+    const Far::ConstIndexArray ev = coarse.GetEdgeVertices(e);
+    const Far::Index mid = coarse.GetEdgeChildVertex(e);
+    if (!Far::IndexIsValid(mid)) continue;
+    worst = std::max(worst, (limit[mid] - midpoint(corner(ev[0]), corner(ev[1]))).length());
+  }
+  // Loop splits triangles without a face vertex (and has no face-vertex
+  // table to ask).
+  const int faces = cage.scheme == SubdivScheme::Loop ? 0 : coarse.GetNumFaces();
+  for (int f = 0; f < faces; ++f) {
+    const Far::Index centre = coarse.GetFaceChildVertex(f);
+    if (coarse.IsFaceHole(f) || !Far::IndexIsValid(centre)) continue;
+    const Far::ConstIndexArray fv = coarse.GetFaceVertices(f);
+    Point planar;
+    if (fv.size() == 4) {
+      // The triangles' point at the quad's centre: the middle of the
+      // diagonal LimitMeshBuilder splits along (the shorter one).
+      const Point &a = corner(fv[0]), &b = corner(fv[1]), &c = corner(fv[2]), &d = corner(fv[3]);
+      const double ac = (a - c).dot(a - c), bd = (b - d).dot(b - d);
+      planar = ac <= bd ? midpoint(a, c) : midpoint(b, d);
+    } else {
+      for (const Far::Index v : fv) planar.AddWithWeight(corner(v), 1.f / float(fv.size()));
+    }
+    worst = std::max(worst, (limit[centre] - planar).length());
+  }
+  return worst;
 }
 
 SubdivisionLevel choose_subdivision_level(const SubdivCage& cage, const SubdivisionOptions& options) {
@@ -298,41 +409,49 @@ SubdivisionLevel choose_subdivision_level(const SubdivCage& cage, const Subdivis
         cage.prim_path, choice.wanted, choice.level, capped, refined_face_count(cage, capped),
         options.max_refined_faces);
   }
+  // The error rule: the first level below that cap whose triangles are
+  // close enough to the limit surface. Measuring level L refines to L + 1,
+  // at most the cap, so the face budget holds while measuring too.
+  choice.spacing = target;
+  if (target <= 0.0 && options.target_surfels > 0)
+    choice.spacing = std::sqrt(cage_area(cage) / double(options.target_surfels));
+  if (choice.spacing > 0.0 && options.max_deviation_fraction > 0.f) {
+    choice.tolerance = double(options.max_deviation_fraction) * choice.spacing;
+    for (uint32_t level = std::max(floor, semi_sharp_levels(cage)); level < choice.level; ++level) {
+      const double deviation = limit_deviation(cage, level);
+      if (deviation <= choice.tolerance) {
+        choice.level = level;
+        choice.deviation = deviation;
+        choice.warning.clear();  // the surface needs no more than this level
+        break;
+      }
+    }
+  }
   return choice;
 }
 
 RefinedMesh refine_subdivision_cage(const SubdivCage& cage, const SubdivisionOptions& options) {
-  // 1. The level, from the target edge length (validates options and cage).
+  // 1. The level, from the geometric error and the target edge length
+  // (validates options and cage).
   RefinedMesh out;
   out.level = choose_subdivision_level(cage, options);
   if (!out.level.warning.empty()) out.warnings.push_back(out.level.warning);
   const int level = static_cast<int>(out.level.level);
 
-  // 2. Topology, then uniform refinement with full topology at the last
-  // level (Limit needs the neighbourhood of every vertex).
-  std::unique_ptr<Far::TopologyRefiner> refiner = create_topology_refiner(cage, out.warnings);
-  if (level > 0) {
-    Far::TopologyRefiner::UniformOptions uniform(level);
-    uniform.fullTopologyInLastLevel = true;
-    refiner->RefineUniform(uniform);
-  }
+  // 2. Topology, then uniform refinement.
+  std::unique_ptr<Far::TopologyRefiner> refiner = refine_uniformly(cage, level, out.warnings);
 
   // 3. Points level by level; each face remembers the cage face it refines
   // (for per-face materials and bilinear sectors).
   Far::PrimvarRefiner primvars(*refiner);
-  std::vector<Point> points(cage.positions.size()), next;
-  for (size_t i = 0; i < points.size(); ++i) points[i] = {cage.positions[i].x, cage.positions[i].y, cage.positions[i].z};
+  std::vector<Point> points = last_level_points(cage, *refiner, primvars);
   std::vector<uint32_t> cage_face(cage.face_vertex_counts.size()), next_face;
   std::iota(cage_face.begin(), cage_face.end(), 0u);
   for (int l = 1; l <= level; ++l) {
-    next.resize(refiner->GetLevel(l).GetNumVertices());
-    primvars.Interpolate(l, points, next);
-    points.swap(next);
     next_face.resize(refiner->GetLevel(l).GetNumFaces());
     primvars.InterpolateFaceUniform(l, cage_face, next_face);
     cage_face.swap(next_face);
   }
-  std::vector<Point>().swap(next);
 
   // 4. Project onto the limit surface, with tangents for the normals.
   // (Only a Catmull-Clark cage with non-quads at max_level 0 stays unprojected.)

@@ -2,22 +2,30 @@
 // catmullClark, loop or bilinear) refined with OpenSubdiv Far into triangles
 // whose vertices lie on the limit surface.
 //
-// Refinement is uniform, to a level chosen per mesh from a target edge
-// length: every level roughly halves the edges, so
+// Refinement is uniform, to a level chosen per mesh by geometric error:
+// the smallest level whose triangles stay within max_deviation_fraction *
+// target_edge_length of the limit surface (sampled, see
+// limit_deviation). The triangles are sampled into surfels of that
+// spacing, so a surface closer to its triangles than a fraction of the
+// spacing looks the same to the surfels and the camera: a cage that is
+// already dense (or flat) stays at level 0 however long its edges, and
+// only curved, coarse cages are refined. The level never exceeds the one
+// the target edge length asks for,
 //   level = ceil(log2(longest cage edge / target_edge_length)),
-// capped by max_level and by a per-mesh face budget (with a warning). The
-// vertices of the last level are then projected to the limit surface
-// (Far::PrimvarRefiner::Limit) and get the limit normal (cross product of
-// the limit tangents). Where the surface is not smooth -- infinitely or
-// still semi-sharp creases at the last level, corners, and every cage edge
-// of a bilinear mesh -- a vertex is split into one vertex per smooth sector
-// with the sector's area-weighted face normal, so shading keeps the crease.
+// (every level roughly halves the edges) which was the only rule before,
+// and is capped by max_level and by a per-mesh face budget (with a
+// warning). The vertices of the last level are then projected to the
+// limit surface (Far::PrimvarRefiner::Limit) and get the limit normal
+// (cross product of the limit tangents). Where the surface is not smooth --
+// infinitely or still semi-sharp creases at the last level, corners, and
+// every cage edge of a bilinear mesh -- a vertex is split into one vertex
+// per smooth sector with the sector's area-weighted face normal, so shading
+// keeps the crease.
 //
-// Why uniform and not feature-adaptive: the scene model is a triangle soup
-// sampled into surfels of a given spacing, so what matters is a bounded
-// edge length everywhere, which uniform refinement to a chosen level gives
-// directly; adaptive patches would have to be tessellated to the same
-// density anyway.
+// Why one level per mesh and not feature-adaptive patches: the scene model
+// is a triangle soup sampled into surfels, and uniform levels keep the
+// triangles watertight without stitching; the error rule already keeps
+// dense cages unrefined, which is where the triangles went.
 //
 // Thread-safety: refine_subdivision_cage may run concurrently on different
 // cages. OpenSubdiv reports problems through process-wide callbacks; this
@@ -67,9 +75,23 @@ struct SubdivCage {
 };
 
 struct SubdivisionOptions {
-  // Refine until the longest cage edge, halved once per level, is at most
-  // this long (world units). 0 = no target: refine to default_level.
+  // The surfel spacing (world units). Refinement stops at the first level
+  // whose triangles deviate from the limit surface by at most
+  // max_deviation_fraction * target_edge_length, and never goes beyond the
+  // level at which the longest cage edge, halved once per level, is at most
+  // this long. 0 = no target: refine to default_level.
   float target_edge_length = 0.f;
+  // Deviation allowed between the limit surface and its triangles, as a
+  // fraction of target_edge_length. A tenth of the spacing moves surfels
+  // by far less than their own radius. 0 = no error rule: every mesh is
+  // refined to the edge-length level.
+  float max_deviation_fraction = 0.1f;
+  // When target_edge_length is 0: the error rule's spacing is the one this
+  // many surfels would have on this mesh alone, sqrt(cage area /
+  // target_surfels) -- never larger than the spacing of the whole scene,
+  // which is derived from its total area only after every mesh is read --
+  // and default_level is the cap. 0 = no error rule then.
+  uint64_t target_surfels = 0;
   // Level used when target_edge_length is 0.
   uint32_t default_level = 2;
   // Never refine deeper (a warning names the mesh when the target needed
@@ -86,17 +108,42 @@ struct SubdivisionOptions {
 // OpenSubdiv stores the level in 4 bits; deeper than 10 is never useful here.
 inline constexpr uint32_t kMaxSubdivisionLevel = 10;
 
+// Version of the refinement algorithm, folded into the content hash of
+// scenes with subdivision surfaces and into chunk store keys; bump when the
+// refined triangles change. 2: level by geometric error.
+inline constexpr int kSubdivisionAlgorithmVersion = 2;
+
 struct SubdivisionLevel {
   uint32_t level = 0;
-  uint32_t wanted = 0;        // level the target (or default) asked for
+  uint32_t wanted = 0;        // level the target edge length (or default) asked for
   double longest_edge = 0.0;  // of the cage, world units
+  double spacing = 0.0;       // the error rule's surfel spacing (see target_surfels)
+  // The error rule's bound, max_deviation_fraction * spacing (world units;
+  // 0 = no error rule), and the
+  // sampled deviation of the chosen level (< 0 = not measured: the level is
+  // the edge-length level or a cap, nothing coarser met the bound).
+  double tolerance = 0.0;
+  double deviation = -1.0;
   std::string warning;        // non-empty when level < wanted (names the prim)
 };
 
 // The level refine_subdivision_cage will use for this cage. Catmull-Clark
 // cages with non-quad faces get at least level 1 (the limit is evaluated on
-// quads). Throws SceneError naming the prim if the topology is invalid.
+// quads). With the error rule this refines the cage (once per level tried,
+// each time one level deeper than the level tried), so it costs about as
+// much as the refinement itself. Throws SceneError naming the prim if the
+// topology is invalid.
 SubdivisionLevel choose_subdivision_level(const SubdivCage& cage, const SubdivisionOptions& options);
+
+// Largest distance between the limit surface and the triangles of the cage
+// refined uniformly to `level` (vertices on the limit, quads split along the
+// shorter diagonal as refine_subdivision_cage does), sampled where the
+// triangles are farthest from their vertices: at every edge midpoint and
+// face centre, whose limit positions are those of level + 1's edge and face
+// vertices. Loop faces have no centre vertex: only their edges are sampled.
+// Hole faces are skipped. The cage must be valid (throws SceneError naming
+// the prim otherwise); level + 1 must be at most kMaxSubdivisionLevel.
+double limit_deviation(const SubdivCage& cage, uint32_t level);
 
 struct RefinedMesh {
   std::vector<V3f> positions;  // on the limit surface

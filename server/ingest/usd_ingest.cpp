@@ -92,6 +92,7 @@ std::string refusal_of(const std::string& log) {
 SubdivisionOptions subdivision_options(const IngestOptions& options) {
   SubdivisionOptions s;
   s.target_edge_length = options.target_edge_length;
+  s.target_surfels = options.target_surfels;
   s.max_level = options.max_subdivision_level;
   // A smaller cap than the default level lowers the default too.
   s.default_level = std::min(s.default_level, s.max_level);

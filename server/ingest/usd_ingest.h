@@ -39,12 +39,20 @@ struct IngestOptions {
   // and measurements; part of the content hash. Not a daemon option.
   bool flatten_instances = false;
   // Subdivision surfaces (subdivisionScheme catmullClark -- USD's default --
-  // loop, bilinear) are refined in the daemon until their edges are at most
-  // this long, in world units (level = ceil(log2(longest cage edge /
-  // target)), see server/ingest/subdivision.h). 0 = no target: every cage is
-  // refined to SubdivisionOptions::default_level (2). The engine derives it
-  // from the surfel spacing.
+  // loop, bilinear) are refined in the daemon until their triangles are
+  // within a tenth of this length of the limit surface, never further than
+  // until their edges are at most this long, in world units (level =
+  // ceil(log2(longest cage edge / target)), see
+  // server/ingest/subdivision.h). 0 = no target: every cage is refined by
+  // the error rule for the spacing of target_surfels (below), at most to
+  // SubdivisionOptions::default_level (2). The engine derives it from the
+  // surfel spacing.
   float target_edge_length = 0.f;
+  // When target_edge_length is 0 (the spacing is derived from the whole
+  // scene's area, unknown while meshes stream in): the error rule bounds
+  // each mesh by the spacing this many surfels would have on that mesh
+  // alone -- never larger than the scene's. 0 = no error rule then.
+  uint64_t target_surfels = 0;
   // Refinement never goes deeper (a warning names each capped mesh).
   uint32_t max_subdivision_level = 6;
   // OpenVDB level sets (UsdVol.Volume fields, .vdb scenes) are meshed at

@@ -113,8 +113,15 @@ TEST(SubdivStream, CagesAreRefinedWhileDecoding) {
   SubdivisionOptions finer = o;
   finer.target_edge_length = 0.1f;
   const Scene fine = decode(data, finer);
-  EXPECT_EQ(fine.triangles.triangle_count(), 2u * 6 * 256 + 1);
+  // Level 3: its triangles are within 0.01 of the limit surface, the edge
+  // rule alone would go to level 4.
+  EXPECT_EQ(fine.triangles.triangle_count(), 2u * 6 * 64 + 1);
   EXPECT_NE(fine.content_hash, scene.content_hash);
+  SubdivisionOptions edge_rule = finer;
+  edge_rule.max_deviation_fraction = 0.f;
+  const Scene uniform = decode(data, edge_rule);
+  EXPECT_EQ(uniform.triangles.triangle_count(), 2u * 6 * 256 + 1);
+  EXPECT_NE(uniform.content_hash, fine.content_hash);
 }
 
 TEST(SubdivStream, ScenesWithoutCagesKeepTheReadersHash) {

@@ -1,6 +1,6 @@
 // refine_subdivision_cage on hand-made cages: the refined triangles lie on
 // the limit surface of each scheme, creases and corners are honoured, the
-// level follows the target edge length, and bad cages are SceneErrors
+// level follows the geometric error below the target edge length's cap, and bad cages are SceneErrors
 // naming the prim.
 #include "server/ingest/subdivision.h"
 
@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <set>
 
 namespace pbgi {
@@ -242,6 +243,7 @@ TEST(Subdivision, LoopRejectsNonTrianglesNamingThePrim) {
 TEST(Subdivision, LevelFollowsTheTargetEdgeLength) {
   SubdivisionOptions o;
   o.max_level = 8;
+  o.max_deviation_fraction = 0.f;  // the edge-length rule alone (the error rule's cap)
   const SubdivCage cage = cube_cage();  // longest edge 1
   o.target_edge_length = 2.f;
   EXPECT_EQ(choose_subdivision_level(cage, o).level, 0u);
@@ -270,6 +272,200 @@ TEST(Subdivision, LevelFollowsTheTargetEdgeLength) {
   SubdivCage big = cage;
   for (V3f& p : big.positions) p *= 2.f;
   EXPECT_EQ(choose_subdivision_level(big, o).level, 4u);
+}
+
+// An n x n grid of quads over [0, size]^2, bent around a cylinder of the
+// given radius about the y axis (flat when radius is 0).
+SubdivCage grid_cage(uint32_t n, float size, float radius) {
+  SubdivCage c;
+  c.prim_path = "/World/Grid";
+  for (uint32_t j = 0; j <= n; ++j)
+    for (uint32_t i = 0; i <= n; ++i) {
+      const float u = size * float(i) / float(n), v = size * float(j) / float(n);
+      if (radius > 0.f)
+        c.positions.push_back({radius * std::sin(u / radius), v, radius * (1.f - std::cos(u / radius))});
+      else
+        c.positions.push_back({u, v, 0.f});
+    }
+  for (uint32_t j = 0; j < n; ++j)
+    for (uint32_t i = 0; i < n; ++i) {
+      const uint32_t a = j * (n + 1) + i;
+      c.face_vertex_counts.push_back(4);
+      c.face_vertex_indices.insert(c.face_vertex_indices.end(), {a, a + 1, a + n + 2, a + n + 1});
+    }
+  return c;
+}
+
+// Closest point to p on triangle abc (Ericson, Real-Time Collision
+// Detection 5.1.5), as barycentric weights of a, b, c.
+V3f closest_barycentric(const V3f& p, const V3f& a, const V3f& b, const V3f& c) {
+  const V3f ab = b - a, ac = c - a, ap = p - a;
+  const float d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0.f && d2 <= 0.f) return {1, 0, 0};
+  const V3f bp = p - b;
+  const float d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0.f && d4 <= d3) return {0, 1, 0};
+  const float vc = d1 * d4 - d3 * d2;
+  if (vc <= 0.f && d1 >= 0.f && d3 <= 0.f) {
+    const float v = d1 / (d1 - d3);
+    return {1 - v, v, 0};
+  }
+  const V3f cp = p - c;
+  const float d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0.f && d5 <= d6) return {0, 0, 1};
+  const float vb = d5 * d2 - d1 * d6;
+  if (vb <= 0.f && d2 >= 0.f && d6 <= 0.f) {
+    const float w = d2 / (d2 - d6);
+    return {1 - w, 0, w};
+  }
+  const float va = d3 * d6 - d5 * d4;
+  if (va <= 0.f && (d4 - d3) >= 0.f && (d5 - d6) >= 0.f) {
+    const float w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    return {0, 1 - w, w};
+  }
+  const float denom = 1.f / (va + vb + vc);
+  const float v = vb * denom, w = vc * denom;
+  return {1 - v - w, v, w};
+}
+
+// How far `fine`'s vertices lie from `coarse`'s triangles (brute force),
+// and the largest angle (radians) between a fine vertex normal and the
+// coarse normals interpolated at the closest point: what a surfel placed on
+// the coarse triangles would differ by.
+struct MeshDistance {
+  double position = 0.0;
+  double normal_angle = 0.0;
+};
+MeshDistance distance_to(const RefinedMesh& fine, const RefinedMesh& coarse) {
+  MeshDistance worst;
+  for (size_t v = 0; v < fine.positions.size(); ++v) {
+    const V3f& p = fine.positions[v];
+    float best = std::numeric_limits<float>::max();
+    V3f normal;
+    for (size_t t = 0; t < coarse.triangle_count(); ++t) {
+      const V3f a = vertex(coarse, t, 0), b = vertex(coarse, t, 1), c = vertex(coarse, t, 2);
+      const V3f w = closest_barycentric(p, a, b, c);
+      const float d = (a * w.x + b * w.y + c * w.z - p).length();
+      if (d < best) {
+        best = d;
+        const uint32_t* i = &coarse.indices[3 * t];
+        normal = coarse.normals[i[0]] * w.x + coarse.normals[i[1]] * w.y + coarse.normals[i[2]] * w.z;
+      }
+    }
+    worst.position = std::max(worst.position, double(best));
+    const float cosine = std::clamp(normal.dot(fine.normals[v]) / normal.length(), -1.f, 1.f);
+    worst.normal_angle = std::max(worst.normal_angle, double(std::acos(cosine)));
+  }
+  return worst;
+}
+
+TEST(Subdivision, FlatCageIsNotRefinedHoweverLongItsEdges) {
+  // 40 x 40 quads of 0.05: the edge rule wants level 4 for a spacing of
+  // 0.004, but a plane is its own limit surface.
+  const SubdivCage cage = grid_cage(40, 2.f, 0.f);
+  SubdivisionOptions o;
+  o.target_edge_length = 0.004f;
+  const RefinedMesh m = refine_subdivision_cage(cage, o);
+  EXPECT_EQ(m.level.wanted, 4u);
+  EXPECT_EQ(m.level.level, 0u);
+  EXPECT_NEAR(m.level.deviation, 0.0, 1e-6);
+  EXPECT_EQ(m.triangle_count(), 2u * 40 * 40);
+  EXPECT_TRUE(m.warnings.empty());
+}
+
+TEST(Subdivision, DenseCurvedCageStaysAtTheCageLevel) {
+  // A cage denser than the surface's curvature needs (edges 0.01 on a
+  // radius of 1: the faces are 1.25e-5 off the limit), refined for a
+  // spacing of 0.004 (edge rule: 2 levels, 16x the triangles).
+  const SubdivCage cage = grid_cage(100, 1.f, 1.f);
+  SubdivisionOptions o;
+  o.target_edge_length = 0.004f;
+  const SubdivisionLevel l = choose_subdivision_level(cage, o);
+  EXPECT_EQ(l.wanted, 2u);
+  EXPECT_EQ(l.level, 0u);
+  EXPECT_LE(l.deviation, l.tolerance);
+  EXPECT_NEAR(l.tolerance, 0.1 * 0.004, 1e-9);
+}
+
+TEST(Subdivision, WithoutATargetTheSpacingOfTargetSurfelsOnTheMeshBoundsTheError) {
+  // The spacing is derived from the whole scene after reading; each mesh is
+  // bounded by the spacing target_surfels would have on it alone.
+  SubdivisionOptions o;
+  o.target_surfels = 10000;
+  const SubdivisionLevel dense = choose_subdivision_level(grid_cage(100, 1.f, 1.f), o);
+  EXPECT_EQ(dense.wanted, 2u);  // default_level: the cap
+  EXPECT_EQ(dense.level, 0u);
+  EXPECT_NEAR(dense.spacing, std::sqrt(1.0 / 10000), 1e-4);  // area ~1
+  EXPECT_NEAR(dense.tolerance, 0.1 * dense.spacing, 1e-9);
+  EXPECT_LE(dense.deviation, dense.tolerance);
+  // A coarse curved cage keeps the default level (nothing coarser is close
+  // enough), as without the error rule.
+  const SubdivisionLevel cube = choose_subdivision_level(cube_cage(), o);
+  EXPECT_EQ(cube.level, 2u);
+  EXPECT_LT(cube.deviation, 0.0);  // the cap: not measured
+  EXPECT_NEAR(cube.spacing, std::sqrt(6.0 / 10000), 1e-6);
+  // No target and no surfel count: the default level, no error rule.
+  o.target_surfels = 0;
+  EXPECT_EQ(choose_subdivision_level(grid_cage(100, 1.f, 1.f), o).level, 2u);
+}
+
+TEST(Subdivision, CurvedCageIsRefinedUntilItsTrianglesMeetTheBound) {
+  // The cube's limit surface is sphere-like: each level quarters the
+  // deviation, the edge rule asks for 5 levels at a spacing of 0.04.
+  const SubdivCage cage = cube_cage();
+  SubdivisionOptions o;
+  o.target_edge_length = 0.04f;
+  o.max_level = 8;
+  const RefinedMesh m = refine_subdivision_cage(cage, o);
+  const double tolerance = 0.1 * 0.04;
+  EXPECT_EQ(m.level.wanted, 5u);
+  EXPECT_NEAR(m.level.tolerance, tolerance, 1e-9);
+  ASSERT_GT(m.level.level, 0u);
+  EXPECT_LT(m.level.level, m.level.wanted);
+  // The smallest level within the bound: the one before is not.
+  EXPECT_LE(m.level.deviation, tolerance);
+  EXPECT_DOUBLE_EQ(m.level.deviation, limit_deviation(cage, m.level.level));
+  EXPECT_GT(limit_deviation(cage, m.level.level - 1), tolerance);
+  // Checked against OpenSubdiv's limit evaluation everywhere, not only at
+  // the sampled points: the limit points of level 6 lie within the bound of
+  // the chosen triangles, and level level-1's triangles are farther.
+  const RefinedMesh limit = refine_subdivision_cage(cage, level_options(6));
+  EXPECT_LE(distance_to(limit, m).position, tolerance);
+  const RefinedMesh coarser = refine_subdivision_cage(cage, level_options(m.level.level - 1));
+  EXPECT_GT(distance_to(limit, coarser).position, tolerance);
+}
+
+TEST(Subdivision, ErrorRuleKeepsTheSurfaceOfTheEdgeLengthRule) {
+  // What the surfels see: the error rule's triangles against the edge
+  // rule's (the refinement before it) on a creased curved cage -- same
+  // positions within the bound, same normals within 3 degrees, same area
+  // within 0.3%.
+  SubdivCage cage = cube_cage();
+  crease_all_edges(cage, 1.5f);  // semi-sharp: curved and nearly creased
+  SubdivisionOptions error_rule;
+  error_rule.target_edge_length = 0.04f;
+  SubdivisionOptions edge_rule = error_rule;
+  edge_rule.max_deviation_fraction = 0.f;
+  const RefinedMesh a = refine_subdivision_cage(cage, error_rule);
+  const RefinedMesh b = refine_subdivision_cage(cage, edge_rule);
+  ASSERT_LT(a.level.level, b.level.level);
+  const MeshDistance d = distance_to(b, a);
+  EXPECT_LE(d.position, 0.1 * 0.04);
+  EXPECT_LT(d.normal_angle, 3.0 * M_PI / 180.0);
+  EXPECT_NEAR(area(a) / area(b), 1.0, 3e-3);
+}
+
+TEST(Subdivision, LimitDeviationOfEachScheme) {
+  // Bilinear: edges are straight, only non-planar quads deviate (none here).
+  EXPECT_NEAR(limit_deviation(cube_cage(SubdivScheme::Bilinear), 0), 0.0, 1e-7);
+  // Loop and Catmull-Clark: positive, and falling with every level.
+  for (const SubdivCage& cage : {cube_cage(), tetrahedron_cage()}) {
+    const double d2 = limit_deviation(cage, 2), d3 = limit_deviation(cage, 3);
+    EXPECT_GT(d3, 0.0);
+    // A quarter on smooth parts; slower around extraordinary vertices.
+    EXPECT_GT(d2 / d3, 1.5) << cage.prim_path;
+  }
+  EXPECT_THROW(limit_deviation(cube_cage(), kMaxSubdivisionLevel), InvalidArgument);
 }
 
 TEST(Subdivision, NoTargetUsesTheDefaultLevel) {
@@ -432,6 +628,11 @@ TEST(Subdivision, OptionsAreValidated) {
   o = {};
   o.default_level = 7;
   o.max_level = 6;
+  EXPECT_THROW(o.validate(), InvalidArgument);
+  o = {};
+  o.max_deviation_fraction = -0.1f;
+  EXPECT_THROW(o.validate(), InvalidArgument);
+  o.max_deviation_fraction = std::nanf("");
   EXPECT_THROW(o.validate(), InvalidArgument);
   o = {};
   o.target_edge_length = std::nanf("");
