@@ -83,10 +83,11 @@ struct BounceOptions {
   // sender node, is small enough to share that sender's splat:
   // pi r_R^2 / d^2 <= view_solid_angle. 0 (the default) = auto, half of
   // FPBGI's near/far split, pi x gather.effective_epsilon()^2 / 2 (0.0039
-  // sr at N = 8): the view tree draws much of its far content right at the
-  // split, and at FPBGI's own split it was 2.3x further from per-surfel
-  // PBGI than FPBGI; at half, 1.3-1.4x and 1.37-1.48x faster than FPBGI
-  // (docs/gather.md, section 9b). [0, kMaxViewSolidAngle].
+  // sr at N = 8, 0.0157 sr at the default bounce N = 4): the view tree
+  // draws much of its far content right at the split, and at FPBGI's own
+  // split it was 2.3x further from per-surfel PBGI than FPBGI; at half,
+  // 1.3-1.4x and 1.37-1.48x faster than FPBGI (docs/gather.md, section
+  // 9b, at N = 8). [0, kMaxViewSolidAngle].
   float view_solid_angle = 0.f;
   // Sparse receivers (bounce_receivers.h, docs/gather.md section 9c): of
   // each run of receiver_stride surfels in Morton order one is gathered,

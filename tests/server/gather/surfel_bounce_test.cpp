@@ -307,6 +307,11 @@ TEST(SurfelBounce, ViewSolidAngleIsValidated) {
   EXPECT_NE(message(o).find("bounce_view_solid_angle"), std::string::npos);
   o.view_solid_angle = 0.f;  // auto
   EXPECT_EQ(message(o), "");
+  // Half of FPBGI's split at the bounce gather's resolution: 0.1 rad at
+  // the default N = 4, 0.05 at N = 8.
+  ASSERT_EQ(o.gather.microbuffer_resolution, 4u);
+  EXPECT_NEAR(o.effective_view_solid_angle(), 0.5f * 3.14159265f * 0.1f * 0.1f, 1e-6f);
+  o.gather.microbuffer_resolution = 8;
   EXPECT_NEAR(o.effective_view_solid_angle(), 0.5f * 3.14159265f * 0.05f * 0.05f, 1e-6f);
   o.view_solid_angle = 0.02f;
   EXPECT_EQ(message(o), "");
