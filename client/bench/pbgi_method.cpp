@@ -277,6 +277,9 @@ BuildSpec pbgi_build(const PbgiSweep& sweep, uint64_t surfels, const PayloadSpec
     params.push_back({"bounces", std::to_string(sweep.bounce.bounces)});
     params.push_back({"bounce_splatting", sweep.bounce.splatting ? "true" : "false"});
     params.push_back({"bounce_view_solid_angle", fmt::format("{:g}", sweep.bounce.effective_view_solid_angle())});
+    params.push_back({"bounce_receiver_stride", std::to_string(sweep.bounce.receiver_stride)});
+    params.push_back({"bounce_microbuffer_resolution", std::to_string(sweep.bounce.gather.microbuffer_resolution)});
+    params.push_back({"bounce_max_solid_angle", fmt::format("{:g}", sweep.bounce.gather.max_solid_angle)});
   }
   return {*name, std::move(params),
           [sweep, surfels, codec, dir_name](const BenchInput& in) {

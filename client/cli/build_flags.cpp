@@ -36,6 +36,16 @@ void BuildArgs::add_to(CLI::App* cmd) {
                   "bounce splatting: view solid angle (sr) of a receiver node seen from a sender node "
                   "below which it shares the sender's splat; 0 = auto [0]")
       ->check(CLI::Range(0.f, 0.7854f));
+  cmd->add_option("--bounce-receiver-stride", bounce_receiver_stride,
+                  "bounce gathers: one surfel in this many (a Morton run) is gathered, the others "
+                  "interpolate it; 1 = every surfel [daemon default]")
+      ->check(CLI::Range(1u, 64u));
+  cmd->add_option("--bounce-mb-res", bounce_microbuffer_resolution,
+                  "bounce gathers: microbuffer pixels per cube-face side [daemon default]")
+      ->check(CLI::Range(4u, 32u));
+  cmd->add_option("--bounce-solid-angle", bounce_max_solid_angle,
+                  "bounce gathers: cut threshold max_solid_angle, sr [daemon default]")
+      ->check(CLI::Range(1e-6f, 1.f));
   cmd->add_option("--payload", payload,
                   "node payloads: sh (exact, derived from the surfels as pages load), quantized "
                   "(k-means LUT), auto, or a codec name (derived, float32-sh, kmeans-sh); "
@@ -85,6 +95,9 @@ v1::BuildOptions BuildArgs::to_proto(uint32_t image_width, uint32_t image_height
   if (bounce_splatting) build.set_bounce_splatting(*bounce_splatting);
   if (bounce_view_solid_angle) build.set_bounce_view_solid_angle(*bounce_view_solid_angle);
   if (default_light) build.set_default_light(true);
+  if (bounce_receiver_stride) build.set_bounce_receiver_stride(*bounce_receiver_stride);
+  if (bounce_microbuffer_resolution) build.set_bounce_microbuffer_resolution(*bounce_microbuffer_resolution);
+  if (bounce_max_solid_angle) build.set_bounce_max_solid_angle(*bounce_max_solid_angle);
   build.set_sampler(sampler);
   build.set_spacing_camera(spacing_camera);
   build.set_pixel_footprint(pixel_footprint);

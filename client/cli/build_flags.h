@@ -32,13 +32,16 @@ struct BuildArgs {
   std::optional<bool> bounce_splatting;    // unset = the daemon's default
   std::optional<float> bounce_view_solid_angle;  // unset = the daemon's default
   bool default_light = false;                    // false = the daemon's default
+  std::optional<uint32_t> bounce_receiver_stride;         // unset = the daemon's default
+  std::optional<uint32_t> bounce_microbuffer_resolution;  // unset = the daemon's default
+  std::optional<float> bounce_max_solid_angle;            // unset = the daemon's default
 
   // Adds --target-surfels, --surfel-spacing, --build-light-samples,
   // --bounces, --payload, --leaf-format, --lut-entries, --sampler, --spacing-camera,
   // --pixel-footprint, --glossy-roughness, --glossy-resolution,
   // --wavelet-threshold, --fog-extinction, --fog-albedo,
-  // --bounce-splatting, --bounce-view-solid-angle and --default-light to
-  // `cmd`.
+  // --bounce-splatting, --bounce-view-solid-angle, --bounce-receiver-stride,
+  // --bounce-mb-res, --bounce-solid-angle and --default-light to `cmd`.
   void add_to(CLI::App* cmd);
 
   // The request message. Throws InvalidArgument for a --payload value the

@@ -37,6 +37,8 @@ struct BenchArgs {
   std::optional<uint32_t> bounces;
   std::optional<bool> bounce_splatting;
   std::optional<float> bounce_view_solid_angle;
+  std::optional<uint32_t> bounce_receiver_stride, bounce_microbuffer_resolution;
+  std::optional<float> bounce_max_solid_angle;
   std::optional<uint32_t> pixel_samples;
   std::vector<std::string> interpolations;
   std::vector<float> tolerances;
@@ -81,6 +83,10 @@ int run(const BenchArgs& args) {
   if (args.bounces) o.pbgi.bounce.bounces = *args.bounces;
   if (args.bounce_splatting) o.pbgi.bounce.splatting = *args.bounce_splatting;
   if (args.bounce_view_solid_angle) o.pbgi.bounce.view_solid_angle = *args.bounce_view_solid_angle;
+  if (args.bounce_receiver_stride) o.pbgi.bounce.receiver_stride = *args.bounce_receiver_stride;
+  if (args.bounce_microbuffer_resolution)
+    o.pbgi.bounce.gather.microbuffer_resolution = *args.bounce_microbuffer_resolution;
+  if (args.bounce_max_solid_angle) o.pbgi.bounce.gather.max_solid_angle = *args.bounce_max_solid_angle;
   pick_default(o.pbgi.methods, &o.pbgi.default_method);
   pick_default(o.pbgi.target_surfels, &o.pbgi.default_target_surfels);
   pick_default(o.pbgi.microbuffer_resolutions, &o.pbgi.default_microbuffer_resolution);
@@ -196,6 +202,12 @@ const CommandRegistrar kRegistrar("bench", [](CLI::App& app, int* exit_code) {
                   "Bounce gathers: view-tree splatting (true/false, default true)");
   cmd->add_option("--bounce-view-solid-angle", args->bounce_view_solid_angle,
                   "Bounce splatting: view solid angle in sr (default 0 = auto)");
+  cmd->add_option("--bounce-receiver-stride", args->bounce_receiver_stride,
+                  "Bounce gathers: one surfel in this many gathered, the others interpolated (1 = all)");
+  cmd->add_option("--bounce-mb-res", args->bounce_microbuffer_resolution,
+                  "Bounce gathers: microbuffer resolution (4..32)");
+  cmd->add_option("--bounce-solid-angle", args->bounce_max_solid_angle,
+                  "Bounce gathers: cut threshold max_solid_angle in sr");
   cmd->add_flag("--quick", args->quick, "Small sweep for CI (64x64, 20k surfels, 4 settings per gather method)");
   cmd->add_flag("--images", args->images, "Also write <out-dir>/images/<config>.exr");
   cmd->add_flag("--no-plot", args->no_plot, "Do not run scripts/plot_bench.py");

@@ -246,6 +246,7 @@ void DaemonOptions::validate() const {
   service.defaults.render.validate();
   service.defaults.open.surfels.validate();
   service.defaults.open.tree.validate();
+  service.defaults.open.bounce.validate();
 }
 
 DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string& source,
@@ -346,6 +347,9 @@ DaemonOptions parse_daemon_config(std::string_view toml_text, const std::string&
     build.read("bounce_splatting", o.bounce.splatting);
     build.read("bounce_view_solid_angle", o.bounce.view_solid_angle);
     build.read("default_light", o.default_light);
+    build.read("bounce_receiver_stride", o.bounce.receiver_stride);
+    build.read("bounce_microbuffer_resolution", o.bounce.gather.microbuffer_resolution);
+    build.read("bounce_max_solid_angle", o.bounce.gather.max_solid_angle);
     build.reject_unknown();
   }
   if (const toml::table* table = top.table("fog")) {
@@ -467,6 +471,9 @@ std::string to_toml(const DaemonOptions& o) {
   out << "bounce_splatting = " << (b.bounce.splatting ? "true" : "false") << '\n';
   float32_value("bounce_view_solid_angle", b.bounce.view_solid_angle);
   bool_value("default_light", b.default_light);
+  integer_value("bounce_receiver_stride", b.bounce.receiver_stride);
+  integer_value("bounce_microbuffer_resolution", b.bounce.gather.microbuffer_resolution);
+  float32_value("bounce_max_solid_angle", b.bounce.gather.max_solid_angle);
 
   out << "\n[fog]\n";
   float32_value("extinction_per_density", b.fog.extinction_per_density);
@@ -585,7 +592,10 @@ bool operator==(const DaemonOptions& a, const DaemonOptions& b) {
          oa.tree.lut_entries == ob.tree.lut_entries &&
          oa.tree.lut_sample_fraction == ob.tree.lut_sample_fraction &&
          oa.bounce.bounces == ob.bounce.bounces && oa.bounce.splatting == ob.bounce.splatting &&
-         oa.bounce.view_solid_angle == ob.bounce.view_solid_angle && oa.fog.extinction_per_density == ob.fog.extinction_per_density &&
+         oa.bounce.view_solid_angle == ob.bounce.view_solid_angle &&
+         oa.bounce.receiver_stride == ob.bounce.receiver_stride &&
+         oa.bounce.gather.microbuffer_resolution == ob.bounce.gather.microbuffer_resolution &&
+         oa.bounce.gather.max_solid_angle == ob.bounce.gather.max_solid_angle && oa.fog.extinction_per_density == ob.fog.extinction_per_density &&
          oa.fog.albedo == ob.fog.albedo && oa.fog.step_voxels == ob.fog.step_voxels &&
          oa.fog.light_samples == ob.fog.light_samples && oa.fog.max_block_voxels == ob.fog.max_block_voxels &&
          la.max_receivers == lb.max_receivers &&

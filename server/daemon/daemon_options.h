@@ -13,7 +13,9 @@
 //   [build]   surfel_spacing, target_surfels, light_samples, page_size,
 //             leaf_size, seed, payload_codec, lut_entries,
 //             lut_sample_fraction, bounces, bounce_splatting,
-//             bounce_view_solid_angle                 (OpenScene defaults)
+//             bounce_view_solid_angle, bounce_receiver_stride,
+//             bounce_microbuffer_resolution,
+//             bounce_max_solid_angle                  (OpenScene defaults)
 //   [limits]  max_receivers, max_image_side, max_tile_pixels, max_message_size,
 //             max_tiles_per_call, max_in_flight, max_queued, max_surfels
 // Unknown keys are errors (a typo must not silently use a default).

@@ -4,6 +4,8 @@
 
 #include <Imath/ImathColor.h>
 
+#include <spdlog/spdlog.h>
+
 #include <vector>
 
 namespace pbgi {
@@ -38,9 +40,13 @@ storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
 
   // The gather phase is most of the work: it gets [0, 0.9] of the progress.
   const uint32_t pages = direct.manifest().stats.page_count;
+  BounceGatherStats gathered;
   auto flush = [&](uint32_t pages_done) {
     if (batch.empty()) return;
-    gather_bounce(previous, batch, radiance, options, cancelled);
+    const BounceGatherStats st = gather_bounce(previous, batch, radiance, options, cancelled);
+    gathered.receivers += st.receivers;
+    gathered.gathered += st.gathered;
+    gathered.fallback += st.fallback;
     if (glossy.restore) glossy.restore(batch);
     builder.add(batch);
     batch.clear();
@@ -56,6 +62,10 @@ storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
     if (batch.size() >= kSurfelsPerPass) flush(id + 1);
   }
   flush(pages);
+  spdlog::info("bounce page set {}: {} receivers, {} gathered ({} where no representative fitted), receiver "
+               "stride {}, microbuffer {}, cut {} sr",
+               build_key, gathered.receivers, gathered.gathered, gathered.fallback, options.receiver_stride,
+               options.gather.microbuffer_resolution, options.gather.max_solid_angle);
   return builder.finish([&](float f) {
     if (cancelled && cancelled()) throw Cancelled("bounce page set " + build_key + " cancelled while writing pages");
     if (progress) progress(0.9f + 0.1f * f);

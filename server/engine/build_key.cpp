@@ -56,6 +56,9 @@ std::string page_set_build_key(const std::string& scene_content_hash, const Open
     // error, docs/gather.md section 9b), so the bytes: resolved, so that
     // "auto" and its value share a set.
     if (o.bounce.splatting) text += fmt::format("|splat={}", o.bounce.effective_view_solid_angle());
+    // Sparse receivers interpolate most surfels' irradiance; 1 (every
+    // surfel gathered) keeps the keys of sets built before the option.
+    if (o.bounce.receiver_stride != 1) text += fmt::format("|stride={}", o.bounce.receiver_stride);
   }
   const XXH128_hash_t h = XXH3_128bits(text.data(), text.size());
   return fmt::format("{:016x}{:016x}", h.high64, h.low64);

@@ -17,8 +17,11 @@
 // gathered by the view tree (server/gather/view_tree_gather.h: sender nodes
 // far from a node of the batch's receiver hierarchy are splatted once for
 // all its surfels); without, by gather_tile() (factorized PBGI clusters a
-// compact patch well). Batches run in parallel (TBB); the trees are held
-// in memory (storage/tree/memory_tree.h).
+// compact patch well). By default only one surfel in receiver_stride is
+// gathered and the others interpolate (server/gather/bounce_receivers.h),
+// with a coarse microbuffer and cut (docs/gather.md, section 9c). Batches
+// run in parallel (TBB); the trees are held in memory
+// (storage/tree/memory_tree.h).
 //
 // Thread-safety: the functions are reentrant; gather_bounce() reads `tree`
 // from several threads.
@@ -43,9 +46,11 @@ inline constexpr size_t kBounceBatch = 1024;
 
 // The build option: how many bounces the surfels' radiance holds, and how
 // the bounce gathers are made. Shared by the config file ([build] bounces,
-// bounce_splatting, bounce_view_solid_angle), the CLI (--bounces,
-// --bounce-splatting, --bounce-view-solid-angle) and pbgi.v1.BuildOptions
-// (bounces, bounce_splatting, bounce_view_solid_angle).
+// bounce_splatting, bounce_view_solid_angle, bounce_receiver_stride,
+// bounce_microbuffer_resolution, bounce_max_solid_angle), the CLI
+// (--bounces, --bounce-splatting, --bounce-view-solid-angle,
+// --bounce-receiver-stride, --bounce-mb-res, --bounce-solid-angle) and
+// pbgi.v1.BuildOptions (the config's names).
 struct BounceOptions {
   // Largest accepted view_solid_angle: pi x GatherOptions::kMaxEpsilon^2.
   static constexpr float kMaxViewSolidAngle =
@@ -57,9 +62,16 @@ struct BounceOptions {
   uint32_t bounces = 1;
   // The gathers at the surfels. Factorized PBGI by default: a batch of
   // surfels in Morton order is a compact patch, the case it is fastest on.
+  // Coarse by default (config bounce_microbuffer_resolution 4,
+  // bounce_max_solid_angle 0.3 sr, against the render's 8 and 0.03): the
+  // light a bounce adds reaches the image only through one more
+  // reflection, which smooths it (docs/gather.md, section 9c, has the
+  // measured front).
   GatherOptions gather = [] {
     GatherOptions g;
     g.method = GatherMethod::kFpbgi;
+    g.microbuffer_resolution = 4;
+    g.max_solid_angle = 0.3f;
     return g;
   }();
   // View-tree splatting (docs/gather.md, section 9b): a sender node far
@@ -71,11 +83,21 @@ struct BounceOptions {
   // sender node, is small enough to share that sender's splat:
   // pi r_R^2 / d^2 <= view_solid_angle. 0 (the default) = auto, half of
   // FPBGI's near/far split, pi x gather.effective_epsilon()^2 / 2 (0.0039
-  // sr at N = 8): the view tree draws much of its far content right at the
-  // split, and at FPBGI's own split it was 2.3x further from per-surfel
-  // PBGI than FPBGI; at half, 1.3-1.4x and 1.37-1.48x faster than FPBGI
-  // (docs/gather.md, section 9b). [0, kMaxViewSolidAngle].
+  // sr at N = 8, 0.0157 sr at the default bounce N = 4): the view tree
+  // draws much of its far content right at the split, and at FPBGI's own
+  // split it was 2.3x further from per-surfel PBGI than FPBGI; at half,
+  // 1.3-1.4x and 1.37-1.48x faster than FPBGI (docs/gather.md, section
+  // 9b, at N = 8). [0, kMaxViewSolidAngle].
   float view_solid_angle = 0.f;
+  // Sparse receivers (bounce_receivers.h, docs/gather.md section 9c): of
+  // each run of receiver_stride surfels in Morton order one is gathered,
+  // the others interpolate their neighbours' representatives (same facing,
+  // near their plane) or, where none fits, are gathered too. 1 = every
+  // surfel gathered (the gather of every surfel before this option).
+  // [1, kMaxReceiverStride]; 16 by default (section 9c).
+  uint32_t receiver_stride = 16;
+
+  static constexpr uint32_t kMaxReceiverStride = 64;
 
   // view_solid_angle with 0 resolved.
   float effective_view_solid_angle() const {
@@ -87,15 +109,23 @@ struct BounceOptions {
   void validate() const;
 };
 
+// What a bounce gathered: surfels that reflect light (receivers), gathers
+// made (representatives + fallbacks), and fallbacks (receivers no
+// representative fitted).
+struct BounceGatherStats {
+  uint64_t receivers = 0, gathered = 0, fallback = 0;
+};
+
 // One bounce: for every surfel i, gathers the irradiance E_i from `tree` at
-// the surfel and sets surfels[i].radiance = direct[i] + albedo_i / pi E_i,
-// with options.gather and options.splatting (options.bounces is not used).
+// the surfel (or interpolates it, options.receiver_stride) and sets
+// surfels[i].radiance = direct[i] + albedo_i / pi E_i, with options.gather
+// and options.splatting (options.bounces is not used).
 // `direct` may alias nothing in `surfels`. Throws InvalidArgument if the
 // spans differ in size or `options` are invalid, Cancelled if `cancelled`
 // returns true (polled between batches), and whatever the tree throws.
-void gather_bounce(const tree::TreeSource& tree, std::span<Surfel> surfels,
-                   std::span<const Imath::C3f> direct, const BounceOptions& options,
-                   const std::function<bool()>& cancelled = {});
+BounceGatherStats gather_bounce(const tree::TreeSource& tree, std::span<Surfel> surfels,
+                                std::span<const Imath::C3f> direct, const BounceOptions& options,
+                                const std::function<bool()>& cancelled = {});
 
 // The whole multi-bounce pass in memory: builds the tree of `surfels`
 // (direct lighting only) with `build`, gathers a bounce into them, and

@@ -84,6 +84,10 @@ OpenOptions decode_open_options(const v1::BuildOptions& proto, const OpenOptions
   out.bounce.bounces = or_default(proto.bounces(), defaults.bounce.bounces);
   if (proto.has_bounce_splatting()) out.bounce.splatting = proto.bounce_splatting();
   if (proto.has_bounce_view_solid_angle()) out.bounce.view_solid_angle = proto.bounce_view_solid_angle();
+  if (proto.has_bounce_receiver_stride()) out.bounce.receiver_stride = proto.bounce_receiver_stride();
+  if (proto.has_bounce_microbuffer_resolution())
+    out.bounce.gather.microbuffer_resolution = proto.bounce_microbuffer_resolution();
+  if (proto.has_bounce_max_solid_angle()) out.bounce.gather.max_solid_angle = proto.bounce_max_solid_angle();
   if (!proto.sampler().empty()) {
     try {
       out.surfels.sampler = parse_surfel_sampler(proto.sampler());
@@ -184,6 +188,9 @@ v1::BuildOptions encode_open_options(const OpenOptions& options) {
   proto.set_bounces(options.bounce.bounces);
   proto.set_bounce_splatting(options.bounce.splatting);
   proto.set_bounce_view_solid_angle(options.bounce.view_solid_angle);
+  proto.set_bounce_receiver_stride(options.bounce.receiver_stride);
+  proto.set_bounce_microbuffer_resolution(options.bounce.gather.microbuffer_resolution);
+  proto.set_bounce_max_solid_angle(options.bounce.gather.max_solid_angle);
   proto.set_sampler(to_string(options.surfels.sampler));
   proto.set_spacing_camera(options.surfels.camera);
   proto.set_spacing_image_width(options.surfels.image_width);
@@ -207,12 +214,13 @@ std::string open_options_key(const OpenOptions& o) {
   // so distinct values never share a key.
   return fmt::format(
       "spacing={};target={};light={};seed={};leaf={};leaf_format={};page={};payload={};lut={};lut_fraction={};"
-      "bounces={},{},{};sampler={};camera={};image={}x{};footprint={};glossy={},{},{};fog={},{},{},{},{},{},{};"
-      "default_light={}",
+      "bounces={},{},{},{},{},{};sampler={};camera={};image={}x{};footprint={};glossy={},{},{};"
+      "fog={},{},{},{},{},{},{};default_light={}",
       o.surfels.spacing, o.surfels.target_surfels, o.surfels.light_samples, o.surfels.seed,
       o.tree.leaf_size, storage::to_string(o.tree.leaf_format), o.tree.page_size,
       tree::to_string(o.tree.payload_codec), o.tree.lut_entries, o.tree.lut_sample_fraction, o.bounce.bounces,
-      o.bounce.splatting, o.bounce.view_solid_angle, to_string(o.surfels.sampler), o.surfels.camera,
+      o.bounce.splatting, o.bounce.view_solid_angle, o.bounce.receiver_stride,
+      o.bounce.gather.microbuffer_resolution, o.bounce.gather.max_solid_angle, to_string(o.surfels.sampler), o.surfels.camera,
       o.surfels.image_width, o.surfels.image_height, o.surfels.pixel_footprint, o.surfels.glossy_roughness,
       o.tree.glossy_resolution, o.tree.wavelet_threshold, o.fog.extinction_per_density, o.fog.albedo.x,
       o.fog.albedo.y, o.fog.albedo.z, o.fog.step_voxels, o.fog.light_samples, o.fog.max_block_voxels,

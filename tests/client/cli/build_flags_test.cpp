@@ -88,5 +88,25 @@ TEST(BuildFlags, BounceSplattingFlagsAreSentOnlyWhenGiven) {
   EXPECT_THROW(parse({"--bounce-splatting", "maybe"}), CLI::ParseError);
 }
 
+TEST(BuildFlags, CoarseBounceFlagsAreSentOnlyWhenGiven) {
+  const v1::BuildOptions none = parse({}).to_proto();
+  EXPECT_FALSE(none.has_bounce_receiver_stride());
+  EXPECT_FALSE(none.has_bounce_microbuffer_resolution());
+  EXPECT_FALSE(none.has_bounce_max_solid_angle());
+  const v1::BuildOptions full = parse({"--bounces", "4", "--bounce-receiver-stride", "1", "--bounce-mb-res", "8",
+                                       "--bounce-solid-angle", "0.03"})
+                                    .to_proto();
+  ASSERT_TRUE(full.has_bounce_receiver_stride());
+  EXPECT_EQ(full.bounce_receiver_stride(), 1u);
+  ASSERT_TRUE(full.has_bounce_microbuffer_resolution());
+  EXPECT_EQ(full.bounce_microbuffer_resolution(), 8u);
+  ASSERT_TRUE(full.has_bounce_max_solid_angle());
+  EXPECT_EQ(full.bounce_max_solid_angle(), 0.03f);
+  EXPECT_THROW(parse({"--bounce-receiver-stride", "0"}), CLI::ValidationError);
+  EXPECT_THROW(parse({"--bounce-receiver-stride", "65"}), CLI::ValidationError);
+  EXPECT_THROW(parse({"--bounce-mb-res", "2"}), CLI::ValidationError);
+  EXPECT_THROW(parse({"--bounce-solid-angle", "0"}), CLI::ValidationError);
+}
+
 }  // namespace
 }  // namespace pbgi::cli

@@ -80,6 +80,9 @@ DaemonOptions non_default_options() {
   o.service.defaults.open.bounce.bounces = 2;
   o.service.defaults.open.bounce.splatting = false;
   o.service.defaults.open.bounce.view_solid_angle = 0.02f;
+  o.service.defaults.open.bounce.receiver_stride = 4;
+  o.service.defaults.open.bounce.gather.microbuffer_resolution = 16;
+  o.service.defaults.open.bounce.gather.max_solid_angle = 0.05f;
   o.service.defaults.open.fog.extinction_per_density = 2.5f;
   o.service.defaults.open.fog.albedo = Imath::C3f(0.3f);
   o.service.defaults.open.fog.step_voxels = 0.25f;
@@ -183,6 +186,15 @@ TEST(DaemonOptions, ValidateChecksValuesByName) {
   o = DaemonOptions();
   o.service.defaults.render.gather.microbuffer_resolution = 1;
   EXPECT_THROW(o.validate(), InvalidArgument);
+  // The bounce defaults too, before any scene is opened with them.
+  o = DaemonOptions();
+  o.service.defaults.open.bounce.receiver_stride = 0;
+  try {
+    o.validate();
+    ADD_FAILURE() << "bounce_receiver_stride = 0 accepted";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("bounce_receiver_stride"), std::string::npos) << e.what();
+  }
   o = DaemonOptions();
   o.staging_quota = "a lot";
   EXPECT_THROW(o.validate(), InvalidArgument);

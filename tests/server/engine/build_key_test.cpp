@@ -69,6 +69,33 @@ TEST(BuildKey, BounceSplattingOptionsChangeTheKey) {
   EXPECT_EQ(page_set_build_key("h", one), page_set_build_key("h", one_off));
 }
 
+TEST(BuildKey, CoarseBounceOptionsChangeTheKey) {
+  OpenOptions full;
+  full.bounce.bounces = 3;
+  full.bounce.receiver_stride = 1;
+  full.bounce.gather.microbuffer_resolution = 8;
+  full.bounce.gather.max_solid_angle = 0.03f;
+  const std::string k = page_set_build_key("h", full);
+  OpenOptions sparse = full;
+  sparse.bounce.receiver_stride = 8;
+  EXPECT_NE(page_set_build_key("h", sparse), k);
+  OpenOptions sparser = full;
+  sparser.bounce.receiver_stride = 16;
+  EXPECT_NE(page_set_build_key("h", sparser), page_set_build_key("h", sparse));
+  OpenOptions coarse_mb = full;
+  coarse_mb.bounce.gather.microbuffer_resolution = 4;
+  EXPECT_NE(page_set_build_key("h", coarse_mb), k);
+  OpenOptions coarse_cut = full;
+  coarse_cut.bounce.gather.max_solid_angle = 0.1f;
+  EXPECT_NE(page_set_build_key("h", coarse_cut), k);
+  // One bounce gathers nothing: the bounce options do not split the cache.
+  OpenOptions one, one_sparse;
+  one_sparse.bounce.receiver_stride = 8;
+  one_sparse.bounce.gather.microbuffer_resolution = 4;
+  one_sparse.bounce.gather.max_solid_angle = 0.1f;
+  EXPECT_EQ(page_set_build_key("h", one), page_set_build_key("h", one_sparse));
+}
+
 TEST(BuildKey, GlossySenderOptionsChangeTheKeyButTheirDefaultsDoNot) {
   const OpenOptions a;
   const std::string k = page_set_build_key("h", a);

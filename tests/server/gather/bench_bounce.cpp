@@ -13,7 +13,9 @@
 // Usage:
 //   bench_bounce [--surfels 200000] [--bounces 2] [--configs LIST]
 // LIST is comma separated; each entry pbgi | fpbgi | view, then optional
-// :omega=SR (the view solid angle) and :eps=E (the gather's epsilon), e.g.
+// :omega=SR (the view solid angle), :eps=E (the gather's epsilon),
+// :stride=K (sparse receivers), :mb=N and :sa=SR (the bounce gather's
+// microbuffer resolution and cut), e.g.
 // "pbgi,fpbgi,view,view:omega=0.03" (the default).
 #include "server/gather/surfel_bounce.h"
 #include "surfel_shapes.h"
@@ -60,6 +62,12 @@ BounceOptions parse(const std::string& entry, uint32_t bounces) {
       o.view_solid_angle = std::stof(kv.substr(6));
     } else if (kv.rfind("eps=", 0) == 0) {
       o.gather.epsilon = std::stof(kv.substr(4));
+    } else if (kv.rfind("stride=", 0) == 0) {
+      o.receiver_stride = uint32_t(std::stoul(kv.substr(7)));
+    } else if (kv.rfind("mb=", 0) == 0) {
+      o.gather.microbuffer_resolution = uint32_t(std::stoul(kv.substr(3)));
+    } else if (kv.rfind("sa=", 0) == 0) {
+      o.gather.max_solid_angle = std::stof(kv.substr(3));
     } else {
       throw std::invalid_argument("unknown key '" + kv + "' in '" + entry + "'");
     }

@@ -35,12 +35,13 @@ std::vector<Surfel> furnace(float Le, float rho) {
   return s;
 }
 
-// Bounce options: `bounces`, plain PBGI per surfel, or the view tree.
+// Bounce options: `bounces`, plain PBGI at every surfel, or the view tree.
 BounceOptions plain(uint32_t bounces) {
   BounceOptions o;
   o.bounces = bounces;
   o.gather = GatherOptions{};
   o.splatting = false;
+  o.receiver_stride = 1;
   return o;
 }
 BounceOptions splatted(uint32_t bounces) {
@@ -49,12 +50,23 @@ BounceOptions splatted(uint32_t bounces) {
   return o;
 }
 
-class SurfelBounceFurnace : public ::testing::TestWithParam<bool> {};
+// The furnace's configurations: plain, splatted (both at every surfel), and
+// the library's defaults (the coarse bounce).
+enum class FurnaceConfig { kPlain, kSplatted, kDefaults };
+std::string furnace_name(const ::testing::TestParamInfo<FurnaceConfig>& p) {
+  return p.param == FurnaceConfig::kPlain ? "Plain" : p.param == FurnaceConfig::kSplatted ? "Splatted" : "Defaults";
+}
+
+class SurfelBounceFurnace : public ::testing::TestWithParam<FurnaceConfig> {};
 
 TEST_P(SurfelBounceFurnace, ConvergesToTheGeometricSeries) {
   const float Le = 1.f, rho = 0.5f;
   for (uint32_t bounces = 1; bounces <= 4; ++bounces) {
-    const BounceOptions options = GetParam() ? splatted(bounces) : plain(bounces);
+    BounceOptions options = GetParam() == FurnaceConfig::kPlain ? plain(bounces) : splatted(bounces);
+    if (GetParam() == FurnaceConfig::kDefaults) {
+      options = BounceOptions{};
+      options.bounces = bounces;
+    }
     const std::vector<Surfel> out = add_bounces(furnace(Le, rho), options, tree::BuildOptions{});
     ASSERT_EQ(out.size(), 6u * 40u * 40u);
     double expect = 0, term = Le;
@@ -74,13 +86,15 @@ TEST_P(SurfelBounceFurnace, ConvergesToTheGeometricSeries) {
       EXPECT_NEAR(s.radiance.x, expect, 0.02 * expect) << "bounces " << bounces;
       EXPECT_FLOAT_EQ(s.radiance.z, Le);  // no albedo: emission only
     }
-    std::printf("furnace, %u bounce(s)%s: mean radiance %.4f, exact %.4f\n", bounces,
-                GetParam() ? " splatted" : "", sum / double(count), expect);
+    std::printf("furnace, %u bounce(s) %s: mean radiance %.4f, exact %.4f\n", bounces,
+                furnace_name({GetParam(), 0}).c_str(), sum / double(count), expect);
     EXPECT_GT(count, 1000u);
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Splatting, SurfelBounceFurnace, ::testing::Bool());
+INSTANTIATE_TEST_SUITE_P(Configs, SurfelBounceFurnace,
+                         ::testing::Values(FurnaceConfig::kPlain, FurnaceConfig::kSplatted, FurnaceConfig::kDefaults),
+                         furnace_name);
 
 TEST(SurfelBounce, FactorizedBouncesAgree) {
   BounceOptions o = plain(3);
@@ -195,6 +209,86 @@ TEST(SurfelBounce, SplattedBounceFollowsTheUnsplattedOne) {
   EXPECT_LT(vfp.rel_worst, 0.01);
 }
 
+TEST(SurfelBounce, CoarseBounceStaysNearTheFullOne) {
+  // Three bounces in the reflecting room: the default (coarse: one surfel
+  // in 16 gathered at N = 4 and 0.3 sr, the others interpolated) against
+  // the full bounce (every surfel gathered at N = 8 and 0.03 sr, the
+  // behaviour before the coarse options), both splatted.
+  const std::vector<Surfel> room = reflecting_room(12000);
+  const std::vector<Surfel> direct = add_bounces(room, plain(1), tree::BuildOptions{});
+  BounceOptions full = splatted(3);
+  full.gather.method = GatherMethod::kFpbgi;
+  ASSERT_EQ(full.gather.microbuffer_resolution, 8u);
+  ASSERT_EQ(full.gather.max_solid_angle, 0.03f);
+  BounceOptions coarse;
+  coarse.bounces = 3;
+  ASSERT_GT(coarse.receiver_stride, 1u);  // the default is coarse
+  BounceOptions sparse_only = full;
+  sparse_only.receiver_stride = coarse.receiver_stride;
+  const std::vector<Surfel> f = add_bounces(room, full, tree::BuildOptions{});
+  const std::vector<Surfel> c = add_bounces(room, coarse, tree::BuildOptions{});
+  const std::vector<Surfel> s = add_bounces(room, sparse_only, tree::BuildOptions{});
+  const IndirectDifference cf = indirect_difference(c, f, direct);
+  const IndirectDifference sf = indirect_difference(s, f, direct);
+  // Per-surfel radiance (direct + indirect), relative RMS.
+  double sum2 = 0, sum = 0;
+  size_t n = 0;
+  for (size_t i = 0; i < f.size(); ++i) {
+    if (!(f[i].albedo.y > 0.f)) continue;
+    const double d = double(c[i].radiance.y) - double(f[i].radiance.y);
+    sum2 += d * d;
+    sum += f[i].radiance.y;
+    ++n;
+  }
+  const double radiance_rel_rms = std::sqrt(sum2 / double(n)) / (sum / double(n));
+  std::printf("[ measured ] room, 3 bounces, coarse default against full: radiance rel rms %.4f; indirect "
+              "rel rms %.4f, worst %.3f (mean indirect %.4f); stride alone %.4f, worst %.3f\n",
+              radiance_rel_rms, cf.rel_rms, cf.rel_worst, cf.mean, sf.rel_rms, sf.rel_worst);
+  EXPECT_GT(cf.mean, 0.01);
+  // Bounds ~1.5x what was measured: radiance 0.029, indirect 0.068
+  // (worst 0.40), the stride alone 0.042 (worst 0.48; docs/gather.md,
+  // section 9c). The worst surfels lie next to a contact (a block on the
+  // floor), closer to it than any representative.
+  EXPECT_LT(radiance_rel_rms, 0.045);
+  EXPECT_LT(cf.rel_rms, 0.10);
+  EXPECT_LT(sf.rel_rms, 0.065);
+}
+
+TEST(SurfelBounce, CoarseBounceOptionsAreValidatedNamingTheField) {
+  const auto message = [](const BounceOptions& b) {
+    try {
+      b.validate();
+    } catch (const InvalidArgument& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  BounceOptions o;
+  EXPECT_EQ(message(o), "");
+  o.receiver_stride = 0;
+  EXPECT_NE(message(o).find("bounce_receiver_stride"), std::string::npos) << message(o);
+  o.receiver_stride = BounceOptions::kMaxReceiverStride + 1;
+  EXPECT_NE(message(o).find("bounce_receiver_stride"), std::string::npos) << message(o);
+  o.receiver_stride = 1;
+  EXPECT_EQ(message(o), "");
+  o.gather.microbuffer_resolution = 3;
+  EXPECT_NE(message(o).find("bounce_microbuffer_resolution"), std::string::npos) << message(o);
+  o.gather.microbuffer_resolution = 64;
+  EXPECT_NE(message(o).find("bounce_microbuffer_resolution"), std::string::npos) << message(o);
+  o.gather.microbuffer_resolution = 8;
+  o.gather.max_solid_angle = 0.f;
+  EXPECT_NE(message(o).find("bounce_max_solid_angle"), std::string::npos) << message(o);
+  o.gather.max_solid_angle = std::nanf("");
+  EXPECT_NE(message(o).find("bounce_max_solid_angle"), std::string::npos) << message(o);
+  o.gather.max_solid_angle = 0.03f;
+  EXPECT_EQ(message(o), "");
+  std::vector<Surfel> floor;
+  test::add_quad(floor, {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, 4, 4, C3f(0.3f));
+  o.bounces = 2;
+  o.receiver_stride = 0;
+  EXPECT_THROW(add_bounces(floor, o, tree::BuildOptions{}), InvalidArgument);
+}
+
 TEST(SurfelBounce, ViewSolidAngleIsValidated) {
   BounceOptions o;
   o.view_solid_angle = -0.01f;
@@ -213,6 +307,11 @@ TEST(SurfelBounce, ViewSolidAngleIsValidated) {
   EXPECT_NE(message(o).find("bounce_view_solid_angle"), std::string::npos);
   o.view_solid_angle = 0.f;  // auto
   EXPECT_EQ(message(o), "");
+  // Half of FPBGI's split at the bounce gather's resolution: 0.1 rad at
+  // the default N = 4, 0.05 at N = 8.
+  ASSERT_EQ(o.gather.microbuffer_resolution, 4u);
+  EXPECT_NEAR(o.effective_view_solid_angle(), 0.5f * 3.14159265f * 0.1f * 0.1f, 1e-6f);
+  o.gather.microbuffer_resolution = 8;
   EXPECT_NEAR(o.effective_view_solid_angle(), 0.5f * 3.14159265f * 0.05f * 0.05f, 1e-6f);
   o.view_solid_angle = 0.02f;
   EXPECT_EQ(message(o), "");

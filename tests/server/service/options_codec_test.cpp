@@ -193,6 +193,49 @@ TEST(OptionsCodec, BounceSplattingIsABuildOptionWithItsOwnKey) {
   }
 }
 
+TEST(OptionsCodec, CoarseBounceOptionsAreBuildOptionsWithTheirOwnKey) {
+  OpenOptions defaults;
+  v1::BuildOptions proto;
+  // Unset: the daemon's defaults.
+  const OpenOptions unset = decode_open_options(proto, defaults);
+  EXPECT_EQ(unset.bounce.receiver_stride, defaults.bounce.receiver_stride);
+  EXPECT_EQ(unset.bounce.gather.microbuffer_resolution, defaults.bounce.gather.microbuffer_resolution);
+  EXPECT_EQ(unset.bounce.gather.max_solid_angle, defaults.bounce.gather.max_solid_angle);
+  // Today's full bounce, asked for explicitly.
+  proto.set_bounce_receiver_stride(1);
+  proto.set_bounce_microbuffer_resolution(8);
+  proto.set_bounce_max_solid_angle(0.03f);
+  const OpenOptions o = decode_open_options(proto, defaults);
+  EXPECT_EQ(o.bounce.receiver_stride, 1u);
+  EXPECT_EQ(o.bounce.gather.microbuffer_resolution, 8u);
+  EXPECT_EQ(o.bounce.gather.max_solid_angle, 0.03f);
+  const v1::BuildOptions back = encode_open_options(o);
+  EXPECT_EQ(back.bounce_receiver_stride(), 1u);
+  EXPECT_EQ(back.bounce_microbuffer_resolution(), 8u);
+  EXPECT_EQ(back.bounce_max_solid_angle(), 0.03f);
+  EXPECT_NE(open_options_key(o), open_options_key(defaults));
+  const auto error_naming = [&](v1::BuildOptions bad) {
+    try {
+      decode_open_options(bad, defaults);
+    } catch (const InvalidArgument& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  v1::BuildOptions bad = proto;
+  bad.set_bounce_receiver_stride(0);
+  EXPECT_NE(error_naming(bad).find("bounce_receiver_stride"), std::string::npos) << error_naming(bad);
+  bad = proto;
+  bad.set_bounce_receiver_stride(65);
+  EXPECT_NE(error_naming(bad).find("bounce_receiver_stride"), std::string::npos) << error_naming(bad);
+  bad = proto;
+  bad.set_bounce_microbuffer_resolution(2);
+  EXPECT_NE(error_naming(bad).find("bounce_microbuffer_resolution"), std::string::npos) << error_naming(bad);
+  bad = proto;
+  bad.set_bounce_max_solid_angle(-0.1f);
+  EXPECT_NE(error_naming(bad).find("bounce_max_solid_angle"), std::string::npos) << error_naming(bad);
+}
+
 TEST(OptionsCodec, SamplerAndAdaptiveSpacingAreBuildOptionsWithTheirOwnKey) {
   OpenOptions defaults;
   v1::BuildOptions proto;
