@@ -236,6 +236,12 @@ class MaterialXLooks:
 
     def _document(self, file):
         if file not in self._documents:
+            # The document is a file the scene resolves: confined to the
+            # scene roots like its layers (asset_roots.py); raises
+            # OutsideRoots, which refuses the whole read.
+            roots = getattr(self._stream, "_roots", None)
+            if roots is not None:
+                roots.check(file, "a MaterialX document")
             try:
                 doc = mx.createDocument()
                 mx.readFromXmlFile(doc, file)

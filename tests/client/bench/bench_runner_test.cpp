@@ -37,6 +37,7 @@ BenchOptions tiny_options(const fs::path& out) {
   o.pbgi.default_target_surfels = 2000;
   o.pbgi.default_microbuffer_resolution = 8;
   o.pbgi.default_max_solid_angle = 0.1f;
+  o.pbgi.pixel_samples = 1;  // the sweep at one camera ray, the extra render at 4
   o.pbgi.extra_pixel_samples = {4};
   o.pbgi.methods = {GatherMethod::kPbgi, GatherMethod::kFpbgi};
   // The widest far/near split: at 24x24 the clusters are so large against

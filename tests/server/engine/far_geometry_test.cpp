@@ -116,7 +116,11 @@ class FarGeometry : public ::testing::Test {
     EXPECT_GE(far->info.tree.surfel_count, plain->info.tree.surfel_count);
     // Dropped: said so, naming the prim; kept: not a word about it.
     EXPECT_EQ(mentions(far->scene->warnings, std::string(kFarPrim) + ": "), dropped);
-    EXPECT_EQ(mentions(far->scene->warnings, "dropped for float precision"), dropped);
+    // Beyond +-1e9 the scene decoder drops it (server/ingest/coordinate_limit.h);
+    // nearer, the render frame does (unrepresentable_geometry.h).
+    EXPECT_EQ(mentions(far->scene->warnings, "dropped for float precision") ||
+                  mentions(far->scene->warnings, "values that are not finite or exceed"),
+              dropped);
     if (dropped) EXPECT_EQ(far->scene->triangle_count(), plain->scene->triangle_count());
     else EXPECT_GT(far->scene->triangle_count(), plain->scene->triangle_count());
   }

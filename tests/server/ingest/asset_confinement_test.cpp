@@ -174,6 +174,29 @@ def Volume "Fog"
                  Escape::kFile);
 }
 
+// A MaterialX look (materialx_looks.py reads the document itself: usd-core
+// cannot compose .mtlx) is a file the scene resolves like any other.
+TEST_F(AssetConfinement, MaterialXDocumentOutsideIsRefused) {
+  write(outside / "secret.mtlx", "<?xml version=\"1.0\"?>\n<materialx version=\"1.38\"/>\n");
+  expect_refused("mtlx.usda", R"(#usda 1.0
+def Material "Look" (
+    prepend references = @../elsewhere/secret.mtlx@</MaterialX/Materials/M>
+)
+{
+}
+def Mesh "Floor" (
+    prepend apiSchemas = ["MaterialBindingAPI"]
+)
+{
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    rel material:binding = </Look>
+}
+)",
+                 Escape::kFile);
+}
+
 TEST_F(AssetConfinement, DracoFileOutsideIsRefused) {
   expect_refused("draco.usda",
                  "#usda 1.0\ndef Mesh \"D\" (\n    prepend references = @../elsewhere/secret.drc@\n)\n{\n}\n");

@@ -7,6 +7,7 @@
 #include "storage/format/errors.h"
 #include "storage/tree/memory_tree.h"
 #include "storage/tree/tree_builder.h"
+#include "tests/server/render/surfel_tree.h"
 #include "tests/server/scene/test_scenes.h"
 
 #include <gtest/gtest.h>
@@ -67,14 +68,7 @@ Scene slab_scene() {
   return s;
 }
 
-tree::MemoryTree surfel_tree(const Scene& s) {
-  const RayScene rays(s);
-  SurfelOptions so;
-  so.target_surfels = 20000;
-  auto surfels = sample_surfels(s, so);
-  shade_direct(rays, so, surfels);
-  return tree::MemoryTree(tree::build_tree(std::move(surfels), tree::BuildOptions{}));
-}
+tree::MemoryTree surfel_tree(const Scene& s) { return test::direct_light_tree(s, 20000); }
 
 RenderOptions options(InterpolationMode mode, uint32_t pixel_samples = 1) {
   RenderOptions o;

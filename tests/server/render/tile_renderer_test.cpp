@@ -4,6 +4,7 @@
 #include "storage/format/errors.h"
 #include "storage/tree/memory_tree.h"
 #include "storage/tree/tree_builder.h"
+#include "tests/server/render/surfel_tree.h"
 #include "tests/server/scene/test_scenes.h"
 
 #include <gtest/gtest.h>
@@ -78,6 +79,7 @@ TEST(RenderTile, EmptyTreeGivesZeroIndirect) {
   GatherCounters counters;
   RenderOptions per_sample;  // one gather per camera sample, counted below
   per_sample.interpolation.mode = InterpolationMode::kOff;
+  per_sample.pixel_samples = 1;
   const TileAovs out =
       render_tile(rays, tree, *s.find_camera("/cam"), kSize, kSize, whole(), per_sample, &counters);
   ASSERT_EQ(out.beauty.size(), 3u * kSize * kSize);
@@ -100,6 +102,7 @@ TileAovs center_pixel_direct(const Scene& s) {
   const EmptyTree tree;
   RenderOptions o;
   o.light_samples = 1024;
+  o.pixel_samples = 1;  // the pixel's centre: the analytic point
   const uint32_t c = kSize / 2;
   return render_tile(rays, tree, *s.find_camera("/cam"), kSize, kSize, {c, c, c + 1, c + 1}, o);
 }
@@ -227,14 +230,7 @@ Scene red_wall_scene() {
   return s;
 }
 
-tree::MemoryTree direct_light_tree(const Scene& s) {
-  const RayScene rays(s);
-  SurfelOptions so;
-  so.target_surfels = 4000;
-  auto surfels = sample_surfels(s, so);
-  shade_direct(rays, so, surfels);
-  return tree::MemoryTree(tree::build_tree(std::move(surfels), tree::BuildOptions{}));
-}
+tree::MemoryTree direct_light_tree(const Scene& s) { return test::direct_light_tree(s, 4000); }
 
 // The pixel at x ~ -0.6 on the floor, looking down.
 constexpr uint32_t kRedSideRow = kSize / 2;
@@ -263,6 +259,7 @@ TEST(RenderTile, GlossyMaterialsReflectIndirectLightTowardsTheCamera) {
   // metal's is (a glossy sample always gathers itself).
   RenderOptions per_sample;
   per_sample.interpolation.mode = InterpolationMode::kOff;
+  per_sample.pixel_samples = 1;  // one glossy receiver, counted below
   const TileAovs matte = render_tile(matte_rays, tree, *s.find_camera("/cam"), kSize, kSize,
                                      kRedSidePixel, per_sample);
   // The floor turned into a rough metal: diffuse lobe 0, F0 = albedo.
