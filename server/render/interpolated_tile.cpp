@@ -25,8 +25,8 @@ struct Cell {
 // A sample that may take the value of one corner only (across an edge from
 // the others) takes it as a constant in cells up to this side, in pixels;
 // wider cells are split. Irradiance along one surface varies slowly on this
-// scale; refining every edge down to single pixels made edges most of the
-// gathers.
+// scale, and refining every silhouette down to single pixels would spend
+// gathers where nothing changes.
 constexpr uint32_t kMaxSingleCornerCell = 4;
 // A corner on another surface is next to a sample (a crease between them)
 // when their distance is at most this many times what their distance on
