@@ -1,6 +1,7 @@
 // Build keys: every option that changes the stored bytes changes the key;
 // the defaults keep the key they had before payload codecs were options.
 #include "server/engine/build_key.h"
+#include "tests/support/perturbed_option.h"
 
 #include <gtest/gtest.h>
 
@@ -165,6 +166,40 @@ TEST(BuildKey, KeysOfExistingOptionsArePinned) {
   e.default_light = true;
   e.fog.extinction_per_density = 3.f;
   EXPECT_EQ(page_set_build_key(scene, e), "799548a721d2e172693ff756116e98cb");
+}
+
+// Build-key membership is what the tables say: every option marked as a
+// member changes the key (where its group applies: a learned LUT, a camera,
+// bounce gathers with splatting), every other one does not.
+TEST(BuildKey, MembershipFollowsTheOptionsTables) {
+  OpenOptions context;
+  context.tree.payload_codec = tree::PayloadCodecOption::kQuantizedSh;
+  context.surfels.sampler = SurfelSampler::kPoisson;
+  context.surfels.camera = "/Camera";
+  context.bounce.bounces = 2;
+  const std::string base = page_set_build_key("h", context);
+  int members = 0, others = 0;
+  options::for_each_field(kOpenOptionTable, [&](const auto& probe) {
+    OpenOptions changed = context;
+    // The probe's own field, found again by walking to it with its name.
+    options::for_each_value(
+        kOpenOptionTable,
+        [&](const auto& f, auto& values) {
+          if constexpr (std::is_same_v<std::remove_cvref_t<decltype(f)>, std::remove_cvref_t<decltype(probe)>>) {
+            if (f.name == probe.name && f.get == probe.get) f.set(values, testing::perturbed(f.get(values)));
+          }
+        },
+        changed);
+    const bool keyed = probe.spec.key != options::KeyMember::kNo;
+    (keyed ? members : others)++;
+    if (keyed) {
+      EXPECT_NE(page_set_build_key("h", changed), base) << probe.name << " is a member but does not change the key";
+    } else {
+      EXPECT_EQ(page_set_build_key("h", changed), base) << probe.name << " is not a member but changes the key";
+    }
+  });
+  EXPECT_GT(members, 20);
+  EXPECT_GT(others, 3);  // default_light and the fog
 }
 
 }  // namespace
