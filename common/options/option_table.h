@@ -148,9 +148,11 @@ struct Flag {
   };
   std::string_view name;  // "--mb-res"; empty: no flag
   std::string_view help;  // as printed by --help, defaults in [brackets]
-  Check check{};          // enums are checked against their names unless
+  Check check{};          // (an enum's flag is checked against its names)
   Kind kind = Kind::kValue;
-  std::span<const FlagAlias> aliases{};  // ... aliases are given: then the daemon checks
+  // An enum's other spellings; with aliases the flag takes any text and
+  // the daemon refuses an unknown name.
+  std::span<const FlagAlias> aliases{};
 };
 
 struct FieldSpec {
