@@ -44,21 +44,29 @@ GatherOptions decode_gather_options(const v1::GatherOptions& proto,
   return out;
 }
 
+InterpolationOptions decode_interpolation_options(const v1::GatherOptions& proto,
+                                                  const InterpolationOptions& defaults) {
+  InterpolationOptions out = defaults;
+  switch (proto.interpolation()) {
+    case v1::GatherOptions::INTERPOLATION_OFF: out.mode = InterpolationMode::kOff; break;
+    case v1::GatherOptions::INTERPOLATION_AUTO: out.mode = InterpolationMode::kAuto; break;
+    case v1::GatherOptions::INTERPOLATION_DEFAULT: break;
+    default:
+      throw InvalidArgument(fmt::format("GatherOptions.interpolation = {}: unknown", int(proto.interpolation())));
+  }
+  if (proto.has_interpolation_tolerance()) out.tolerance = proto.interpolation_tolerance();
+  out.spacing = or_default(proto.interpolation_spacing(), defaults.spacing);
+  out.validate();
+  return out;
+}
+
 RenderOptions decode_render_options(const v1::GatherOptions& proto,
                                     const RenderOptions& defaults) {
   RenderOptions out = defaults;
   out.gather = decode_gather_options(proto, defaults.gather);
   out.light_samples = or_default(proto.light_samples(), defaults.light_samples);
   out.pixel_samples = or_default(proto.pixel_samples(), defaults.pixel_samples);
-  switch (proto.interpolation()) {
-    case v1::GatherOptions::INTERPOLATION_OFF: out.interpolation.mode = InterpolationMode::kOff; break;
-    case v1::GatherOptions::INTERPOLATION_AUTO: out.interpolation.mode = InterpolationMode::kAuto; break;
-    case v1::GatherOptions::INTERPOLATION_DEFAULT: break;
-    default:
-      throw InvalidArgument(fmt::format("GatherOptions.interpolation = {}: unknown", int(proto.interpolation())));
-  }
-  if (proto.has_interpolation_tolerance()) out.interpolation.tolerance = proto.interpolation_tolerance();
-  out.interpolation.spacing = or_default(proto.interpolation_spacing(), defaults.interpolation.spacing);
+  out.interpolation = decode_interpolation_options(proto, defaults.interpolation);
   if (proto.has_dome_visible()) out.dome_visible = proto.dome_visible();
   out.validate();
   return out;
