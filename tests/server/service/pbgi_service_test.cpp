@@ -216,7 +216,9 @@ TEST_F(PbgiServiceTest, GatherRequestErrors) {
 // A bad interpolation tolerance is refused on the Gather path too (it was
 // ignored there while Gather gathered every receiver).
 TEST_F(PbgiServiceTest, GatherRefusesBadInterpolationOptions) {
-  const std::string id = open_id();
+  std::vector<v1::OpenSceneEvent> events;
+  ASSERT_TRUE(open("lit.usda", &events).ok());  // a real tree: the request could be served
+  const std::string id = events.back().ready().scene_id();
   const float up[3] = {0, 0, 1};
   v1::GatherRequest request;
   request.set_scene_id(id);
