@@ -289,7 +289,10 @@ TEST_F(Integration, GatherShowsColourBleedingAndIndirectOnlyCeiling) {
   const client::GatherOutput out =
       client->gather(info->scene_id(), positions, normals, fast_gather());
   ASSERT_EQ(out.irradiance.size(), positions.size());
-  EXPECT_EQ(out.stats.receivers(), positions.size());
+  // Gathered (receivers) and sent: interpolation may gather fewer.
+  EXPECT_EQ(out.stats.requested_receivers(), positions.size());
+  EXPECT_GT(out.stats.receivers(), 0u);
+  EXPECT_LE(out.stats.receivers(), positions.size());
   Imath::C3f red(0, 0, 0), green(0, 0, 0);
   for (int i = 0; i < 3; ++i) red += out.irradiance[i];
   for (int i = 3; i < 6; ++i) green += out.irradiance[i];
