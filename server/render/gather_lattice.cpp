@@ -51,25 +51,4 @@ bool corners_disagree(std::span<const GatherResult* const> corners, float tolera
   return false;
 }
 
-GatherResult mix_results(const std::array<const GatherResult*, 4>& corners, const std::array<float, 4>& weights) {
-  GatherResult out;
-  out.ao = 0.f;
-  float sum = 0.f;
-  for (int i = 0; i < 4; ++i) {
-    if (weights[i] <= 0.f) continue;
-    sum += weights[i];
-    out.irradiance += weights[i] * corners[i]->irradiance;
-    out.ao += weights[i] * corners[i]->ao;
-    out.glossy += weights[i] * corners[i]->glossy;
-    out.bent_normal += weights[i] * corners[i]->bent_normal;
-  }
-  const float inv = 1.f / sum;
-  out.irradiance *= inv;
-  out.ao *= inv;
-  out.glossy *= inv;
-  const float len = out.bent_normal.length();
-  out.bent_normal = len > 0.f ? out.bent_normal / len : V3f(0.f);
-  return out;
-}
-
 }  // namespace pbgi

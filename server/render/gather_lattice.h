@@ -25,6 +25,7 @@
 #pragma once
 
 #include "server/gather/gather.h"
+#include "server/gather/result_mix.h"  // mix_results: how samples take corners' values
 #include "server/render/camera_sample.h"
 #include "server/render/render_options.h"
 
@@ -46,9 +47,5 @@ bool may_interpolate(const SurfaceSample& s, const SurfaceSample& corner);
 // disagree by more than `tolerance`: a luminance off their mean by more than
 // tolerance x the mean, or an AO off by more than tolerance?
 bool corners_disagree(std::span<const GatherResult* const> corners, float tolerance);
-
-// The mix of the corners' results with these weights (sum > 0): irradiance
-// and AO are averaged, the bent normal renormalized.
-GatherResult mix_results(const std::array<const GatherResult*, 4>& corners, const std::array<float, 4>& weights);
 
 }  // namespace pbgi

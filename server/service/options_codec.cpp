@@ -22,6 +22,14 @@ GatherOptions decode_gather_options(const v1::GatherOptions& proto,
   return out;
 }
 
+InterpolationOptions decode_interpolation_options(const v1::GatherOptions& proto,
+                                                  const InterpolationOptions& defaults) {
+  InterpolationOptions out = defaults;
+  decode_fields(kInterpolationOptionTable, proto, out);
+  out.validate();
+  return out;
+}
+
 RenderOptions decode_render_options(const v1::GatherOptions& proto,
                                     const RenderOptions& defaults) {
   RenderOptions out = defaults;
