@@ -22,11 +22,11 @@ std::string where(const tree::Page& page, size_t node) {
 
 PageView::PageView(const tree::Page& page)
     : id(page.id), glossy(page.glossy), surfel_count(page.surfels.size()) {
+  static_assert(tree::Node::kMaxChildren == 2, "HotNode::children holds every child");
   nodes.resize(page.nodes.size());
-  looks.resize(page.nodes.size());
   for (size_t i = 0; i < page.nodes.size(); ++i) {
     const tree::Node& n = page.nodes[i];
-    HotNode& h = nodes[i];
+    HotNode& h = nodes[i].hot;
     h.cx = n.center.x;
     h.cy = n.center.y;
     h.cz = n.center.z;
@@ -43,7 +43,7 @@ PageView::PageView(const tree::Page& page)
     h.coplanar_cos = cone && h.cone_cos > cos_c ? cos_c * h.cone_cos + sin_c * h.cone_sin : 2.f;
 
     uint32_t flags = 0;
-    NodeLook& look = looks[i];
+    NodeLook& look = nodes[i].look;
     look = NodeLook{0.f, 0.f, 0.f, n.area, 0.f, 0.f, 0.f, 0.f, FanCone{}};
     if (n.cone_cos >= kNarrowConeCos) {
       // The flat model of node_appearance(): DC ratio and the cone's fan.
@@ -102,7 +102,7 @@ PageView::PageView(const tree::Page& page)
         throw CorruptionError(where(page, i) + ": child_count " + std::to_string(n.child_count) +
                               " exceeds " + std::to_string(tree::Node::kMaxChildren));
       }
-      h.first = uint32_t(links.size());
+      h.first = 0;
       h.count = flags | n.child_count;
       for (uint32_t c = 0; c < n.child_count; ++c) {
         const tree::NodeRef ref = n.children[c];
@@ -112,7 +112,7 @@ PageView::PageView(const tree::Page& page)
                                 " is out of range (" + std::to_string(page.nodes.size()) +
                                 " nodes)");
         }
-        links.push_back(ref);
+        h.children[c] = ref;
       }
     }
   }
