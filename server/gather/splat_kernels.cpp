@@ -45,12 +45,13 @@ HWY_INLINE VF InnerCdf(DF d, VF x, VF inv) {
 
 // The tent's masses over columns first, first + 1, ..., first + last of a
 // tent centered at c (inv = 1 / half size): inner edges only, the CDF being
-// 1 at the support's end. Lanes with count (last) above t get 0 at t.
-HWY_INLINE void Masses(DF d, VF c, VF inv, VI first, VI last, float pw, float* out,
-                       size_t stride) {
+// 1 at the support's end. Written for columns 0 .. count - 1 (count: the
+// largest last + 1 of the lanes); lanes with last below t get 0 at t.
+HWY_INLINE void Masses(DF d, VF c, VF inv, VI first, VI last, uint32_t count, float pw,
+                       float* out, size_t stride) {
   const DI di;
   VF prev = hn::Zero(d);
-  for (uint32_t t = 0; t < SplatBatch::kMaxSide; ++t) {
+  for (uint32_t t = 0; t < count; ++t) {
     const auto before_last = hn::RebindMask(d, hn::Lt(hn::Set(di, int32_t(t)), last));
     const auto at_last = hn::RebindMask(d, hn::Eq(hn::Set(di, int32_t(t)), last));
     // -1 + pw * float(i + 1) - c with i = first + t.
@@ -182,17 +183,21 @@ void SplatKernel(const SplatLayout& layout, SplatBatch& b) {
     hn::Store(hn::IfThenElseZero(inside_i, hn::Add(ci, hn::Set(di, 1))), di, b.ni + i);
     hn::Store(hn::IfThenElseZero(inside_i, hn::Add(cj, hn::Set(di, 1))), di, b.nj + i);
 
-    // 4. Masses (0 outside the fast path) and the solid angle they cover.
+    // 4. Masses (0 outside the fast path) and the solid angle they cover,
+    // over as many columns and rows as the widest splat of the vector has
+    // (most are sub-pixel: 2 or 3).
     const float pw = layout.pixel_width;
-    Masses(d, u, hn::Div(one, hu), i0_in, ci_in, pw, &b.mu[0][i], SplatBatch::kCapacity);
-    Masses(d, v, hn::Div(one, hv), j0_in, cj_in, pw, &b.mv[0][i], SplatBatch::kCapacity);
+    const uint32_t cols = uint32_t(hn::GetLane(hn::MaxOfLanes(di, ci_in))) + 1;
+    const uint32_t rows = uint32_t(hn::GetLane(hn::MaxOfLanes(di, cj_in))) + 1;
+    Masses(d, u, hn::Div(one, hu), i0_in, ci_in, cols, pw, &b.mu[0][i], SplatBatch::kCapacity);
+    Masses(d, v, hn::Div(one, hv), j0_in, cj_in, rows, pw, &b.mv[0][i], SplatBatch::kCapacity);
     const VI base = hn::Mul(home, hn::Set(di, n * n));
     VF covered = zero;
-    for (uint32_t r = 0; r < SplatBatch::kMaxSide; ++r) {
+    for (uint32_t r = 0; r < rows; ++r) {
       const auto row_on = hn::And(inside_i, hn::Not(hn::Lt(cj_in, hn::Set(di, int32_t(r)))));
       const VI row = hn::Add(base, hn::Mul(hn::Add(j0_in, hn::Set(di, int32_t(r))), hn::Set(di, n)));
       VF row_sum = zero;
-      for (uint32_t c = 0; c < SplatBatch::kMaxSide; ++c) {
+      for (uint32_t c = 0; c < cols; ++c) {
         const auto on = hn::And(row_on, hn::Not(hn::Lt(ci_in, hn::Set(di, int32_t(c)))));
         const VI index = hn::IfThenElseZero(on, hn::Add(row, hn::Add(i0_in, hn::Set(di, int32_t(c)))));
         const VF solid = hn::GatherIndex(d, layout.solid_angles, index);

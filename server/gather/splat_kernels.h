@@ -45,10 +45,10 @@ struct SplatBatch {
   alignas(64) int32_t home[kCapacity];
   // ... and, where inside[i] != 0 (the tent's support lies inside the home
   // face and spans at most kMaxSide columns and rows), the first column and
-  // row i0, j0, the counts ni, nj, the masses mu[c][i] of columns i0 + c and
-  // mv[r][i] of rows j0 + r, and the solid angle they cover,
-  // sum_r mv[r] sum_c mu[c] Omega(pixel), summed in row order. All zero
-  // where inside[i] == 0.
+  // row i0, j0, the counts ni, nj, the masses mu[c][i] of columns i0 + c
+  // (c < ni) and mv[r][i] of rows j0 + r (r < nj), and the solid angle they
+  // cover, sum_r mv[r] sum_c mu[c] Omega(pixel), summed in row order.
+  // inside, i0, j0, ni, nj and covered are zero where inside[i] == 0.
   alignas(64) int32_t inside[kCapacity];
   alignas(64) int32_t i0[kCapacity], j0[kCapacity], ni[kCapacity], nj[kCapacity];
   alignas(64) float mu[kMaxSide][kCapacity], mv[kMaxSide][kCapacity];

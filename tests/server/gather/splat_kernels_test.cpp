@@ -152,9 +152,11 @@ TEST(SplatKernel, SameBitsOnEveryTarget) {
         EXPECT_EQ(b.ni[i], ref.ni[i]) << where << " splat " << i;
         EXPECT_EQ(b.nj[i], ref.nj[i]) << where << " splat " << i;
         EXPECT_EQ(bits(b.covered[i]), bits(ref.covered[i])) << where << " splat " << i;
-        for (uint32_t c = 0; c < SplatBatch::kMaxSide; ++c) {
+        for (int32_t c = 0; c < ref.ni[i]; ++c) {
           EXPECT_EQ(bits(b.mu[c][i]), bits(ref.mu[c][i])) << where << " splat " << i;
-          EXPECT_EQ(bits(b.mv[c][i]), bits(ref.mv[c][i])) << where << " splat " << i;
+        }
+        for (int32_t r = 0; r < ref.nj[i]; ++r) {
+          EXPECT_EQ(bits(b.mv[r][i]), bits(ref.mv[r][i])) << where << " splat " << i;
         }
       }
     }
