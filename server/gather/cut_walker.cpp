@@ -74,8 +74,11 @@ inline float luminance(const Imath::C3f& c) {
   return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z;
 }
 
-// Starts loading a node's traversal data (one line; page_views.h).
-inline void prefetch(const ViewNode* n) { __builtin_prefetch(&n->hot); }
+// Starts loading a node's traversal line and its look (page_views.h).
+inline void prefetch(const PageView& view, uint32_t index) {
+  __builtin_prefetch(&view.nodes[index]);
+  __builtin_prefetch(&view.looks[index]);
+}
 
 }  // namespace
 
@@ -208,7 +211,7 @@ void CutWalker::push_children(const StackEntry& parent, const HotNode& h) {
       }
     }
     // The node is popped soon; start fetching it now.
-    prefetch(&child_view->nodes[ref.index]);
+    prefetch(*child_view, ref.index);
     stack_.push_back({child_view, ref.index, pin});
   }
   if (stack_.size() > kMaxStack) {
@@ -230,7 +233,7 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
   if (h.narrow()) {
     // Flat node: coverage from its cone, mean radiance (node_appearance.h),
     // both precomputed in the page view.
-    const NodeLook& look = e.view->nodes[e.index].look;
+    const NodeLook& look = e.view->looks[e.index];
     if (!(look.area > 0.f)) return true;
     const float coverage = narrow_coverage(-dir, Imath::V3f(h.ax, h.ay, h.az),
                                            Imath::V3f(look.mx, look.my, look.mz), look.fan);
@@ -243,7 +246,7 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
   } else if (h.bipolar()) {
     // Both faces of a thin wall: only the one turned towards the receiver.
     const Bipolar& b = e.view->bipolar[e.view->bipolar_index[e.index]];
-    const NodeLook& look = e.view->nodes[e.index].look;
+    const NodeLook& look = e.view->looks[e.index];
     float coverage;
     if (!(look.area > 0.f) || !bipolar_appearance(b, -dir, coverage, radiance)) return true;
     shape.omega = std::min(look.area * coverage, disk) / d2;
@@ -358,8 +361,8 @@ void CutWalker::walk(const CutOf& cut_of) {
   while (!stack_.empty()) {
     const StackEntry e = stack_.back();
     stack_.pop_back();
-    if (!stack_.empty()) prefetch(&stack_.back().view->nodes[stack_.back().index]);
-    const HotNode& h = e.view->nodes[e.index].hot;
+    if (!stack_.empty()) prefetch(*stack_.back().view, stack_.back().index);
+    const HotNode& h = e.view->nodes[e.index];
     ++visited;
     const Imath::V3f v(h.cx - p_.x, h.cy - p_.y, h.cz - p_.z);
     const float d2 = v.length2();
@@ -417,8 +420,8 @@ void CutWalker::walk_cluster_stack(const ClusterFrame& c, float eps, bool open_n
   while (!stack_.empty()) {
     const StackEntry e = stack_.back();
     stack_.pop_back();
-    if (!stack_.empty()) prefetch(&stack_.back().view->nodes[stack_.back().index]);
-    const HotNode& h = e.view->nodes[e.index].hot;
+    if (!stack_.empty()) prefetch(*stack_.back().view, stack_.back().index);
+    const HotNode& h = e.view->nodes[e.index];
     ++visited;
     const Imath::V3f v(h.cx - c.p.x, h.cy - c.p.y, h.cz - c.p.z);
     const float d2 = v.length2();

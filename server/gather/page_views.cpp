@@ -24,9 +24,10 @@ PageView::PageView(const tree::Page& page)
     : id(page.id), glossy(page.glossy), surfel_count(page.surfels.size()) {
   static_assert(tree::Node::kMaxChildren == 2, "HotNode::children holds every child");
   nodes.resize(page.nodes.size());
+  looks.resize(page.nodes.size());
   for (size_t i = 0; i < page.nodes.size(); ++i) {
     const tree::Node& n = page.nodes[i];
-    HotNode& h = nodes[i].hot;
+    HotNode& h = nodes[i];
     h.cx = n.center.x;
     h.cy = n.center.y;
     h.cz = n.center.z;
@@ -43,7 +44,7 @@ PageView::PageView(const tree::Page& page)
     h.coplanar_cos = cone && h.cone_cos > cos_c ? cos_c * h.cone_cos + sin_c * h.cone_sin : 2.f;
 
     uint32_t flags = 0;
-    NodeLook& look = nodes[i].look;
+    NodeLook& look = looks[i];
     look = NodeLook{0.f, 0.f, 0.f, n.area, 0.f, 0.f, 0.f, 0.f, FanCone{}};
     if (n.cone_cos >= kNarrowConeCos) {
       // The flat model of node_appearance(): DC ratio and the cone's fan.

@@ -1,21 +1,20 @@
 // The gather's own compact view of a tree page: what the traversal's hot
 // loop reads per node (bounding sphere, normal cone, precomputed cone
 // sine and coplanarity bound, child links) in one 64-byte cache line, and
-// next to it, in the following line, what a narrow-cone node shows when it
-// is splatted (NodeLook), apart from the 208-byte decoded tree::Node whose
+// in an array of its own what a narrow-cone node shows when it is splatted
+// (NodeLook, one line), apart from the 208-byte decoded tree::Node whose
 // SH payload only wide-cone splats read. Building a view costs about one
 // pass over the page's nodes; views are cached and reused by every
 // receiver, so the cull and cut tests of the ~3500 nodes a receiver visits
 // touch one line each and compute no square roots for cones.
 //
-// Why one 128-byte record per node rather than separate arrays: the walk
-// is bound by memory latency, not bandwidth (perf on bench_gather, docs/
-// gather.md section 12): with the child links and the looks in arrays of
-// their own, the load of a node's links and of a splatted node's look were
-// each a cache miss of their own (a third of push_children's and almost
-// half of splat_node's time). In one record the links share the node's
-// line, and the look's line is the one the CPU's adjacent-line prefetch
-// brings in with it.
+// The walk is bound by memory latency (perf on bench_gather and pbgi
+// bench, docs/gather.md section 12). The child links live in the node's
+// own line: in an array of their own, loading them was a cache miss of its
+// own (a third of push_children's time). Nodes stay dense, one line each,
+// in the depth-first pre-order of the page: a node's first child, popped
+// next, is the following line. A node's look is prefetched when the node
+// is pushed, so that it is on its way when the node is splatted.
 //
 // A view is derived from the page's content only. A TreeSource returns the
 // same content for a page id for its whole life (pages are immutable), so
@@ -50,7 +49,7 @@ struct alignas(64) HotNode {
   static constexpr uint32_t kLeaf = 1u << 31;       // in `count`: a leaf
   static constexpr uint32_t kInvisible = 1u << 30;  // in `count`: no area or NaN bounds
   // In `count`: a narrow normal cone (node_appearance.h); its appearance
-  // comes from its ViewNode::look without touching the tree::Node.
+  // comes from PageView::looks without touching the tree::Node.
   static constexpr uint32_t kNarrow = 1u << 29;
   // In `count`: a wide cone whose normals form two opposite sheets (both
   // faces of a thin wall, node_appearance.h); its appearance comes from
@@ -93,16 +92,10 @@ struct alignas(64) NodeLook {
 };
 static_assert(sizeof(NodeLook) == 64, "one cache line");
 
-// A node of the view: its traversal line, then its look's.
-struct ViewNode {
-  HotNode hot;
-  NodeLook look;
-};
-static_assert(sizeof(ViewNode) == 128);
-
 struct PageView {
   uint32_t id = 0;
-  std::vector<ViewNode> nodes;
+  std::vector<HotNode> nodes;
+  std::vector<NodeLook> looks;  // per node; meaningful for narrow ones
   // Bipolar nodes' faces; bipolar_index[i] (sized only when the page has
   // any) is node i's entry.
   std::vector<Bipolar> bipolar;
@@ -116,7 +109,8 @@ struct PageView {
   // a leaf's surfel range outside the page.
   explicit PageView(const tree::Page& page);
   size_t memory_bytes() const {
-    return sizeof(PageView) + nodes.capacity() * sizeof(ViewNode) +
+    return sizeof(PageView) + nodes.capacity() * sizeof(HotNode) +
+           looks.capacity() * sizeof(NodeLook) +
            bipolar.capacity() * sizeof(Bipolar) + bipolar_index.capacity() * sizeof(uint32_t);
   }
   // Whether `page` could be the page this view was built from.
