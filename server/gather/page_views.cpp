@@ -22,7 +22,6 @@ std::string where(const tree::Page& page, size_t node) {
 
 PageView::PageView(const tree::Page& page)
     : id(page.id), glossy(page.glossy), surfel_count(page.surfels.size()) {
-  static_assert(tree::Node::kMaxChildren == 2, "HotNode::children holds every child");
   nodes.resize(page.nodes.size());
   looks.resize(page.nodes.size());
   for (size_t i = 0; i < page.nodes.size(); ++i) {
