@@ -102,7 +102,7 @@ PageView::PageView(const tree::Page& page)
         throw CorruptionError(where(page, i) + ": child_count " + std::to_string(n.child_count) +
                               " exceeds " + std::to_string(tree::Node::kMaxChildren));
       }
-      h.first = uint32_t(links.size());
+      h.first = 0;
       h.count = flags | n.child_count;
       for (uint32_t c = 0; c < n.child_count; ++c) {
         const tree::NodeRef ref = n.children[c];
@@ -112,7 +112,7 @@ PageView::PageView(const tree::Page& page)
                                 " is out of range (" + std::to_string(page.nodes.size()) +
                                 " nodes)");
         }
-        links.push_back(ref);
+        h.children[c] = ref;
       }
     }
   }
