@@ -74,8 +74,7 @@ PageHeader open_page(std::span<const uint8_t> page, const PageLocation& where,
   }
   if (!is_known_page_format(h.format_version)) {
     throw VersionError(at + ": page format version " + std::to_string(h.format_version) +
-                       " is not supported by this build (reads " +
-                       known_versions(is_known_page_format) + ")");
+                       " is not supported by this build (reads " + known_versions(is_known_page_format) + ")");
   }
   if (h.format_version != expected_version) {
     throw CorruptionError(at + ": page format version " + std::to_string(h.format_version) +

@@ -233,7 +233,9 @@ TEST(PageRecords, ShapeLeafAndLinkRoundTrip) {
     const bool e0 = byte & 4, e1 = byte & 8;
     const bool want = (byte & 0xf0) == 0 && count <= 2 && (!e0 || count >= 1) && (!e1 || count >= 2);
     EXPECT_EQ(ok, want) << int(byte);
-    if (ok) EXPECT_EQ(encode_shape(sh), byte);
+    if (ok) {
+      EXPECT_EQ(encode_shape(sh), byte);
+    }
     if (byte == 255) break;
   }
 
