@@ -200,16 +200,7 @@ TEST(Runner, SceneWithoutCameraUsesTheAutoCamera) {
   std::atomic<int> auto_camera_tiles{0};
   server.service.render = [&](auto*, const v1::RenderTileRequest* r, v1::RenderTileResponse* out) {
     if (r->camera() == client::kAutoCamera) ++auto_camera_tiles;
-    const v1::Tile& t = r->tile();
-    const size_t pixels = size_t(t.x1() - t.x0()) * (t.y1() - t.y0());
-    const std::string rgb(3 * pixels * sizeof(float), '\0'), y(pixels * sizeof(float), '\0');
-    *out->mutable_tile() = t;
-    out->set_beauty(rgb);
-    out->set_direct(rgb);
-    out->set_indirect(rgb);
-    out->set_albedo(rgb);
-    out->set_ao(y);
-    return grpc::Status::OK;
+    return testing::coordinate_tile(r, out);
   };
   StressOptions options;
   options.servers = {server.address()};
