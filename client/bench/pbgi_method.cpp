@@ -183,7 +183,7 @@ namespace {
 // Names carry the payload codec unless it is the library default (derived),
 // so that a plain PBGI sweep keeps its names.
 std::string payload_suffix(const PayloadSpec& p) {
-  return p.codec == tree::PayloadCodecOption::kDerived ? "" : "/" + p.label();
+  return p.codec == tree::PayloadCodecOption::kDerived ? "" : fmt::format("/{}", p.label());
 }
 
 // One gather setting of one page set. `main_payload`: the sweep's first

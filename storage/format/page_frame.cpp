@@ -3,6 +3,7 @@
 #include "storage/format/byte_order.h"
 #include "storage/format/checksum.h"
 #include "storage/format/errors.h"
+#include "storage/format/known_versions.h"
 
 #include <cstdio>
 
@@ -73,8 +74,7 @@ PageHeader open_page(std::span<const uint8_t> page, const PageLocation& where,
   }
   if (!is_known_page_format(h.format_version)) {
     throw VersionError(at + ": page format version " + std::to_string(h.format_version) +
-                       " is not supported by this build (reads " +
-                       std::to_string(kPageFormatCurrent) + ")");
+                       " is not supported by this build (reads " + known_versions(is_known_page_format) + ")");
   }
   if (h.format_version != expected_version) {
     throw CorruptionError(at + ": page format version " + std::to_string(h.format_version) +
