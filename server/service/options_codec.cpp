@@ -28,8 +28,7 @@ Options decode_validated(const Table& table, const Proto& proto, const Options& 
 
 }  // namespace
 
-GatherOptions decode_gather_options(const v1::GatherOptions& proto,
-                                    const GatherOptions& defaults) {
+GatherOptions decode_gather_options(const v1::GatherOptions& proto, const GatherOptions& defaults) {
   return decode_validated(kGatherOptionTable, proto, defaults);
 }
 

@@ -131,8 +131,8 @@ Deviation deviation(const TileAovs& a, const TileAovs& b, float floor) {
 
 // Every tile of each size renders its pixels (beauty, indirect, AO) as
 // the whole image does, bit for bit.
-void expect_tiles_match(const Scene& s, const tree::TreeSource& tree, const RenderOptions& o,
-                        const Rendered& whole, std::initializer_list<uint32_t> tiles) {
+void expect_tiles_match(const Scene& s, const tree::TreeSource& tree, const RenderOptions& o, const Rendered& whole,
+                        std::initializer_list<uint32_t> tiles) {
   for (const uint32_t tile : tiles) {
     for (uint32_t y0 = 0; y0 < kSize; y0 += tile)
       for (uint32_t x0 = 0; x0 < kSize; x0 += tile) {
