@@ -37,6 +37,7 @@ except ImportError as e:  # reported once per material that needs it
     mx = None
     _IMPORT_ERROR = e
 
+from asset_roots import OutsideRoots
 from chunk_stream import WARNING
 from pbgi.v1 import scene_pb2
 from preview_materials import Resolved, TextureSpec
@@ -81,6 +82,57 @@ def mtlx_error_files(error_text):
     return sorted(set(m.group(1) for m in _MTLX_ASSET.finditer(error_text)))
 
 
+def _include_reader(roots, files, what):
+    """MaterialX's XInclude hook: an included file is resolved as MaterialX
+    does (the including document's folder first), confined to the scene
+    roots before it is read (OutsideRoots names `what`, never the file),
+    recorded in `files`, then read with the same hook (nested includes)."""
+    def read(doc, filename, search_path, options):
+        path = search_path.find(filename).asString()
+        if not os.path.isabs(path):  # found nowhere: where the includer would have it
+            folders = [f for f in search_path.asString().split(os.pathsep) if f]
+            path = os.path.join(folders[0] if folders else os.getcwd(), path)
+        path = os.path.normpath(path)
+        if roots is not None:
+            roots.check(path, f"a file {what} includes")
+        files.append(path)
+        mx.readFromXmlFile(doc, path, search_path, options)
+    return read
+
+
+def read_mtlx_document(file, roots, what="a MaterialX document"):
+    """(document, [every file read: `file`, then its XIncludes]). Each file
+    is checked against `roots` (an AssetRoots or None) before it is read:
+    raises OutsideRoots. Raises the MaterialX package's errors for missing
+    or malformed documents."""
+    if roots is not None:
+        roots.check(file, what)
+    files = [file]
+    options = mx.XmlReadOptions()
+    options.readXIncludeFunction = _include_reader(roots, files, f"the MaterialX document '{file}'")
+    doc = mx.createDocument()
+    mx.readFromXmlFile(doc, file, mx.FileSearchPath(), options)
+    return doc, files
+
+
+def mtlx_document_files(file, roots):
+    """The files whose bytes make up a .mtlx look (the document and what it
+    XIncludes), for the content hash: editing an included document must
+    change it. Confined like the look's own read (raises OutsideRoots);
+    a document that cannot be read (or no MaterialX package) is itself
+    the only file."""
+    if mx is None:
+        if roots is not None:
+            roots.check(file, "a MaterialX document")
+        return [file]
+    try:
+        return read_mtlx_document(file, roots)[1]
+    except Exception as e:
+        if isinstance(e, OutsideRoots):
+            raise
+        return [file]
+
+
 def mtlx_arcs(prim):
     """[(absolute .mtlx path, material name or "")] of the references and
     payloads authored on `prim` that name a MaterialX document."""
@@ -108,9 +160,10 @@ class _Graph:
     texture (a dict of TextureSpec fields with scale and bias), or None with
     a problem noted."""
 
-    def __init__(self, document_dir, problems):
+    def __init__(self, document_dir, problems, roots=None):
         self.dir = document_dir
         self.problems = problems
+        self.roots = roots  # AssetRoots of the read, or None
 
     def input(self, inp, what):
         node = inp.getConnectedNode()
@@ -164,6 +217,9 @@ class _Graph:
             self.problems.append(f"{what}: UDIM file '{path}' is not supported")
             return None
         if not os.path.isfile(path):
+            # Said only of a path inside the scene roots (no existence leak).
+            if self.roots is not None:
+                self.roots.check(path, f"{what}: the texture file of image {node.getName()}")
             self.problems.append(f"{what}: texture file '{path}' not found")
             return None
         space = file_input.getActiveColorSpace()
@@ -236,17 +292,16 @@ class MaterialXLooks:
 
     def _document(self, file):
         if file not in self._documents:
-            # The document is a file the scene resolves: confined to the
-            # scene roots like its layers (asset_roots.py); raises
-            # OutsideRoots, which refuses the whole read.
+            # The document and its XIncludes are files the scene resolves:
+            # confined to the scene roots like its layers (asset_roots.py);
+            # raises OutsideRoots, which refuses the whole read.
             roots = getattr(self._stream, "_roots", None)
-            if roots is not None:
-                roots.check(file, "a MaterialX document")
             try:
-                doc = mx.createDocument()
-                mx.readFromXmlFile(doc, file)
+                doc, _ = read_mtlx_document(file, roots)
                 doc.importLibrary(_library())
                 self._documents[file] = (doc, None)
+            except OutsideRoots:
+                raise
             except Exception as e:  # a missing or malformed document
                 self._documents[file] = (None, str(e).strip() or type(e).__name__)
         return self._documents[file]
@@ -275,7 +330,7 @@ class MaterialXLooks:
 
     def _map(self, shader, names, document_dir, problems):
         nodedef = shader.getNodeDef()
-        graph = _Graph(document_dir, problems)
+        graph = _Graph(document_dir, problems, getattr(self._stream, "_roots", None))
         used = set(names.values())
 
         def get(key):

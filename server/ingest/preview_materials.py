@@ -30,6 +30,7 @@ import math
 import numpy as np
 from pxr import UsdGeom, UsdShade
 
+from asset_roots import unresolved_location
 from chunk_stream import WARNING
 from pbgi.v1 import scene_pb2
 
@@ -325,6 +326,8 @@ class MaterialTable:
             return None, f"UDIM file '{authored}' is not supported"
         resolved = getattr(asset, "resolvedPath", "")
         if not resolved:
+            self._stream.check_file(unresolved_location(_input_attr(texture, "file"), authored),
+                                    f"material {material_path}: a texture file")
             return None, f"file '{authored}' not found"
         channel = _OUTPUT_CHANNELS[output]
         k = _CHANNELS.get(output)
@@ -440,6 +443,15 @@ def _connected(inp):
     if not attrs or UsdShade.Input.IsInput(attrs[0]):
         return None, None
     return UsdShade.Shader(attrs[0].GetPrim()), attrs[0]
+
+
+def _input_attr(shader, name):
+    """The attribute holding an input's value (through interface inputs)."""
+    inp = shader.GetInput(name)
+    if not inp:
+        return None
+    attrs = inp.GetValueProducingAttributes()
+    return attrs[0] if attrs and UsdShade.Input.IsInput(attrs[0]) else inp.GetAttr()
 
 
 def _input_value(shader, name, time):

@@ -280,6 +280,9 @@ class SceneAssembler {
       fail(at, fmt::format("invalid metersPerUnit {}", h.meters_per_unit()));
     scene_.meters_per_unit = h.meters_per_unit();
     if (!h.up_axis().empty()) scene_.up_axis = h.up_axis();
+    if (!(h.subdiv_cage_area() >= 0.0) || !std::isfinite(h.subdiv_cage_area()))
+      fail(at, fmt::format("invalid subdiv_cage_area {}", h.subdiv_cage_area()));
+    subdiv_cage_area_ = h.subdiv_cage_area();
   }
 
   void mesh(const pbgi::v1::MeshChunk& chunk, const FramePosition& at) {
@@ -518,7 +521,7 @@ class SceneAssembler {
     ++cage_count_;
     RefinedMesh refined;
     try {
-      refined = refine_subdivision_cage(decoded.cage, subdivision_);
+      refined = refine_subdivision_cage(decoded.cage, subdivision_, subdiv_cage_area_);
     } catch (const SceneError& e) {
       // Bad topology of one prim (the reader checks what it can first): like
       // the reader's own per-prim failures, it must not lose the scene.
@@ -747,6 +750,7 @@ class SceneAssembler {
 
   const std::string& source_;
   const SubdivisionOptions& subdivision_;
+  double subdiv_cage_area_ = 0.0;  // SceneHeader's: bounds each cage's refinement error
   Scene scene_;
   uint64_t streamed_triangles_ = 0;
   uint64_t cage_count_ = 0;

@@ -112,5 +112,48 @@ def Mesh "C" ( prepend apiSchemas = ["MaterialBindingAPI"] ) {
                              "UsdPreviewSurface, not standard_surface or open_pbr_surface"), 1u);
 }
 
+// A look whose shader sits in an XIncluded document: read through the
+// include, and the include's bytes are part of the content hash, so editing
+// it rebuilds (caches are keyed by the hash).
+TEST(MaterialXLooks, XIncludedDocumentsAreReadAndHashed) {
+  const auto shader = [](const std::string& rgb) {
+    return R"(<?xml version="1.0"?>
+<materialx version="1.39">
+  <standard_surface name="SR" type="surfaceshader">
+    <input name="base" type="float" value="1" />
+    <input name="base_color" type="color3" value=")" + rgb + R"(" />
+  </standard_surface>
+</materialx>
+)";
+  };
+  fs::create_directories(test::temp_dir() / "xinc" / "shaders");
+  test::write_file("xinc/shaders/red.mtlx", shader("0.9, 0.1, 0.1"));
+  test::write_file("xinc/look.mtlx", R"(<?xml version="1.0"?>
+<materialx version="1.39" xmlns:xi="http://www.w3.org/2001/XInclude">
+  <xi:include href="shaders/red.mtlx" />
+  <surfacematerial name="M" type="material">
+    <input name="surfaceshader" type="surfaceshader" nodename="SR" />
+  </surfacematerial>
+</materialx>
+)");
+  const fs::path scene = test::write_file("xinc/scene.usda", R"(#usda 1.0
+def Material "Look" ( prepend references = @./look.mtlx@</MaterialX/Materials/M> ) {}
+def Mesh "A" ( prepend apiSchemas = ["MaterialBindingAPI"] ) {
+  int[] faceVertexCounts = [3]
+  int[] faceVertexIndices = [0, 1, 2]
+  point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+  rel material:binding = </Look>
+}
+)");
+  const Scene s = read_usd_scene(scene, IngestOptions{});
+  EXPECT_NEAR(material(s, "/Look").albedo.x, 0.9f, 1e-6f);
+  EXPECT_NEAR(material(s, "/Look").albedo.y, 0.1f, 1e-6f);
+  const std::string before = usd_content_hash(scene, IngestOptions{});
+  EXPECT_EQ(s.content_hash.substr(0, before.size()), before);
+  test::write_file("xinc/shaders/red.mtlx", shader("0.1, 0.9, 0.1"));
+  EXPECT_NE(usd_content_hash(scene, IngestOptions{}), before);
+  EXPECT_NEAR(material(read_usd_scene(scene, IngestOptions{}), "/Look").albedo.y, 0.9f, 1e-6f);
+}
+
 }  // namespace
 }  // namespace pbgi
