@@ -11,10 +11,10 @@ IOR, emission), with the defaults of the shader's own nodedef from
 MaterialX's standard libraries:
 
   standard_surface   base x base_color, metalness, specular_roughness,
-                     specular_IOR, emission x emission_color
+                     specular_IOR, emission x emission_color, opacity (mean)
   open_pbr_surface   base_weight x base_color, base_metalness,
                      specular_roughness, specular_ior,
-                     emission_luminance x emission_color
+                     emission_luminance x emission_color, geometry_opacity
 
 An input is a constant, or a graph of `image`/`tiledimage` (file, its colour
 space: srgb_texture read as sRGB, lin_rec709 and raw as linear; the
@@ -22,11 +22,12 @@ address modes; a `texcoord` of index 0 or none: the mesh's st; tiledimage's
 uvtiling as an st transform) under `multiply` and `add` by constants (the
 texture's scale and bias) and `dot` pass-throughs; textures drive the base
 and emission colours (the model's textured inputs). Whatever else the
-material authors -- coat, sheen, transmission, subsurface, opacity, a
-specular tint, a texture on roughness, an unsupported node -- is listed in
+material authors -- coat, sheen, transmission, subsurface, a
+specular tint, a texture on roughness or opacity, an unsupported node -- is listed in
 one WARNING per material (kind "materialx"), never silently dropped. The
 arc's composition error itself is then not reported.
 """
+import math
 import os
 import re
 
@@ -47,12 +48,12 @@ _INPUTS = {
     "standard_surface": {
         "base": "base", "base_color": "base_color", "roughness": "specular_roughness",
         "metalness": "metalness", "ior": "specular_IOR", "emission": "emission",
-        "emission_color": "emission_color",
+        "emission_color": "emission_color", "opacity": "opacity",
     },
     "open_pbr_surface": {
         "base": "base_weight", "base_color": "base_color", "roughness": "specular_roughness",
         "metalness": "base_metalness", "ior": "specular_ior", "emission": "emission_luminance",
-        "emission_color": "emission_color",
+        "emission_color": "emission_color", "opacity": "geometry_opacity",
     },
 }
 _TEXTURED = ("base_color", "emission_color")
@@ -362,9 +363,14 @@ class MaterialXLooks:
             connected = inp.getConnectedNode() is not None or inp.getConnectedOutput() is not None
             if connected or default is None or inp.getValueString() != default.getValueString():
                 problems.append(f"{inp.getName()} = {'(connected)' if connected else inp.getValueString()}")
+        # standard_surface's opacity is a colour (its mean: opacity is
+        # presence here, server/scene/surface_opacity.h), OpenPBR's a float.
+        opacity = get("opacity")
+        opacity = sum(opacity) / len(opacity) if opacity else 1.0
+        opacity = min(max(float(opacity), 0.0), 1.0) if math.isfinite(opacity) else 1.0
         return Resolved(diffuse, emissive, float(get("roughness")[0]), float(get("metalness")[0]),
                         diffuse_texture, emissive_texture, False, (0.0, 0.0, 0.0), False,
-                        float(get("ior")[0]))
+                        float(get("ior")[0]), opacity)
 
 
 def _weighted(color, weight, stand_in):

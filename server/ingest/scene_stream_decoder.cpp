@@ -581,6 +581,14 @@ class SceneAssembler {
     if (d.has_emissive_texture() && !d.emissive_texture().file().empty())
       m.emission_texture = binding_from(d.emissive_texture());
     m.albedo_from_vertex_colors = d.diffuse_from_vertex_colors();
+    if (d.has_opacity()) m.opacity = d.opacity();
+    if (d.has_opacity_texture() && !d.opacity_texture().file().empty())
+      m.opacity_texture = binding_from(d.opacity_texture());
+    m.opacity_threshold = d.opacity_threshold();
+    if (!std::isfinite(m.opacity) || m.opacity < 0.f || m.opacity > 1.f || !std::isfinite(m.opacity_threshold) ||
+        m.opacity_threshold < 0.f || m.opacity_threshold > 1.f)
+      fail(at, fmt::format("material {}: opacity {} or opacity_threshold {} outside [0, 1]", d.prim_path(),
+                           m.opacity, m.opacity_threshold));
     scene_.materials.push_back(std::move(m));
   }
 
