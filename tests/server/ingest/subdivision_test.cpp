@@ -415,10 +415,10 @@ TEST(Subdivision, TheScenesCageAreaWidensTheBoundOfEachCage) {
   SubdivisionOptions o;
   o.target_surfels = 10000;
   const SubdivisionLevel alone = choose_subdivision_level(cube_cage(), o);
-  const SubdivisionLevel in_scene = choose_subdivision_level(cube_cage(), o, 600.0);
+  const SubdivisionLevel in_scene = choose_subdivision_level(cube_cage(), o, 60000.0);
   EXPECT_EQ(alone.level, 2u);
-  EXPECT_NEAR(in_scene.spacing, std::sqrt(600.0 / 10000), 1e-6);
-  EXPECT_NEAR(in_scene.tolerance, 0.1 * in_scene.spacing, 1e-9);
+  EXPECT_NEAR(in_scene.spacing, std::sqrt(60000.0 / 10000), 1e-6);
+  EXPECT_NEAR(in_scene.tolerance, 0.1 * in_scene.spacing, 1e-6);
   EXPECT_LT(in_scene.level, alone.level);
   EXPECT_LE(in_scene.deviation, in_scene.tolerance);
   // An area below the cage's own (a stale or partial sum) never tightens it.
