@@ -41,12 +41,14 @@ Shade shade_at(double x, double z) {
   return Shade::kSun;
 }
 
-// The shade of a pixel's whole footprint on the ground, or kMixed. The
+// The shade of a pixel's whole footprint on the ground, or kMixed (also
+// where the footprint leaves the 2 x 2 ground: the black beyond). The
 // camera is 3 m above the origin looking down with a 40/55 aperture ratio:
 // the image spans x, z in +-1.0909 (columns along +x, rows along +z).
 Shade pixel_shade(uint32_t i, uint32_t j, uint32_t size) {
   const double half = 3.0 * 20.0 / 55.0, step = 2.0 * half / size;
   const double x0 = -half + i * step, z0 = -half + j * step;
+  if (x0 < -1.0 || z0 < -1.0 || x0 + step > 1.0 || z0 + step > 1.0) return Shade::kMixed;
   const Shade first = shade_at(x0, z0);
   for (int a = 0; a <= 4; ++a)
     for (int b = 0; b <= 4; ++b)
@@ -98,6 +100,11 @@ TEST(Cutout, LeafAndVeilShadowsInPbgiAndTheReference) {
   RenderSettings s;
   s.width = s.height = 48;
   s.reference_spp = 256;
+  // The interpolating renderer blends indirect light across the leaf's
+  // cut-out edges (the card and the ground seen through its slits, 0.6
+  // apart, pass its similarity test), finer than its 8-pixel cells here:
+  // measured 0.18 against per-sample gathers.
+  s.interpolation_bound = 0.25;
   const Aovs ref = render_path(scene, "/World/Camera", s);
   const Aovs pbgi = render_pbgi(scene, "/World/Camera", s);
   dump_aovs("cutout-reference", ref, s);
