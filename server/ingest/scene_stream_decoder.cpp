@@ -587,8 +587,8 @@ class SceneAssembler {
     m.opacity_threshold = d.opacity_threshold();
     if (!std::isfinite(m.opacity) || m.opacity < 0.f || m.opacity > 1.f || !std::isfinite(m.opacity_threshold) ||
         m.opacity_threshold < 0.f || m.opacity_threshold > 1.f)
-      fail(at, fmt::format("material {}: opacity {} or opacity_threshold {} outside [0, 1]", d.prim_path(),
-                           m.opacity, m.opacity_threshold));
+      fail(at, fmt::format("material {}: opacity {} or opacity_threshold {} outside [0, 1]", d.prim_path(), m.opacity,
+                           m.opacity_threshold));
     scene_.materials.push_back(std::move(m));
   }
 

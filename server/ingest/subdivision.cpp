@@ -431,8 +431,7 @@ SubdivisionLevel choose_subdivision_level(const SubdivCage& cage, const Subdivis
   return choice;
 }
 
-RefinedMesh refine_subdivision_cage(const SubdivCage& cage, const SubdivisionOptions& options,
-                                    double scene_cage_area) {
+RefinedMesh refine_subdivision_cage(const SubdivCage& cage, const SubdivisionOptions& options, double scene_cage_area) {
   // 1. The level, from the geometric error and the target edge length
   // (validates options and cage).
   RefinedMesh out;

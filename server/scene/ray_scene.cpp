@@ -87,10 +87,9 @@ void opacity_filter(const RTCFilterFunctionNArguments* args) {
     if (!has_opacity(m)) continue;
     const float opacity =
         soup_opacity(*g->soup, m, prim, RTCHitN_u(args->hit, args->N, i), RTCHitN_v(args->hit, args->N, i));
-    uint64_t h = hash_ids(float_bits(RTCRayN_org_x(args->ray, args->N, i)),
-                          float_bits(RTCRayN_org_y(args->ray, args->N, i)),
-                          float_bits(RTCRayN_org_z(args->ray, args->N, i)),
-                          float_bits(RTCRayN_dir_x(args->ray, args->N, i)));
+    uint64_t h =
+        hash_ids(float_bits(RTCRayN_org_x(args->ray, args->N, i)), float_bits(RTCRayN_org_y(args->ray, args->N, i)),
+                 float_bits(RTCRayN_org_z(args->ray, args->N, i)), float_bits(RTCRayN_dir_x(args->ray, args->N, i)));
     h = hash_ids(h, float_bits(RTCRayN_dir_y(args->ray, args->N, i)), float_bits(RTCRayN_dir_z(args->ray, args->N, i)),
                  (uint64_t(RTCHitN_instID(args->hit, args->N, i, 0)) << 32) | prim);
     if (!surface_present(m, opacity, uint32_t(h >> 32))) args->valid[i] = 0;

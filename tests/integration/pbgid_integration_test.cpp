@@ -475,14 +475,14 @@ TEST(UsdWgAssets, TeapotAndVehiclesRenderWithNoFlagButTheScene) {
   const fs::path assets = shared / "usd-wg" / "full_assets";
   if (!fs::is_directory(assets)) GTEST_SKIP() << assets << " is not present";
   testing::DaemonProcess daemon(kBinaryDir / "bin" / "pbgid", {"--scene-root", shared.string()});
-  for (const fs::path scene : {assets / "Teapot" / "Teapot.usd",
-                               assets / "Vehicles" / "USD_Mini_Car_Kit" / "assets" / "vehicles" / "vehicleVariants.usda"}) {
+  for (const fs::path scene : {assets / "Teapot" / "Teapot.usd", assets / "Vehicles" / "USD_Mini_Car_Kit" / "assets" /
+                                                                     "vehicles" / "vehicleVariants.usda"}) {
     SCOPED_TRACE(scene.string());
     const fs::path out = daemon.dir() / (scene.stem().string() + ".exr");
     std::string text;
     ASSERT_EQ(run_cli({"render", scene.string(), "--server", daemon.address(), "-o", out.string(), "--width", "32",
-                       "--height", "24", "--target-surfels", "20000", "--light-samples", "4",
-                       "--build-light-samples", "4", "-q"},
+                       "--height", "24", "--target-surfels", "20000", "--light-samples", "4", "--build-light-samples",
+                       "4", "-q"},
                       daemon.dir(), &text),
               0)
         << text;

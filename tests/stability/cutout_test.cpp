@@ -78,9 +78,16 @@ ShadeMeans shade_means(const std::vector<float>& direct, uint32_t size) {
           ++sun;
           if (x - 0.6 > -0.9 && x - 0.6 < -0.3) ++m.sun_pixels_in_shadow;  // through a slit
           break;
-        case Shade::kLeaf: m.leaf += g; ++m.leaf_pixels; break;
-        case Shade::kVeil: m.veil += g; ++veil; break;
-        case Shade::kMixed: break;
+        case Shade::kLeaf:
+          m.leaf += g;
+          ++m.leaf_pixels;
+          break;
+        case Shade::kVeil:
+          m.veil += g;
+          ++veil;
+          break;
+        case Shade::kMixed:
+          break;
       }
     }
   m.sun /= double(std::max<size_t>(sun, 1));

@@ -263,7 +263,8 @@ TEST_F(AssetConfinement, MaterialXIncludeOutsideIsRefused) {
     write(outside / "secret.mtlx", "<?xml version=\"1.0\"?>\n<materialx version=\"1.38\"/>\n");
     write(root / "look.mtlx", std::string(R"(<?xml version="1.0"?>
 <materialx version="1.39" xmlns:xi="http://www.w3.org/2001/XInclude">
-  <xi:include href=")") + include + R"(" />
+  <xi:include href=")") + include +
+                                  R"(" />
   <standard_surface name="SR" type="surfaceshader" />
   <surfacematerial name="M" type="material">
     <input name="surfaceshader" type="surfaceshader" nodename="SR" />

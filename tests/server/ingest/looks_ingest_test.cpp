@@ -545,8 +545,8 @@ TEST(LooksIngestFiles, ContentHashFollowsTheTextureFiles) {
 TEST(LooksIngestFiles, PreviewSurfaceOpacityAndThreshold) {
   const Scene s = read_usd_scene(fs::path(PBGI_TEST_SOURCE_DIR) / "scenes" / "cutout_test.usda", IngestOptions{});
   const auto find = [&](const std::string& path) -> const Material& {
-    const auto it = std::find_if(s.materials.begin(), s.materials.end(),
-                                 [&](const Material& m) { return m.prim_path == path; });
+    const auto it =
+        std::find_if(s.materials.begin(), s.materials.end(), [&](const Material& m) { return m.prim_path == path; });
     if (it == s.materials.end()) throw std::runtime_error("no material " + path);
     return *it;
   };

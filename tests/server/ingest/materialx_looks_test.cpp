@@ -122,7 +122,8 @@ TEST(MaterialXLooks, XIncludedDocumentsAreReadAndHashed) {
 <materialx version="1.39">
   <standard_surface name="SR" type="surfaceshader">
     <input name="base" type="float" value="1" />
-    <input name="base_color" type="color3" value=")" + rgb + R"(" />
+    <input name="base_color" type="color3" value=")" +
+           rgb + R"(" />
   </standard_surface>
 </materialx>
 )";

@@ -2,8 +2,8 @@
 // lets every kind of ray through its holes and stops them on the rest,
 // also when the card is an instanced prototype; a fractional card stops
 // a fraction of the rays equal to its opacity.
-#include "server/scene/ray_scene.h"
 #include "server/scene/surface_opacity.h"
+#include "server/scene/ray_scene.h"
 #include "server/scene/texture.h"
 
 #include <gtest/gtest.h>
@@ -21,7 +21,7 @@ Scene card_scene() {
   Scene s;
   s.source_path = "surface_opacity_test";
   s.materials.resize(2);  // 0: the card, 1: the wall
-  s.triangles.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
+  s.triangles.positions = {{0, 0, 0},    {1, 0, 0},   {1, 1, 0},  {0, 1, 0},
                            {-5, -5, -1}, {5, -5, -1}, {5, 5, -1}, {-5, 5, -1}};
   s.triangles.uvs = {{0, 0}, {1, 0}, {1, 1}, {0, 1}, {0, 0}, {0, 0}, {0, 0}, {0, 0}};
   s.triangles.indices = {0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7};

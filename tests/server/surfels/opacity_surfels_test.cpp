@@ -75,9 +75,10 @@ TEST_P(OpacitySurfels, FractionalSurfelsCoverTheOpacityOfTheArea) {
   EXPECT_NEAR(area(veil), 0.3 * area(opaque), 1e-3 * area(opaque));
 }
 
-INSTANTIATE_TEST_SUITE_P(Samplers, OpacitySurfels,
-                         ::testing::Values(SurfelSampler::kUniform, SurfelSampler::kPoisson),
-                         [](const auto& info) { return info.param == SurfelSampler::kUniform ? "Uniform" : "Poisson"; });
+INSTANTIATE_TEST_SUITE_P(Samplers, OpacitySurfels, ::testing::Values(SurfelSampler::kUniform, SurfelSampler::kPoisson),
+                         [](const auto& info) {
+                           return info.param == SurfelSampler::kUniform ? "Uniform" : "Poisson";
+                         });
 
 }  // namespace
 }  // namespace pbgi
