@@ -14,8 +14,10 @@
 //   `opacity` of its area (its radius scaled by sqrt(opacity)): it reflects,
 //   emits and occludes that fraction, as the rays see on average.
 //
-// Refraction and coloured transmission are not modelled: opacity is
-// presence, not glass.
+// At a few samples per pixel (PBGI's camera and light samples) a
+// fractional surface and its shadow are grainy; their means match the
+// reference's (tests/stability/cutout_test.cpp). Refraction and coloured
+// transmission are not modelled: opacity is presence, not glass.
 //
 // Thread-safety: reentrant; the scene is only read.
 #pragma once
