@@ -53,8 +53,8 @@ try:
     from pbgi.v1 import scene_pb2
     from point_instancers import read_point_instancer
     from preview_materials import MaterialTable
-    from subdiv_cages import total_cage_area
     from prototypes import PrototypeTable
+    from subdiv_cages import total_cage_area
     from triangle_chunks import GeometryError, TriangleEmitter
     from volume_defs import volume_def
     _IMPORT_ERROR = None
@@ -63,7 +63,7 @@ except ImportError as e:  # reported by main() with a clear message
 
 # Bumped whenever the reader's output for the same input changes, so that
 # caches keyed by the content hash are invalidated.
-READER_VERSION = "pbgi-usd-reader/6"  # 6: SceneHeader.subdiv_cage_area, XIncludes hashed
+READER_VERSION = "pbgi-usd-reader/6"  # 6: subdiv_cage_area, XIncludes hashed, opacity
 _HASH_BLOCK = 1 << 20
 EXIT_OUTSIDE_ROOTS = 5
 EXIT_BAD_SELECTION = 6
