@@ -7,8 +7,8 @@
 #include "client/bench/bench_report.h"
 #include "client/bench/bench_runner.h"
 #include "client/cli/command.h"
+#include "common/errors.h"
 #include "server/render/gather_lattice.h"
-#include "storage/format/errors.h"
 
 #include <algorithm>
 #include <cstdio>

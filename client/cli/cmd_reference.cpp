@@ -6,12 +6,12 @@
 #include "client/cli/output_paths.h"
 #include "client/image/exr_image.h"
 #include "client/image/png_display.h"
+#include "common/errors.h"
 #include "server/ingest/usd_ingest.h"
+#include "server/reference/path_tracer.h"
 #include "server/scene/auto_camera.h"
 #include "server/scene/default_lights.h"
-#include "server/reference/path_tracer.h"
 #include "server/volumes/fog_field.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 

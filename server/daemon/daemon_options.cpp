@@ -1,10 +1,10 @@
 #include "server/daemon/daemon_options.h"
 
+#include "common/errors.h"
 #include "pbgi_build_config.h"
 #include "server/daemon/byte_size.h"
 #include "server/daemon/listen_address.h"
 #include "server/daemon/toml_options.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 #include <toml++/toml.h>

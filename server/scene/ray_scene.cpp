@@ -1,8 +1,8 @@
 #include "server/scene/ray_scene.h"
 
+#include "common/errors.h"
 #include "server/scene/scene_bulk.h"
 #include "server/scene/scene_validation.h"
-#include "storage/format/errors.h"
 
 #include <embree3/rtcore.h>
 #include <fmt/format.h>

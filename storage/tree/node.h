@@ -84,7 +84,7 @@ class TreeSource {
   virtual ~TreeSource() = default;
   virtual NodeRef root() const = 0;
   // Returns the page, loading and decoding it if needed. Throws
-  // pbgi::CorruptionError, VersionError or IoError (storage/format/errors.h)
+  // pbgi::CorruptionError, VersionError or IoError (common/errors.h)
   // naming the page on failure.
   virtual PagePtr page(uint32_t id) const = 0;
 };

@@ -1,6 +1,6 @@
 #include "surfel_tree.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 #include "storage/math/sh.h"
 
 #include <algorithm>
