@@ -3,6 +3,7 @@
 // beauty, direct, indirect, indirect1, albedo, ao), optionally with a PNG of
 // the beauty through the OCIO display transform.
 #include "client/cli/command.h"
+#include "client/cli/tool_commands.h"
 #include "client/cli/output_paths.h"
 #include "client/image/exr_image.h"
 #include "client/image/png_display.h"
@@ -149,8 +150,7 @@ int run(const ReferenceArgs& args) {
 
 const CommandRegistrar kRegistrar("reference", [](CLI::App& app, int* exit_code) {
   auto args = std::make_shared<ReferenceArgs>();
-  CLI::App* cmd = app.add_subcommand(
-      "reference", "Render an unbiased path-traced reference (multi-layer EXR of the AOVs)");
+  CLI::App* cmd = app.add_subcommand("reference", tool_command_description("reference"));
   cmd->add_option("scene", args->scene, "USD scene file")->required();
   cmd->add_option("--camera,-c", args->camera, "Camera prim path, or auto: the scene framed (default: the only camera; auto without any)");
   cmd->add_option("--out,-o", args->out, "Output EXR")->capture_default_str();

@@ -3,6 +3,7 @@
 // statistics, page count and fill. The walk reads and verifies every page
 // (checksums included), so a clean run also means an intact page set.
 #include "client/cli/command.h"
+#include "client/cli/tool_commands.h"
 #include "client/cli/json_text.h"
 #include "storage/cache/page_cache.h"
 #include "storage/format/format_version.h"
@@ -138,8 +139,7 @@ int run(const InspectArgs& args) {
 
 const CommandRegistrar kRegistrar("inspect", [](CLI::App& app, int* exit_code) {
   auto args = std::make_shared<InspectArgs>();
-  CLI::App* cmd = app.add_subcommand(
-      "inspect", "Describe a page set directory (manifest, counts, bytes, depths, page fill)");
+  CLI::App* cmd = app.add_subcommand("inspect", tool_command_description("inspect"));
   cmd->add_option("dir", args->dir, "Page set directory (holds manifest.pbgm and pages.pbgp)")
       ->required();
   cmd->add_flag("--json", args->json, "Machine-readable output");

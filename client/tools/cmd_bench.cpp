@@ -7,6 +7,7 @@
 #include "client/bench/bench_report.h"
 #include "client/bench/bench_runner.h"
 #include "client/cli/command.h"
+#include "client/cli/tool_commands.h"
 #include "common/errors.h"
 #include "server/render/gather_lattice.h"
 
@@ -140,8 +141,7 @@ int run(const BenchArgs& args) {
 
 const CommandRegistrar kRegistrar("bench", [](CLI::App& app, int* exit_code) {
   auto args = std::make_shared<BenchArgs>();
-  CLI::App* cmd = app.add_subcommand(
-      "bench", "Speed against error: PBGI settings and path-tracer spp vs a converged reference");
+  CLI::App* cmd = app.add_subcommand("bench", tool_command_description("bench"));
   cmd->add_option("scene", args->scene, "USD scene file")->required();
   cmd->add_option("--camera,-c", args->camera, "Camera prim path, or auto: the scene framed (default: the only camera; auto without any)");
   cmd->add_option("--out-dir,-o", args->out_dir, "Directory for bench.json/.csv/.png")
