@@ -5,6 +5,5 @@
 
 int main(int argc, char** argv) {
   if (argc > 1 && pbgi::cli::is_tool_command(argv[1])) return pbgi::cli::exec_tool(argc, argv);
-  return pbgi::cli::run_cli(argc, argv, "pbgi: point-based global illumination client tools",
-                            pbgi::cli::kToolCommands);
+  return pbgi::cli::run_cli(argc, argv, "pbgi: point-based global illumination client tools", pbgi::cli::kToolCommands);
 }

@@ -18,8 +18,8 @@ int exec_tool(int argc, char** argv) {
   const std::filesystem::path tool = (ec ? std::filesystem::path(argv[0]) : self).parent_path() / "pbgi-tools";
   ::execv(tool.c_str(), argv);
   const int err = errno;
-  std::fprintf(stderr, "pbgi: '%s' runs in pbgi-tools, which could not be started (%s: %s)\n",
-               argc > 1 ? argv[1] : "", tool.c_str(), std::strerror(err));
+  std::fprintf(stderr, "pbgi: '%s' runs in pbgi-tools, which could not be started (%s: %s)\n", argc > 1 ? argv[1] : "",
+               tool.c_str(), std::strerror(err));
   return 127;
 }
 
