@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Fails when an #include crosses a layer upward.
+"""Fails when an #include crosses a layer upward, or a name is declared
+outside its folder's namespace.
 
 The layers of pbgi, lowest first, are written once, in LAYERS below
 (docs/architecture.md explains them). A source file may include
@@ -23,6 +24,14 @@ server/, client/; quoted includes only (<...> is a third party's or the
 standard library's). A folder under those that no layer lists is an error
 too: a new folder must take its place in LAYERS.
 
+Namespaces (the rule docs/architecture.md states): a file declares its
+names in `pbgi` or one level below it, in a namespace named after its
+folder (pbgi::gather in server/gather/) or after the library the folder
+builds (client/lib builds pbgi_client: pbgi::client); storage's folders
+may also share pbgi::storage. Deeper namespaces are the file's own
+helpers (detail, anonymous); namespaces outside pbgi (a third party's,
+specialised or forward-declared) are not checked.
+
 Usage: check_layers.py [REPO_ROOT]   (default: one folder up from here)
        check_layers.py --self-test     (the checker finds planted faults)
 Exit status 0 when no include crosses a layer upward, 1 otherwise (each
@@ -37,7 +46,7 @@ LAYERS = [
     ('common', [], ['common', 'common/options']),
     ('proto', ['common'], ['proto', 'pbgi/v1']),  # pbgi/v1: the generated headers
     ('storage', ['common'],
-     ['storage/format', 'storage/math', 'storage/tree', 'storage/codecs', 'storage/cache', 'storage/pages']),
+     ['storage/format', 'storage/sh', 'storage/tree', 'storage/codecs', 'storage/cache', 'storage/pages']),
     ('server', ['common', 'proto', 'storage'],
      ['server/scene', 'server/volumes', 'server/ingest', 'server/surfels', 'server/gather', 'server/render',
       'server/reference', 'server/engine', 'server/service', 'server/daemon']),
@@ -49,6 +58,9 @@ LAYERS = [
 ROOTS = ['common', 'proto', 'storage', 'server', 'client']
 EXTENSIONS = {'.h', '.cpp', '.cc'}
 INCLUDE = re.compile(r'^\s*#\s*include\s*"([^"]+)"')
+LIBRARY = re.compile(r'add_library\(pbgi_(\w+)\s+STATIC')
+NAMESPACE_OPEN = re.compile(r'^\s*namespace(?:\s+([\w:]+))?\s*\{')
+STRINGS = re.compile(r'"(?:\\.|[^"\\])*"|\'(?:\\.|[^\'\\])*\'')
 OPTIONS_TARGET = re.compile(r'pbgi_headers\(\s*pbgi_\w+_options\s+FILES\s+([^)]*)\)')
 
 
@@ -68,6 +80,45 @@ def options_headers(root):
             for name in match.group(1).split():
                 found.add((rel / name).as_posix())
     return found
+
+
+def namespaces_allowed(root, folder):
+    """The namespaces one level below pbgi that files of `folder` may open."""
+    allowed = {pathlib.PurePosixPath(folder).name}
+    if folder.startswith('storage/'):
+        allowed.add('storage')
+    cmake = root / folder / 'CMakeLists.txt'
+    if cmake.exists():
+        allowed.update(LIBRARY.findall(cmake.read_text(encoding='utf-8')))
+    return allowed
+
+
+def namespace_problems(rel, text, allowed):
+    """Lines of `text` that open pbgi::x, x not in `allowed`."""
+    problems = []
+    stack = []  # (namespace path, brace depth it opened at)
+    depth = 0
+    for number, line in enumerate(text.split('\n'), 1):
+        code = STRINGS.sub('""', line).split('//')[0]
+        match = NAMESPACE_OPEN.match(code)
+        if match:
+            outer = stack[-1][0] if stack else ''
+            name = match.group(1) or '<anonymous>'
+            path = f'{outer}::{name}' if outer else name
+            parts = path.split('::')
+            if parts[0] == 'pbgi' and len(parts) > 1 and outer in ('', 'pbgi') and parts[1] not in allowed \
+                    and parts[1] != '<anonymous>':
+                problems.append(f'{rel}:{number}: namespace pbgi::{parts[1]}, not one of its folder\'s: '
+                                + ', '.join(f'pbgi::{a}' for a in sorted(allowed)))
+            stack.append((path, depth))
+        for ch in code:
+            if ch == '{':
+                depth += 1
+            elif ch == '}':
+                depth -= 1
+                while stack and depth <= stack[-1][1]:
+                    stack.pop()
+    return problems
 
 
 def sources(root):
@@ -105,7 +156,9 @@ def check(root):
         if src_folder not in ranks:
             problems.append(f'{rel}: folder {src_folder} is in no layer (scripts/check_layers.py, LAYERS)')
             continue
-        for number, line in enumerate(path.read_text(encoding='utf-8', errors='replace').split('\n'), 1):
+        text = path.read_text(encoding='utf-8', errors='replace')
+        problems += namespace_problems(rel, text, namespaces_allowed(root, src_folder))
+        for number, line in enumerate(text.split('\n'), 1):
             match = INCLUDE.match(line)
             if not match:
                 continue
@@ -146,7 +199,14 @@ def self_test():
         'client/lib/client.h': '#include "pbgi/v1/pbgi.pb.h"\n#include "common/errors.h"\n',
         'client/cli/flags.cpp': '#include "server/gather/gather_options.h"\n#include "client/lib/client.h"\n'
                                 '#include "server/engine/scene_session.h"\n',
-        'client/tools/cmd_bench.cpp': '#include "server/engine/scene_session.h"\n#include "client/cli/flags.h"\n',
+        'client/tools/cmd_bench.cpp': '#include "server/engine/scene_session.h"\n#include "client/cli/flags.h"\n'
+                                      'namespace pbgi::tools {\nnamespace {\nusing cli::X;\n}  // namespace\n}\n',
+        'client/lib/CMakeLists.txt': 'add_library(pbgi_client STATIC client.cpp)\n',
+        'client/lib/client.cpp': 'namespace pbgi::client {\nvoid f() {\n  const char* s = "}";\n}\n}\n'
+                                 'namespace pbgi {\nnamespace lib {\n}\n}  // namespace pbgi\n',
+        'storage/tree/treelet.h': 'namespace pbgi::storage {\nclass Page;\n}\nnamespace pbgi::tree {\nnamespace detail {}\n}\n'
+                                  'namespace pbgi::gather {\n}\n',
+        'server/scene/scene.cpp': 'namespace grpc {\nclass Server;\n}\nnamespace pbgi {\nnamespace {\n}\n}\n',
     }
     with tempfile.TemporaryDirectory() as tmp:
         root = pathlib.Path(tmp)
@@ -161,6 +221,7 @@ def self_test():
         'server/gather/gather_options.h:2: an options header includes server/gather/microbuffer.h, which is not one',
         'server/newstage/thing.h: folder server/newstage is in no layer (scripts/check_layers.py, LAYERS)',
         'client/cli/flags.cpp:3: includes server/engine/scene_session.h: layer client does not build on layer server',
+        'storage/tree/treelet.h:7: namespace pbgi::gather, not one of its folder\'s: pbgi::storage, pbgi::tree',
     ]
     if sorted(found) != sorted(expected):
         print('self-test: expected', *sorted(expected), 'found', *sorted(found), sep='\n  ')
@@ -177,9 +238,9 @@ def main():
     for p in problems:
         print(p)
     if problems:
-        print(f'{len(problems)} include(s) cross a layer upward (scripts/check_layers.py says the layers)')
+        print(f'{len(problems)} problem(s): an include crossing a layer upward, or a namespace outside its folder\'s')
         return 1
-    print('layers: no include crosses a layer upward')
+    print('layers: no include crosses a layer upward; namespaces follow their folders')
     return 0
 
 

@@ -16,8 +16,11 @@
 #include <memory>
 #include <optional>
 
-namespace pbgi::cli {
+namespace pbgi::tools {
 namespace {
+
+using cli::CommandRegistrar;
+using cli::tool_command_description;
 
 struct BenchArgs {
   std::string scene;
@@ -220,4 +223,4 @@ const CommandRegistrar kRegistrar("bench", [](CLI::App& app, int* exit_code) {
 });
 
 }  // namespace
-}  // namespace pbgi::cli
+}  // namespace pbgi::tools

@@ -3,8 +3,8 @@
 // statistics, page count and fill. The walk reads and verifies every page
 // (checksums included), so a clean run also means an intact page set.
 #include "client/cli/command.h"
-#include "client/cli/tool_commands.h"
 #include "client/cli/json_text.h"
+#include "client/cli/tool_commands.h"
 #include "storage/cache/page_cache.h"
 #include "storage/format/format_version.h"
 #include "storage/pages/page_set.h"
@@ -16,8 +16,13 @@
 #include <cstdio>
 #include <memory>
 
-namespace pbgi::cli {
+namespace pbgi::tools {
 namespace {
+
+using cli::CommandRegistrar;
+using cli::json_number;
+using cli::json_string;
+using cli::tool_command_description;
 
 struct InspectArgs {
   std::string dir;
@@ -150,4 +155,4 @@ const CommandRegistrar kRegistrar("inspect", [](CLI::App& app, int* exit_code) {
 });
 
 }  // namespace
-}  // namespace pbgi::cli
+}  // namespace pbgi::tools

@@ -3,8 +3,8 @@
 // beauty, direct, indirect, indirect1, albedo, ao), optionally with a PNG of
 // the beauty through the OCIO display transform.
 #include "client/cli/command.h"
-#include "client/cli/tool_commands.h"
 #include "client/cli/output_paths.h"
+#include "client/cli/tool_commands.h"
 #include "client/image/exr_image.h"
 #include "client/image/png_display.h"
 #include "common/errors.h"
@@ -22,8 +22,12 @@
 #include <memory>
 #include <unistd.h>
 
-namespace pbgi::cli {
+namespace pbgi::tools {
 namespace {
+
+using cli::check_output_file;
+using cli::CommandRegistrar;
+using cli::tool_command_description;
 
 struct ReferenceArgs {
   std::string scene;
@@ -187,4 +191,4 @@ const CommandRegistrar kRegistrar("reference", [](CLI::App& app, int* exit_code)
 });
 
 }  // namespace
-}  // namespace pbgi::cli
+}  // namespace pbgi::tools

@@ -10,7 +10,7 @@
 // shows radiance radiance(w)/coverage(w).
 #pragma once
 
-#include "storage/math/sh.h"
+#include "storage/sh/sh.h"
 #include "storage/tree/surfel.h"
 
 #include <cstdint>

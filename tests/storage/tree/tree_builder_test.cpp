@@ -4,7 +4,7 @@
 // (quantized) surfels are within the documented precision of the input.
 #include "storage/tree/tree_builder.h"
 #include "common/errors.h"
-#include "storage/math/sh.h"
+#include "storage/sh/sh.h"
 #include "storage/tree/memory_tree.h"
 #include "storage/tree/morton.h"
 #include "tests/storage/tree/random_surfels.h"
