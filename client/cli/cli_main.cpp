@@ -22,18 +22,19 @@ int run_cli(int argc, char** argv, const char* description, std::span<const Exte
   app.set_version_flag("--version", std::string("pbgi ") + PBGI_VERSION);
   app.require_subcommand(1);
   int exit_code = 0;
+  // Registered and external subcommands together, by name (--help lists
+  // them in the order they are added).
   auto& registry = command_registry();
+  for (const ExternalCommand& c : external) {
+    registry.emplace_back(c.name,
+                          [c](CLI::App& a, int*) { a.add_subcommand(c.name, c.description)->prefix_command(); });
+  }
   std::sort(registry.begin(), registry.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   std::vector<std::string> names;
   for (auto& [name, setup] : registry) {
     setup(app, &exit_code);
     names.push_back(name);
   }
-  for (const ExternalCommand& c : external) {
-    app.add_subcommand(c.name, c.description)->prefix_command();
-    names.emplace_back(c.name);
-  }
-  std::sort(names.begin(), names.end());
   // A first word that names no subcommand: say which one was meant, rather
   // than CLI11's "A subcommand is required".
   if (argc > 1 && argv[1][0] != '-' && std::find(names.begin(), names.end(), argv[1]) == names.end()) {
