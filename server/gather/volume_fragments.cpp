@@ -3,8 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace pbgi {
-namespace gather {
+namespace pbgi::gather {
 
 uint64_t add_volume_fragments(const VolumePoints& fog, const Imath::V3f& p, Microbuffer& buffer, float max_distance) {
   if (fog.empty()) return 0;
@@ -58,5 +57,4 @@ uint64_t add_volume_fragments(const VolumePoints& fog, const Imath::V3f& p, Micr
   return added;
 }
 
-}  // namespace gather
-}  // namespace pbgi
+}  // namespace pbgi::gather

@@ -31,9 +31,7 @@
 
 #include <cstdint>
 
-namespace pbgi {
-
-namespace gather {
+namespace pbgi::gather {
 
 // Adds the fog fragments of the receiver at p to `buffer` (begun for its
 // normal), out to `max_distance` (<= 0: the whole fog). Returns the number
@@ -41,5 +39,4 @@ namespace gather {
 uint64_t add_volume_fragments(const VolumePoints& fog, const Imath::V3f& p, Microbuffer& buffer,
                               float max_distance = 0.f);
 
-}  // namespace gather
-}  // namespace pbgi
+}  // namespace pbgi::gather
