@@ -2,7 +2,7 @@
 
 #include "client/bench/scene_hash.h"
 #include "client/image/exr_image.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fmt/format.h>
 #include <xxhash.h>

@@ -4,14 +4,15 @@
 // the beauty through the OCIO display transform.
 #include "client/cli/command.h"
 #include "client/cli/output_paths.h"
+#include "client/cli/tool_commands.h"
 #include "client/image/exr_image.h"
 #include "client/image/png_display.h"
+#include "common/errors.h"
 #include "server/ingest/usd_ingest.h"
+#include "server/reference/path_tracer.h"
 #include "server/scene/auto_camera.h"
 #include "server/scene/default_lights.h"
-#include "server/reference/path_tracer.h"
 #include "server/volumes/fog_field.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 
@@ -21,8 +22,12 @@
 #include <memory>
 #include <unistd.h>
 
-namespace pbgi::cli {
+namespace pbgi::tools {
 namespace {
+
+using cli::check_output_file;
+using cli::CommandRegistrar;
+using cli::tool_command_description;
 
 struct ReferenceArgs {
   std::string scene;
@@ -149,8 +154,7 @@ int run(const ReferenceArgs& args) {
 
 const CommandRegistrar kRegistrar("reference", [](CLI::App& app, int* exit_code) {
   auto args = std::make_shared<ReferenceArgs>();
-  CLI::App* cmd = app.add_subcommand(
-      "reference", "Render an unbiased path-traced reference (multi-layer EXR of the AOVs)");
+  CLI::App* cmd = app.add_subcommand("reference", tool_command_description("reference"));
   cmd->add_option("scene", args->scene, "USD scene file")->required();
   cmd->add_option("--camera,-c", args->camera, "Camera prim path, or auto: the scene framed (default: the only camera; auto without any)");
   cmd->add_option("--out,-o", args->out, "Output EXR")->capture_default_str();
@@ -187,4 +191,4 @@ const CommandRegistrar kRegistrar("reference", [](CLI::App& app, int* exit_code)
 });
 
 }  // namespace
-}  // namespace pbgi::cli
+}  // namespace pbgi::tools
