@@ -2,6 +2,7 @@
 // USD scene's camera into a multi-layer EXR (the AOVs of path_tracer.h:
 // beauty, direct, indirect, indirect1, albedo, ao), optionally with a PNG of
 // the beauty through the OCIO display transform.
+#include "client/bench/reference_cache.h"
 #include "client/cli/command.h"
 #include "client/cli/output_paths.h"
 #include "client/cli/tool_commands.h"
@@ -73,17 +74,6 @@ class ProgressBar {
   int quarter_ = 0;
 };
 
-image::ExrImage to_exr(const ReferenceImage& r) {
-  image::ExrImage img(r.width, r.height);
-  img.set_rgb("", r.beauty);
-  img.set_rgb("direct", r.direct);
-  img.set_rgb("indirect", r.indirect);
-  img.set_rgb("indirect1", r.indirect1);
-  img.set_rgb("albedo", r.albedo);
-  img.set_layer("ao", image::y_channels(), r.ao);
-  return img;
-}
-
 int run(const ReferenceArgs& args) {
   const auto start = std::chrono::steady_clock::now();
   check_output_file(args.out, "--out");  // before minutes of path tracing
@@ -115,7 +105,7 @@ int run(const ReferenceArgs& args) {
                        &stats);
 
   // 3. Write the EXR (with provenance) and the PNG.
-  image::ExrImage img = to_exr(result);
+  image::ExrImage img = bench::reference_exr(result);
   auto& attrs = img.attributes();
   attrs["pbgi/renderer"] = "reference path tracer";
   attrs["pbgi/scene"] = args.scene;
