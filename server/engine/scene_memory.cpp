@@ -1,0 +1,41 @@
+#include "server/engine/scene_memory.h"
+
+#include <algorithm>
+
+namespace pbgi {
+namespace {
+
+// Embree's peak per triangle of a BVH built (RTC_BUILD_QUALITY_MEDIUM,
+// robust): its copy of 12 B of indices and ~12 B of vertices per
+// triangle, the final BVH (~70 B) and the build's primitive references and
+// scratch (~100 B). Measured at 150-180 B (see scene_memory.h); rounded up.
+constexpr uint64_t kRayBytesPerTriangle = 200;
+// Per instance: an instance geometry and its node in the top-level BVH.
+constexpr uint64_t kRayBytesPerInstance = 512;
+// The device, its thread-local allocators and empty scenes.
+constexpr uint64_t kRayFixedBytes = uint64_t(8) << 20;
+// A build's batches of surfels in flight (65 536 surfels a batch, sampled,
+// shaded and sorted by the worker threads), page encoding and the
+// bounce gather's receivers, beside the sort memory.
+constexpr uint64_t kBuildBatchBytes = uint64_t(64) << 20;
+// The least sort memory a build is given under a tight budget.
+constexpr uint64_t kMinSortMemory = uint64_t(16) << 20;
+
+}  // namespace
+
+uint64_t estimate_ray_structure_bytes(const Scene& scene) {
+  uint64_t triangles = scene.triangles.triangle_count();
+  for (const Prototype& p : scene.prototypes) triangles += p.triangles.triangle_count();
+  return kRayFixedBytes + triangles * kRayBytesPerTriangle + scene.instances.size() * kRayBytesPerInstance;
+}
+
+uint64_t estimate_build_bytes(const OpenOptions& options) {
+  return options.tree.sort_memory_bytes + kBuildBatchBytes;
+}
+
+uint64_t fit_sort_memory(const OpenOptions& options, uint64_t available) {
+  const uint64_t room = available > kBuildBatchBytes ? available - kBuildBatchBytes : 0;
+  return std::min(options.tree.sort_memory_bytes, std::max(kMinSortMemory, room));
+}
+
+}  // namespace pbgi
