@@ -88,6 +88,7 @@ void MemoryAccountant::grow(const std::string& owner, const std::string& what, u
   bool reclaimed = false;
   for (;;) {
     Reclaimer reclaimer;
+    uint64_t shortfall = 0;
     {
       std::lock_guard lock(mutex_);
       // Fits beside the other charges (the cache gives way down to its floor).
@@ -99,10 +100,13 @@ void MemoryAccountant::grow(const std::string& owner, const std::string& what, u
       }
       // Could fit if others gave way: ask the reclaimer, outside the lock
       // (the sessions it unloads release their charges through it).
-      if (held + more <= limit) reclaimer = reclaimer_;
+      if (held + more <= limit) {
+        reclaimer = reclaimer_;
+        shortfall = charged_ + more - limit;
+      }
       if (!reclaimer) ++refusals_;
     }
-    if (reclaimer && reclaimer(more)) {
+    if (reclaimer && reclaimer(shortfall)) {
       reclaimed = true;
       continue;
     }
@@ -111,12 +115,16 @@ void MemoryAccountant::grow(const std::string& owner, const std::string& what, u
       ++refusals_;
     }
     const uint64_t others = charged() - held;
+    const std::string needs =
+        held == 0 ? fmt::format("{:.1f} MiB ({} bytes) of {}", mib(more), more, what)
+                  : fmt::format("{:.1f} MiB ({} bytes: {:.1f} MiB held + {:.1f} MiB of {})", mib(held + more),
+                                held + more, mib(held), mib(more), what);
     throw ResourceExhausted(fmt::format(
-        "scene '{}' does not fit in the daemon's memory_budget: it needs {:.1f} MiB ({} bytes: {:.1f} MiB held "
-        "+ {:.1f} MiB of {}), the budget of {:.1f} MiB gives scenes at most {:.1f} MiB (after request_memory "
-        "{:.1f} MiB and page_cache_floor {:.1f} MiB), and other scenes in use hold {:.1f} MiB",
-        owner, mib(held + more), held + more, mib(held), mib(more), what, mib(budget_.total), mib(limit),
-        mib(budget_.request_reserve), mib(budget_.cache_floor), mib(others)));
+        "scene '{}' does not fit in the daemon's memory_budget: it needs {}; the budget of {:.1f} MiB gives "
+        "scenes at most {:.1f} MiB (after request_memory {:.1f} MiB and page_cache_floor {:.1f} MiB), and "
+        "other scenes in use hold {:.1f} MiB",
+        owner, needs, mib(budget_.total), mib(limit), mib(budget_.request_reserve), mib(budget_.cache_floor),
+        mib(others)));
   }
 }
 

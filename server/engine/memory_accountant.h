@@ -81,7 +81,7 @@ class MemoryCharge {
 
 class MemoryAccountant : public std::enable_shared_from_this<MemoryAccountant> {
  public:
-  // Unloads idle scenes to make room for `bytes` more; returns true if it
+  // Unloads idle scenes to free `bytes` (what the charge lacks); returns true if it
   // unloaded any (their charges are released as their sessions go), false
   // if nothing more can be unloaded.
   using Reclaimer = std::function<bool(uint64_t bytes)>;

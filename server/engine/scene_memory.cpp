@@ -5,11 +5,15 @@
 namespace pbgi {
 namespace {
 
-// Embree's peak per triangle of a BVH built (RTC_BUILD_QUALITY_MEDIUM,
-// robust): its copy of 12 B of indices and ~12 B of vertices per
-// triangle, the final BVH (~70 B) and the build's primitive references and
-// scratch (~100 B). Measured at 150-180 B (see scene_memory.h); rounded up.
-constexpr uint64_t kRayBytesPerTriangle = 200;
+// Embree's peak while it builds (RTC_BUILD_QUALITY_MEDIUM, robust): its
+// copies of the vertices (16 B each, padded) and indices (12 B a
+// triangle), and per triangle the BVH and the build's primitive
+// references. Measured: 85 B per triangle final, 118 B at the peak, on a
+// generated 1M-triangle scene with 16 B of vertices and 12 B of indices
+// per triangle (docs/measurements/2026-11-27-daemon-budget.md); the
+// per-triangle part is that peak less the copies, with a margin.
+constexpr uint64_t kRayBytesPerVertex = 16;
+constexpr uint64_t kRayBytesPerTriangle = 12 + 110;
 // Per instance: an instance geometry and its node in the top-level BVH.
 constexpr uint64_t kRayBytesPerInstance = 512;
 // The device, its thread-local allocators and empty scenes.
@@ -25,8 +29,13 @@ constexpr uint64_t kMinSortMemory = uint64_t(16) << 20;
 
 uint64_t estimate_ray_structure_bytes(const Scene& scene) {
   uint64_t triangles = scene.triangles.triangle_count();
-  for (const Prototype& p : scene.prototypes) triangles += p.triangles.triangle_count();
-  return kRayFixedBytes + triangles * kRayBytesPerTriangle + scene.instances.size() * kRayBytesPerInstance;
+  uint64_t vertices = scene.triangles.positions.size();
+  for (const Prototype& p : scene.prototypes) {
+    triangles += p.triangles.triangle_count();
+    vertices += p.triangles.positions.size();
+  }
+  return kRayFixedBytes + vertices * kRayBytesPerVertex + triangles * kRayBytesPerTriangle +
+         scene.instances.size() * kRayBytesPerInstance;
 }
 
 uint64_t estimate_build_bytes(const OpenOptions& options) {

@@ -6,6 +6,8 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <malloc.h>
+
 #include <algorithm>
 #include <chrono>
 #include <condition_variable>
@@ -300,6 +302,10 @@ bool SceneRegistry::unload_idle(uint64_t bytes) {
   }
   const bool any = !unloaded.empty();
   unloaded.clear();
+  // The heap they freed goes back to the system: glibc keeps freed chunks
+  // in its arenas (the worker threads' too), where the next scene may not
+  // fit them, and the budget would pay for them twice.
+  if (any) ::malloc_trim(0);
   return any;
 }
 
