@@ -8,10 +8,10 @@ namespace {
 // Embree's peak while it builds (RTC_BUILD_QUALITY_MEDIUM, robust): its
 // copies of the vertices (16 B each, padded) and indices (12 B a
 // triangle), and per triangle the BVH and the build's primitive
-// references. Measured: 85 B per triangle final, 118 B at the peak, on a
-// generated 1M-triangle scene with 16 B of vertices and 12 B of indices
-// per triangle (docs/measurements/2026-11-27-daemon-budget.md); the
-// per-triangle part is that peak less the copies, with a margin.
+// references. Measured by Embree's memory monitor (copies included): 83 B
+// per triangle final, 116 B at the peak, on the generated 4M-triangle
+// scene of docs/measurements/2026-11-27-daemon-budget.md (the estimate
+// charged for it was 1.4x the peak).
 constexpr uint64_t kRayBytesPerVertex = 16;
 constexpr uint64_t kRayBytesPerTriangle = 12 + 110;
 // Per instance: an instance geometry and its node in the top-level BVH.
@@ -20,7 +20,8 @@ constexpr uint64_t kRayBytesPerInstance = 512;
 constexpr uint64_t kRayFixedBytes = uint64_t(8) << 20;
 // A build's batches of surfels in flight (65 536 surfels a batch, sampled,
 // shaded and sorted by the worker threads), page encoding and the
-// bounce gather's receivers, beside the sort memory.
+// bounce gather's receivers, beside the sort memory. A bound chosen, not
+// measured per part.
 constexpr uint64_t kBuildBatchBytes = uint64_t(64) << 20;
 // The least sort memory a build is given under a tight budget.
 constexpr uint64_t kMinSortMemory = uint64_t(16) << 20;

@@ -6,7 +6,7 @@
 // The estimates are upper bounds of what was measured on generated scenes
 // (docs/measurements/2026-11-27-daemon-budget.md): Embree's BVH at
 // RTC_BUILD_QUALITY_MEDIUM with its copies of vertices and indices peaks at
-// about twice its final size while it builds; a page-set build holds its
+// about 1.4 times its final size while it builds; a page-set build holds its
 // sort memory (BuildOptions::sort_memory_bytes) and its batches of surfels.
 #pragma once
 
