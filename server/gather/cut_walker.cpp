@@ -51,6 +51,15 @@ constexpr float kWideRefineFraction = 1.f / 16.f;
 // refined once it brings this fraction of the HDR threshold.
 constexpr float kHdrStraddleFraction = 1.f / 16.f;
 
+// Pieces of one plane lie on it up to rounding; fragments whose planes
+// differ by more than this fraction of their distance to the receiver (plus
+// what the node's normal cone allows) lie on different surfaces, e.g. a
+// floor and the ground 1 cm below it seen from 4 m (microbuffer.h, rule 3).
+constexpr float kPlaneSlack = 1e-3f;
+// A two-faced node's faces are within ~11 degrees of its axis
+// (kBipolarMinLambda): its pieces lie within r sin(11 deg) of its plane.
+constexpr float kBipolarPlaneSin = 0.2f;
+
 // A walk's splats are queued and drawn in batches (rasterizer.h): the
 // walk flushes them before it returns; when it throws they are dropped
 // (the receiver is lost, and the next one starts a new microbuffer).
@@ -241,6 +250,8 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
     shape.omega = std::min(look.area * coverage, disk) / d2;
     shape.squash = Imath::V3f(h.ax, h.ay, h.az);
     shape.ratio = coverage;
+    shape.facing = shape.squash;
+    shape.plane_tolerance = h.radius * h.cone_sin + kPlaneSlack * d;
     radiance = Imath::C3f(look.r, look.g, look.b);
     if (h.glossy()) add_glossy(e, -dir, coverage, radiance);
   } else if (h.bipolar()) {
@@ -252,6 +263,8 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
     shape.omega = std::min(look.area * coverage, disk) / d2;
     shape.squash = b.axis;
     shape.ratio = std::min(1.f, std::abs(b.axis.dot(dir)));
+    shape.facing = b.axis.dot(dir) < 0.f ? b.axis : -b.axis;
+    shape.plane_tolerance = h.radius * kBipolarPlaneSin + kPlaneSlack * d;
     if (h.glossy()) add_glossy(e, -dir, coverage, radiance);
   } else {
     // A wide cone with normals facing away from the receiver: the SH's
@@ -339,6 +352,8 @@ void CutWalker::leaf_surfels(const StackEntry& e, const tree::Page& page, const 
       shape.omega = kPi * r2 * shape.ratio / d2;
       shape.squash = s.normal;
       shape.max_radius = s.radius / d;
+      shape.facing = s.normal;
+      shape.plane_tolerance = kPlaneSlack * d;
       // A near surfel seen at a grazing angle recedes by r sin(phi) on
       // either side of its center: its fragments span that, so that the
       // pieces of a wall seen edge-on chain into one surface instead of
@@ -348,7 +363,8 @@ void CutWalker::leaf_surfels(const StackEntry& e, const tree::Page& page, const 
       raster_.queue(q / d, shape, d, radiance);
       ++counters_.surfels_splatted;
     } else {
-      raster_.raycast(q, s.normal, s.radius * kRaycastRadiusScale, radiance);
+      raster_.raycast(q, s.normal, s.radius * kRaycastRadiusScale, radiance,
+                      kPlaneSlack * std::sqrt(d2));
       ++counters_.surfels_raycast;
     }
   }

@@ -35,7 +35,7 @@ void Microbuffer::push(uint32_t k, const Fragment& f) {
   }
   for (int32_t i = head_[k]; i >= 0; i = fragments_[i].next) {
     Fragment& g = fragments_[i];
-    if ((g.alpha > 0.f) != (f.alpha > 0.f)) continue;
+    if ((g.alpha > 0.f) != (f.alpha > 0.f) || !same_surface(g, f)) continue;
     // Depth intervals overlapping within the band (then they always end in
     // the same cluster of resolve()).
     if (f.far * grow_ < g.near || f.near > g.far * grow_) continue;
@@ -182,6 +182,25 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
     size_t i = 0;
     while (i < sorted_.size() && transmit > kOpaque) {
       const float start = sorted_[i].near;
+      // The cluster's extent, and whether it holds more than one surface.
+      size_t end = i;
+      bool one_surface = true;
+      for (float z = start; end < sorted_.size() && sorted_[end].near <= z * grow_; ++end) {
+        z = std::max(z, sorted_[end].far);
+        one_surface = one_surface && same_surface(sorted_[i], sorted_[end]);
+      }
+      if (!one_surface) {
+        float a = 0.f, w = 0.f, cr = 0.f, cg = 0.f, cb = 0.f;
+        resolve_surfaces(k, i, end, cr, cg, cb, w, a);
+        i = end;
+        r += transmit * cr;
+        g += transmit * cg;
+        b += transmit * cb;
+        if (ao_open && ao_max_distance > 0.f && !(start < ao_max_distance)) ao_open = false;
+        if (ao_open) ao_cover += transmit * w;
+        transmit *= std::max(0.f, 1.f - a);
+        continue;
+      }
       float far_z = start, a = 0.f, w = 0.f, cr = 0.f, cg = 0.f, cb = 0.f;
       float hits = 0.f, hw = 0.f, hr = 0.f, hg = 0.f, hb = 0.f;
       uint32_t mask = 0;
@@ -239,6 +258,92 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
   out.ao = std::clamp(1.f - float(occlusion / kPi), 0.f, 1.f);
   out.occluded = Imath::V3f(float(occluded[0]), float(occluded[1]), float(occluded[2]));
   return out;
+}
+
+void Microbuffer::resolve_surfaces(uint32_t k, size_t begin, size_t end, float& r, float& g,
+                                   float& b, float& weight, float& alpha) {
+  // Group by surface, in order of first appearance (nearest fragment).
+  surfaces_.clear();
+  for (size_t j = begin; j < end; ++j) {
+    const Fragment& f = sorted_[j];
+    Surface* s = nullptr;
+    for (Surface& t : surfaces_) {
+      if (same_surface(sorted_[t.first], f)) {
+        s = &t;
+        break;
+      }
+    }
+    if (!s) {
+      surfaces_.push_back({f.near, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0u,
+                           uint32_t(j)});
+      s = &surfaces_.back();
+      // Where the pixel's center ray meets the surface's plane, kept within
+      // the depths its fragments span (a ray nearly parallel to the plane
+      // meets it anywhere).
+      const Fragment& f0 = sorted_[j];
+      if (known(f0)) {
+        const Imath::V3f d = layout_.direction(k);
+        const float dn = f0.nx * d.x + f0.ny * d.y + f0.nz * d.z;
+        if (dn < 0.f) {
+          float far_z = f0.far;
+          for (size_t m = j; m < end; ++m) {
+            if (same_surface(f0, sorted_[m])) far_z = std::max(far_z, sorted_[m].far);
+          }
+          s->depth = std::clamp(f0.plane / dn, f0.near / grow_, far_z * grow_);
+        }
+      }
+    }
+    if (f.alpha < 0.f) {
+      s->hits -= f.alpha;
+      s->mask |= f.mask;
+      s->hw += f.weight;
+      s->hr += f.r;
+      s->hg += f.g;
+      s->hb += f.b;
+    } else {
+      s->alpha += f.alpha;
+      s->w += f.weight;
+      s->r += f.r;
+      s->g += f.g;
+      s->b += f.b;
+    }
+  }
+  // Front to back (a handful of surfaces: insertion sort).
+  for (size_t i = 1; i < surfaces_.size(); ++i) {
+    const Surface x = surfaces_[i];
+    size_t j = i;
+    for (; j > 0 && surfaces_[j - 1].depth > x.depth; --j) surfaces_[j] = surfaces_[j - 1];
+    surfaces_[j] = x;
+  }
+  uint32_t seen = 0;  // samples hit by surfaces in front
+  float covered = 0.f;
+  r = g = b = weight = 0.f;
+  for (size_t i = 0; i < surfaces_.size(); ++i) {
+    const Surface& s = surfaces_[i];
+    float cover = 0.f;
+    if (s.hits > 0.f) {
+      // The hits' radiance averaged, over the part of the pixel they cover
+      // and no surface in front of them does.
+      const uint32_t mask = s.mask & ~seen;
+      seen |= s.mask;
+      cover = float(__builtin_popcount(mask)) * (1.f / kHitSamples);
+      const float inv = cover / s.hits;
+      weight += s.hw * inv;
+      r += s.hr * inv;
+      g += s.hg * inv;
+      b += s.hb * inv;
+    }
+    // Splats: whole for the front surface (its pieces' overlaps are not
+    // clamped, rule 3), else over what the surfaces in front leave.
+    float scale = 1.f;
+    if (i > 0 && s.alpha > 0.f) scale = std::clamp((1.f - covered - cover) / s.alpha, 0.f, 1.f);
+    weight += s.w * scale;
+    r += s.r * scale;
+    g += s.g * scale;
+    b += s.b * scale;
+    covered += cover + s.alpha * scale;
+  }
+  alpha = covered;
 }
 
 Imath::V3f Microbuffer::bent_normal(const Resolved& r) const {

@@ -15,14 +15,25 @@
 //     the pixel's fragments of the same kind whose depth interval it is
 //     within the band of; such fragments always end in the same cluster,
 //     so this changes nothing but speed.
-//  3. A cluster's coverage is alpha = (covered samples / 16) + sum of splat
-//     alphas. Ray-cast hits of overlapping disks do not add up: a hit
-//     means a sample point of the pixel sees the surface, and the hits of
-//     a cluster cover the union of their samples. Splat coverage is deliberately not
+//  3. Within a cluster, fragments are grouped by surface: the same normal
+//     (within kSameSurfaceCos) and plane (within the tolerance of either),
+//     or both unknown (FragmentSurface). A surface's coverage is
+//     alpha = (covered samples / 16) + sum of splat alphas. Ray-cast hits
+//     of overlapping disks do not add up: a hit means a sample point of the
+//     pixel sees the surface, and the hits of a surface cover the union of
+//     their samples. Splat coverage of one surface is deliberately not
 //     clamped at 1: a splat has exactly its node's solid angle, so where
 //     neighbouring splats overlap in one pixel they leave a gap in another,
 //     and clamping would turn every overlap into lost energy (a 2-3%
-//     darkening that grows with resolution).
+//     darkening that grows with resolution). The surfaces of a cluster are
+//     ordered by the depth at which the pixel's center ray meets their
+//     plane (their nearest fragment when unknown); the first counts whole,
+//     each next one only over what those in front of it leave of the pixel
+//     (its hits lose the samples hit in front, its splats are scaled down
+//     to 1 - the coverage in front). Surfaces side by side in a pixel (a
+//     floor meeting a wall) thus add up as before, while a surface behind
+//     another within the band (the ground just behind a wall's foot, 2 cm
+//     below a floor) no longer adds its light.
 //  4. Clusters composite front to back: each passes max(0, 1 - alpha) of
 //     what lies behind it.
 // AO counts only the clusters that start nearer than ao_max_distance (if it
@@ -60,6 +71,18 @@
 namespace pbgi::gather {
 
 class FarBuffer;
+
+// The surface a fragment lies on, when it is known: the unit normal `n`
+// facing the receiver, the plane's offset `plane` = n . (point - receiver)
+// (< 0 in front of it) and how far off that plane pieces of the same
+// surface may lie (`tolerance`, same units). A zero normal means unknown
+// (wide-cone nodes, fog, a cluster's far content). resolve() uses it to
+// tell the surfaces of one depth cluster apart (rule 3 below).
+struct FragmentSurface {
+  Imath::V3f n{0, 0, 0};
+  float plane = 0.f;
+  float tolerance = 0.f;
+};
 
 struct Resolved {
   Imath::C3f irradiance{0, 0, 0};
@@ -105,13 +128,14 @@ class Microbuffer {
   // splats, and pieces of it whose intervals chain belong to one surface),
   // has the cosine-weighted solid angle `weight` (> 0) and shows `radiance`.
   void add_coverage(uint32_t k, float near, float far, float alpha, float weight,
-                    const Imath::C3f& radiance) {
+                    const Imath::C3f& radiance, const FragmentSurface& surface = {}) {
     if (!(alpha > 0.f) || !(weight > 0.f)) return;
     // Fast path: the pixel's latest fragment is a splat of the same surface
     // (the common case: neighbouring splats of one surface).
     if (stamp_[k] == generation_) {
       Fragment& g = fragments_[head_[k]];
-      if (g.alpha > 0.f && far * grow_ >= g.near && near <= g.far * grow_) {
+      if (g.alpha > 0.f && far * grow_ >= g.near && near <= g.far * grow_ &&
+          same_surface(g, surface)) {
         g.near = std::min(g.near, near);
         g.far = std::max(g.far, far);
         g.alpha += alpha;
@@ -122,8 +146,9 @@ class Microbuffer {
         return;
       }
     }
-    push(k, {near, far, alpha, weight, radiance.x * weight, radiance.y * weight,
-             radiance.z * weight});
+    push(k, with_surface({near, far, alpha, weight, radiance.x * weight, radiance.y * weight,
+                          radiance.z * weight},
+                         surface));
   }
   void add_coverage(uint32_t k, float depth, float alpha, float weight,
                     const Imath::C3f& radiance) {
@@ -141,11 +166,17 @@ class Microbuffer {
     add_hit(k, depth, depth, radiance, mask);
   }
   // The same with the depth interval of the samples' hits.
-  void add_hit(uint32_t k, float near, float far, const Imath::C3f& radiance, uint32_t mask) {
+  void add_hit(uint32_t k, float near, float far, const Imath::C3f& radiance, uint32_t mask,
+               const FragmentSurface& surface = {}) {
     const float w = weight_[k];
     if (!(w > 0.f) || !(mask & kAllSamples)) return;
-    push(k, {near, far, -1.f, w, radiance.x * w, radiance.y * w, radiance.z * w, mask});
+    Fragment f{near, far, -1.f, w, radiance.x * w, radiance.y * w, radiance.z * w, mask};
+    push(k, with_surface(f, surface));
   }
+
+  // Two fragments lie on one surface when their normals are within this
+  // cosine (25 degrees) and their planes within either's tolerance.
+  static constexpr float kSameSurfaceCos = 0.906f;
 
   // Resolves visibility (rule above) and convolves with the cosine lobe,
   // with the resolved far content of `far` if given. With `gain` (one
@@ -187,9 +218,36 @@ class Microbuffer {
     float r, g, b;    // radiance times weight
     uint32_t mask = 0;  // hits: the pixel's sample points they cover (union)
     int32_t next = -1;
+    float nx = 0.f, ny = 0.f, nz = 0.f;  // FragmentSurface (zero: unknown)
+    float plane = 0.f, tolerance = 0.f;
   };
+  static Fragment with_surface(Fragment f, const FragmentSurface& s) {
+    f.nx = s.n.x;
+    f.ny = s.n.y;
+    f.nz = s.n.z;
+    f.plane = s.plane;
+    f.tolerance = s.tolerance;
+    return f;
+  }
+  static bool known(const Fragment& f) { return f.nx != 0.f || f.ny != 0.f || f.nz != 0.f; }
+  static bool same_surface(const Fragment& a, const Fragment& b) {
+    const bool ka = known(a), kb = known(b);
+    if (ka != kb) return false;
+    if (!ka) return true;
+    return a.nx * b.nx + a.ny * b.ny + a.nz * b.nz > kSameSurfaceCos &&
+           std::abs(a.plane - b.plane) <= std::max(a.tolerance, b.tolerance);
+  }
+  static bool same_surface(const Fragment& a, const FragmentSurface& s) {
+    Fragment b{};
+    return same_surface(a, with_surface(b, s));
+  }
 
   void push(uint32_t k, const Fragment& f);
+  // Resolves one depth cluster of pixel k, sorted_[begin, end), whose
+  // fragments lie on more than one surface (rule 3): its light, cosine
+  // weight and coverage.
+  void resolve_surfaces(uint32_t k, size_t begin, size_t end, float& r, float& g, float& b,
+                        float& weight, float& alpha);
 
   const CubeLayout& layout_;
   float band_;
@@ -206,6 +264,15 @@ class Microbuffer {
   std::vector<uint32_t> touched_;
   std::vector<Fragment> fragments_;
   std::vector<Fragment> sorted_;  // scratch of resolve()
+  // Scratch of resolve_surfaces(): one entry per surface of a cluster.
+  struct Surface {
+    float depth;
+    float alpha, w, r, g, b;        // splats
+    float hits, hw, hr, hg, hb;     // ray-cast hits
+    uint32_t mask;
+    uint32_t first;                 // its first fragment (in sorted_)
+  };
+  std::vector<Surface> surfaces_;
 };
 
 }  // namespace pbgi::gather

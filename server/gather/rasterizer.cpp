@@ -67,7 +67,11 @@ void Rasterizer::queue(const Imath::V3f& dir, const Shape& shape, float depth,
   b.sy[i] = shape.squash.y;
   b.sz[i] = shape.squash.z;
   const float extent = std::clamp(shape.depth_extent, 0.f, 0.9f * depth);
-  pending_[i] = {depth - extent, depth + extent, radiance, far};
+  FragmentSurface surface;
+  if (shape.facing != Imath::V3f(0, 0, 0)) {
+    surface = {shape.facing, depth * shape.facing.dot(dir), shape.plane_tolerance};
+  }
+  pending_[i] = {depth - extent, depth + extent, radiance, far, surface};
 }
 
 void Rasterizer::flush() {
@@ -168,7 +172,7 @@ void Rasterizer::draw(size_t i, const Ellipse& e, const Pending& p) {
       for (uint32_t c = 0; c < ni; ++c) {
         const uint32_t k = row + c;
         const float m = b.mu[c][i];
-        buffer_.add_coverage(k, p.z0, p.z1, m * a_v, m * w_v * solid[k], p.radiance);
+        buffer_.add_coverage(k, p.z0, p.z1, m * a_v, m * w_v * solid[k], p.radiance, p.surface);
       }
     }
     return;
@@ -179,7 +183,8 @@ void Rasterizer::draw(size_t i, const Ellipse& e, const Pending& p) {
   const float weight_scale = above && weighted_ > 0.f ? target / weighted_ : scale;
   for (const Candidate& c : candidates_) {
     buffer_.add_coverage(c.pixel, p.z0, p.z1, c.fraction * scale,
-                         c.fraction * weight_scale * solid[c.pixel] * c.cosine, p.radiance);
+                         c.fraction * weight_scale * solid[c.pixel] * c.cosine, p.radiance,
+                         p.surface);
   }
 }
 
@@ -351,12 +356,13 @@ void Rasterizer::deposit(int face, float u0, float u1, float v0, float v1, float
 }
 
 uint32_t Rasterizer::raycast(const Imath::V3f& offset, const Imath::V3f& normal, float radius,
-                             const Imath::C3f& radiance) {
+                             const Imath::C3f& radiance, float plane_tolerance) {
   flush();  // queued splats come first, as if drawn when queued
   const float d2 = offset.length2();
   const float r2 = radius * radius;
   const float plane = normal.dot(offset);  // < 0: the receiver is in front
   if (!(plane < 0.f) || !(radius > 0.f)) return 0;
+  const FragmentSurface surface{normal, plane, plane_tolerance};
   const uint32_t n = layout_.resolution();
   const float pw = layout_.pixel_width();
   // Candidate pixels: those whose area (not only center) may meet the
@@ -414,7 +420,7 @@ uint32_t Rasterizer::raycast(const Imath::V3f& offset, const Imath::V3f& normal,
           }
         }
         if (mask) {
-          buffer_.add_hit(k, z0, z1, radiance, mask);
+          buffer_.add_hit(k, z0, z1, radiance, mask, surface);
           ++hits;
         }
       }
