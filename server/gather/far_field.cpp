@@ -56,6 +56,8 @@ void FarBuffer::push(uint32_t k, const Fragment& f) {
   for (int32_t i = head_[k]; i >= 0; i = fragments_[i].next) {
     Fragment& g = fragments_[i];
     if (f.far * grow_ < g.near || f.near > g.far * grow_) continue;
+    if (!merges(g, f, k)) continue;
+    if (!g.surface.known()) g.surface = f.surface;
     g.near = std::min(g.near, f.near);
     g.far = std::max(g.far, f.far);
     g.alpha += f.alpha;
@@ -71,6 +73,59 @@ void FarBuffer::push(uint32_t k, const Fragment& f) {
   fragments_.push_back(f);
   fragments_.back().next = head_[k];
   head_[k] = int32_t(fragments_.size() - 1);
+}
+
+bool FarBuffer::merges(const Fragment& g, const Fragment& f, uint32_t k) const {
+  if (same_surface(g.surface, f.surface)) return true;
+  const Imath::V3f dir = layout_.direction(k);
+  return !lies_behind(g.surface, dir * surface_depth(f.surface, dir, f.near, f.far, grow_)) &&
+         !lies_behind(f.surface, dir * surface_depth(g.surface, dir, g.near, g.far, grow_));
+}
+
+void FarBuffer::trim_hidden(uint32_t k, size_t begin, size_t end) {
+  const Imath::V3f dir = layout_.direction(k);
+  // Front to back by where the pixel's center ray meets each fragment's
+  // surface (a cluster holds a handful: insertion sort of the range).
+  depth_.clear();
+  for (size_t j = begin; j < end; ++j) {
+    const Fragment& f = sorted_[j];
+    depth_.push_back(surface_depth(f.surface, dir, f.near, f.far, grow_));
+  }
+  for (size_t i = 1; i < depth_.size(); ++i) {
+    const Fragment x = sorted_[begin + i];
+    const float dx = depth_[i];
+    size_t j = i;
+    for (; j > 0 && depth_[j - 1] > dx; --j) {
+      sorted_[begin + j] = sorted_[begin + j - 1];
+      depth_[j] = depth_[j - 1];
+    }
+    sorted_[begin + j] = x;
+    depth_[j] = dx;
+  }
+  float covered = 0.f;
+  for (size_t i = 0; i < depth_.size(); ++i) {
+    Fragment& f = sorted_[begin + i];
+    float scale = 1.f;
+    if (f.surface.known()) {
+      const Imath::V3f x = dir * depth_[i];
+      for (size_t j = 0; j < i; ++j) {
+        if (lies_behind(sorted_[begin + j].surface, x)) {
+          scale = std::clamp((1.f - covered) / f.alpha, 0.f, 1.f);
+          break;
+        }
+      }
+    }
+    covered += f.alpha * scale;
+    if (scale == 1.f) continue;
+    f.alpha *= scale;
+    f.omega *= scale;
+    f.r *= scale;
+    f.g *= scale;
+    f.b *= scale;
+    f.mx *= scale;
+    f.my *= scale;
+    f.mz *= scale;
+  }
 }
 
 void FarBuffer::resolve(float ao_max_distance) {
@@ -90,6 +145,23 @@ void FarBuffer::resolve(float ao_max_distance) {
     size_t i = 0;
     while (i < sorted_.size() && transmit > kOpaque) {
       const float start = sorted_[i].near;
+      // The cluster's extent; surfaces hidden behind others within it are
+      // trimmed first.
+      size_t end = i;
+      const FragmentSurface* surface = nullptr;
+      bool one_surface = true;
+      for (float z = start; end < sorted_.size() && sorted_[end].near <= z * grow_; ++end) {
+        z = std::max(z, sorted_[end].far);
+        const FragmentSurface& s = sorted_[end].surface;
+        if (!s.known()) continue;
+        if (!surface) {
+          surface = &s;
+        } else if (!same_surface(*surface, s)) {
+          one_surface = false;
+        }
+      }
+      const FragmentSurface first = surface ? *surface : FragmentSurface{};
+      if (!one_surface) trim_hidden(k, i, end);
       float far = start, a = 0.f, w = 0.f, r = 0.f, g = 0.f, b = 0.f, mx = 0.f, my = 0.f,
             mz = 0.f;
       do {
@@ -125,6 +197,7 @@ void FarBuffer::resolve(float ao_max_distance) {
         p.front_near = start;
         p.front_far = far;
         p.front_alpha = a;
+        p.front_surface = first;
         p.rest_z = i < sorted_.size() ? sorted_[i].near : far;
         front = false;
       } else {

@@ -33,12 +33,36 @@ void Microbuffer::push(uint32_t k, const Fragment& f) {
     head_[k] = -1;
     touched_.push_back(k);
   }
+  // Depth intervals overlapping within the band (then they always end in
+  // the same cluster of resolve()), of one surface or of surfaces that
+  // resolve() adds up.
+  int32_t merge = -1, side = -1;
   for (int32_t i = head_[k]; i >= 0; i = fragments_[i].next) {
-    Fragment& g = fragments_[i];
-    if ((g.alpha > 0.f) != (f.alpha > 0.f) || !same_surface(g, f)) continue;
-    // Depth intervals overlapping within the band (then they always end in
-    // the same cluster of resolve()).
+    const Fragment& g = fragments_[i];
+    if ((g.alpha > 0.f) != (f.alpha > 0.f)) continue;
     if (f.far * grow_ < g.near || f.near > g.far * grow_) continue;
+    if (same_surface(g.surface, f.surface)) {
+      merge = i;
+      break;
+    }
+    if (side < 0) side = i;
+  }
+  // Else the first of another surface it lies beside (not behind).
+  if (merge < 0 && side >= 0) {
+    const Imath::V3f dir = layout_.direction(k);
+    for (int32_t i = side; i >= 0; i = fragments_[i].next) {
+      const Fragment& g = fragments_[i];
+      if ((g.alpha > 0.f) != (f.alpha > 0.f)) continue;
+      if (f.far * grow_ < g.near || f.near > g.far * grow_) continue;
+      if (side_by_side(g, f, dir)) {
+        merge = i;
+        break;
+      }
+    }
+  }
+  if (merge >= 0) {
+    Fragment& g = fragments_[merge];
+    if (!g.surface.known()) g.surface = f.surface;
     g.near = std::min(g.near, f.near);
     g.far = std::max(g.far, f.far);
     g.alpha += f.alpha;
@@ -162,11 +186,12 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
       const FarPixel& fp = far->pixel(k);
       const FarShare f = far_share(fp.front, normal_, cos_[k], margin[k], weight_[k], omega[k]);
       if (fp.front_alpha > 0.f) {
-        sorted_.push_back({fp.front_near, fp.front_far, fp.front_alpha, f.occ, f.r, f.g, f.b, 0});
+        sorted_.push_back({fp.front_near, fp.front_far, fp.front_alpha, f.occ, f.r, f.g, f.b, 0u, -1,
+                           fp.front_surface});
       }
       if (fp.rest_alpha > 0.f) {
         const FarShare r = far_share(fp.rest, normal_, cos_[k], margin[k], weight_[k], omega[k]);
-        sorted_.push_back({fp.rest_z, fp.rest_z, fp.rest_alpha, r.occ, r.r, r.g, r.b, 0});
+        sorted_.push_back({fp.rest_z, fp.rest_z, fp.rest_alpha, r.occ, r.r, r.g, r.b, 0u, -1, {}});
       }
     }
     // Lists are short (a few surfaces): insertion sort beats std::sort.
@@ -185,9 +210,16 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
       // The cluster's extent, and whether it holds more than one surface.
       size_t end = i;
       bool one_surface = true;
+      const FragmentSurface* surface = nullptr;  // the cluster's first known surface
       for (float z = start; end < sorted_.size() && sorted_[end].near <= z * grow_; ++end) {
-        z = std::max(z, sorted_[end].far);
-        one_surface = one_surface && same_surface(sorted_[i], sorted_[end]);
+        const Fragment& f = sorted_[end];
+        z = std::max(z, f.far);
+        if (!f.surface.known()) continue;
+        if (!surface) {
+          surface = &f.surface;
+        } else if (!same_surface(*surface, f.surface)) {
+          one_surface = false;
+        }
       }
       if (!one_surface) {
         float a = 0.f, w = 0.f, cr = 0.f, cg = 0.f, cb = 0.f;
@@ -262,50 +294,51 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
 
 void Microbuffer::resolve_surfaces(uint32_t k, size_t begin, size_t end, float& r, float& g,
                                    float& b, float& weight, float& alpha) {
-  // Group by surface, in order of first appearance (nearest fragment).
+  const Imath::V3f dir = layout_.direction(k);
+  // Known surfaces first, each at the depth where the pixel's center ray
+  // meets it; fragments of unknown surfaces (wide-cone nodes) then join the
+  // nearest one (they add up, as before surfaces were known).
   surfaces_.clear();
-  for (size_t j = begin; j < end; ++j) {
-    const Fragment& f = sorted_[j];
-    Surface* s = nullptr;
-    for (Surface& t : surfaces_) {
-      if (same_surface(sorted_[t.first], f)) {
-        s = &t;
-        break;
-      }
-    }
-    if (!s) {
-      surfaces_.push_back({f.near, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0u,
-                           uint32_t(j)});
-      s = &surfaces_.back();
-      // Where the pixel's center ray meets the surface's plane, kept within
-      // the depths its fragments span (a ray nearly parallel to the plane
-      // meets it anywhere).
-      const Fragment& f0 = sorted_[j];
-      if (known(f0)) {
-        const Imath::V3f d = layout_.direction(k);
-        const float dn = f0.nx * d.x + f0.ny * d.y + f0.nz * d.z;
-        if (dn < 0.f) {
-          float far_z = f0.far;
-          for (size_t m = j; m < end; ++m) {
-            if (same_surface(f0, sorted_[m])) far_z = std::max(far_z, sorted_[m].far);
+  for (int pass = 0; pass < 2; ++pass) {
+    for (size_t j = begin; j < end; ++j) {
+      const Fragment& f = sorted_[j];
+      if (f.surface.known() != (pass == 0)) continue;
+      Surface* s = nullptr;
+      if (pass == 0) {
+        for (Surface& t : surfaces_) {
+          if (same_surface(sorted_[t.first].surface, f.surface)) {
+            s = &t;
+            break;
           }
-          s->depth = std::clamp(f0.plane / dn, f0.near / grow_, far_z * grow_);
         }
+        if (!s) {
+          float far_z = f.far;
+          for (size_t m = j; m < end; ++m) {
+            if (same_surface(f.surface, sorted_[m].surface)) far_z = std::max(far_z, sorted_[m].far);
+          }
+          surfaces_.push_back({surface_depth(f.surface, dir, f.near, far_z, grow_), 0.f, 0.f, 0.f,
+                               0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0u, uint32_t(j)});
+          s = &surfaces_.back();
+        }
+      } else {
+        s = &surfaces_.front();
+        for (Surface& t : surfaces_)
+          if (t.depth < s->depth) s = &t;
       }
-    }
-    if (f.alpha < 0.f) {
-      s->hits -= f.alpha;
-      s->mask |= f.mask;
-      s->hw += f.weight;
-      s->hr += f.r;
-      s->hg += f.g;
-      s->hb += f.b;
-    } else {
-      s->alpha += f.alpha;
-      s->w += f.weight;
-      s->r += f.r;
-      s->g += f.g;
-      s->b += f.b;
+      if (f.alpha < 0.f) {
+        s->hits -= f.alpha;
+        s->mask |= f.mask;
+        s->hw += f.weight;
+        s->hr += f.r;
+        s->hg += f.g;
+        s->hb += f.b;
+      } else {
+        s->alpha += f.alpha;
+        s->w += f.weight;
+        s->r += f.r;
+        s->g += f.g;
+        s->b += f.b;
+      }
     }
   }
   // Front to back (a handful of surfaces: insertion sort).
@@ -333,10 +366,19 @@ void Microbuffer::resolve_surfaces(uint32_t k, size_t begin, size_t end, float& 
       g += s.hg * inv;
       b += s.hb * inv;
     }
-    // Splats: whole for the front surface (its pieces' overlaps are not
-    // clamped, rule 3), else over what the surfaces in front leave.
+    // Splats count whole (pieces of one surface, or surfaces side by side:
+    // coverage not clamped, rule 3) unless they lie behind the plane of a
+    // surface in front; then only over what is left of the pixel.
     float scale = 1.f;
-    if (i > 0 && s.alpha > 0.f) scale = std::clamp((1.f - covered - cover) / s.alpha, 0.f, 1.f);
+    if (i > 0 && s.alpha > 0.f) {
+      const Imath::V3f x = dir * s.depth;
+      for (size_t j = 0; j < i; ++j) {
+        if (lies_behind(sorted_[surfaces_[j].first].surface, x)) {
+          scale = std::clamp((1.f - covered - cover) / s.alpha, 0.f, 1.f);
+          break;
+        }
+      }
+    }
     weight += s.w * scale;
     r += s.r * scale;
     g += s.g * scale;

@@ -11,29 +11,30 @@
 //     cluster's farthest depth so far, z <= z_far * (1 + depth_band); a
 //     larger gap starts a new cluster. Pieces of one surface (neighbouring
 //     splats and ray-cast surfels) land at nearby depths and are chained.
-//     To keep lists short, add_*() already merges a fragment into one of
-//     the pixel's fragments of the same kind whose depth interval it is
-//     within the band of; such fragments always end in the same cluster,
-//     so this changes nothing but speed.
-//  3. Within a cluster, fragments are grouped by surface: the same normal
-//     (within kSameSurfaceCos) and plane (within the tolerance of either),
-//     or both unknown (FragmentSurface). A surface's coverage is
-//     alpha = (covered samples / 16) + sum of splat alphas. Ray-cast hits
-//     of overlapping disks do not add up: a hit means a sample point of the
-//     pixel sees the surface, and the hits of a surface cover the union of
-//     their samples. Splat coverage of one surface is deliberately not
-//     clamped at 1: a splat has exactly its node's solid angle, so where
-//     neighbouring splats overlap in one pixel they leave a gap in another,
-//     and clamping would turn every overlap into lost energy (a 2-3%
-//     darkening that grows with resolution). The surfaces of a cluster are
-//     ordered by the depth at which the pixel's center ray meets their
-//     plane (their nearest fragment when unknown); the first counts whole,
-//     each next one only over what those in front of it leave of the pixel
-//     (its hits lose the samples hit in front, its splats are scaled down
-//     to 1 - the coverage in front). Surfaces side by side in a pixel (a
-//     floor meeting a wall) thus add up as before, while a surface behind
-//     another within the band (the ground just behind a wall's foot, 2 cm
-//     below a floor) no longer adds its light.
+//  3. Within a cluster, fragments are grouped by surface
+//     (fragment_surface.h): the same normal and plane, known for flat nodes
+//     and surfels, unknown for wide-cone nodes (those join the nearest
+//     surface). A surface's coverage is alpha = (covered samples / 16) +
+//     sum of splat alphas. Ray-cast hits of overlapping disks do not add
+//     up: a hit means a sample point of the pixel sees the surface, and the
+//     hits of a surface cover the union of their samples. Splat coverage of
+//     one surface is deliberately not clamped at 1: a splat has exactly its
+//     node's solid angle, so where neighbouring splats overlap in one pixel
+//     they leave a gap in another, and clamping would turn every overlap
+//     into lost energy (a 2-3% darkening that grows with resolution).
+//     Surfaces are taken front to back by where the pixel's center ray
+//     meets their plane. Surfaces side by side (a floor meeting a wall in a
+//     corner: neither lies behind the other's plane) add up as pieces of
+//     one surface do. A surface lying behind the plane of one in front of
+//     it (the ground just behind a wall's foot, the ground 2 cm below a
+//     floor) counts only over what those in front leave of the pixel: its
+//     hits lose the samples hit in front, its splats are scaled down to
+//     1 - the coverage in front. Before surfaces were told apart, such
+//     ground joined the wall's cluster and added its light: most of the
+//     light seen inside a closed room on a sunlit ground.
+//     To keep lists short, add_*() merges fragments that this rule would
+//     add up anyway (same kind, depth within the band, one surface or
+//     neither behind the other).
 //  4. Clusters composite front to back: each passes max(0, 1 - alpha) of
 //     what lies behind it.
 // AO counts only the clusters that start nearer than ao_max_distance (if it
@@ -59,6 +60,7 @@
 #pragma once
 
 #include "server/gather/cube_layout.h"
+#include "server/gather/fragment_surface.h"
 
 #include <Imath/ImathColor.h>
 #include <Imath/ImathVec.h>
@@ -71,18 +73,6 @@
 namespace pbgi::gather {
 
 class FarBuffer;
-
-// The surface a fragment lies on, when it is known: the unit normal `n`
-// facing the receiver, the plane's offset `plane` = n . (point - receiver)
-// (< 0 in front of it) and how far off that plane pieces of the same
-// surface may lie (`tolerance`, same units). A zero normal means unknown
-// (wide-cone nodes, fog, a cluster's far content). resolve() uses it to
-// tell the surfaces of one depth cluster apart (rule 3 below).
-struct FragmentSurface {
-  Imath::V3f n{0, 0, 0};
-  float plane = 0.f;
-  float tolerance = 0.f;
-};
 
 struct Resolved {
   Imath::C3f irradiance{0, 0, 0};
@@ -135,7 +125,8 @@ class Microbuffer {
     if (stamp_[k] == generation_) {
       Fragment& g = fragments_[head_[k]];
       if (g.alpha > 0.f && far * grow_ >= g.near && near <= g.far * grow_ &&
-          same_surface(g, surface)) {
+          same_surface(g.surface, surface)) {
+        if (!g.surface.known()) g.surface = surface;
         g.near = std::min(g.near, near);
         g.far = std::max(g.far, far);
         g.alpha += alpha;
@@ -146,9 +137,8 @@ class Microbuffer {
         return;
       }
     }
-    push(k, with_surface({near, far, alpha, weight, radiance.x * weight, radiance.y * weight,
-                          radiance.z * weight},
-                         surface));
+    push(k, {near, far, alpha, weight, radiance.x * weight, radiance.y * weight,
+             radiance.z * weight, 0u, -1, surface});
   }
   void add_coverage(uint32_t k, float depth, float alpha, float weight,
                     const Imath::C3f& radiance) {
@@ -170,13 +160,8 @@ class Microbuffer {
                const FragmentSurface& surface = {}) {
     const float w = weight_[k];
     if (!(w > 0.f) || !(mask & kAllSamples)) return;
-    Fragment f{near, far, -1.f, w, radiance.x * w, radiance.y * w, radiance.z * w, mask};
-    push(k, with_surface(f, surface));
+    push(k, {near, far, -1.f, w, radiance.x * w, radiance.y * w, radiance.z * w, mask, -1, surface});
   }
-
-  // Two fragments lie on one surface when their normals are within this
-  // cosine (25 degrees) and their planes within either's tolerance.
-  static constexpr float kSameSurfaceCos = 0.906f;
 
   // Resolves visibility (rule above) and convolves with the cosine lobe,
   // with the resolved far content of `far` if given. With `gain` (one
@@ -218,28 +203,15 @@ class Microbuffer {
     float r, g, b;    // radiance times weight
     uint32_t mask = 0;  // hits: the pixel's sample points they cover (union)
     int32_t next = -1;
-    float nx = 0.f, ny = 0.f, nz = 0.f;  // FragmentSurface (zero: unknown)
-    float plane = 0.f, tolerance = 0.f;
+    FragmentSurface surface;
   };
-  static Fragment with_surface(Fragment f, const FragmentSurface& s) {
-    f.nx = s.n.x;
-    f.ny = s.n.y;
-    f.nz = s.n.z;
-    f.plane = s.plane;
-    f.tolerance = s.tolerance;
-    return f;
-  }
-  static bool known(const Fragment& f) { return f.nx != 0.f || f.ny != 0.f || f.nz != 0.f; }
-  static bool same_surface(const Fragment& a, const Fragment& b) {
-    const bool ka = known(a), kb = known(b);
-    if (ka != kb) return false;
-    if (!ka) return true;
-    return a.nx * b.nx + a.ny * b.ny + a.nz * b.nz > kSameSurfaceCos &&
-           std::abs(a.plane - b.plane) <= std::max(a.tolerance, b.tolerance);
-  }
-  static bool same_surface(const Fragment& a, const FragmentSurface& s) {
-    Fragment b{};
-    return same_surface(a, with_surface(b, s));
+  // Whether fragments a and b of two different surfaces in the pixel of
+  // unit direction `dir` (same kind, within the band) may merge: resolve()
+  // adds them up anyway when neither lies behind the other's plane (a
+  // floor and a wall meeting in a corner).
+  bool side_by_side(const Fragment& a, const Fragment& b, const Imath::V3f& dir) const {
+    return !lies_behind(a.surface, dir * surface_depth(b.surface, dir, b.near, b.far, grow_)) &&
+           !lies_behind(b.surface, dir * surface_depth(a.surface, dir, a.near, a.far, grow_));
   }
 
   void push(uint32_t k, const Fragment& f);

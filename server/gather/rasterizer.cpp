@@ -213,7 +213,7 @@ void Rasterizer::draw_far(size_t i, const Ellipse& e, const Pending& p) {
       for (uint32_t c = 0; c < ni; ++c) {
         const uint32_t k = row + c;
         const float alpha = b.mu[c][i] * a_v;
-        far.add(k, p.z0, p.z1, alpha, alpha * solid[k], moment, p.radiance);
+        far.add(k, p.z0, p.z1, alpha, alpha * solid[k], moment, p.radiance, p.surface);
       }
     }
     return;
@@ -222,7 +222,7 @@ void Rasterizer::draw_far(size_t i, const Ellipse& e, const Pending& p) {
   const float scale = omega / covered_;
   for (const Candidate& c : candidates_) {
     const float alpha = c.fraction * scale;
-    far.add(c.pixel, p.z0, p.z1, alpha, alpha * solid[c.pixel], moment, p.radiance);
+    far.add(c.pixel, p.z0, p.z1, alpha, alpha * solid[c.pixel], moment, p.radiance, p.surface);
   }
 }
 
