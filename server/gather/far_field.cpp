@@ -52,11 +52,25 @@ void FarBuffer::push(uint32_t k, const Fragment& f) {
     head_[k] = -1;
     touched_.push_back(k);
   }
-  // Merge into a fragment of the same surface (depth within the band).
+  // Merge into a fragment of the same surface (depth within the band), or
+  // else of a surface it lies beside (resolve() adds them up anyway).
+  int32_t merge = -1, side = -1;
   for (int32_t i = head_[k]; i >= 0; i = fragments_[i].next) {
-    Fragment& g = fragments_[i];
+    const Fragment& g = fragments_[i];
     if (f.far * grow_ < g.near || f.near > g.far * grow_) continue;
-    if (!merges(g, f, k)) continue;
+    if (same_surface(g.surface, f.surface)) {
+      merge = i;
+      break;
+    }
+    if (side < 0) side = i;
+  }
+  for (int32_t i = side; merge < 0 && i >= 0; i = fragments_[i].next) {
+    const Fragment& g = fragments_[i];
+    if (f.far * grow_ < g.near || f.near > g.far * grow_) continue;
+    if (merges(g, f, k)) merge = i;
+  }
+  if (merge >= 0) {
+    Fragment& g = fragments_[merge];
     if (!g.surface.known()) g.surface = f.surface;
     g.near = std::min(g.near, f.near);
     g.far = std::max(g.far, f.far);
