@@ -56,10 +56,11 @@ constexpr float kHdrStraddleFraction = 1.f / 16.f;
 // different surfaces (microbuffer.h, rule 3). Smaller separates more (the
 // ground 1 cm below a floor seen from 1 m), but makes the test sensitive to
 // where the splats of two surfaces meeting in a corner blur into each other:
-// measured (closed room of 2 cm shells, interior mean / exterior level) 0.016
-// at 1e-3, 0.020 at 0.01, 0.022 at 0.03; at 1e-3 the Cornell room moved by
-// 1e5 (positions rounded to 4 mm) differed by 5% RMS from the room at the
-// origin, 0.4% at 0.01.
+// measured (closed room of 2 cm shells, interior mean / exterior level)
+// 0.020 at 0.01, 0.022 at 0.03 (0.016 at 1e-3 with an earlier version of
+// the rule); at 1e-3 the Cornell room moved by 1e5 (positions rounded to
+// 4 mm) differed by 5% RMS from the room at the origin, 0.4% at 0.01
+// (docs/measurements/2026-11-27-light-leak-surfaces.md).
 constexpr float kPlaneSlack = 0.01f;
 // A two-faced node's faces are within ~11 degrees of its axis
 // (kBipolarMinLambda): its pieces lie within r sin(11 deg) of its plane.
