@@ -3,6 +3,9 @@
 #include "server/scene/rng.h"
 #include "server/surfels/triangle_ranges.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <unordered_map>
@@ -142,18 +145,23 @@ CrossRangeCover::CrossRangeCover(const Scene& scene, const V3f& centre, float pl
   //    An instance is looked at triangle by triangle only when its bounds
   //    meet another range's.
   std::vector<std::pair<size_t, uint32_t>> picked;
-  for (uint32_t j = 0; j < world.size(); ++j) {
-    if (world.area(j) > 0.f && grid.meets_other(triangle_box(world, j, plane_tolerance), 0))
-      picked.push_back({0, j});
-  }
+  std::vector<uint8_t> meets;
+  auto pick = [&](size_t r) {
+    const TriangleRange range = triangle_range(scene, r);
+    meets.assign(range.size(), 0);
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, range.size(), 4096), [&](const auto& q) {
+      for (uint32_t j = q.begin(); j != q.end(); ++j) {
+        meets[j] = range.area(j) > 0.f &&
+                   grid.meets_other(triangle_box(range, j, plane_tolerance), uint32_t(r));
+      }
+    });
+    for (uint32_t j = 0; j < range.size(); ++j)
+      if (meets[j]) picked.push_back({r, j});
+  };
+  pick(0);
   for (size_t r = 1; r < ranges; ++r) {
     const Box3f b = instance_box(scene, scene.instances[r - 1], plane_tolerance);
-    if (b.isEmpty() || !grid.meets_other(b, uint32_t(r))) continue;
-    const TriangleRange range = triangle_range(scene, r);
-    for (uint32_t j = 0; j < range.size(); ++j) {
-      if (range.area(j) > 0.f && grid.meets_other(triangle_box(range, j, plane_tolerance), uint32_t(r)))
-        picked.push_back({r, j});
-    }
+    if (!b.isEmpty() && grid.meets_other(b, uint32_t(r))) pick(r);
   }
   if (picked.empty()) return;
 

@@ -13,6 +13,11 @@
 // candidates, not the instanced triangle count (a city's buildings standing
 // apart on a ground add only the triangles touching the ground).
 //
+// Cost: the world soup's triangles and every instance whose bounds meet
+// another range's are tested triangle by triangle against the grid (in
+// parallel); a scene of buildings standing on a ground mesh tests every
+// building's triangles. Not measured on the large city scenes.
+//
 // cover() counts every piece containing a point, whatever its range. A
 // point covered by pieces of two or more ranges has all of them among the
 // candidates (each contains the point, which lies in both ranges' bounds);
