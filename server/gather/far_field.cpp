@@ -38,7 +38,10 @@ void FarBuffer::begin_from(const FarBuffer& other) {
   }
   begin();
   // Fragment indices (the per-pixel lists' links) stay valid in the copy.
+  // Their planes were measured from the other cluster's point: they are
+  // forgotten (the copies add up with what they meet, as wide nodes do).
   fragments_ = other.fragments_;
+  for (Fragment& f : fragments_) f.surface = FragmentSurface{};
   touched_ = other.touched_;
   for (const uint32_t k : touched_) {
     stamp_[k] = generation_;
