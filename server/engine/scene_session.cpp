@@ -185,8 +185,8 @@ std::shared_ptr<SceneSession> open_scene(const fs::path& scene_path, const OpenO
   if (!ctx.python.empty()) ingest.python = ctx.python;
   // Subdivision surfaces are refined until their triangles are within a
   // fraction of the surfel spacing of the limit surface (0: spacing derived
-  // later from the area; each mesh is bounded by the spacing it would get
-  // alone).
+  // later from the area; each mesh is bounded by the spacing target_surfels
+  // would have on all the scene's subdivision cages).
   ingest.target_edge_length = options.surfels.spacing;
   ingest.target_surfels = options.surfels.target_surfels;
   // The reader stops (its process killed) when this throws.

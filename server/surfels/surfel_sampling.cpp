@@ -59,6 +59,7 @@
 #include "server/scene/scene_bulk.h"
 #include "server/scene/scene_validation.h"
 #include "server/scene/surface_colors.h"
+#include "server/scene/surface_opacity.h"
 #include "server/surfels/coincident_surfaces.h"
 #include "server/surfels/cross_range_cover.h"
 #include "server/surfels/progress_meter.h"
@@ -226,13 +227,18 @@ void emit_range(const Scene& scene, const TriangleRange& range, const std::vecto
         }
         if (across.any()) copies = std::max(copies, across.cover(range_index, uint32_t(i), s.position));
         share /= float(copies);
+        // Cut-out or partly transparent surface (surface_opacity.h): the
+        // surfel covers only what is there (0: dropped below).
+        share *= surface_coverage(scene, id, b.x, b.y);
         s.radius = std::sqrt(share * kInvPi);
+        if (!(s.radius > 0.f)) continue;
         const SurfaceColors colors = surface_colors(scene, id, b.x, b.y, 2.f * s.radius);
         set_surfel_material(scene, id, colors, options.glossy_roughness, s);
         s.radiance = colors.emission;
       }
       meter.advance(r.size());
     });
+    std::erase_if(chunk, [](const Surfel& s) { return !(s.radius > 0.f); });
     sink(chunk);
   }
 }
