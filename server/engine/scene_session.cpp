@@ -4,17 +4,17 @@
 #include "server/engine/scene_fog.h"
 #include "server/surfels/surfel_samplers.h"
 
+#include "common/errors.h"
 #include "server/engine/bounce_pages.h"
 #include "server/engine/build_key.h"
 #include "server/gather/page_views.h"
+#include "server/ingest/usd_ingest.h"
 #include "server/scene/default_lights.h"
 #include "server/scene/render_origin.h"
 #include "server/scene/scene_bulk.h"
-#include "server/ingest/usd_ingest.h"
 #include "server/surfels/glossy_shading.h"
 #include "server/surfels/surfel_gloss_lookup.h"
 #include "server/surfels/surfels.h"
-#include "storage/format/errors.h"
 #include "storage/pages/cache_files.h"
 
 #include <spdlog/spdlog.h>

@@ -1,11 +1,11 @@
 #include "server/ingest/chunk_store.h"
 
+#include "common/errors.h"
 #include "pbgi/v1/scene.pb.h"
 #include "server/ingest/scene_entry.h"
 #include "server/ingest/subdivision.h"
 #include "server/scene/file_digest.h"
 #include "server/volumes/scene_volumes.h"
-#include "storage/format/errors.h"
 #include "storage/format/format_version.h"
 #include "storage/pages/cache_files.h"
 

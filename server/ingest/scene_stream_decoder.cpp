@@ -1,12 +1,12 @@
 #include "server/ingest/scene_stream_decoder.h"
 
+#include "common/errors.h"
 #include "pbgi/v1/scene.pb.h"
 #include "server/ingest/coordinate_limit.h"
 #include "server/ingest/draco_mesh.h"
 #include "server/ingest/subdiv_cage_message.h"
 #include "server/ingest/texture_loader.h"
 #include "server/scene/scene_validation.h"
-#include "storage/format/errors.h"
 
 #include <unistd.h>
 

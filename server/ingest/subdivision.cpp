@@ -1,7 +1,7 @@
 #include "server/ingest/subdivision.h"
 
+#include "common/errors.h"
 #include "server/ingest/subdivision_topology.h"
-#include "storage/format/errors.h"
 
 #include <opensubdiv/far/primvarRefiner.h>
 #include <opensubdiv/far/topologyRefiner.h>

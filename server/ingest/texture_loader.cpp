@@ -1,9 +1,9 @@
 #include "server/ingest/texture_loader.h"
 
+#include "common/errors.h"
 #include "pbgi_build_config.h"
 #include "server/scene/environment_map.h"
 #include "server/scene/texture.h"
-#include "storage/format/errors.h"
 
 #include <OpenColorIO/OpenColorIO.h>
 #include <OpenImageIO/imageio.h>

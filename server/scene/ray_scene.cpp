@@ -1,10 +1,10 @@
 #include "server/scene/ray_scene.h"
 
+#include "common/errors.h"
 #include "server/scene/rng.h"
 #include "server/scene/scene_bulk.h"
 #include "server/scene/scene_validation.h"
 #include "server/scene/surface_opacity.h"
-#include "storage/format/errors.h"
 
 #include <embree3/rtcore.h>
 #include <fmt/format.h>

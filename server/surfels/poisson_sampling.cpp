@@ -59,6 +59,7 @@
 // Everything derives from hashes of (seed, triangle, lattice cell), and the
 // order of tiles and candidates is fixed: the result does not depend on
 // threads or batch sizes.
+#include "common/errors.h"
 #include "server/scene/rng.h"
 #include "server/scene/sample_patterns.h"
 #include "server/scene/surface_colors.h"
@@ -69,7 +70,6 @@
 #include "server/surfels/surfel_material.h"
 #include "server/surfels/surfel_samplers.h"
 #include "server/surfels/triangle_ranges.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>

@@ -54,6 +54,7 @@
 // vertex-coloured one is evaluated at each surfel's point
 // (server/scene/surface_colors.h), with textures averaged over a square of
 // the surfel's area, so that the surfels of a mesh keep the texture's mean.
+#include "common/errors.h"
 #include "server/scene/rng.h"
 #include "server/scene/sample_patterns.h"
 #include "server/scene/scene_bulk.h"
@@ -66,7 +67,6 @@
 #include "server/surfels/surfel_material.h"
 #include "server/surfels/surfel_samplers.h"
 #include "server/surfels/triangle_ranges.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>

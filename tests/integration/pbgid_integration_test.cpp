@@ -475,8 +475,8 @@ TEST(UsdWgAssets, TeapotAndVehiclesRenderWithNoFlagButTheScene) {
   const fs::path assets = shared / "usd-wg" / "full_assets";
   if (!fs::is_directory(assets)) GTEST_SKIP() << assets << " is not present";
   testing::DaemonProcess daemon(kBinaryDir / "bin" / "pbgid", {"--scene-root", shared.string()});
-  for (const fs::path scene : {assets / "Teapot" / "Teapot.usd", assets / "Vehicles" / "USD_Mini_Car_Kit" / "assets" /
-                                                                     "vehicles" / "vehicleVariants.usda"}) {
+  for (const fs::path& scene : {assets / "Teapot" / "Teapot.usd", assets / "Vehicles" / "USD_Mini_Car_Kit" / "assets" /
+                                                                      "vehicles" / "vehicleVariants.usda"}) {
     SCOPED_TRACE(scene.string());
     const fs::path out = daemon.dir() / (scene.stem().string() + ".exr");
     std::string text;

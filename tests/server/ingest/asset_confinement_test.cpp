@@ -6,12 +6,12 @@
 // and the error never names the outside path. Both sides are checked: the
 // reader process (layers, files it resolves) and the daemon's own loaders
 // (textures, OpenVDB grids, scene files given directly, stored scenes).
+#include "common/errors.h"
 #include "server/ingest/chunk_store.h"
 #include "server/ingest/draco_mesh.h"
 #include "server/ingest/texture_loader.h"
 #include "server/ingest/usd_ingest.h"
 #include "server/volumes/scene_volumes.h"
-#include "storage/format/errors.h"
 #include "tests/server/service/temp_dir.h"
 
 #include <gtest/gtest.h>

@@ -4,8 +4,8 @@
 #include "server/ingest/draco_mesh.h"
 #include "server/ingest/usd_ingest.h"
 
+#include "common/errors.h"
 #include "pbgi/v1/scene.pb.h"
-#include "storage/format/errors.h"
 #include "tests/server/ingest/scene_frames.h"
 
 #include <fcntl.h>

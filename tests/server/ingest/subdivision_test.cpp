@@ -4,7 +4,7 @@
 // naming the prim.
 #include "server/ingest/subdivision.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 
