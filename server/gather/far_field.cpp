@@ -28,6 +28,7 @@ void FarBuffer::begin() {
   }
   touched_.clear();
   fragments_.clear();
+  planes_.clear();
 }
 
 void FarBuffer::begin_from(const FarBuffer& other) {
@@ -41,7 +42,7 @@ void FarBuffer::begin_from(const FarBuffer& other) {
   // Their planes were measured from the other cluster's point: they are
   // forgotten (the copies add up with what they meet, as wide nodes do).
   fragments_ = other.fragments_;
-  for (Fragment& f : fragments_) f.surface = FragmentSurface{};
+  for (Fragment& f : fragments_) f.surface = 0;
   touched_ = other.touched_;
   for (const uint32_t k : touched_) {
     stamp_[k] = generation_;
@@ -61,7 +62,7 @@ void FarBuffer::push(uint32_t k, const Fragment& f) {
   for (int32_t i = head_[k]; i >= 0; i = fragments_[i].next) {
     const Fragment& g = fragments_[i];
     if (f.far * grow_ < g.near || f.near > g.far * grow_) continue;
-    if (same_surface(g.surface, f.surface)) {
+    if (planes_.same(g.surface, f.surface)) {
       merge = i;
       break;
     }
@@ -74,7 +75,7 @@ void FarBuffer::push(uint32_t k, const Fragment& f) {
   }
   if (merge >= 0) {
     Fragment& g = fragments_[merge];
-    if (!g.surface.known()) g.surface = f.surface;
+    if (g.surface == 0) g.surface = f.surface;
     g.near = std::min(g.near, f.near);
     g.far = std::max(g.far, f.far);
     g.alpha += f.alpha;
@@ -93,10 +94,12 @@ void FarBuffer::push(uint32_t k, const Fragment& f) {
 }
 
 bool FarBuffer::merges(const Fragment& g, const Fragment& f, uint32_t k) const {
-  if (same_surface(g.surface, f.surface)) return true;
+  if (planes_.same(g.surface, f.surface)) return true;
   const Imath::V3f dir = layout_.direction(k);
-  return !lies_behind(g.surface, dir * surface_depth(f.surface, dir, f.near, f.far, grow_)) &&
-         !lies_behind(f.surface, dir * surface_depth(g.surface, dir, g.near, g.far, grow_));
+  const FragmentSurface& sg = planes_[g.surface];
+  const FragmentSurface& sf = planes_[f.surface];
+  return !lies_behind(sg, dir * surface_depth(sf, dir, f.near, f.far, grow_)) &&
+         !lies_behind(sf, dir * surface_depth(sg, dir, g.near, g.far, grow_));
 }
 
 void FarBuffer::trim_hidden(uint32_t k, size_t begin, size_t end) {
@@ -106,7 +109,7 @@ void FarBuffer::trim_hidden(uint32_t k, size_t begin, size_t end) {
   depth_.clear();
   for (size_t j = begin; j < end; ++j) {
     const Fragment& f = sorted_[j];
-    depth_.push_back(surface_depth(f.surface, dir, f.near, f.far, grow_));
+    depth_.push_back(surface_depth(planes_[f.surface], dir, f.near, f.far, grow_));
   }
   for (size_t i = 1; i < depth_.size(); ++i) {
     const Fragment x = sorted_[begin + i];
@@ -123,10 +126,10 @@ void FarBuffer::trim_hidden(uint32_t k, size_t begin, size_t end) {
   for (size_t i = 0; i < depth_.size(); ++i) {
     Fragment& f = sorted_[begin + i];
     float scale = 1.f;
-    if (f.surface.known()) {
+    if (f.surface != 0) {
       const Imath::V3f x = dir * depth_[i];
       for (size_t j = 0; j < i; ++j) {
-        if (lies_behind(sorted_[begin + j].surface, x)) {
+        if (lies_behind(planes_[sorted_[begin + j].surface], x)) {
           scale = std::clamp((1.f - covered) / f.alpha, 0.f, 1.f);
           break;
         }
@@ -165,19 +168,18 @@ void FarBuffer::resolve(float ao_max_distance) {
       // The cluster's extent; surfaces hidden behind others within it are
       // trimmed first.
       size_t end = i;
-      const FragmentSurface* surface = nullptr;
+      uint32_t first = 0;  // the cluster's first known surface
       bool one_surface = true;
       for (float z = start; end < sorted_.size() && sorted_[end].near <= z * grow_; ++end) {
         z = std::max(z, sorted_[end].far);
-        const FragmentSurface& s = sorted_[end].surface;
-        if (!s.known()) continue;
-        if (!surface) {
-          surface = &s;
-        } else if (!same_surface(*surface, s)) {
+        const uint32_t s = sorted_[end].surface;
+        if (s == 0 || s == first) continue;
+        if (first == 0) {
+          first = s;
+        } else if (one_surface && !planes_.same(first, s)) {
           one_surface = false;
         }
       }
-      const FragmentSurface first = surface ? *surface : FragmentSurface{};
       if (!one_surface) trim_hidden(k, i, end);
       float far = start, a = 0.f, w = 0.f, r = 0.f, g = 0.f, b = 0.f, mx = 0.f, my = 0.f,
             mz = 0.f;
@@ -214,7 +216,7 @@ void FarBuffer::resolve(float ao_max_distance) {
         p.front_near = start;
         p.front_far = far;
         p.front_alpha = a;
-        p.front_surface = first;
+        p.front_surface = planes_[first];
         p.rest_z = i < sorted_.size() ? sorted_[i].near : far;
         front = false;
       } else {

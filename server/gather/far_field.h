@@ -87,12 +87,15 @@ class FarBuffer {
   // what those in front leave; the planes are those seen from the
   // cluster's active receiver).
   void add(uint32_t k, float near, float far, float alpha, float omega, const Imath::V3f& m,
-           const Imath::C3f& radiance, const FragmentSurface& surface = {}) {
+           const Imath::C3f& radiance, SurfaceId surface = {}) {
     if (!(alpha > 0.f) || !(omega > 0.f) || !std::isfinite(near) || !std::isfinite(far)) return;
     Fragment f{near, far, alpha, omega, radiance.x * omega, radiance.y * omega,
-               radiance.z * omega, m.x * omega, m.y * omega, m.z * omega, -1, surface};
+               radiance.z * omega, m.x * omega, m.y * omega, m.z * omega, -1, surface.index};
     push(k, f);
   }
+  // Registers the surface that the fragments added with the returned id
+  // lie on, until the next begin() (Microbuffer::add_surface).
+  SurfaceId add_surface(const FragmentSurface& s) { return planes_.add(s); }
   // Resolves every touched pixel into pixels()/pixel().
   void resolve(float ao_max_distance);
 
@@ -110,7 +113,7 @@ class FarBuffer {
     float r, g, b;     // omega L
     float mx, my, mz;  // omega m
     int32_t next;
-    FragmentSurface surface;
+    uint32_t surface;  // in planes_ (0: unknown)
   };
   void push(uint32_t k, const Fragment& f);
   // Whether f may merge into g (same band): resolve() adds them up anyway.
@@ -130,6 +133,7 @@ class FarBuffer {
   std::vector<Fragment> sorted_;
   std::vector<FarPixel> resolved_;
   std::vector<float> depth_;  // scratch of trim_hidden()
+  SurfaceTable planes_;       // the surfaces of the fragments
 };
 
 }  // namespace pbgi::gather

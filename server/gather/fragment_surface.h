@@ -16,6 +16,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <vector>
 
 namespace pbgi::gather {
 
@@ -36,9 +38,14 @@ struct FragmentSurface {
 // degrees) and their planes within either's tolerance.
 inline constexpr float kSameSurfaceCos = 0.906f;
 
+// The same for two surfaces known to be known.
+inline bool same_known_surface(const FragmentSurface& a, const FragmentSurface& b) {
+  return a.n.dot(b.n) > kSameSurfaceCos && std::abs(a.plane - b.plane) <= std::max(a.tolerance, b.tolerance);
+}
+
 inline bool same_surface(const FragmentSurface& a, const FragmentSurface& b) {
   if (!a.known() || !b.known()) return true;
-  return a.n.dot(b.n) > kSameSurfaceCos && std::abs(a.plane - b.plane) <= std::max(a.tolerance, b.tolerance);
+  return same_known_surface(a, b);
 }
 
 // Where the ray along unit `dir` meets a known surface's plane, kept within
@@ -58,5 +65,56 @@ inline float surface_depth(const FragmentSurface& s, const Imath::V3f& dir, floa
 inline bool lies_behind(const FragmentSurface& s, const Imath::V3f& x) {
   return s.known() && s.n.dot(x) - s.plane < -s.tolerance;
 }
+
+// A surface registered in a buffer's SurfaceTable; 0 is the unknown one.
+struct SurfaceId {
+  uint32_t index = 0;
+};
+
+// The surfaces a buffer's fragments lie on, for one receiver (or one far
+// buffer). Fragments hold an index into it rather than the plane: they
+// stay small (a pixel's list is copied and sorted at every resolve), and
+// the common test, whether a fragment lies on the surface of the one
+// before it in its pixel, is an integer comparison. add() gives a surface
+// the index of one of the last kRecent registered when the two are one
+// (same_surface): neighbouring splats of a wall, or of a floor and a wall
+// meeting in a corner, arrive close together from the walk, and their
+// fragments then compare by index. An index stands for the plane first
+// registered under it; every surface given it lies within tolerance of
+// that plane.
+class SurfaceTable {
+ public:
+  static constexpr uint32_t kRecent = 16;
+
+  void clear() {
+    planes_.resize(1);
+    for (uint32_t& r : recent_) r = 0;
+  }
+  SurfaceId add(const FragmentSurface& s) {
+    if (!s.known()) return {};
+    for (uint32_t i = 0; i < kRecent && recent_[i] != 0; ++i) {
+      const uint32_t r = recent_[i];
+      if (same_known_surface(planes_[r], s)) {
+        // Most recent first.
+        for (uint32_t j = i; j > 0; --j) recent_[j] = recent_[j - 1];
+        recent_[0] = r;
+        return {r};
+      }
+    }
+    planes_.push_back(s);
+    for (uint32_t j = kRecent - 1; j > 0; --j) recent_[j] = recent_[j - 1];
+    recent_[0] = uint32_t(planes_.size() - 1);
+    return {recent_[0]};
+  }
+  const FragmentSurface& operator[](uint32_t i) const { return planes_[i]; }
+  // same_surface() of two indices.
+  bool same(uint32_t a, uint32_t b) const {
+    return a == b || a == 0 || b == 0 || same_known_surface(planes_[a], planes_[b]);
+  }
+
+ private:
+  std::vector<FragmentSurface> planes_{FragmentSurface{}};
+  uint32_t recent_[kRecent] = {};
+};
 
 }  // namespace pbgi::gather

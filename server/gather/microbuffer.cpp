@@ -21,7 +21,8 @@ Microbuffer::Microbuffer(const CubeLayout& layout, float depth_band)
       weight_(layout.pixel_count(), 0.f),
       cos_(layout.pixel_count(), 0.f),
       stamp_(layout.pixel_count(), 0),
-      head_(layout.pixel_count(), -1) {
+      head_(layout.pixel_count(), -1),
+      hot_(layout.pixel_count(), -1) {
   touched_.reserve(layout.pixel_count());
   fragments_.reserve(4 * layout.pixel_count());
 }
@@ -41,7 +42,7 @@ void Microbuffer::push(uint32_t k, const Fragment& f) {
     const Fragment& g = fragments_[i];
     if ((g.alpha > 0.f) != (f.alpha > 0.f)) continue;
     if (f.far * grow_ < g.near || f.near > g.far * grow_) continue;
-    if (same_surface(g.surface, f.surface)) {
+    if (f.surface == g.beside || planes_.same(g.surface, f.surface)) {
       merge = i;
       break;
     }
@@ -56,13 +57,15 @@ void Microbuffer::push(uint32_t k, const Fragment& f) {
       if (f.far * grow_ < g.near || f.near > g.far * grow_) continue;
       if (side_by_side(g, f, dir)) {
         merge = i;
+        fragments_[i].beside = f.surface;
         break;
       }
     }
   }
   if (merge >= 0) {
+    hot_[k] = merge;
     Fragment& g = fragments_[merge];
-    if (!g.surface.known()) g.surface = f.surface;
+    if (g.surface == 0) g.surface = f.surface;
     g.near = std::min(g.near, f.near);
     g.far = std::max(g.far, f.far);
     g.alpha += f.alpha;
@@ -76,6 +79,7 @@ void Microbuffer::push(uint32_t k, const Fragment& f) {
   fragments_.push_back(f);
   fragments_.back().next = head_[k];
   head_[k] = int32_t(fragments_.size() - 1);
+  hot_[k] = head_[k];
 }
 
 void Microbuffer::begin(const Imath::V3f& n) {
@@ -85,6 +89,7 @@ void Microbuffer::begin(const Imath::V3f& n) {
   }
   touched_.clear();
   fragments_.clear();
+  planes_.clear();
   normal_ = n;
 
   const uint32_t count = layout_.pixel_count();
@@ -179,19 +184,32 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
   }
   for (const uint32_t k : touched_) {
     sorted_.clear();
-    for (int32_t f = head_[k]; f >= 0; f = fragments_[f].next) sorted_.push_back(fragments_[f]);
+    // Whether the pixel holds fragments of more than one known surface
+    // index: if not, no cluster needs the test of rule 3.
+    uint32_t first_surface = 0;
+    bool mixed = false;
+    for (int32_t f = head_[k]; f >= 0; f = fragments_[f].next) {
+      const Fragment& x = fragments_[f];
+      sorted_.push_back(x);
+      if (x.surface != 0 && x.surface != first_surface) {
+        mixed = mixed || first_surface != 0;
+        first_surface = x.surface;
+      }
+    }
     // The far layers of this pixel join its fragments as two more surfaces
     // (the front one merges with near pieces of the same surface).
     if (far && far->has(k) && weight_[k] > 0.f) {
       const FarPixel& fp = far->pixel(k);
       const FarShare f = far_share(fp.front, normal_, cos_[k], margin[k], weight_[k], omega[k]);
       if (fp.front_alpha > 0.f) {
+        const uint32_t front = planes_.add(fp.front_surface).index;
         sorted_.push_back({fp.front_near, fp.front_far, fp.front_alpha, f.occ, f.r, f.g, f.b, 0u, -1,
-                           fp.front_surface});
+                           front, 0u});
+        mixed = mixed || (front != 0 && first_surface != 0 && front != first_surface);
       }
       if (fp.rest_alpha > 0.f) {
         const FarShare r = far_share(fp.rest, normal_, cos_[k], margin[k], weight_[k], omega[k]);
-        sorted_.push_back({fp.rest_z, fp.rest_z, fp.rest_alpha, r.occ, r.r, r.g, r.b, 0u, -1, {}});
+        sorted_.push_back({fp.rest_z, fp.rest_z, fp.rest_alpha, r.occ, r.r, r.g, r.b, 0u, -1, 0u, 0u});
       }
     }
     // Lists are short (a few surfaces): insertion sort beats std::sort.
@@ -210,14 +228,15 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
       // The cluster's extent, and whether it holds more than one surface.
       size_t end = i;
       bool one_surface = true;
-      const FragmentSurface* surface = nullptr;  // the cluster's first known surface
-      for (float z = start; end < sorted_.size() && sorted_[end].near <= z * grow_; ++end) {
+      uint32_t surface = 0;  // the cluster's first known surface
+      for (float z = start; mixed && end < sorted_.size() && sorted_[end].near <= z * grow_;
+           ++end) {
         const Fragment& f = sorted_[end];
         z = std::max(z, f.far);
-        if (!f.surface.known()) continue;
-        if (!surface) {
-          surface = &f.surface;
-        } else if (!same_surface(*surface, f.surface)) {
+        if (f.surface == 0 || f.surface == surface) continue;
+        if (surface == 0) {
+          surface = f.surface;
+        } else if (one_surface && !planes_.same(surface, f.surface)) {
           one_surface = false;
         }
       }
@@ -302,22 +321,22 @@ void Microbuffer::resolve_surfaces(uint32_t k, size_t begin, size_t end, float& 
   for (int pass = 0; pass < 2; ++pass) {
     for (size_t j = begin; j < end; ++j) {
       const Fragment& f = sorted_[j];
-      if (f.surface.known() != (pass == 0)) continue;
+      if ((f.surface != 0) != (pass == 0)) continue;
       Surface* s = nullptr;
       if (pass == 0) {
         for (Surface& t : surfaces_) {
-          if (same_surface(sorted_[t.first].surface, f.surface)) {
+          if (planes_.same(t.surface, f.surface)) {
             s = &t;
             break;
           }
         }
         if (!s) {
           float far_z = f.far;
-          for (size_t m = j; m < end; ++m) {
-            if (same_surface(f.surface, sorted_[m].surface)) far_z = std::max(far_z, sorted_[m].far);
+          for (size_t m = j + 1; m < end; ++m) {
+            if (planes_.same(f.surface, sorted_[m].surface)) far_z = std::max(far_z, sorted_[m].far);
           }
-          surfaces_.push_back({surface_depth(f.surface, dir, f.near, far_z, grow_), 0.f, 0.f, 0.f,
-                               0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0u, uint32_t(j)});
+          surfaces_.push_back({surface_depth(planes_[f.surface], dir, f.near, far_z, grow_), 0.f, 0.f,
+                               0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0u, f.surface});
           s = &surfaces_.back();
         }
       } else {
@@ -373,7 +392,7 @@ void Microbuffer::resolve_surfaces(uint32_t k, size_t begin, size_t end, float& 
     if (i > 0 && s.alpha > 0.f) {
       const Imath::V3f x = dir * s.depth;
       for (size_t j = 0; j < i; ++j) {
-        if (lies_behind(sorted_[surfaces_[j].first].surface, x)) {
+        if (lies_behind(planes_[surfaces_[j].surface], x)) {
           scale = std::clamp((1.f - covered - cover) / s.alpha, 0.f, 1.f);
           break;
         }

@@ -117,16 +117,18 @@ class Microbuffer {
   // along the view: a wall seen at a grazing angle recedes across its
   // splats, and pieces of it whose intervals chain belong to one surface),
   // has the cosine-weighted solid angle `weight` (> 0) and shows `radiance`.
+  // `surface`: the one it lies on (add_surface()), if known.
   void add_coverage(uint32_t k, float near, float far, float alpha, float weight,
-                    const Imath::C3f& radiance, const FragmentSurface& surface = {}) {
+                    const Imath::C3f& radiance, SurfaceId surface = {}) {
     if (!(alpha > 0.f) || !(weight > 0.f)) return;
-    // Fast path: the pixel's latest fragment is a splat of the same surface
-    // (the common case: neighbouring splats of one surface).
+    // Fast path: the pixel's fragment that took the last one (added or
+    // merged) is a splat of the same surface (the common case: neighbouring
+    // splats of one surface), or of one found beside it, by index
+    // (SurfaceTable). push() tries the rest.
     if (stamp_[k] == generation_) {
-      Fragment& g = fragments_[head_[k]];
+      Fragment& g = fragments_[hot_[k]];
       if (g.alpha > 0.f && far * grow_ >= g.near && near <= g.far * grow_ &&
-          same_surface(g.surface, surface)) {
-        if (!g.surface.known()) g.surface = surface;
+          (surface.index == g.surface || surface.index == g.beside)) {
         g.near = std::min(g.near, near);
         g.far = std::max(g.far, far);
         g.alpha += alpha;
@@ -138,7 +140,11 @@ class Microbuffer {
       }
     }
     push(k, {near, far, alpha, weight, radiance.x * weight, radiance.y * weight,
-             radiance.z * weight, 0u, -1, surface});
+             radiance.z * weight, 0u, -1, surface.index, 0u});
+  }
+  void add_coverage(uint32_t k, float near, float far, float alpha, float weight,
+                    const Imath::C3f& radiance, const FragmentSurface& surface) {
+    add_coverage(k, near, far, alpha, weight, radiance, add_surface(surface));
   }
   void add_coverage(uint32_t k, float depth, float alpha, float weight,
                     const Imath::C3f& radiance) {
@@ -157,11 +163,16 @@ class Microbuffer {
   }
   // The same with the depth interval of the samples' hits.
   void add_hit(uint32_t k, float near, float far, const Imath::C3f& radiance, uint32_t mask,
-               const FragmentSurface& surface = {}) {
+               SurfaceId surface = {}) {
     const float w = weight_[k];
     if (!(w > 0.f) || !(mask & kAllSamples)) return;
-    push(k, {near, far, -1.f, w, radiance.x * w, radiance.y * w, radiance.z * w, mask, -1, surface});
+    push(k, {near, far, -1.f, w, radiance.x * w, radiance.y * w, radiance.z * w, mask, -1,
+             surface.index, 0u});
   }
+
+  // Registers the surface (fragment_surface.h) that the fragments added
+  // with the returned id lie on, until the next begin(). Unknown: id 0.
+  SurfaceId add_surface(const FragmentSurface& s) { return planes_.add(s); }
 
   // Resolves visibility (rule above) and convolves with the cosine lobe,
   // with the resolved far content of `far` if given. With `gain` (one
@@ -203,15 +214,20 @@ class Microbuffer {
     float r, g, b;    // radiance times weight
     uint32_t mask = 0;  // hits: the pixel's sample points they cover (union)
     int32_t next = -1;
-    FragmentSurface surface;
+    uint32_t surface = 0;  // in planes_ (0: unknown)
+    // The last other surface merged into it as lying beside it (push()):
+    // the next fragment of that surface merges without the planes' test.
+    uint32_t beside = 0;
   };
   // Whether fragments a and b of two different surfaces in the pixel of
   // unit direction `dir` (same kind, within the band) may merge: resolve()
   // adds them up anyway when neither lies behind the other's plane (a
   // floor and a wall meeting in a corner).
   bool side_by_side(const Fragment& a, const Fragment& b, const Imath::V3f& dir) const {
-    return !lies_behind(a.surface, dir * surface_depth(b.surface, dir, b.near, b.far, grow_)) &&
-           !lies_behind(b.surface, dir * surface_depth(a.surface, dir, a.near, a.far, grow_));
+    const FragmentSurface& sa = planes_[a.surface];
+    const FragmentSurface& sb = planes_[b.surface];
+    return !lies_behind(sa, dir * surface_depth(sb, dir, b.near, b.far, grow_)) &&
+           !lies_behind(sb, dir * surface_depth(sa, dir, a.near, a.far, grow_));
   }
 
   void push(uint32_t k, const Fragment& f);
@@ -232,17 +248,23 @@ class Microbuffer {
   // starting a receiver does not touch every pixel.
   std::vector<uint32_t> stamp_;
   std::vector<int32_t> head_;
+  // The fragment of each pixel that took the last fragment added to it
+  // (valid with the stamp). Where surfaces one behind the other keep two
+  // fragments in a pixel, their splats alternate: the list's head would
+  // then miss the fast path half of the time.
+  std::vector<int32_t> hot_;
   uint32_t generation_ = 0;
   std::vector<uint32_t> touched_;
   std::vector<Fragment> fragments_;
   std::vector<Fragment> sorted_;  // scratch of resolve()
+  SurfaceTable planes_;           // the surfaces of the receiver's fragments
   // Scratch of resolve_surfaces(): one entry per surface of a cluster.
   struct Surface {
     float depth;
     float alpha, w, r, g, b;        // splats
     float hits, hw, hr, hg, hb;     // ray-cast hits
     uint32_t mask;
-    uint32_t first;                 // its first fragment (in sorted_)
+    uint32_t surface;               // in planes_
   };
   std::vector<Surface> surfaces_;
 };

@@ -67,11 +67,12 @@ void Rasterizer::queue(const Imath::V3f& dir, const Shape& shape, float depth,
   b.sy[i] = shape.squash.y;
   b.sz[i] = shape.squash.z;
   const float extent = std::clamp(shape.depth_extent, 0.f, 0.9f * depth);
-  FragmentSurface surface;
-  if (shape.facing != Imath::V3f(0, 0, 0)) {
-    surface = {shape.facing, depth * shape.facing.dot(dir), shape.plane_tolerance};
-  }
-  pending_[i] = {depth - extent, depth + extent, radiance, far, surface};
+  // A zero `facing` (unknown surface) gives a zero normal: still unknown.
+  pending_[i] = {depth - extent,
+                 depth + extent,
+                 radiance,
+                 far,
+                 {shape.facing, depth * shape.facing.dot(dir), shape.plane_tolerance}};
 }
 
 void Rasterizer::flush() {
@@ -152,6 +153,7 @@ void Rasterizer::draw(size_t i, const Ellipse& e, const Pending& p) {
   const bool above = cos_center > reach;
   const float rho2 = e.major * e.minor;
   const float target = omega * cos_center * (1.f - 0.25f * rho2);  // (1 + cos rho) / 2
+  const SurfaceId surface = buffer_.add_surface(p.surface);
   // Common case: wholly above the horizon and inside one face (the
   // kernel's masses). The cosine varies by a few percent over a splat;
   // weights are spread in proportion of solid angle, and their total is
@@ -172,7 +174,7 @@ void Rasterizer::draw(size_t i, const Ellipse& e, const Pending& p) {
       for (uint32_t c = 0; c < ni; ++c) {
         const uint32_t k = row + c;
         const float m = b.mu[c][i];
-        buffer_.add_coverage(k, p.z0, p.z1, m * a_v, m * w_v * solid[k], p.radiance, p.surface);
+        buffer_.add_coverage(k, p.z0, p.z1, m * a_v, m * w_v * solid[k], p.radiance, surface);
       }
     }
     return;
@@ -184,7 +186,7 @@ void Rasterizer::draw(size_t i, const Ellipse& e, const Pending& p) {
   for (const Candidate& c : candidates_) {
     buffer_.add_coverage(c.pixel, p.z0, p.z1, c.fraction * scale,
                          c.fraction * weight_scale * solid[c.pixel] * c.cosine, p.radiance,
-                         p.surface);
+                         surface);
   }
 }
 
@@ -199,6 +201,7 @@ void Rasterizer::draw_far(size_t i, const Ellipse& e, const Pending& p) {
   // with the cap's exact cosine integral (see far_field.h).
   const float rho2 = e.major * e.minor;
   const Imath::V3f moment = dir * (1.f - 0.25f * rho2);
+  const SurfaceId surface = far.add_surface(p.surface);
   if (b.inside[i]) {
     const float covered = b.covered[i];
     if (!(covered > 0.f)) return;
@@ -213,7 +216,7 @@ void Rasterizer::draw_far(size_t i, const Ellipse& e, const Pending& p) {
       for (uint32_t c = 0; c < ni; ++c) {
         const uint32_t k = row + c;
         const float alpha = b.mu[c][i] * a_v;
-        far.add(k, p.z0, p.z1, alpha, alpha * solid[k], moment, p.radiance, p.surface);
+        far.add(k, p.z0, p.z1, alpha, alpha * solid[k], moment, p.radiance, surface);
       }
     }
     return;
@@ -222,7 +225,7 @@ void Rasterizer::draw_far(size_t i, const Ellipse& e, const Pending& p) {
   const float scale = omega / covered_;
   for (const Candidate& c : candidates_) {
     const float alpha = c.fraction * scale;
-    far.add(c.pixel, p.z0, p.z1, alpha, alpha * solid[c.pixel], moment, p.radiance, p.surface);
+    far.add(c.pixel, p.z0, p.z1, alpha, alpha * solid[c.pixel], moment, p.radiance, surface);
   }
 }
 
@@ -362,7 +365,7 @@ uint32_t Rasterizer::raycast(const Imath::V3f& offset, const Imath::V3f& normal,
   const float r2 = radius * radius;
   const float plane = normal.dot(offset);  // < 0: the receiver is in front
   if (!(plane < 0.f) || !(radius > 0.f)) return 0;
-  const FragmentSurface surface{normal, plane, plane_tolerance};
+  const SurfaceId surface = buffer_.add_surface({normal, plane, plane_tolerance});
   const uint32_t n = layout_.resolution();
   const float pw = layout_.pixel_width();
   // Candidate pixels: those whose area (not only center) may meet the
