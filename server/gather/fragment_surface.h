@@ -95,6 +95,9 @@ class SurfaceTable {
     for (uint32_t i = 0; i < kRecent && recent_[i] != 0; ++i) {
       const uint32_t r = recent_[i];
       if (same_known_surface(planes_[r], s)) {
+        // The index keeps the tightest tolerance given it: a far splat's
+        // (1% of its distance) must not loosen a near one's test.
+        planes_[r].tolerance = std::min(planes_[r].tolerance, s.tolerance);
         // Most recent first.
         for (uint32_t j = i; j > 0; --j) recent_[j] = recent_[j - 1];
         recent_[0] = r;
