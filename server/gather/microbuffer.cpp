@@ -225,36 +225,14 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
     size_t i = 0;
     while (i < sorted_.size() && transmit > kOpaque) {
       const float start = sorted_[i].near;
-      // The cluster's extent, and whether it holds more than one surface.
-      size_t end = i;
-      bool one_surface = true;
-      uint32_t surface = 0;  // the cluster's first known surface
-      for (float z = start; mixed && end < sorted_.size() && sorted_[end].near <= z * grow_;
-           ++end) {
-        const Fragment& f = sorted_[end];
-        z = std::max(z, f.far);
-        if (f.surface == 0 || f.surface == surface) continue;
-        if (surface == 0) {
-          surface = f.surface;
-        } else if (one_surface && !planes_.same(surface, f.surface)) {
-          one_surface = false;
-        }
-      }
-      if (!one_surface) {
-        float a = 0.f, w = 0.f, cr = 0.f, cg = 0.f, cb = 0.f;
-        resolve_surfaces(k, i, end, cr, cg, cb, w, a);
-        i = end;
-        r += transmit * cr;
-        g += transmit * cg;
-        b += transmit * cb;
-        if (ao_open && ao_max_distance > 0.f && !(start < ao_max_distance)) ao_open = false;
-        if (ao_open) ao_cover += transmit * w;
-        transmit *= std::max(0.f, 1.f - a);
-        continue;
-      }
+      const size_t begin = i;
       float far_z = start, a = 0.f, w = 0.f, cr = 0.f, cg = 0.f, cb = 0.f;
       float hits = 0.f, hw = 0.f, hr = 0.f, hg = 0.f, hb = 0.f;
       uint32_t mask = 0;
+      // Whether the cluster holds more than one surface (then rule 3's
+      // test decides, and these sums are not used).
+      bool one_surface = true;
+      uint32_t surface = 0;  // the cluster's first known surface
       do {
         const Fragment& f = sorted_[i];
         if (f.alpha < 0.f) {
@@ -271,9 +249,26 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
           cg += f.g;
           cb += f.b;
         }
+        if (mixed && f.surface != 0 && f.surface != surface) {
+          if (surface == 0) {
+            surface = f.surface;
+          } else if (one_surface && !planes_.same(surface, f.surface)) {
+            one_surface = false;
+          }
+        }
         far_z = std::max(far_z, f.far);
         ++i;
       } while (i < sorted_.size() && sorted_[i].near <= far_z * grow_);
+      if (!one_surface) {
+        resolve_surfaces(k, begin, i, cr, cg, cb, w, a);
+        r += transmit * cr;
+        g += transmit * cg;
+        b += transmit * cb;
+        if (ao_open && ao_max_distance > 0.f && !(start < ao_max_distance)) ao_open = false;
+        if (ao_open) ao_cover += transmit * w;
+        transmit *= std::max(0.f, 1.f - a);
+        continue;
+      }
       if (hits > 0.f) {
         // The hits' radiance averaged, over the part of the pixel they cover.
         const float cover = float(__builtin_popcount(mask)) * (1.f / kHitSamples);
