@@ -34,7 +34,9 @@
 //     light seen inside a closed room on a sunlit ground.
 //     To keep lists short, add_*() merges fragments that this rule would
 //     add up anyway (same kind, depth within the band, one surface or
-//     neither behind the other).
+//     neither behind the other). Fragments name their surface by an index
+//     into the receiver's SurfaceTable (fragment_surface.h): splats of one
+//     surface share an index and merge on an integer comparison.
 //  4. Clusters composite front to back: each passes max(0, 1 - alpha) of
 //     what lies behind it.
 // AO counts only the clusters that start nearer than ao_max_distance (if it
