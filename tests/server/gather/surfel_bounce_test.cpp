@@ -242,8 +242,8 @@ TEST(SurfelBounce, SplattedBounceFollowsTheUnsplattedOne) {
               vp.mean, vp.rel_rms, vp.rel_worst, vfp.rel_rms, vfp.rel_worst, fp.rel_rms, fp.rel_worst);
   EXPECT_GT(vp.mean, 0.01);  // the room does reflect light
   // FPBGI, the unsplatted default, is within 1% of per-surfel PBGI here
-  // (measured 0.0063 rms, worst 0.11). The splatted default trades some of
-  // that for speed (docs/gather.md, 9b): measured 0.0170, worst 0.208.
+  // (measured 0.0065 rms, worst 0.13). The splatted default trades some of
+  // that for speed (docs/gather.md, 9b): measured 0.0172, worst 0.200.
   // Before surfaces were told apart within a depth cluster (microbuffer.h,
   // rule 3) the two agreed more closely (0.0075, worst 0.048, with this
   // mean; the bound on the worst surfel was 0.15), but both were further
