@@ -86,11 +86,11 @@ class FarBuffer {
   // surface lying behind another's plane within a cluster counts only over
   // what those in front leave; the planes are those seen from the
   // cluster's active receiver).
-  void add(uint32_t k, float near, float far, float alpha, float omega, const Imath::V3f& m,
-           const Imath::C3f& radiance, SurfaceId surface = {}) {
+  void add(uint32_t k, float near, float far, float alpha, float omega, const Imath::V3f& m, const Imath::C3f& radiance,
+           SurfaceId surface = {}) {
     if (!(alpha > 0.f) || !(omega > 0.f) || !std::isfinite(near) || !std::isfinite(far)) return;
-    Fragment f{near, far, alpha, omega, radiance.x * omega, radiance.y * omega,
-               radiance.z * omega, m.x * omega, m.y * omega, m.z * omega, -1, surface.index};
+    Fragment f{near,        far,         alpha,       omega, radiance.x * omega, radiance.y * omega, radiance.z * omega,
+               m.x * omega, m.y * omega, m.z * omega, -1,    surface.index};
     push(k, f);
   }
   // Registers the surface that the fragments added with the returned id

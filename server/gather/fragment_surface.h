@@ -66,8 +66,7 @@ inline bool same_surface(const FragmentSurface& a, const FragmentSurface& b) {
 // the depths [near / grow, far * grow] its fragments span (a ray nearly
 // parallel to the plane meets it anywhere); `near` for an unknown surface
 // or a plane the ray does not meet from its front.
-inline float surface_depth(const FragmentSurface& s, const Imath::V3f& dir, float near, float far,
-                           float grow) {
+inline float surface_depth(const FragmentSurface& s, const Imath::V3f& dir, float near, float far, float grow) {
   if (!s.known()) return near;
   const float dn = s.n.dot(dir);
   if (!(dn < 0.f)) return near;

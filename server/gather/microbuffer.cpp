@@ -203,8 +203,7 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
       const FarShare f = far_share(fp.front, normal_, cos_[k], margin[k], weight_[k], omega[k]);
       if (fp.front_alpha > 0.f) {
         const uint32_t front = planes_.add(fp.front_surface).index;
-        sorted_.push_back({fp.front_near, fp.front_far, fp.front_alpha, f.occ, f.r, f.g, f.b, 0u, -1,
-                           front, 0u});
+        sorted_.push_back({fp.front_near, fp.front_far, fp.front_alpha, f.occ, f.r, f.g, f.b, 0u, -1, front, 0u});
         mixed = mixed || (front != 0 && first_surface != 0 && front != first_surface);
       }
       if (fp.rest_alpha > 0.f) {
@@ -306,8 +305,8 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
   return out;
 }
 
-void Microbuffer::resolve_surfaces(uint32_t k, size_t begin, size_t end, float& r, float& g,
-                                   float& b, float& weight, float& alpha) {
+void Microbuffer::resolve_surfaces(uint32_t k, size_t begin, size_t end, float& r, float& g, float& b, float& weight,
+                                   float& alpha) {
   const Imath::V3f dir = layout_.direction(k);
   // Known surfaces first, each at the depth where the pixel's center ray
   // meets it; fragments of unknown surfaces (wide-cone nodes) then join the
@@ -330,8 +329,8 @@ void Microbuffer::resolve_surfaces(uint32_t k, size_t begin, size_t end, float& 
           for (size_t m = j + 1; m < end; ++m) {
             if (planes_.same(f.surface, sorted_[m].surface)) far_z = std::max(far_z, sorted_[m].far);
           }
-          surfaces_.push_back({surface_depth(planes_[f.surface], dir, f.near, far_z, grow_), 0.f, 0.f,
-                               0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0u, f.surface});
+          surfaces_.push_back({surface_depth(planes_[f.surface], dir, f.near, far_z, grow_), 0.f, 0.f, 0.f, 0.f, 0.f,
+                               0.f, 0.f, 0.f, 0.f, 0.f, 0u, f.surface});
           s = &surfaces_.back();
         }
       } else {

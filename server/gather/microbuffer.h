@@ -120,8 +120,8 @@ class Microbuffer {
   // splats, and pieces of it whose intervals chain belong to one surface),
   // has the cosine-weighted solid angle `weight` (> 0) and shows `radiance`.
   // `surface`: the one it lies on (add_surface()), if known.
-  void add_coverage(uint32_t k, float near, float far, float alpha, float weight,
-                    const Imath::C3f& radiance, SurfaceId surface = {}) {
+  void add_coverage(uint32_t k, float near, float far, float alpha, float weight, const Imath::C3f& radiance,
+                    SurfaceId surface = {}) {
     if (!(alpha > 0.f) || !(weight > 0.f)) return;
     // Fast path: the pixel's fragment that took the last one (added or
     // merged) is a splat of the same surface (the common case: neighbouring
@@ -141,11 +141,11 @@ class Microbuffer {
         return;
       }
     }
-    push(k, {near, far, alpha, weight, radiance.x * weight, radiance.y * weight,
-             radiance.z * weight, 0u, -1, surface.index, 0u});
+    push(k, {near, far, alpha, weight, radiance.x * weight, radiance.y * weight, radiance.z * weight, 0u, -1,
+             surface.index, 0u});
   }
-  void add_coverage(uint32_t k, float near, float far, float alpha, float weight,
-                    const Imath::C3f& radiance, const FragmentSurface& surface) {
+  void add_coverage(uint32_t k, float near, float far, float alpha, float weight, const Imath::C3f& radiance,
+                    const FragmentSurface& surface) {
     add_coverage(k, near, far, alpha, weight, radiance, add_surface(surface));
   }
   void add_coverage(uint32_t k, float depth, float alpha, float weight,
@@ -164,12 +164,10 @@ class Microbuffer {
     add_hit(k, depth, depth, radiance, mask);
   }
   // The same with the depth interval of the samples' hits.
-  void add_hit(uint32_t k, float near, float far, const Imath::C3f& radiance, uint32_t mask,
-               SurfaceId surface = {}) {
+  void add_hit(uint32_t k, float near, float far, const Imath::C3f& radiance, uint32_t mask, SurfaceId surface = {}) {
     const float w = weight_[k];
     if (!(w > 0.f) || !(mask & kAllSamples)) return;
-    push(k, {near, far, -1.f, w, radiance.x * w, radiance.y * w, radiance.z * w, mask, -1,
-             surface.index, 0u});
+    push(k, {near, far, -1.f, w, radiance.x * w, radiance.y * w, radiance.z * w, mask, -1, surface.index, 0u});
   }
 
   // Registers the surface (fragment_surface.h) that the fragments added
@@ -236,8 +234,8 @@ class Microbuffer {
   // Resolves one depth cluster of pixel k, sorted_[begin, end), whose
   // fragments lie on more than one surface (rule 3): its light, cosine
   // weight and coverage.
-  void resolve_surfaces(uint32_t k, size_t begin, size_t end, float& r, float& g, float& b,
-                        float& weight, float& alpha);
+  void resolve_surfaces(uint32_t k, size_t begin, size_t end, float& r, float& g, float& b, float& weight,
+                        float& alpha);
 
   const CubeLayout& layout_;
   float band_;
@@ -263,10 +261,10 @@ class Microbuffer {
   // Scratch of resolve_surfaces(): one entry per surface of a cluster.
   struct Surface {
     float depth;
-    float alpha, w, r, g, b;        // splats
-    float hits, hw, hr, hg, hb;     // ray-cast hits
+    float alpha, w, r, g, b;     // splats
+    float hits, hw, hr, hg, hb;  // ray-cast hits
     uint32_t mask;
-    uint32_t surface;               // in planes_
+    uint32_t surface;  // in planes_
   };
   std::vector<Surface> surfaces_;
 };

@@ -184,9 +184,8 @@ void Rasterizer::draw(size_t i, const Ellipse& e, const Pending& p) {
   const float scale = omega / covered_;
   const float weight_scale = above && weighted_ > 0.f ? target / weighted_ : scale;
   for (const Candidate& c : candidates_) {
-    buffer_.add_coverage(c.pixel, p.z0, p.z1, c.fraction * scale,
-                         c.fraction * weight_scale * solid[c.pixel] * c.cosine, p.radiance,
-                         surface);
+    buffer_.add_coverage(c.pixel, p.z0, p.z1, c.fraction * scale, c.fraction * weight_scale * solid[c.pixel] * c.cosine,
+                         p.radiance, surface);
   }
 }
 

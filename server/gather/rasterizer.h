@@ -93,8 +93,8 @@ class Rasterizer {
   // unit `normal`, seen from its front side. Returns the pixels it covers.
   // Flushes the queued splats first. Its hits lie on the disk's plane,
   // give or take `plane_tolerance` for pieces of the same surface.
-  uint32_t raycast(const Imath::V3f& offset, const Imath::V3f& normal, float radius,
-                   const Imath::C3f& radiance, float plane_tolerance = 0.f);
+  uint32_t raycast(const Imath::V3f& offset, const Imath::V3f& normal, float radius, const Imath::C3f& radiance,
+                   float plane_tolerance = 0.f);
 
  private:
   struct Candidate {

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <unordered_map>
 
 namespace pbgi {
@@ -137,8 +138,9 @@ CrossRangeCover::CrossRangeCover(const Scene& scene, const V3f& centre, float pl
   std::vector<float> sizes;
   sizes.reserve(objects.size());
   for (const Object& o : objects) sizes.push_back((o.box.max - o.box.min).length());
-  std::nth_element(sizes.begin(), sizes.begin() + sizes.size() / 2, sizes.end());
-  const float cell = std::max(sizes[sizes.size() / 2], 1e-6f);
+  const auto median = sizes.begin() + std::ptrdiff_t(sizes.size() / 2);
+  std::nth_element(sizes.begin(), median, sizes.end());
+  const float cell = std::max(*median, 1e-6f);
   const ObjectGrid grid(objects, cell);
 
   // 2. Candidates: triangles whose bounds meet another range's object.
@@ -151,12 +153,11 @@ CrossRangeCover::CrossRangeCover(const Scene& scene, const V3f& centre, float pl
     meets.assign(range.size(), 0);
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, range.size(), 4096), [&](const auto& q) {
       for (uint32_t j = q.begin(); j != q.end(); ++j) {
-        meets[j] = range.area(j) > 0.f &&
-                   grid.meets_other(triangle_box(range, j, plane_tolerance), uint32_t(r));
+        meets[j] = range.area(j) > 0.f && grid.meets_other(triangle_box(range, j, plane_tolerance), uint32_t(r));
       }
     });
     for (uint32_t j = 0; j < range.size(); ++j)
-      if (meets[j]) picked.push_back({r, j});
+      if (meets[j]) picked.emplace_back(r, j);
   };
   pick(0);
   for (size_t r = 1; r < ranges; ++r) {
@@ -173,8 +174,7 @@ CrossRangeCover::CrossRangeCover(const Scene& scene, const V3f& centre, float pl
   cover_ = CoincidentCover(uint32_t(picked.size()), piece, centre, plane_tolerance);
   if (!cover_.any()) return;
   index_.reserve(picked.size());
-  for (uint32_t i = 0; i < picked.size(); ++i)
-    index_.push_back({index_key(picked[i].first, picked[i].second), i});
+  for (uint32_t i = 0; i < picked.size(); ++i) index_.emplace_back(index_key(picked[i].first, picked[i].second), i);
   std::sort(index_.begin(), index_.end());
 }
 

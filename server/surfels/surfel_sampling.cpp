@@ -188,10 +188,10 @@ std::vector<CoincidentCover> prototype_covers(const Scene& scene, float world_to
 // Step 6 for one range: positions and attributes, chunk by chunk of the
 // range's surfel index, in parallel within a chunk. `cover` is the range's
 // soup's (world space for the world soup, prototype space for instances).
-void emit_range(const Scene& scene, const TriangleRange& range, const std::vector<TrianglePlan>& plan,
-                uint64_t total, const CoincidentCover& cover, const CrossRangeCover& across,
-                size_t range_index, const SurfelOptions& options,
-                const SurfelChunkSink& sink, ProgressMeter& meter, std::vector<Surfel>& chunk) {
+void emit_range(const Scene& scene, const TriangleRange& range, const std::vector<TrianglePlan>& plan, uint64_t total,
+                const CoincidentCover& cover, const CrossRangeCover& across, size_t range_index,
+                const SurfelOptions& options, const SurfelChunkSink& sink, ProgressMeter& meter,
+                std::vector<Surfel>& chunk) {
   for (uint64_t g0 = 0; g0 < total; g0 += kChunk) {
     const uint64_t g1 = std::min(total, g0 + kChunk);
     chunk.resize(g1 - g0);
@@ -321,8 +321,7 @@ void sample_uniform(const Scene& scene, const SurfelOptions& options, const Surf
     for (size_t r = r0; r < r1; ++r) {
       const TriangleRange range = triangle_range(scene, r);
       const CoincidentCover& cover = r == 0 ? world_cover : covers[range.instance->prototype];
-      emit_range(scene, range, plans[r - r0], totals[r - r0], cover, across, r, options, sink, meter,
-                 chunk);
+      emit_range(scene, range, plans[r - r0], totals[r - r0], cover, across, r, options, sink, meter, chunk);
     }
     r0 = r1;
   }

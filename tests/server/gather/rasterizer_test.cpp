@@ -100,9 +100,7 @@ TEST(Microbuffer, SurfaceBehindAnotherWithinTheBandIsHidden) {
     mb.begin(V3f(0, 0, 1));
     const auto add_wall = [&] { mb.add_coverage(k, 1.0f, 1.0f, 1.0f, mb.weight(k), C3f(0), wall); };
     // The ground's splat sits at its node's center, nearer than the wall's.
-    const auto add_ground = [&] {
-      mb.add_coverage(k, 0.95f, 0.95f, 0.8f, 0.8f * mb.weight(k), C3f(1), ground);
-    };
+    const auto add_ground = [&] { mb.add_coverage(k, 0.95f, 0.95f, 0.8f, 0.8f * mb.weight(k), C3f(1), ground); };
     if (wall_first) {
       add_wall();
       add_ground();

@@ -156,8 +156,7 @@ std::vector<Surfel> reflecting_room(uint32_t target) {
 // order: taking its radiances as those of a tree-ordered output paired
 // surfels wrongly, lights among them, and gave a mean indirect radiance of
 // 0.133 instead of about 0.22 to the relative figures below.
-std::vector<Surfel> direct_in_order(const std::vector<Surfel>& room,
-                                    const std::vector<Surfel>& ordered) {
+std::vector<Surfel> direct_in_order(const std::vector<Surfel>& room, const std::vector<Surfel>& ordered) {
   constexpr float kCell = 0.01f;
   const auto cell = [](const V3f& p, int dx, int dy, int dz) {
     return std::make_tuple(int(std::floor(p.x / kCell)) + dx, int(std::floor(p.y / kCell)) + dy,
