@@ -260,15 +260,7 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
       } while (i < sorted_.size() && sorted_[i].near <= far_z * grow_);
       if (!one_surface) {
         resolve_surfaces(k, begin, i, cr, cg, cb, w, a);
-        r += transmit * cr;
-        g += transmit * cg;
-        b += transmit * cb;
-        if (ao_open && ao_max_distance > 0.f && !(start < ao_max_distance)) ao_open = false;
-        if (ao_open) ao_cover += transmit * w;
-        transmit *= std::max(0.f, 1.f - a);
-        continue;
-      }
-      if (hits > 0.f) {
+      } else if (hits > 0.f) {
         // The hits' radiance averaged, over the part of the pixel they cover.
         const float cover = float(__builtin_popcount(mask)) * (1.f / kHitSamples);
         const float inv = cover / hits;
