@@ -405,7 +405,7 @@ static std::optional<Scene> drop_unreadable(const ChunkStore& store, const std::
 
 std::optional<Scene> ChunkStore::load(const std::string& key,
                                       const std::function<void(const std::string&, float)>& progress,
-                                      const AssetRoots& roots) const {
+                                      const AssetRoots& roots, const SceneReadMemory& memory) const {
   const fs::path path = entry_path(key);
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) return std::nullopt;
@@ -423,7 +423,7 @@ std::optional<Scene> ChunkStore::load(const std::string& key,
     }
     TextureLoadOptions textures;
     textures.roots = roots;
-    scene = read_scene_entry_body(fd, head, path.string(), progress, textures);
+    scene = read_scene_entry_body(fd, head, path.string(), progress, textures, memory);
   } catch (const IoError& e) {
     // The disk, not the entry: leave it for the next open.
     spdlog::warn("chunk store: entry {} cannot be read now ({}): re-ingesting", key, e.what());
@@ -450,25 +450,29 @@ std::optional<Scene> ChunkStore::load(const std::string& key,
 }
 
 Scene read_usd_scene_cached(const fs::path& path, const IngestOptions& options, const ChunkStore& store,
-                            const std::function<void(const std::string&, float)>& progress, bool* from_store) {
+                            const std::function<void(const std::string&, float)>& progress, bool* from_store,
+                            const SceneReadMemory& memory) {
   const std::string key = store.key(usd_content_hash(path, options), options);
-  if (std::optional<Scene> stored = store.load(key, progress, options.asset_roots)) {
+  if (std::optional<Scene> stored = store.load(key, progress, options.asset_roots, memory)) {
     if (from_store) *from_store = true;
     return std::move(*stored);
   }
-  Scene scene = read_usd_scene(path, options, progress);
+  std::optional<Scene> scene = read_usd_scene(path, options, progress, memory);
   if (from_store) *from_store = false;
   try {
-    store.save(key, scene);
+    store.save(key, *scene);
   } catch (const Error& e) {
     spdlog::warn("chunk store: cannot save '{}': {}", path.string(), e.what());
-    return scene;
+    return std::move(*scene);
   }
   // The first open serves the stored (Draco-quantized) scene too, so that
   // what a daemon renders never depends on whether the store had the entry:
   // a restart or a replica reading the entry renders identical pixels.
-  if (std::optional<Scene> stored = store.load(key, {}, options.asset_roots)) return std::move(*stored);
-  return scene;
+  // The scene as read is freed first: one copy is held at a time, not two.
+  scene.reset();
+  if (std::optional<Scene> stored = store.load(key, {}, options.asset_roots, memory)) return std::move(*stored);
+  spdlog::warn("chunk store: the entry of '{}' just saved cannot be loaded back; reading the scene again", path.string());
+  return read_usd_scene(path, options, progress, memory);
 }
 
 }  // namespace pbgi

@@ -121,7 +121,8 @@ SceneEntryHead read_scene_entry_head(int fd, const std::string& path) {
 }
 
 Scene read_scene_entry_body(int fd, const SceneEntryHead& head, const std::string& path,
-                            const SceneStreamDecoder::Progress& progress, const TextureLoadOptions& textures) {
+                            const SceneStreamDecoder::Progress& progress, const TextureLoadOptions& textures,
+                            const SceneReadMemory& memory) {
   // 1. The checksum, streamed.
   storage::Checksum64Stream checksum;
   std::vector<char> buffer(size_t(1) << 20);
@@ -140,7 +141,9 @@ Scene read_scene_entry_body(int fd, const SceneEntryHead& head, const std::strin
   // 2. The scene: the body runs to the end of the file (the head said so).
   if (::lseek(fd, static_cast<off_t>(head.body_offset), SEEK_SET) < 0)
     throw IoError(fmt::format("scene entry '{}': seek failed: {}", path, std::strerror(errno)));
-  return SceneStreamDecoder(path, progress, {}, textures).decode(fd);
+  SceneStreamDecoder decoder(path, progress, {}, textures);
+  decoder.set_memory(memory);
+  return decoder.decode(fd);
 }
 
 }  // namespace pbgi

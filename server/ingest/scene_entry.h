@@ -76,10 +76,12 @@ struct SceneEntryHead {
 SceneEntryHead read_scene_entry_head(int fd, const std::string& path);
 
 // Checks the body against head.body_checksum, then decodes it (moving fd's
-// offset). Exceptions of `progress` propagate (that is how callers cancel).
-// Textures are loaded with `textures` (their roots confine them).
+// offset). Exceptions of `progress` propagate (that is how callers cancel),
+// as do those of `memory` (scene_read_memory.h: told what the scene holds
+// before it grows). Textures are loaded with `textures` (their roots
+// confine them).
 Scene read_scene_entry_body(int fd, const SceneEntryHead& head, const std::string& path,
                             const SceneStreamDecoder::Progress& progress = {},
-                            const TextureLoadOptions& textures = {});
+                            const TextureLoadOptions& textures = {}, const SceneReadMemory& memory = {});
 
 }  // namespace pbgi

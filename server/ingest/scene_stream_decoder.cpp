@@ -191,11 +191,65 @@ struct SoupBuild {
   std::unordered_map<std::string, uint32_t> mesh_index;
 };
 
+template <typename T>
+uint64_t buffer_bytes(const std::vector<T>& v) {
+  return uint64_t(v.capacity()) * sizeof(T);
+}
+
+// The capacity a vector holding n elements gets: geometric growth, as
+// std::vector's own, but decided here so that it is charged first.
+template <typename T>
+size_t grown_capacity(const std::vector<T>& v, size_t n) {
+  return n <= v.capacity() ? v.capacity() : std::max(n, 2 * v.capacity());
+}
+
+// Bytes of the buffer growing `v` to n elements allocates (0: it fits).
+template <typename T>
+uint64_t new_buffer_bytes(const std::vector<T>& v, size_t n) {
+  return n <= v.capacity() ? 0 : uint64_t(grown_capacity(v, n)) * sizeof(T);
+}
+
+template <typename T>
+void grow_to(std::vector<T>& v, size_t n) {
+  if (n > v.capacity()) v.reserve(grown_capacity(v, n));
+}
+
+// A soup's arrays as Scene::geometry_bytes() counts them (capacities),
+// the strings of its mesh paths apart (the assembler adds them as they come).
+uint64_t array_bytes(const TriangleSoup& s) {
+  return buffer_bytes(s.positions) + buffer_bytes(s.normals) + buffer_bytes(s.indices) + buffer_bytes(s.material) +
+         buffer_bytes(s.mesh) + buffer_bytes(s.double_sided) + buffer_bytes(s.uvs) + buffer_bytes(s.colors) +
+         buffer_bytes(s.mesh_paths);
+}
+
+// The sizes a soup's arrays reach with one more chunk (0: stays empty).
+struct SoupSizes {
+  size_t vertices = 0, normals = 0, uvs = 0, colors = 0;
+  size_t indices = 0, triangles = 0;
+};
+
+uint64_t new_buffer_bytes(const TriangleSoup& s, const SoupSizes& n) {
+  return new_buffer_bytes(s.positions, n.vertices) + new_buffer_bytes(s.normals, n.normals) +
+         new_buffer_bytes(s.uvs, n.uvs) + new_buffer_bytes(s.colors, n.colors) +
+         new_buffer_bytes(s.indices, n.indices) + new_buffer_bytes(s.mesh, n.triangles) +
+         new_buffer_bytes(s.material, n.triangles);
+}
+
+void grow_to(TriangleSoup& s, const SoupSizes& n) {
+  grow_to(s.positions, n.vertices);
+  grow_to(s.normals, n.normals);
+  grow_to(s.uvs, n.uvs);
+  grow_to(s.colors, n.colors);
+  grow_to(s.indices, n.indices);
+  grow_to(s.mesh, n.triangles);
+  grow_to(s.material, n.triangles);
+}
+
 // Builds the Scene from chunks in stream order.
 class SceneAssembler {
  public:
-  SceneAssembler(const std::string& source, const SubdivisionOptions& subdivision)
-      : source_(source), subdivision_(subdivision) {
+  SceneAssembler(const std::string& source, const SubdivisionOptions& subdivision, const SceneReadMemory& memory)
+      : source_(source), subdivision_(subdivision), memory_(memory) {
     scene_.source_path = source;
   }
 
@@ -234,7 +288,11 @@ class SceneAssembler {
     remap_materials(at);
     for (const auto& [prim, d] : dropped_) scene_.warnings.push_back(describe(prim, d, source_));
     for (size_t i = 0; i < builds_.size(); ++i)
-      if (builds_[i].any_normals && builds_[i].any_without_normals) expand_flat_chunks(i);
+      if (builds_[i].any_normals && builds_[i].any_without_normals) expand_flat_chunks(i, at);
+    // Exact, whatever the tracking above missed: the read's last charge is
+    // what the scene holds.
+    held_ = scene_.geometry_bytes();
+    if (memory_) memory_(held_, "scene geometry as read");
     // The triangles of a subdivision surface depend on the refinement
     // options too: two reads with different targets must not share caches.
     if (cage_count_ > 0)
@@ -251,6 +309,35 @@ class SceneAssembler {
   }
 
  private:
+  // ---- Memory (scene_read_memory.h): every growth of the geometry is
+  // charged before it is allocated, and what it holds after.
+
+  void charge(uint64_t bytes, const FramePosition& at, const char* kind, const std::string& prim) {
+    if (!memory_ || bytes == reported_) return;
+    memory_(bytes, fmt::format("scene geometry being read: frame {} at byte offset {}, {} of {}", at.index,
+                               at.offset, kind, prim));
+    reported_ = bytes;
+  }
+
+  // Charges the buffers soup `target` needs for `n` (plus `transient`
+  // bytes held meanwhile), beside the old ones, then allocates them.
+  // Returns the soup's array bytes before, for settle().
+  uint64_t reserve_soup(size_t target, const SoupSizes& n, uint64_t transient, const FramePosition& at,
+                        const char* kind, const std::string& prim) {
+    TriangleSoup& soup = soup_at(target);
+    const uint64_t before = array_bytes(soup);
+    const uint64_t more = new_buffer_bytes(soup, n);
+    if (more > 0 || transient > 0) charge(held_ + transient + more, at, kind, prim);
+    grow_to(soup, n);
+    return before;
+  }
+
+  // The soup `target` changed from `before` array bytes: the scene now holds.
+  void settle(size_t target, uint64_t before, const FramePosition& at, const char* kind, const std::string& prim) {
+    held_ = held_ - before + array_bytes(soup_at(target));
+    charge(held_, at, kind, prim);
+  }
+
   static const char* kind_name(const pbgi::v1::SceneChunk& chunk) {
     using Chunk = pbgi::v1::SceneChunk;
     switch (chunk.body_case()) {
@@ -313,15 +400,25 @@ class SceneAssembler {
     const size_t base = soup.positions.size();
     if (base + vertex_count > std::numeric_limits<uint32_t>::max())
       fail(at, fmt::format("mesh {}: the scene exceeds 2^32 vertices", prim));
+    // Unusable normals (not finite, zero, beyond the coordinate limit): the
+    // chunk is shaded flat, as the reader does with such normals.
+    const bool has_normals = !nrm.empty() && usable_normals(nrm);
+    if (!nrm.empty() && !has_normals) dropped_[prim].normals = true;
+
+    // Charged before the soup grows (a refusal leaves it as it was).
+    SoupSizes sizes;
+    sizes.vertices = base + vertex_count;
+    sizes.normals = has_normals || !soup.normals.empty() ? sizes.vertices : 0;
+    sizes.uvs = !m.uvs().empty() || !soup.uvs.empty() ? sizes.vertices : 0;
+    sizes.colors = !m.colors().empty() || !soup.colors.empty() ? sizes.vertices : 0;
+    sizes.indices = soup.indices.size() + idx.size() / sizeof(uint32_t);
+    sizes.triangles = soup.mesh.size() + idx.size() / (3 * sizeof(uint32_t));
+    const uint64_t before = reserve_soup(target, sizes, 0, at, "MeshChunk", prim);
 
     soup.positions.resize(base + vertex_count);
     // V3f is three packed floats (asserted above); its user-declared
     // assignment does not change the layout.
     copy_bytes(soup.positions.data() + base, pos);
-    // Unusable normals (not finite, zero, beyond the coordinate limit): the
-    // chunk is shaded flat, as the reader does with such normals.
-    const bool has_normals = !nrm.empty() && usable_normals(nrm);
-    if (!nrm.empty() && !has_normals) dropped_[prim].normals = true;
     if (has_normals) {
       // Zero-fills the vertices of earlier chunks without normals, if any.
       soup.normals.resize(base + vertex_count);
@@ -355,6 +452,7 @@ class SceneAssembler {
     soup.material.insert(soup.material.end(), triangles, m.material_id());
     build.chunks.push_back({static_cast<uint32_t>(base), static_cast<uint32_t>(soup.positions.size() - base),
                             first_index, soup.indices.size() - first_index, has_normals});
+    settle(target, before, at, "MeshChunk", prim);
     // SceneEnd counts what the writer could count: packed arrays (dropped
     // triangles included), not the triangles inside Draco blobs.
     if (chunk.draco().empty()) streamed_triangles_ += index_count / 3;
@@ -456,8 +554,11 @@ class SceneAssembler {
       fail(at, fmt::format("prototype id {} ({}) defined twice", d.id(), d.prim_path()));
     Prototype p;
     p.prim_path = d.prim_path();
+    const uint64_t before = buffer_bytes(scene_.prototypes);
     scene_.prototypes.push_back(std::move(p));
     builds_.emplace_back();
+    held_ = held_ - before + buffer_bytes(scene_.prototypes) + scene_.prototypes.back().prim_path.capacity();
+    charge(held_, at, "PrototypeDef", d.prim_path());
   }
 
   void instances(const pbgi::v1::InstanceBatch& b, const FramePosition& at) {
@@ -470,7 +571,14 @@ class SceneAssembler {
       fail(at, fmt::format("instances {}: {} bytes of transforms, not a multiple of 64", b.prim_path(), bytes.size()));
     // The prototype's triangle count is now part of the numbering.
     if (builds_[it->second + 1].any_normals && builds_[it->second + 1].any_without_normals)
-      expand_flat_chunks(it->second + 1);
+      expand_flat_chunks(it->second + 1, at);
+    // Charged before the instances grow.
+    const size_t placements = scene_.instances.size() + bytes.size() / kMatrixBytes;
+    const uint64_t before = buffer_bytes(scene_.instances);
+    if (const uint64_t more = new_buffer_bytes(scene_.instances, placements); more > 0)
+      charge(held_ + more, at, "InstanceBatch", b.prim_path());
+    grow_to(scene_.instances, placements);
+    held_ = held_ - before + buffer_bytes(scene_.instances);
     SoupBuild& build = builds_[it->second + 1];
     build.sealed = true;
     if (!build.bounds) {
@@ -494,6 +602,7 @@ class SceneAssembler {
         scene_.warnings.push_back(fmt::format("{}: {} (instance skipped)", b.prim_path(), e.what()));
       }
     }
+    charge(held_, at, "InstanceBatch", b.prim_path());
   }
 
   uint32_t mesh_index(size_t target, const std::string& prim, bool double_sided) {
@@ -503,6 +612,7 @@ class SceneAssembler {
     if (inserted) {
       soup.mesh_paths.push_back(prim);
       soup.double_sided.push_back(0);
+      held_ += soup.mesh_paths.back().capacity();  // the vectors are settled by the caller
     }
     if (double_sided) soup.double_sided[it->second] = 1;
     return it->second;
@@ -543,6 +653,16 @@ class SceneAssembler {
     const size_t base = soup.positions.size();
     if (base + refined.positions.size() > std::numeric_limits<uint32_t>::max())
       fail(at, fmt::format("mesh {}: the scene exceeds 2^32 vertices", prim));
+    // Charged before the soup grows, the refinement held meanwhile.
+    SoupSizes sizes;
+    sizes.vertices = sizes.normals = base + refined.positions.size();
+    sizes.uvs = soup.uvs.empty() ? 0 : sizes.vertices;
+    sizes.colors = soup.colors.empty() ? 0 : sizes.vertices;
+    sizes.indices = soup.indices.size() + refined.indices.size();
+    sizes.triangles = soup.mesh.size() + refined.triangle_count();
+    const uint64_t refinement = buffer_bytes(refined.positions) + buffer_bytes(refined.normals) +
+                                buffer_bytes(refined.indices) + buffer_bytes(refined.triangle_faces);
+    const uint64_t before = reserve_soup(target, sizes, refinement, at, "SubdivCage", prim);
     soup.positions.insert(soup.positions.end(), refined.positions.begin(), refined.positions.end());
     // Zero-fills the vertices of earlier chunks without normals, if any.
     soup.normals.resize(base);
@@ -562,6 +682,7 @@ class SceneAssembler {
                                                                  : decoded.face_material_ids[refined.triangle_faces[t]]);
     build.chunks.push_back({static_cast<uint32_t>(base), static_cast<uint32_t>(refined.positions.size()), first_index,
                        refined.indices.size(), true});
+    settle(target, before, at, "SubdivCage", prim);
   }
 
   void material(const pbgi::v1::MaterialDef& d, const FramePosition& at) {
@@ -704,7 +825,7 @@ class SceneAssembler {
   // normal array describes the whole soup exactly.
   // Once per soup; a prototype's at its first InstanceBatch (the vertex
   // count changes, the triangle count does not), the rest at the end.
-  void expand_flat_chunks(size_t target) {
+  void expand_flat_chunks(size_t target, const FramePosition& at) {
     SoupBuild& build = builds_[target];
     if (build.sealed) return;
     TriangleSoup& soup = soup_at(target);
@@ -718,9 +839,22 @@ class SceneAssembler {
       if (have_uvs) uvs.push_back(soup.uvs[v]);
       if (have_colors) colors.push_back(soup.colors[v]);
     };
-    positions.reserve(soup.positions.size());
-    normals.reserve(soup.positions.size());
-    indices.reserve(soup.indices.size());
+    // The new arrays, exactly sized, are charged beside the old ones.
+    size_t vertices = 0, index_count = 0;
+    for (const ChunkRange& c : build.chunks) {
+      vertices += c.has_normals ? c.vertex_count : c.index_count;
+      index_count += c.index_count;
+    }
+    const std::string& prim = soup.mesh_paths.empty() ? source_ : soup.mesh_paths.front();
+    charge(held_ + vertices * (2 * sizeof(V3f) + (have_uvs ? sizeof(V2f) : 0) + (have_colors ? sizeof(C3f) : 0)) +
+               index_count * sizeof(uint32_t),
+           at, "unwelding flat-shaded chunks beside smooth ones, first mesh", prim);
+    const uint64_t before = array_bytes(soup);
+    positions.reserve(vertices);
+    normals.reserve(vertices);
+    indices.reserve(index_count);
+    if (have_uvs) uvs.reserve(vertices);
+    if (have_colors) colors.reserve(vertices);
     for (const ChunkRange& c : build.chunks) {
       const uint32_t base = static_cast<uint32_t>(positions.size());
       if (c.has_normals) {
@@ -754,10 +888,16 @@ class SceneAssembler {
     soup.indices.swap(indices);
     if (have_uvs) soup.uvs.swap(uvs);
     if (have_colors) soup.colors.swap(colors);
+    // The old arrays go when this returns; the charge follows at the next
+    // settle (what the scene holds is never under-charged meanwhile).
+    held_ = held_ - before + array_bytes(soup);
   }
 
   const std::string& source_;
   const SubdivisionOptions& subdivision_;
+  const SceneReadMemory& memory_;
+  uint64_t held_ = 0;      // what the scene's geometry holds (Scene::geometry_bytes())
+  uint64_t reported_ = 0;  // the last value told to memory_
   double subdiv_cage_area_ = 0.0;  // SceneHeader's: bounds each cage's refinement error
   Scene scene_;
   uint64_t streamed_triangles_ = 0;
@@ -784,7 +924,7 @@ SceneStreamDecoder::SceneStreamDecoder(std::string source_name, Progress progres
 Scene SceneStreamDecoder::decode(int fd) {
   stats_ = {};
   FdReader reader(fd, source_);
-  SceneAssembler assembler(source_, subdivision_);
+  SceneAssembler assembler(source_, subdivision_, memory_);
   FramePosition at;
   std::string body;
   pbgi::v1::SceneChunk chunk;
