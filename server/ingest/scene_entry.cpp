@@ -59,7 +59,7 @@ void SceneEntryWriter::append(const void* data, size_t size) {
 void SceneEntryWriter::finish(const std::string& path) {
   std::vector<uint8_t> head(kSceneEntryHeadBytes + dependencies_.size() + kSceneEntryChecksumBytes);
   store_le<uint32_t>(head.data(), storage::kSceneEntryMagic);
-  store_le<uint32_t>(head.data() + 4, storage::kSceneEntryFormatV4);
+  store_le<uint32_t>(head.data() + 4, storage::kSceneEntryFormatV5);
   store_le<uint64_t>(head.data() + 8, dependencies_.size());
   store_le<uint64_t>(head.data() + 16, body_bytes_);
   store_le<uint64_t>(head.data() + 24, body_checksum_.digest());
@@ -87,7 +87,7 @@ SceneEntryHead read_scene_entry_head(int fd, const std::string& path) {
   if (!storage::is_known_scene_entry_format(head.version))
     throw VersionError(fmt::format("scene entry '{}': format version {} at offset 4 is not one this build reads "
                                    "(it reads {})",
-                                   path, head.version, storage::kSceneEntryFormatV4));
+                                   path, head.version, storage::kSceneEntryFormatV5));
   const uint64_t dependency_bytes = load_le<uint64_t>(fixed + 8);
   head.body_bytes = load_le<uint64_t>(fixed + 16);
   head.body_checksum = load_le<uint64_t>(fixed + 24);

@@ -5,7 +5,8 @@
 //
 // Layout (little-endian; byte spec in storage/format/FORMAT.md):
 //   0      4  magic            'PBGS' (kSceneEntryMagic)
-//   4      4  version          u32, kSceneEntryFormatV4
+//   4      4  version          u32, kSceneEntryFormatV5 (its SceneHeader
+//                              states the decoded geometry: SceneSize)
 //   8      8  dependency_bytes u64 D (<= kMaxSceneEntryDependencyBytes)
 //   16     8  body_bytes       u64 B
 //   24     8  body_checksum    XXH3-64 of the body

@@ -235,6 +235,23 @@ uint64_t new_buffer_bytes(const TriangleSoup& s, const SoupSizes& n) {
          new_buffer_bytes(s.material, n.triangles);
 }
 
+// The sizes SceneHeader.size states for one soup.
+SoupSizes stated_sizes(const pbgi::v1::SceneSize::Soup& s) {
+  SoupSizes n;
+  n.vertices = s.vertices();
+  n.normals = s.normals() ? n.vertices : 0;
+  n.uvs = s.uvs() ? n.vertices : 0;
+  n.colors = s.colors() ? n.vertices : 0;
+  n.indices = 3 * s.triangles();
+  n.triangles = s.triangles();
+  return n;
+}
+
+uint64_t soup_bytes(const SoupSizes& n) {
+  return n.vertices * sizeof(V3f) + n.normals * sizeof(V3f) + n.uvs * sizeof(V2f) + n.colors * sizeof(C3f) +
+         n.indices * sizeof(uint32_t) + 2 * n.triangles * sizeof(uint32_t);
+}
+
 void grow_to(TriangleSoup& s, const SoupSizes& n) {
   grow_to(s.positions, n.vertices);
   grow_to(s.normals, n.normals);
@@ -370,6 +387,37 @@ class SceneAssembler {
     if (!(h.subdiv_cage_area() >= 0.0) || !std::isfinite(h.subdiv_cage_area()))
       fail(at, fmt::format("invalid subdiv_cage_area {}", h.subdiv_cage_area()));
     subdiv_cage_area_ = h.subdiv_cage_area();
+    if (h.has_size()) stated_size(h.size(), at);
+  }
+
+  // SceneHeader.size (the chunk store's entries): the whole geometry is
+  // charged before the first chunk, then the arrays are sized for it, so
+  // that they never grow (nor hold twice their size while they do). Only
+  // with a memory function: without one nothing vouches for the sizes, and
+  // the arrays grow as chunks come. A size the stream then exceeds is
+  // charged chunk by chunk like any growth.
+  void stated_size(const pbgi::v1::SceneSize& size, const FramePosition& at) {
+    auto check = [&](const pbgi::v1::SceneSize::Soup& s, const std::string& which) {
+      if (s.vertices() > std::numeric_limits<uint32_t>::max() || s.triangles() > std::numeric_limits<uint32_t>::max())
+        fail(at, fmt::format("SceneHeader.size: {} states {} vertices and {} triangles, beyond 2^32", which,
+                             s.vertices(), s.triangles()));
+    };
+    check(size.world(), "the world");
+    for (int p = 0; p < size.prototypes_size(); ++p) check(size.prototypes(p), fmt::format("prototype {}", p));
+    if (size.instances() > std::numeric_limits<uint32_t>::max())
+      fail(at, fmt::format("SceneHeader.size: {} instances, beyond 2^32", size.instances()));
+    if (!memory_) return;
+    uint64_t bytes = soup_bytes(stated_sizes(size.world())) + size.instances() * sizeof(Instance) +
+                     uint64_t(size.prototypes_size()) * sizeof(Prototype);
+    for (const auto& p : size.prototypes()) bytes += soup_bytes(stated_sizes(p));
+    charge(held_ + bytes, at, "SceneHeader stating the geometry", source_);
+    stated_prototypes_.assign(size.prototypes().begin(), size.prototypes().end());
+    const uint64_t before = buffer_bytes(scene_.instances) + buffer_bytes(scene_.prototypes);
+    scene_.instances.reserve(size.instances());
+    scene_.prototypes.reserve(size_t(size.prototypes_size()));
+    held_ = held_ - before + buffer_bytes(scene_.instances) + buffer_bytes(scene_.prototypes);
+    settle(0, reserve_soup(0, stated_sizes(size.world()), 0, at, "SceneHeader stating the geometry", source_), at,
+           "SceneHeader stating the geometry", source_);
   }
 
   void mesh(const pbgi::v1::MeshChunk& chunk, const FramePosition& at) {
@@ -559,6 +607,13 @@ class SceneAssembler {
     builds_.emplace_back();
     held_ = held_ - before + buffer_bytes(scene_.prototypes) + scene_.prototypes.back().prim_path.capacity();
     charge(held_, at, "PrototypeDef", d.prim_path());
+    // Its soup sized as the header stated, if it did.
+    const size_t k = scene_.prototypes.size() - 1;
+    if (k < stated_prototypes_.size()) {
+      const size_t target = k + 1;
+      settle(target, reserve_soup(target, stated_sizes(stated_prototypes_[k]), 0, at, "PrototypeDef", d.prim_path()),
+             at, "PrototypeDef", d.prim_path());
+    }
   }
 
   void instances(const pbgi::v1::InstanceBatch& b, const FramePosition& at) {
@@ -898,6 +953,7 @@ class SceneAssembler {
   const SceneReadMemory& memory_;
   uint64_t held_ = 0;      // what the scene's geometry holds (Scene::geometry_bytes())
   uint64_t reported_ = 0;  // the last value told to memory_
+  std::vector<pbgi::v1::SceneSize::Soup> stated_prototypes_;  // SceneHeader.size's, by PrototypeDef order
   double subdiv_cage_area_ = 0.0;  // SceneHeader's: bounds each cage's refinement error
   Scene scene_;
   uint64_t streamed_triangles_ = 0;

@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <thread>
@@ -470,29 +471,20 @@ std::string growing_stream(int meshes) {
   return data + frame(end_chunk(chunks + 3, triangles + 200));
 }
 
+// From a file (not a pipe: a refused read leaves the rest unread).
 Scene decode_with_memory(const std::string& data, const SceneReadMemory& memory) {
-  int fds[2];
-  EXPECT_EQ(pipe(fds), 0);
-  std::thread writer([&] {
-    size_t done = 0;
-    while (done < data.size()) {
-      const ssize_t n = write(fds[1], data.data() + done, data.size() - done);
-      if (n <= 0) break;
-      done += static_cast<size_t>(n);
-    }
-    close(fds[1]);
-  });
-  struct Cleanup {
-    int fd;
-    std::thread& t;
-    ~Cleanup() {
-      close(fd);
-      t.join();
-    }
-  } cleanup{fds[0], writer};
+  std::FILE* file = std::tmpfile();
+  EXPECT_NE(file, nullptr);
+  struct Closer {
+    std::FILE* f;
+    ~Closer() { std::fclose(f); }
+  } closer{file};
+  EXPECT_EQ(std::fwrite(data.data(), 1, data.size(), file), data.size());
+  std::fflush(file);
+  EXPECT_EQ(lseek(fileno(file), 0, SEEK_SET), 0);
   SceneStreamDecoder decoder("test-stream");
   decoder.set_memory(memory);
-  return decoder.decode(fds[0]);
+  return decoder.decode(fileno(file));
 }
 
 TEST(SceneReadMemory, TheGeometryIsToldChunkByChunkAndLastAsTheSceneHoldsIt) {
