@@ -6,7 +6,9 @@
 // cameras, volumes, warnings -- written as the same framed SceneChunk
 // stream the USD reader writes (proto/pbgi/v1/scene.proto), except that
 // every MeshChunk carries its arrays Draco-compressed (MeshChunk.draco,
-// server/ingest/draco_mesh.h). Loading decodes it with the ordinary stream
+// server/ingest/draco_mesh.h) and the SceneHeader states the decoded
+// geometry (SceneSize), so that a load is charged to the memory budget and
+// its arrays sized before the first chunk. Loading decodes it with the ordinary stream
 // decoder, then loads textures and OpenVDB grids again (fog grids are not
 // stored; level sets are not meshed again).
 //
