@@ -196,11 +196,12 @@ uint64_t buffer_bytes(const std::vector<T>& v) {
   return uint64_t(v.capacity()) * sizeof(T);
 }
 
-// The capacity a vector holding n elements gets: geometric growth, as
-// std::vector's own, but decided here so that it is charged first.
+// The capacity a vector holding n elements gets: geometric growth by
+// half (libstdc++ doubles), so that a scene read whole holds at most half
+// again its geometry, decided here so that it is charged first.
 template <typename T>
 size_t grown_capacity(const std::vector<T>& v, size_t n) {
-  return n <= v.capacity() ? v.capacity() : std::max(n, 2 * v.capacity());
+  return n <= v.capacity() ? v.capacity() : std::max(n, v.capacity() + v.capacity() / 2);
 }
 
 // Bytes of the buffer growing `v` to n elements allocates (0: it fits).
@@ -228,11 +229,29 @@ struct SoupSizes {
   size_t indices = 0, triangles = 0;
 };
 
-uint64_t new_buffer_bytes(const TriangleSoup& s, const SoupSizes& n) {
-  return new_buffer_bytes(s.positions, n.vertices) + new_buffer_bytes(s.normals, n.normals) +
-         new_buffer_bytes(s.uvs, n.uvs) + new_buffer_bytes(s.colors, n.colors) +
-         new_buffer_bytes(s.indices, n.indices) + new_buffer_bytes(s.mesh, n.triangles) +
-         new_buffer_bytes(s.material, n.triangles);
+// One array's growth in grow_to(soup): its new buffer beside everything
+// (`now`), then its old buffer freed.
+template <typename T>
+void growth_step(const std::vector<T>& v, size_t n, uint64_t& now, uint64_t& peak) {
+  const uint64_t buffer = new_buffer_bytes(v, n);
+  if (buffer == 0) return;
+  peak = std::max(peak, now + buffer);
+  now = now + buffer - buffer_bytes(v);
+}
+
+// The most the scene holds while grow_to(s, n) runs, `now` before it (0:
+// nothing grows). The arrays grow one after another, so the peak is one
+// new buffer beside the rest, not all of them at once.
+uint64_t growth_peak(const TriangleSoup& s, const SoupSizes& n, uint64_t now) {
+  uint64_t peak = 0;
+  growth_step(s.positions, n.vertices, now, peak);
+  growth_step(s.normals, n.normals, now, peak);
+  growth_step(s.uvs, n.uvs, now, peak);
+  growth_step(s.colors, n.colors, now, peak);
+  growth_step(s.indices, n.indices, now, peak);
+  growth_step(s.mesh, n.triangles, now, peak);
+  growth_step(s.material, n.triangles, now, peak);
+  return peak;
 }
 
 // The sizes SceneHeader.size states for one soup.
@@ -252,6 +271,7 @@ uint64_t soup_bytes(const SoupSizes& n) {
          n.indices * sizeof(uint32_t) + 2 * n.triangles * sizeof(uint32_t);
 }
 
+// In growth_peak's order.
 void grow_to(TriangleSoup& s, const SoupSizes& n) {
   grow_to(s.positions, n.vertices);
   grow_to(s.normals, n.normals);
@@ -336,15 +356,15 @@ class SceneAssembler {
     reported_ = bytes;
   }
 
-  // Charges the buffers soup `target` needs for `n` (plus `transient`
-  // bytes held meanwhile), beside the old ones, then allocates them.
+  // Charges the most the scene holds while soup `target` grows to `n`
+  // (`transient` bytes held meanwhile; growth_peak), then grows it.
   // Returns the soup's array bytes before, for settle().
   uint64_t reserve_soup(size_t target, const SoupSizes& n, uint64_t transient, const FramePosition& at,
                         const char* kind, const std::string& prim) {
     TriangleSoup& soup = soup_at(target);
     const uint64_t before = array_bytes(soup);
-    const uint64_t more = new_buffer_bytes(soup, n);
-    if (more > 0 || transient > 0) charge(held_ + transient + more, at, kind, prim);
+    const uint64_t peak = std::max(growth_peak(soup, n, held_ + transient), held_ + transient);
+    if (peak > held_) charge(peak, at, kind, prim);
     grow_to(soup, n);
     return before;
   }
