@@ -3,6 +3,7 @@
 #include "common/errors.h"
 #include "pbgi/v1/scene.pb.h"
 #include "server/ingest/coordinate_limit.h"
+#include "server/ingest/soup_growth.h"
 #include "server/ingest/draco_mesh.h"
 #include "server/ingest/subdiv_cage_message.h"
 #include "server/ingest/texture_loader.h"
@@ -191,69 +192,6 @@ struct SoupBuild {
   std::unordered_map<std::string, uint32_t> mesh_index;
 };
 
-template <typename T>
-uint64_t buffer_bytes(const std::vector<T>& v) {
-  return uint64_t(v.capacity()) * sizeof(T);
-}
-
-// The capacity a vector holding n elements gets: geometric growth by
-// half (libstdc++ doubles), so that a scene read whole holds at most half
-// again its geometry, decided here so that it is charged first.
-template <typename T>
-size_t grown_capacity(const std::vector<T>& v, size_t n) {
-  return n <= v.capacity() ? v.capacity() : std::max(n, v.capacity() + v.capacity() / 2);
-}
-
-// Bytes of the buffer growing `v` to n elements allocates (0: it fits).
-template <typename T>
-uint64_t new_buffer_bytes(const std::vector<T>& v, size_t n) {
-  return n <= v.capacity() ? 0 : uint64_t(grown_capacity(v, n)) * sizeof(T);
-}
-
-template <typename T>
-void grow_to(std::vector<T>& v, size_t n) {
-  if (n > v.capacity()) v.reserve(grown_capacity(v, n));
-}
-
-// A soup's arrays as Scene::geometry_bytes() counts them (capacities),
-// the strings of its mesh paths apart (the assembler adds them as they come).
-uint64_t array_bytes(const TriangleSoup& s) {
-  return buffer_bytes(s.positions) + buffer_bytes(s.normals) + buffer_bytes(s.indices) + buffer_bytes(s.material) +
-         buffer_bytes(s.mesh) + buffer_bytes(s.double_sided) + buffer_bytes(s.uvs) + buffer_bytes(s.colors) +
-         buffer_bytes(s.mesh_paths);
-}
-
-// The sizes a soup's arrays reach with one more chunk (0: stays empty).
-struct SoupSizes {
-  size_t vertices = 0, normals = 0, uvs = 0, colors = 0;
-  size_t indices = 0, triangles = 0;
-};
-
-// One array's growth in grow_to(soup): its new buffer beside everything
-// (`now`), then its old buffer freed.
-template <typename T>
-void growth_step(const std::vector<T>& v, size_t n, uint64_t& now, uint64_t& peak) {
-  const uint64_t buffer = new_buffer_bytes(v, n);
-  if (buffer == 0) return;
-  peak = std::max(peak, now + buffer);
-  now = now + buffer - buffer_bytes(v);
-}
-
-// The most the scene holds while grow_to(s, n) runs, `now` before it (0:
-// nothing grows). The arrays grow one after another, so the peak is one
-// new buffer beside the rest, not all of them at once.
-uint64_t growth_peak(const TriangleSoup& s, const SoupSizes& n, uint64_t now) {
-  uint64_t peak = 0;
-  growth_step(s.positions, n.vertices, now, peak);
-  growth_step(s.normals, n.normals, now, peak);
-  growth_step(s.uvs, n.uvs, now, peak);
-  growth_step(s.colors, n.colors, now, peak);
-  growth_step(s.indices, n.indices, now, peak);
-  growth_step(s.mesh, n.triangles, now, peak);
-  growth_step(s.material, n.triangles, now, peak);
-  return peak;
-}
-
 // The sizes SceneHeader.size states for one soup.
 SoupSizes stated_sizes(const pbgi::v1::SceneSize::Soup& s) {
   SoupSizes n;
@@ -264,22 +202,6 @@ SoupSizes stated_sizes(const pbgi::v1::SceneSize::Soup& s) {
   n.indices = 3 * s.triangles();
   n.triangles = s.triangles();
   return n;
-}
-
-uint64_t soup_bytes(const SoupSizes& n) {
-  return n.vertices * sizeof(V3f) + n.normals * sizeof(V3f) + n.uvs * sizeof(V2f) + n.colors * sizeof(C3f) +
-         n.indices * sizeof(uint32_t) + 2 * n.triangles * sizeof(uint32_t);
-}
-
-// In growth_peak's order.
-void grow_to(TriangleSoup& s, const SoupSizes& n) {
-  grow_to(s.positions, n.vertices);
-  grow_to(s.normals, n.normals);
-  grow_to(s.uvs, n.uvs);
-  grow_to(s.colors, n.colors);
-  grow_to(s.indices, n.indices);
-  grow_to(s.mesh, n.triangles);
-  grow_to(s.material, n.triangles);
 }
 
 // Builds the Scene from chunks in stream order.
@@ -412,7 +334,7 @@ class SceneAssembler {
 
   // SceneHeader.size (the chunk store's entries): the whole geometry is
   // charged before the first chunk, then the arrays are sized for it, so
-  // that they never grow (nor hold twice their size while they do). Only
+  // that they never grow (nor hold half again their size, and two buffers while one grows). Only
   // with a memory function: without one nothing vouches for the sizes, and
   // the arrays grow as chunks come. A size the stream then exceeds is
   // charged chunk by chunk like any growth.

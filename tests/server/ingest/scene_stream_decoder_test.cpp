@@ -6,6 +6,7 @@
 #include "common/errors.h"
 #include "pbgi/v1/scene.pb.h"
 #include "server/ingest/scene_stream_decoder.h"
+#include "server/ingest/soup_growth.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -485,6 +486,24 @@ Scene decode_with_memory(const std::string& data, const SceneReadMemory& memory)
   SceneStreamDecoder decoder("test-stream");
   decoder.set_memory(memory);
   return decoder.decode(fileno(file));
+}
+
+TEST(SceneReadMemory, AGrowthPeaksAtOneNewBufferBesideTheRest) {
+  TriangleSoup soup;
+  soup.positions.reserve(100);  // 1200 bytes
+  soup.indices.reserve(300);    // 1200 bytes
+  SoupSizes n;
+  n.vertices = 101;  // grows by half: 150 positions, 1800 bytes
+  n.indices = 300;   // fits
+  const uint64_t now = array_bytes(soup);
+  EXPECT_EQ(now, 2400u);
+  EXPECT_EQ(growth_peak(soup, n, now), 2400u + 1800u) << "the old positions beside the new";
+  n.indices = 301;  // grows too, after positions: 450 indices, 1800 bytes
+  EXPECT_EQ(growth_peak(soup, n, now), 1800u + 1200u + 1800u) << "new positions, old and new indices";
+  grow_to(soup, n);
+  EXPECT_EQ(soup.positions.capacity(), 150u);
+  EXPECT_EQ(soup.indices.capacity(), 450u);
+  EXPECT_EQ(growth_peak(soup, n, array_bytes(soup)), 0u) << "nothing grows";
 }
 
 TEST(SceneReadMemory, TheGeometryIsToldChunkByChunkAndLastAsTheSceneHoldsIt) {
