@@ -158,7 +158,7 @@ class MemoryAccountant : public std::enable_shared_from_this<MemoryAccountant> {
   const std::shared_ptr<storage::PageCache> cache_;
   mutable std::mutex mutex_;
   Reclaimer reclaimer_;
-  uint64_t charged_ = 0;                         // sum of by_kind_
+  uint64_t charged_ = 0;  // sum of by_kind_
   std::array<uint64_t, kChargeKinds> by_kind_{};
   uint64_t refusals_ = 0;
 };

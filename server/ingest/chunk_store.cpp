@@ -517,7 +517,8 @@ Scene read_usd_scene_cached(const fs::path& path, const IngestOptions& options, 
   // The scene as read is freed first: one copy is held at a time, not two.
   scene.reset();
   if (std::optional<Scene> stored = store.load(key, {}, options.asset_roots, memory)) return std::move(*stored);
-  spdlog::warn("chunk store: the entry of '{}' just saved cannot be loaded back; reading the scene again", path.string());
+  spdlog::warn("chunk store: the entry of '{}' just saved cannot be loaded back; reading the scene again",
+               path.string());
   return read_usd_scene(path, options, progress, memory);
 }
 

@@ -85,8 +85,7 @@ class ChunkStore {
   // (scene_read_memory.h, told what the scene holds before it grows)
   // propagate. The textures and OpenVDB files it names are read again,
   // confined to `roots` (PermissionDenied as in read_usd_scene).
-  std::optional<Scene> load(const std::string& key,
-                            const std::function<void(const std::string&, float)>& progress = {},
+  std::optional<Scene> load(const std::string& key, const std::function<void(const std::string&, float)>& progress = {},
                             const AssetRoots& roots = {}, const SceneReadMemory& memory = {}) const;
 
   bool contains(const std::string& key) const;
@@ -109,8 +108,7 @@ class ChunkStore {
 // right after it was written is ingested once more, unsaved); `memory`
 // is told what the copy being read holds, before it grows
 // (scene_read_memory.h), and refuses by throwing.
-Scene read_usd_scene_cached(const std::filesystem::path& path, const IngestOptions& options,
-                            const ChunkStore& store,
+Scene read_usd_scene_cached(const std::filesystem::path& path, const IngestOptions& options, const ChunkStore& store,
                             const std::function<void(const std::string&, float)>& progress = {},
                             bool* from_store = nullptr, const SceneReadMemory& memory = {});
 

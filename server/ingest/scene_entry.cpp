@@ -85,9 +85,10 @@ SceneEntryHead read_scene_entry_head(int fd, const std::string& path) {
   SceneEntryHead head;
   head.version = load_le<uint32_t>(fixed + 4);
   if (!storage::is_known_scene_entry_format(head.version))
-    throw VersionError(fmt::format("scene entry '{}': format version {} at offset 4 is not one this build reads "
-                                   "(it reads {})",
-                                   path, head.version, storage::kSceneEntryFormatV5));
+    throw VersionError(
+        fmt::format("scene entry '{}': format version {} at offset 4 is not one this build reads "
+                    "(it reads {})",
+                    path, head.version, storage::kSceneEntryFormatV5));
   const uint64_t dependency_bytes = load_le<uint64_t>(fixed + 8);
   head.body_bytes = load_le<uint64_t>(fixed + 16);
   head.body_checksum = load_le<uint64_t>(fixed + 24);

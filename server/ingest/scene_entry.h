@@ -82,7 +82,7 @@ SceneEntryHead read_scene_entry_head(int fd, const std::string& path);
 // before it grows). Textures are loaded with `textures` (their roots
 // confine them).
 Scene read_scene_entry_body(int fd, const SceneEntryHead& head, const std::string& path,
-                            const SceneStreamDecoder::Progress& progress = {},
-                            const TextureLoadOptions& textures = {}, const SceneReadMemory& memory = {});
+                            const SceneStreamDecoder::Progress& progress = {}, const TextureLoadOptions& textures = {},
+                            const SceneReadMemory& memory = {});
 
 }  // namespace pbgi

@@ -3,8 +3,8 @@
 #include "common/errors.h"
 #include "pbgi/v1/scene.pb.h"
 #include "server/ingest/coordinate_limit.h"
-#include "server/ingest/soup_growth.h"
 #include "server/ingest/draco_mesh.h"
+#include "server/ingest/soup_growth.h"
 #include "server/ingest/subdiv_cage_message.h"
 #include "server/ingest/texture_loader.h"
 #include "server/scene/scene_validation.h"
@@ -273,8 +273,8 @@ class SceneAssembler {
 
   void charge(uint64_t bytes, const FramePosition& at, const char* kind, const std::string& prim) {
     if (!memory_ || bytes == reported_) return;
-    memory_(bytes, fmt::format("scene geometry being read: frame {} at byte offset {}, {} of {}", at.index,
-                               at.offset, kind, prim));
+    memory_(bytes, fmt::format("scene geometry being read: frame {} at byte offset {}, {} of {}", at.index, at.offset,
+                               kind, prim));
     reported_ = bytes;
   }
 

@@ -20,8 +20,8 @@
 //     the client (tests/client/lib/).
 #pragma once
 
-#include "pbgi/v1/pbgi.grpc.pb.h"
 #include "common/options/option_table.h"
+#include "pbgi/v1/pbgi.grpc.pb.h"
 #include "server/engine/memory_accountant.h"
 #include "server/service/admission.h"
 #include "server/service/bearer_auth.h"

@@ -173,7 +173,6 @@ TEST_F(DaemonMemoryBudget, TheWholeDaemonStaysWithinBudgetWhileScenesBuild) {
   EXPECT_NE(daemon->log().find("unloading idle scene"), std::string::npos) << "idle scenes made room";
 }
 
-
 TEST_F(DaemonMemoryBudget, ASceneWhoseGeometryCannotFitIsRefusedWhileItIsRead) {
   // 4M triangles: ~99 MiB of geometry (positions, indices, mesh and
   // material ids), where 128 MiB less 16 + 16 MiB gives scenes 96 MiB.
@@ -204,9 +203,9 @@ TEST_F(DaemonMemoryBudget, ASceneWhoseGeometryCannotFitIsRefusedWhileItIsRead) {
   }
   const uint64_t peak = proc_status_bytes(daemon->pid(), "VmHWM");
   const uint64_t bound = idle + budget + kSlack;
-  EXPECT_LE(peak, bound) << "peak RSS " << peak / kMiB << " MiB (sampled max " << sampled / kMiB
-                         << " MiB) over idle " << idle / kMiB << " MiB + budget " << budget / kMiB
-                         << " MiB + slack " << kSlack / kMiB << " MiB\n"
+  EXPECT_LE(peak, bound) << "peak RSS " << peak / kMiB << " MiB (sampled max " << sampled / kMiB << " MiB) over idle "
+                         << idle / kMiB << " MiB + budget " << budget / kMiB << " MiB + slack " << kSlack / kMiB
+                         << " MiB\n"
                          << daemon->log();
 
   // The refusal is counted; nothing of the read stays charged.

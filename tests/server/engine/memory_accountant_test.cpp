@@ -164,7 +164,6 @@ TEST(MemoryAccountant, ConcurrentChargesNeverPassTheBudget) {
   EXPECT_EQ(cache->budget(), 90 * kMiB);
 }
 
-
 TEST(MemoryAccountant, AChargeKeepsItsPartsByKindAndTheTotalsFollow) {
   auto cache = std::make_shared<storage::PageCache>(0);
   auto memory = MemoryAccountant::create(budget_of(100), cache);

@@ -565,12 +565,12 @@ TEST(ChunkStore, OtherLayoutsAndVersionsAreRefusedAndRemoved) {
   std::string entry = file_bytes(store.entry_path(key));
   ASSERT_EQ(entry.substr(0, 4), "PBGS");
   // Format 4 (no SceneSize) and an unknown 6 (little-endian u32 at offset 4).
-  for (const char version : {4, 6}) {
+  for (const uint8_t version : {uint8_t{4}, uint8_t{6}}) {
     store.save(key, flips_scene());
     std::string entry = file_bytes(store.entry_path(key));
     ASSERT_EQ(entry.substr(0, 4), "PBGS");
     ASSERT_EQ(entry[4], 5) << "entries are written in format 5";
-    entry[4] = version;
+    entry[4] = static_cast<char>(version);
     std::ofstream(store.entry_path(key), std::ios::binary | std::ios::trunc) << entry;
     EXPECT_FALSE(store.load(key).has_value()) << "version " << int(version);
     EXPECT_FALSE(store.contains(key));
@@ -590,12 +590,13 @@ TEST(ChunkStore, AReopenIsChargedUpFrontAndItsArraysSizedExactly) {
   // A mesh of many chunks beside the small ones.
   TriangleSoup& t = scene.triangles;
   for (int i = 0; i < 3000; ++i) {
-    const uint32_t base = uint32_t(t.positions.size());
-    const float x = float(i % 60), y = float(i / 60);
+    const auto base = static_cast<uint32_t>(t.positions.size());
+    const auto x = static_cast<float>(i % 60);
+    const auto y = static_cast<float>(i / 60);  // NOLINT(bugprone-integer-division): the row
     for (const V3f& p : {V3f(x, y, 2), V3f(x + 1, y, 2), V3f(x, y + 1, 2)}) {
       t.positions.push_back(p);
-      t.normals.push_back(V3f(0, 0, 1));
-      t.uvs.push_back(V2f(x / 60, y / 60));
+      t.normals.emplace_back(0, 0, 1);
+      t.uvs.emplace_back(x / 60, y / 60);
     }
     t.indices.insert(t.indices.end(), {base, base + 1, base + 2});
     t.material.push_back(0);
@@ -611,7 +612,8 @@ TEST(ChunkStore, AReopenIsChargedUpFrontAndItsArraysSizedExactly) {
   ASSERT_TRUE(loaded.has_value());
   ASSERT_EQ(loaded->triangles.triangle_count(), scene.triangles.triangle_count());
   ASSERT_FALSE(told.empty());
-  EXPECT_GE(told.front(), loaded->geometry_bytes() - 64 * 1024) << "charged up front (mesh path strings apart)";
+  EXPECT_GE(told.front(), loaded->geometry_bytes() - uint64_t{64} * 1024)
+      << "charged up front (mesh path strings apart)";
   EXPECT_EQ(told.back(), loaded->geometry_bytes());
   const TriangleSoup& w = loaded->triangles;
   EXPECT_EQ(w.positions.capacity(), w.positions.size());

@@ -426,7 +426,6 @@ TEST(SceneStreamDecoder, InstancesPlacedBeyondTheLimitAreSkipped) {
       << ::testing::PrintToString(s.warnings);
 }
 
-
 // ---- Memory (scene_read_memory.h): the geometry is told as it grows.
 
 // A grid mesh of `n` x `n` quads as one chunk, optionally with normals and uvs.
@@ -466,8 +465,8 @@ std::string growing_stream(int meshes) {
     triangles += 800;
   }
   data += frame(prototype_chunk(3, "/Proto")) + frame(grid_chunk("/Proto/Grid", 10, true, false, 3));
-  std::vector<float> xs;
-  for (int i = 0; i < 500; ++i) xs.push_back(float(i));
+  std::vector<float> xs(500);
+  for (int i = 0; i < 500; ++i) xs[size_t(i)] = float(i);
   data += frame(instances_chunk(3, translations(xs)));
   return data + frame(end_chunk(chunks + 3, triangles + 200));
 }
@@ -508,9 +507,8 @@ TEST(SceneReadMemory, AGrowthPeaksAtOneNewBufferBesideTheRest) {
 
 TEST(SceneReadMemory, TheGeometryIsToldChunkByChunkAndLastAsTheSceneHoldsIt) {
   std::vector<uint64_t> told;
-  const Scene scene = decode_with_memory(growing_stream(40), [&](uint64_t bytes, const std::string&) {
-    told.push_back(bytes);
-  });
+  const Scene scene =
+      decode_with_memory(growing_stream(40), [&](uint64_t bytes, const std::string&) { told.push_back(bytes); });
   ASSERT_EQ(scene.triangles.triangle_count(), 40u * 800u);
   ASSERT_EQ(scene.instances.size(), 500u);
   ASSERT_FALSE(told.empty());

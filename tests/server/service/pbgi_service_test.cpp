@@ -541,12 +541,11 @@ TEST(PbgiServiceStatus, ReportsTheMemoryBudgetAndItsChargesByKind) {
 
   // The metrics say the same.
   const std::string text = prometheus_text(status, {});
-  for (const std::string& line :
-       {"pbgi_memory_budget_bytes " + std::to_string(100 * kMiB) + "\n",
-        "pbgi_memory_charged_bytes{kind=\"scenes\"} " + std::to_string(30 * kMiB) + "\n",
-        "pbgi_memory_charged_bytes{kind=\"reading\"} " + std::to_string(5 * kMiB) + "\n",
-        "pbgi_memory_charged_bytes{kind=\"builds\"} " + std::to_string(7 * kMiB) + "\n",
-        std::string("pbgi_memory_refusals_total 1\n")}) {
+  for (const std::string& line : {"pbgi_memory_budget_bytes " + std::to_string(100 * kMiB) + "\n",
+                                  "pbgi_memory_charged_bytes{kind=\"scenes\"} " + std::to_string(30 * kMiB) + "\n",
+                                  "pbgi_memory_charged_bytes{kind=\"reading\"} " + std::to_string(5 * kMiB) + "\n",
+                                  "pbgi_memory_charged_bytes{kind=\"builds\"} " + std::to_string(7 * kMiB) + "\n",
+                                  std::string("pbgi_memory_refusals_total 1\n")}) {
     EXPECT_NE(text.find(line), std::string::npos) << "missing: " << line << text;
   }
 
