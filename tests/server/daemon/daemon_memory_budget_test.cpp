@@ -62,6 +62,20 @@ uint64_t proc_status_bytes(pid_t pid, const std::string& field) {
 
 // Samples the process's VmRSS every 10 ms while alive; max() is the
 // largest sample.
+// After a refusal the daemon still serves: a scene that fits opens and
+// gathers.
+void expect_cornell_opens_and_gathers(client::PbgiClient& client) {
+  v1::BuildOptions small;
+  small.set_target_surfels(20000);
+  small.set_light_samples(4);
+  const v1::SceneInfo cornell = client.open_scene(kCornell.string(), small);
+  v1::GatherOptions gather;
+  gather.set_light_samples(4);
+  const auto out = client.gather(cornell.scene_id(), {{0, 1, 0}}, {{0, 1, 0}}, gather);
+  ASSERT_EQ(out.irradiance.size(), 1u);
+  EXPECT_TRUE(std::isfinite(out.irradiance[0].x));
+}
+
 class RssSampler {
  public:
   explicit RssSampler(pid_t pid)
@@ -131,15 +145,7 @@ TEST_F(DaemonMemoryBudget, ASceneThatCannotFitIsRefusedNamingItAndTheDaemonServe
   }
   // Still serving: a scene that fits opens and gathers.
   ASSERT_TRUE(daemon->running());
-  v1::BuildOptions small;
-  small.set_target_surfels(20000);
-  small.set_light_samples(4);
-  const v1::SceneInfo cornell = client.open_scene(kCornell.string(), small);
-  v1::GatherOptions gather;
-  gather.set_light_samples(4);
-  const auto out = client.gather(cornell.scene_id(), {{0, 1, 0}}, {{0, 1, 0}}, gather);
-  ASSERT_EQ(out.irradiance.size(), 1u);
-  EXPECT_TRUE(std::isfinite(out.irradiance[0].x));
+  expect_cornell_opens_and_gathers(client);
 }
 
 TEST_F(DaemonMemoryBudget, TheWholeDaemonStaysWithinBudgetWhileScenesBuild) {
@@ -219,15 +225,7 @@ TEST_F(DaemonMemoryBudget, ASceneWhoseGeometryCannotFitIsRefusedWhileItIsRead) {
 
   // Still serving: a scene that fits opens and gathers.
   ASSERT_TRUE(daemon->running());
-  v1::BuildOptions small;
-  small.set_target_surfels(20000);
-  small.set_light_samples(4);
-  const v1::SceneInfo cornell = client.open_scene(kCornell.string(), small);
-  v1::GatherOptions gather;
-  gather.set_light_samples(4);
-  const auto out = client.gather(cornell.scene_id(), {{0, 1, 0}}, {{0, 1, 0}}, gather);
-  ASSERT_EQ(out.irradiance.size(), 1u);
-  EXPECT_TRUE(std::isfinite(out.irradiance[0].x));
+  expect_cornell_opens_and_gathers(client);
   EXPECT_GT(client.status().memory().scenes_bytes(), 0u) << "the open scene is charged";
 }
 
