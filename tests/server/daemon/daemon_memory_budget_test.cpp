@@ -105,6 +105,19 @@ v1::BuildOptions coarse_build() {
   return b;
 }
 
+// Opens a scene the budget cannot hold: the refusal's message
+// (RESOURCE_EXHAUSTED), or "" after a failure if it opened.
+std::string refusal_to_open(client::PbgiClient& client, const fs::path& scene, const DaemonInstance& daemon) {
+  try {
+    client.open_scene(scene.string(), coarse_build());
+  } catch (const client::RpcError& e) {
+    EXPECT_EQ(e.code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << e.what();
+    return e.server_message();
+  }
+  ADD_FAILURE() << "a scene larger than the budget was opened\n" << daemon.log();
+  return "";
+}
+
 class DaemonMemoryBudget : public ::testing::Test {
  protected:
   void SetUp() override { fs::create_directories(tmp / "scenes"); }
@@ -132,17 +145,11 @@ TEST_F(DaemonMemoryBudget, ASceneThatCannotFitIsRefusedNamingItAndTheDaemonServe
   const fs::path big = generate_scene(tmp / "scenes", "big", 1e6, 1);
   auto daemon = start("256MiB");
   client::PbgiClient client(daemon->address());
-  try {
-    client.open_scene(big.string(), coarse_build());
-    FAIL() << "a scene larger than the budget was opened\n" << daemon->log();
-  } catch (const client::RpcError& e) {
-    EXPECT_EQ(e.code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << e.what();
-    const std::string& message = e.server_message();
-    EXPECT_NE(message.find(big.string()), std::string::npos) << "names the scene: " << message;
-    EXPECT_NE(message.find("needs"), std::string::npos) << message;
-    EXPECT_NE(message.find("memory_budget"), std::string::npos) << message;
-    EXPECT_NE(message.find("256.0 MiB"), std::string::npos) << "states the budget: " << message;
-  }
+  const std::string message = refusal_to_open(client, big, *daemon);
+  EXPECT_NE(message.find(big.string()), std::string::npos) << "names the scene: " << message;
+  EXPECT_NE(message.find("needs"), std::string::npos) << message;
+  EXPECT_NE(message.find("memory_budget"), std::string::npos) << message;
+  EXPECT_NE(message.find("256.0 MiB"), std::string::npos) << "states the budget: " << message;
   // Still serving: a scene that fits opens and gathers.
   ASSERT_TRUE(daemon->running());
   expect_cornell_opens_and_gathers(client);
@@ -194,17 +201,11 @@ TEST_F(DaemonMemoryBudget, ASceneWhoseGeometryCannotFitIsRefusedWhileItIsRead) {
   uint64_t sampled = 0;
   {
     RssSampler sampler(daemon->pid());
-    try {
-      client.open_scene(big.string(), coarse_build());
-      FAIL() << "a scene larger than the budget was opened\n" << daemon->log();
-    } catch (const client::RpcError& e) {
-      EXPECT_EQ(e.code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << e.what();
-      const std::string& message = e.server_message();
-      EXPECT_NE(message.find(big.string()), std::string::npos) << "names the scene: " << message;
-      EXPECT_NE(message.find("scene geometry being read"), std::string::npos) << "refused while read: " << message;
-      EXPECT_NE(message.find("MeshChunk of /World/Assets/A"), std::string::npos) << "names the prim: " << message;
-      EXPECT_NE(message.find("128.0 MiB"), std::string::npos) << "states the budget: " << message;
-    }
+    const std::string message = refusal_to_open(client, big, *daemon);
+    EXPECT_NE(message.find(big.string()), std::string::npos) << "names the scene: " << message;
+    EXPECT_NE(message.find("scene geometry being read"), std::string::npos) << "refused while read: " << message;
+    EXPECT_NE(message.find("MeshChunk of /World/Assets/A"), std::string::npos) << "names the prim: " << message;
+    EXPECT_NE(message.find("128.0 MiB"), std::string::npos) << "states the budget: " << message;
     sampled = sampler.max();
   }
   const uint64_t peak = proc_status_bytes(daemon->pid(), "VmHWM");
