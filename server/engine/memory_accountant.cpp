@@ -163,7 +163,7 @@ void MemoryAccountant::move_kind(ChargeKind from, ChargeKind to, uint64_t bytes)
 }
 
 void MemoryAccountant::resize_cache_locked() {
-  if (cache_) cache_->set_budget(budget_.total - budget_.request_reserve - charged_);
+  if (cache_) cache_->set_budget(cache_budget_locked());
 }
 
 uint64_t MemoryAccountant::charged() const {
@@ -179,7 +179,7 @@ uint64_t MemoryAccountant::available() const {
 
 uint64_t MemoryAccountant::cache_budget() const {
   std::lock_guard lock(mutex_);
-  return budget_.total - budget_.request_reserve - charged_;
+  return cache_budget_locked();
 }
 
 uint64_t MemoryAccountant::refusals() const {
@@ -192,7 +192,7 @@ MemoryUsage MemoryAccountant::usage() const {
   MemoryUsage u;
   u.budget = budget_;
   u.charged = by_kind_;
-  u.cache_budget = budget_.total - budget_.request_reserve - charged_;
+  u.cache_budget = cache_budget_locked();
   u.refusals = refusals_;
   return u;
 }

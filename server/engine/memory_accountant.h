@@ -153,6 +153,9 @@ class MemoryAccountant : public std::enable_shared_from_this<MemoryAccountant> {
   void move_kind(ChargeKind from, ChargeKind to, uint64_t bytes) noexcept;
   // Requires mutex_.
   void resize_cache_locked();
+  // What the budget leaves the page cache: total less the request reserve
+  // and every charge. Callers hold mutex_.
+  uint64_t cache_budget_locked() const { return budget_.total - budget_.request_reserve - charged_; }
 
   const MemoryBudget budget_;
   const std::shared_ptr<storage::PageCache> cache_;
