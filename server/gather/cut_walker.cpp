@@ -111,7 +111,14 @@ void CutWalker::push_root() {
   }
   if (hdr_threshold_ < 0.f) {
     // The scene's mean radiance: the root's area-weighted mean (DC ratio).
-    const tree::Node& n = page->nodes[root.index];
+    const tree::Node* full = view->full_node(root.index);
+    if (!full && root.index < page->nodes.size()) full = &page->nodes[root.index];
+    if (!full) {
+      pins_.release(pin);
+      throw CorruptionError("tree root: page " + std::to_string(root.page) + " node " +
+                            std::to_string(root.index) + " has no payload");
+    }
+    const tree::Node& n = *full;
     const float c0 = n.coverage_sh[0];
     const float mean = c0 > 0.f ? luminance(Imath::C3f(n.radiance_sh.r[0], n.radiance_sh.g[0],
                                                        n.radiance_sh.b[0])) / c0
@@ -203,6 +210,24 @@ void CutWalker::push_children(const StackEntry& parent, const HotNode& h) {
   }
 }
 
+const HotNode& CutWalker::resolve(StackEntry& e) {
+  const HotNode& h = e.view->nodes[e.index];
+  if (!h.proxy()) return h;
+  const tree::NodeRef ref = e.view->links[h.first];
+  const tree::Page* page = nullptr;
+  const PageView* view = nullptr;
+  const uint32_t pin = pins_.acquire(ref.page, page, view);
+  if (ref.index >= view->page_nodes) {
+    pins_.release(pin);
+    throw CorruptionError("tree page " + std::to_string(e.view->id) + " node " + std::to_string(e.index) +
+                          ": linked child page " + std::to_string(ref.page) + " has no node " +
+                          std::to_string(ref.index));
+  }
+  pins_.release(e.pin);
+  e = {view, ref.index, pin};
+  return view->nodes[ref.index];
+}
+
 bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V3f& v, float d2,
                            FarBuffer* far) {
   const float d = std::sqrt(d2);
@@ -254,7 +279,12 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
     const bool small = disk < kWideRefineFraction * cut_ * d2;
     if (!small && (!(h.cone_cos > 0.f) || (cos_phi < 0.f && cos_far < -kStraddleCos))) return false;
     straddles = cos_far < 0.f;
-    const tree::Node& node = pins_.page(e.pin).nodes[e.index];
+    const tree::Node* full = e.view->full_node(e.index);  // kept for every wide, non-bipolar node
+    if (!full) {
+      throw CorruptionError("tree page " + std::to_string(e.view->id) + " node " + std::to_string(e.index) +
+                            ": wide node without its payload");
+    }
+    const tree::Node& node = *full;
     Appearance look;
     if (!node_appearance(node, -dir, look)) return true;
     shape.omega = std::min(node.area * look.coverage, disk) / d2;
@@ -344,7 +374,7 @@ template <class CutOf>
 void CutWalker::walk(const CutOf& cut_of) {
   uint64_t visited = 0;
   while (!stack_.empty()) {
-    const StackEntry e = stack_.back();
+    StackEntry e = stack_.back();
     stack_.pop_back();
     if (!stack_.empty()) prefetch(&stack_.back().view->nodes[stack_.back().index]);
     const HotNode& h = e.view->nodes[e.index];
@@ -361,10 +391,11 @@ void CutWalker::walk(const CutOf& cut_of) {
           done = splat_node(e, h, v, d2, nullptr);
         }
         if (!done) {
-          if (!h.leaf()) {
-            push_children(e, h);
+          const HotNode& open = resolve(e);  // loads a proxy's page
+          if (!open.leaf()) {
+            push_children(e, open);
           } else {
-            leaf_surfels(e, pins_.page(e.pin), h);
+            leaf_surfels(e, pins_.page(e.pin), open);
           }
         }
       }
@@ -401,7 +432,7 @@ void CutWalker::walk_cluster_stack(const ClusterFrame& c, float eps, bool open_n
   const float omega_max = cut_;
   uint64_t visited = 0;
   while (!stack_.empty()) {
-    const StackEntry e = stack_.back();
+    StackEntry e = stack_.back();
     stack_.pop_back();
     if (!stack_.empty()) prefetch(&stack_.back().view->nodes[stack_.back().index]);
     const HotNode& h = e.view->nodes[e.index];
@@ -422,9 +453,12 @@ void CutWalker::walk_cluster_stack(const ClusterFrame& c, float eps, bool open_n
       // be shared instead of each member drawing them.
       const float farthest = std::sqrt(d2) + c.radius;
       if (open_near && !h.leaf() && kPi * h.radius * h.radius > omega_max * farthest * farthest) {
-        push_children(e, h);
-        pins_.release(e.pin);
-        continue;
+        const HotNode& open = resolve(e);  // loads a proxy's page
+        if (!open.leaf()) {
+          push_children(e, open);
+          pins_.release(e.pin);
+          continue;
+        }
       }
       near.push_back(e);
       continue;
@@ -435,11 +469,12 @@ void CutWalker::walk_cluster_stack(const ClusterFrame& c, float eps, bool open_n
       pins_.release(e.pin);
       continue;
     }
-    if (h.leaf()) {
+    const HotNode& open = resolve(e);  // loads a proxy's page
+    if (open.leaf()) {
       near.push_back(e);  // surfels one by one: per receiver
       continue;
     }
-    push_children(e, h);
+    push_children(e, open);
     pins_.release(e.pin);
   }
   counters_.nodes_visited += visited;

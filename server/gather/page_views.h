@@ -49,7 +49,12 @@ struct alignas(16) HotNode {
   // In `count`: the node may show glossy senders' radiance
   // (PageView::glossy, storage/codecs/glossy_pages.h) besides its SH's.
   static constexpr uint32_t kGlossy = 1u << 27;
-  static constexpr uint32_t kCountMask = kGlossy - 1;
+  // In `count`: a proxy, the view's copy of a child in another page (the
+  // summary its parent's page stores, equal to that page's root); its one
+  // link (PageView::links[first]) is the child itself. Seen, culled or
+  // splatted as it is; opening it needs the child's page (PagePins).
+  static constexpr uint32_t kProxy = 1u << 26;
+  static constexpr uint32_t kCountMask = kProxy - 1;
 
   float cx, cy, cz, radius;  // bounding sphere
   float ax, ay, az;          // normal cone axis (unit)
@@ -66,6 +71,7 @@ struct alignas(16) HotNode {
   bool invisible() const { return count & kInvisible; }
   bool bipolar() const { return count & kBipolar; }
   bool glossy() const { return count & kGlossy; }
+  bool proxy() const { return count & kProxy; }
   uint32_t size() const { return count & kCountMask; }
 };
 static_assert(sizeof(HotNode) == 48);
@@ -83,6 +89,9 @@ static_assert(sizeof(NodeLook) == 48);
 
 struct PageView {
   uint32_t id = 0;
+  // The page's nodes (indices below page_nodes), then one proxy per child
+  // in another page that the page describes exactly (tree::Page::links):
+  // a walk decides on such a child without loading its page.
   std::vector<HotNode> nodes;
   std::vector<NodeLook> looks;       // per node; meaningful for narrow ones
   std::vector<tree::NodeRef> links;  // children of internal nodes
@@ -93,6 +102,18 @@ struct PageView {
   // The page's glossy radiance (shared with the page), or null.
   std::shared_ptr<const storage::GlossyNodes> glossy;
   size_t surfel_count = 0;
+  size_t page_nodes = 0;  // nodes of the page; proxies follow them
+  // The decoded tree::Node of the nodes whose SH payload a splat reads
+  // (wide cones that are not bipolar) and of node 0 (a root's mean
+  // radiance): full[full_index[i]]. The rest need only `nodes` and
+  // `looks`, so a page that carries its view need not keep its nodes.
+  std::vector<tree::Node> full;
+  std::vector<uint32_t> full_index;
+
+  // The tree::Node of view node `i`, for the nodes `full` keeps; else null.
+  const tree::Node* full_node(uint32_t i) const {
+    return i < full_index.size() && full_index[i] != kNotKept ? &full[full_index[i]] : nullptr;
+  }
 
   // Builds the view; throws CorruptionError for a child count above
   // tree::Node::kMaxChildren, a link to a missing node of the same page or
@@ -101,19 +122,30 @@ struct PageView {
   size_t memory_bytes() const {
     return sizeof(PageView) + nodes.capacity() * sizeof(HotNode) +
            looks.capacity() * sizeof(NodeLook) + links.capacity() * sizeof(tree::NodeRef) +
+           full.capacity() * sizeof(tree::Node) + full_index.capacity() * sizeof(uint32_t) +
            bipolar.capacity() * sizeof(Bipolar) + bipolar_index.capacity() * sizeof(uint32_t);
   }
   // Whether `page` could be the page this view was built from.
   bool matches(const tree::Page& page) const {
-    return page.id == id && page.nodes.size() == nodes.size() &&
-           page.surfels.size() == surfel_count;
+    return page.id == id && page.nodes.size() == page_nodes &&
+           page.nodes.size() + page.links.size() == nodes.size() && page.surfels.size() == surfel_count;
   }
+
+ private:
+  static constexpr uint32_t kNotKept = ~0u;
+  // Fills nodes[i] and looks[i] (and the bipolar or full entry) from `n`;
+  // returns the HotNode flags.
+  uint32_t describe(const tree::Node& n, size_t i);
 };
 
 // Builds `page`'s view and attaches it to the page, so that every Gatherer
 // reuses it for as long as the page cache keeps the page, and the cache's
-// budget pays for it. Install it as the PageSetReader's page decorator
-// (storage/pages/page_set.h). Throws as PageView's constructor.
+// budget pays for it. The view holds what a gather reads of the page's
+// nodes and links, so the page drops them (Page::nodes and Page::links
+// come back empty; its surfels stay): a page in the cache costs its view
+// and surfels, not two copies of its nodes. Install it as the
+// PageSetReader's page decorator (storage/pages/page_set.h) of readers
+// whose pages only gathers read. Throws as PageView's constructor.
 void attach_view(tree::Page& page);
 
 // Views by page id: the one attached to the page (attach_view) or else built

@@ -143,6 +143,24 @@ TEST(PageFrame, UnknownVersionIsVersionError) {
   EXPECT_THROW(open_page(page, {"p", 3, 0}, kPageFormatCurrent), VersionError);
 }
 
+// Pages of the formats before cut-shaped treelets (V2, V3) are refused as
+// a version, not read: the message asks for a rebuild (the daemon's build
+// keys changed with kPageSetFormatVersion, so it rebuilds on its own).
+TEST(PageFrame, RetiredVersionIsVersionErrorAskingForARebuild) {
+  for (const uint16_t v : {uint16_t(kPageFormatV2), uint16_t(kPageFormatV3)}) {
+    const auto page = sample_page(3, v);
+    try {
+      open_page(page, {"/x/pages.pbgp", 3, 0}, kPageFormatCurrent);
+      FAIL() << "page format " << v << " accepted";
+    } catch (const VersionError& e) {
+      const std::string m = e.what();
+      EXPECT_TRUE(contains(m, "/x/pages.pbgp")) << m;
+      EXPECT_TRUE(contains(m, "page format version " + std::to_string(v))) << m;
+      EXPECT_TRUE(contains(m, "rebuild")) << m;
+    }
+  }
+}
+
 TEST(PageFrame, WrongPlaceIsCorruption) {
   const auto page = sample_page(3);
   EXPECT_THROW(open_page(page, {"p", 4, 0}, kPageFormatCurrent), CorruptionError);  // page id

@@ -208,6 +208,19 @@ TEST_F(PageSetTest, UnknownVersionsAreVersionErrors) {
   write_file(path, encode_manifest(m));
   EXPECT_THROW(PageSetReader(dir_, nullptr), VersionError);
 
+  // ... or of a retired format (before cut-shaped treelets): rebuilt.
+  for (const uint32_t retired : {kPageFormatV2, kPageFormatV3}) {
+    m = decode_manifest(good, "m");
+    m.page_format = retired;
+    write_file(path, encode_manifest(m));
+    try {
+      PageSetReader r(dir_, nullptr);
+      FAIL() << "page format " << retired << " accepted";
+    } catch (const VersionError& e) {
+      EXPECT_TRUE(contains(e.what(), "rebuild")) << e.what();
+    }
+  }
+
   // ... or an unknown payload codec.
   m = decode_manifest(good, "m");
   m.codec = 200;

@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# Daemon-level out-of-core render: starts pbgid with a page cache budget,
+# renders SCENE once (cold: builds or opens the page set, fills the cache)
+# and again (warm), and reports the warm render's wall time, the daemon's
+# CPU seconds during it (utime + stime from /proc) and the daemon's status
+# (page cache counters). The page set lives in CACHE_DIR and is shared by
+# every budget (the build key does not depend on the budget).
+#
+#   scripts/ooc_render.sh SCENE.usda CACHE_DIR SPACING BUDGET [WIDTH HEIGHT [METHOD]]
+#
+# e.g. scripts/ooc_render.sh /work/tmp/city/city.usda /work/tmp/city/cache 0.05 8MiB 64 48 fpbgi
+# BUDGET "0" means unlimited (the daemon's default budget is not used).
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+SCENE="$(realpath "$1")"
+CACHE="$2"
+SPACING="$3"
+BUDGET="$4"
+WIDTH="${5:-64}"
+HEIGHT="${6:-48}"
+METHOD="${7:-fpbgi}"
+PBGID="${PBGID:-$ROOT/build/bin/pbgid}"
+PBGI="${PBGI:-$ROOT/build/bin/pbgi}"
+
+mkdir -p "$CACHE"
+CACHE="$(realpath "$CACHE")"
+SOCK="$CACHE/ooc-$$.sock"
+LOG="$CACHE/ooc-$$.log"
+[ "$BUDGET" = 0 ] && BUDGET=1TiB
+nice -n 10 "$PBGID" --listen "unix:$SOCK" --scene-root "$(dirname "$SCENE")" --cache-dir "$CACHE" \
+  --memory-budget "$BUDGET" 2>"$LOG" &
+daemon=$!
+trap 'kill -TERM "$daemon" 2>/dev/null || true; wait "$daemon" 2>/dev/null || true; rm -f "$SOCK"' EXIT
+for _ in $(seq 100); do [ -S "$SOCK" ] && break; sleep 0.1; done
+
+cpu_ticks() { awk '{print $14 + $15}' "/proc/$daemon/stat"; }
+render() {
+  "$PBGI" render --server "unix:$SOCK" "$SCENE" --camera /World/Camera --surfel-spacing "$SPACING" \
+    --width "$WIDTH" --height "$HEIGHT" --method "$METHOD" -q -o "$CACHE/ooc-$1.exr" >/dev/null
+}
+render cold
+ticks0=$(cpu_ticks)
+start=$(date +%s.%N)
+render warm
+end=$(date +%s.%N)
+ticks1=$(cpu_ticks)
+hz=$(getconf CLK_TCK)
+awk -v s="$start" -v e="$end" -v t0="$ticks0" -v t1="$ticks1" -v hz="$hz" -v b="$BUDGET" -v w="$WIDTH" -v h="$HEIGHT" \
+  'BEGIN { printf "warm render   budget %s, %dx%d: %.1f s wall, %.1f s daemon CPU\n", b, w, h, e - s, (t1 - t0) / hz }'
+"$PBGI" status --server "unix:$SOCK" | grep -i "cache\|page\|hit\|miss\|read\|held\|budget" || true
