@@ -138,7 +138,10 @@ TEST(GatherPageSet, ProxiesOfLinkedChildrenChangeOnlyThePagesLoaded) {
   };
   storage::PageSetReader with(tmp.path() / "set", nullptr, gather::attach_view);
   storage::PageSetReader without(tmp.path() / "set", nullptr, no_proxies);
-  ASSERT_FALSE(with.page(with.root().page)->links.empty()) << "the root page links to other pages";
+  {
+    const storage::PageSetReader plain(tmp.path() / "set", nullptr);
+    ASSERT_FALSE(plain.page(plain.root().page)->links.empty()) << "the root page links to other pages";
+  }
   for (const GatherMethod method : {GatherMethod::kPbgi, GatherMethod::kFpbgi}) {
     GatherOptions options;
     options.method = method;
@@ -183,7 +186,8 @@ TEST(GatherPageSet, PagesSpanAtMostThePageLevelsAndLinksMatchTheirChildren) {
       }
     }
     for (const tree::PageLink& l : page->links) {
-      const tree::Node& child = reader.page(l.summary.children[0].page)->nodes[0];
+      const tree::PagePtr child_page = reader.page(l.summary.children[0].page);
+      const tree::Node& child = child_page->nodes[0];
       EXPECT_EQ(l.summary.center, child.center);
       EXPECT_EQ(l.summary.radius, child.radius);
       EXPECT_EQ(l.summary.cone_cos, child.cone_cos);
