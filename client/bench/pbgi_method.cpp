@@ -289,14 +289,12 @@ BuildSpec pbgi_build(const PbgiSweep& sweep, uint64_t surfels, const PayloadSpec
 
 }  // namespace
 
-std::string gather_method_name(GatherMethod method) {
-  return method == GatherMethod::kFpbgi ? "fpbgi" : "pbgi";
-}
+std::string gather_method_name(GatherMethod method) { return std::string(options::enum_name(method)); }
 
 GatherMethod parse_gather_method(const std::string& name) {
-  if (name == "pbgi") return GatherMethod::kPbgi;
-  if (name == "fpbgi") return GatherMethod::kFpbgi;
-  throw InvalidArgument("bench: gather method '" + name + "': expected pbgi or fpbgi");
+  if (const auto method = options::parse_enum<GatherMethod>(name)) return *method;
+  throw InvalidArgument("bench: gather method '" + name + "': expected " +
+                        options::enum_name_list<GatherMethod>(" or "));
 }
 
 MethodPlan pbgi_plan(const PbgiSweep& sweep) {

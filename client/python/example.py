@@ -36,6 +36,10 @@ def main() -> int:
         out = client.gather(info.scene_id, positions, normals, light_samples=4)
         for p, e, ao in zip(positions, out["irradiance"], out["ao"]):
             print(f"irradiance at {p}: {e[0]:.4f} {e[1]:.4f} {e[2]:.4f}  ao {ao:.3f}")
+        # The daemon may gather a subset and interpolate the rest
+        # (interpolation=INTERPOLATION_OFF gathers every receiver).
+        stats = out["stats"]
+        print(f"gathered {stats.receivers} of {stats.requested_receivers} receivers")
         # A glossy receiver (roughness 0.1, white F0) on the floor in front
         # of the tall box, whose mirror direction points at the red left wall.
         mirror = (-0.958, 0.287, 0.0)  # unit, 17 degrees above the floor

@@ -1,5 +1,6 @@
 #include "server/engine/build_key.h"
 
+#include "common/options/option_text.h"
 #include "storage/format/format_version.h"
 
 #include <fmt/format.h>
@@ -9,7 +10,10 @@ namespace pbgi {
 
 std::string page_set_build_key(const std::string& scene_content_hash, const OpenOptions& o) {
   // Every field that changes the stored bytes goes into the key; bump the
-  // "v" tag when the meaning of an option changes.
+  // "v" tag when the meaning of an option changes. The text below is frozen
+  // (the options marked KeyMember::kFrozen in the tables, and the fixed
+  // ones): cached page sets are found by it. A new option only sets its
+  // membership in its table (KeyMember::kIfNotDefault).
   // (surfels.batch_surfels and tree.sort_memory_bytes change only memory
   // and speed, never the bytes: they stay out.)
   const auto& s = o.surfels;
@@ -60,6 +64,17 @@ std::string page_set_build_key(const std::string& scene_content_hash, const Open
     // surfel gathered) keeps the keys of sets built before the option.
     if (o.bounce.receiver_stride != 1) text += fmt::format("|stride={}", o.bounce.receiver_stride);
   }
+  // Options added since the table (KeyMember::kIfNotDefault): by name,
+  // only when not at their default, so that adding one keeps every key.
+  const OpenOptions defaults;
+  options::for_each_value(
+      kOpenOptionTable,
+      [&](const auto& f, const auto& value, const auto& default_value) {
+        if (f.spec.key == options::KeyMember::kIfNotDefault && f.get(value) != f.get(default_value)) {
+          text += fmt::format("|{}={}", f.name, options::option_text(f.get(value)));
+        }
+      },
+      o, defaults);
   const XXH128_hash_t h = XXH3_128bits(text.data(), text.size());
   return fmt::format("{:016x}{:016x}", h.high64, h.low64);
 }

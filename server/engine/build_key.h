@@ -3,7 +3,7 @@
 // opens with the same key share one page set on disk.
 #pragma once
 
-#include "server/engine/scene_session.h"
+#include "server/engine/open_options.h"
 
 #include <string>
 

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "server/engine/build_guard.h"
+#include "server/engine/open_options.h"
 #include "server/gather/surfel_bounce.h"
 #include "server/gather/volume_points.h"
 #include "server/ingest/chunk_store.h"
@@ -22,17 +23,6 @@
 #include <string>
 
 namespace pbgi {
-
-struct OpenOptions {
-  SurfelOptions surfels;
-  tree::BuildOptions tree;
-  BounceOptions bounce;  // light bounces carried by the surfels (default 1: direct only)
-  FogOptions fog;        // fog grids in light transport (server/volumes/fog_options.h)
-  // A scene without any light gets server/scene/default_lights.h's dome and
-  // key light (part of the page set's identity); false (default): it gets
-  // a warning instead.
-  bool default_light = false;
-};
 
 struct SceneSessionInfo {
   std::string scene_id;          // the page set's build key

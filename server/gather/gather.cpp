@@ -102,6 +102,10 @@ GatherResult Gatherer::gather_pinned(const Receiver& r) {
   return out;
 }
 
+float Gatherer::harmonic_mean_distance() const {
+  return impl_->walker.buffer().harmonic_mean_distance();
+}
+
 void Gatherer::gather_tile(std::span<const Receiver> receivers, std::span<GatherResult> results) {
   if (receivers.size() != results.size()) {
     throw InvalidArgument("gather_tile: " + std::to_string(receivers.size()) + " receivers but " +

@@ -127,6 +127,12 @@ class Gatherer {
   void gather_tile(std::span<const Receiver> receivers, std::span<GatherResult> results);
   const GatherCounters& counters() const { return counters_; }
 
+  // Ward's harmonic mean distance (Microbuffer::harmonic_mean_distance) of
+  // what the last gather() of a diffuse receiver saw: how far its result
+  // may be carried to neighbours (irradiance_cache.h). Infinity if it saw
+  // nothing. Meaningless after gather_tile() or a glossy receiver.
+  float harmonic_mean_distance() const;
+
  private:
   // gather() without unpinning the receiver's pages afterwards; `r` checked.
   GatherResult gather_pinned(const Receiver& r);

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace pbgi::gather {
 
@@ -254,6 +255,19 @@ Imath::V3f Microbuffer::bent_normal(const Resolved& r) const {
   const float len = v.length();
   // Nothing open (or only rounding left): the normal, as for AO 0.
   return len > 1e-4f ? v / len : normal_;
+}
+
+float Microbuffer::harmonic_mean_distance() const {
+  const float* margin = layout_.horizon_margins();
+  double weight = 0, inverse = 0;
+  for (const uint32_t k : touched_) {
+    if (!(cos_[k] > margin[k])) continue;
+    weight += weight_[k];
+    float nearest = std::numeric_limits<float>::infinity();
+    for (int32_t f = head_[k]; f >= 0; f = fragments_[f].next) nearest = std::min(nearest, fragments_[f].near);
+    inverse += double(weight_[k]) / std::max(double(nearest), 1e-12);
+  }
+  return inverse > 0.0 ? float(weight / inverse) : std::numeric_limits<float>::infinity();
 }
 
 }  // namespace pbgi::gather

@@ -164,6 +164,17 @@ class Microbuffer {
   // direction, less r.occluded, normalized; the normal when nothing is
   // open. Occlusion counts as AO does (ao_max_distance).
   Imath::V3f bent_normal(const Resolved& r) const;
+  // Ward's harmonic mean distance (irradiance caching, Ward 1988) of what
+  // the current receiver's buffer holds: over the pixels wholly above its
+  // horizon that hold a fragment, cosine-weighted, of the depth of each
+  // one's nearest fragment; infinity when nothing was seen. Empty pixels
+  // are left out rather than counted as infinitely far: a lone occluder in
+  // an open hemisphere must still shrink the result to its distance. It
+  // bounds how far the receiver's irradiance may be carried to a neighbour
+  // (server/gather/irradiance_cache.h). Pixels straddling the horizon are
+  // left out: they hold the receiver's own surface. Fog fragments
+  // (volume_points.h) count as surfaces.
+  float harmonic_mean_distance() const;
   size_t fragment_count() const { return fragments_.size(); }
   size_t touched_pixel_count() const { return touched_.size(); }
 

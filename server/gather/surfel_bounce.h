@@ -109,6 +109,55 @@ struct BounceOptions {
   void validate() const;
 };
 
+// BounceOptions' options (common/options/option_table.h says how to add
+// one), part of OpenOptions': [build] in the config, pbgi.v1.BuildOptions,
+// `pbgi` flags. Of the bounce gather only the resolution and the cut are
+// options.
+inline constexpr auto kBounceOptionTable = options::table(
+    options::field<&BounceOptions::bounces>(
+        "bounces",
+        {9,
+         {"--bounces",
+          "light bounces in the image: 1 = one indirect bounce gathered at render time "
+          "(default); n > 1 adds n - 1 bounces to the surfels at build time [1..4]",
+          options::range(1, 4)},
+         options::KeyMember::kFrozen}),
+    options::field<&BounceOptions::splatting>(
+        "bounce_splatting",
+        {20,
+         {"--bounce-splatting",
+          "bounce gathers (--bounces > 1): view-tree splatting, a sender node far from a node "
+          "of the receiving surfels drawn once for all of them (true/false) [true]"},
+         options::KeyMember::kFrozen}),
+    options::field<&BounceOptions::view_solid_angle>(
+        "bounce_view_solid_angle",
+        {21,
+         {"--bounce-view-solid-angle",
+          "bounce splatting: view solid angle (sr) of a receiver node seen from a sender node "
+          "below which it shares the sender's splat; 0 = auto [0]",
+          options::range(0, 0.7854f)},
+         options::KeyMember::kFrozen}),
+    options::field<&BounceOptions::receiver_stride>(
+        "bounce_receiver_stride",
+        {23,
+         {"--bounce-receiver-stride",
+          "bounce gathers: one surfel in this many (a Morton run) is gathered, the others "
+          "interpolate it; 1 = every surfel [daemon default]",
+          options::range(1, 64)},
+         options::KeyMember::kFrozen}),
+    options::field<&BounceOptions::gather, &GatherOptions::microbuffer_resolution>(
+        "bounce_microbuffer_resolution",
+        {24,
+         {"--bounce-mb-res", "bounce gathers: microbuffer pixels per cube-face side [daemon default]",
+          options::range(4, 32)},
+         options::KeyMember::kFrozen}),
+    options::field<&BounceOptions::gather, &GatherOptions::max_solid_angle>(
+        "bounce_max_solid_angle",
+        {25,
+         {"--bounce-solid-angle", "bounce gathers: cut threshold max_solid_angle, sr [daemon default]",
+          options::range(1e-6f, 1)},
+         options::KeyMember::kFrozen}));
+
 // What a bounce gathered: surfels that reflect light (receivers), gathers
 // made (representatives + fallbacks), and fallbacks (receivers no
 // representative fitted).

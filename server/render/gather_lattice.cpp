@@ -23,30 +23,6 @@ float luminance(const C3f& c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f *
 
 }  // namespace
 
-const char* interpolation_mode_name(InterpolationMode mode) {
-  switch (mode) {
-    case InterpolationMode::kOff: return "off";
-    case InterpolationMode::kAuto: return "auto";
-  }
-  return "?";
-}
-
-std::optional<InterpolationMode> parse_interpolation_mode(std::string_view name) {
-  if (name == "off") return InterpolationMode::kOff;
-  if (name == "auto") return InterpolationMode::kAuto;
-  return std::nullopt;
-}
-
-void InterpolationOptions::validate() const {
-  if (!(tolerance > 0.f && tolerance <= 1.f)) {
-    throw InvalidArgument(fmt::format("render.interpolation_tolerance = {}: must be in (0, 1]", tolerance));
-  }
-  if (spacing == 0 || spacing > 64 || !std::has_single_bit(spacing)) {
-    throw InvalidArgument(
-        fmt::format("render.interpolation_spacing = {}: must be a power of two in [1, 64]", spacing));
-  }
-}
-
 bool may_interpolate(const SurfaceSample& s, const SurfaceSample& corner) {
   if (!s.gathers || !corner.gathers || s.mesh != corner.mesh) return false;
   const Receiver& a = s.receiver;
@@ -73,27 +49,6 @@ bool corners_disagree(std::span<const GatherResult* const> corners, float tolera
     if (std::fabs(corners[i]->ao - mean_ao) > tolerance) return true;
   }
   return false;
-}
-
-GatherResult mix_results(const std::array<const GatherResult*, 4>& corners, const std::array<float, 4>& weights) {
-  GatherResult out;
-  out.ao = 0.f;
-  float sum = 0.f;
-  for (int i = 0; i < 4; ++i) {
-    if (weights[i] <= 0.f) continue;
-    sum += weights[i];
-    out.irradiance += weights[i] * corners[i]->irradiance;
-    out.ao += weights[i] * corners[i]->ao;
-    out.glossy += weights[i] * corners[i]->glossy;
-    out.bent_normal += weights[i] * corners[i]->bent_normal;
-  }
-  const float inv = 1.f / sum;
-  out.irradiance *= inv;
-  out.ao *= inv;
-  out.glossy *= inv;
-  const float len = out.bent_normal.length();
-  out.bent_normal = len > 0.f ? out.bent_normal / len : V3f(0.f);
-  return out;
 }
 
 }  // namespace pbgi

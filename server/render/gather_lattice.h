@@ -25,7 +25,9 @@
 #pragma once
 
 #include "server/gather/gather.h"
+#include "server/gather/result_mix.h"  // mix_results: how samples take corners' values
 #include "server/render/camera_sample.h"
+#include "server/render/render_options.h"
 
 #include <array>
 #include <cstdint>
@@ -36,26 +38,6 @@
 
 namespace pbgi {
 
-enum class InterpolationMode : uint8_t {
-  kOff,   // one gather per camera sample (every camera sample pays a gather)
-  kAuto,  // the adaptive lattice above
-};
-const char* interpolation_mode_name(InterpolationMode mode);
-std::optional<InterpolationMode> parse_interpolation_mode(std::string_view name);
-
-struct InterpolationOptions {
-  InterpolationMode mode = InterpolationMode::kAuto;
-  // Largest relative disagreement of a cell's corner gathers that is still
-  // interpolated: irradiance luminance relative to the corners' mean, AO
-  // absolute. (0, 1]; smaller gathers more.
-  float tolerance = 0.1f;
-  // Side of the coarsest cells in pixels: a power of two in [1, 64]. 1
-  // gathers at every pixel centre and still shares them among a pixel's
-  // camera samples.
-  uint32_t spacing = 8;
-  void validate() const;  // throws InvalidArgument naming the field
-};
-
 // May camera sample `s` take the gathered value of lattice point `corner`?
 // Both on a surface of the same mesh, normals within ~18 degrees, and s
 // near corner's tangent plane (relative to their distance).
@@ -65,9 +47,5 @@ bool may_interpolate(const SurfaceSample& s, const SurfaceSample& corner);
 // disagree by more than `tolerance`: a luminance off their mean by more than
 // tolerance x the mean, or an AO off by more than tolerance?
 bool corners_disagree(std::span<const GatherResult* const> corners, float tolerance);
-
-// The mix of the corners' results with these weights (sum > 0): irradiance
-// and AO are averaged, the bent normal renormalized.
-GatherResult mix_results(const std::array<const GatherResult*, 4>& corners, const std::array<float, 4>& weights);
 
 }  // namespace pbgi

@@ -276,7 +276,8 @@ class LatticeTile {
       any = true;
     }
     if (!any) return false;
-    *out = mix_results({&c[0]->result, &c[1]->result, &c[2]->result, &c[3]->result}, w);
+    const std::array<const GatherResult*, 4> results{&c[0]->result, &c[1]->result, &c[2]->result, &c[3]->result};
+    *out = mix_results(results, w);
     return true;
   }
 

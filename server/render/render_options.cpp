@@ -1,10 +1,32 @@
-#include "server/render/tile_renderer.h"
+#include "server/render/render_options.h"
 
 #include "storage/format/errors.h"
 
 #include <fmt/format.h>
 
+#include <bit>
+
 namespace pbgi {
+
+const char* interpolation_mode_name(InterpolationMode mode) {
+  const std::string_view name = options::enum_name(mode);
+  return name.empty() ? "?" : name.data();  // the names are string literals
+}
+
+std::optional<InterpolationMode> parse_interpolation_mode(std::string_view name) {
+  return options::parse_enum<InterpolationMode>(name);
+}
+
+void InterpolationOptions::validate() const {
+  if (!(tolerance > 0.f && tolerance <= 1.f)) {
+    throw InvalidArgument(fmt::format("render.interpolation_tolerance = {}: must be in (0, 1]", tolerance));
+  }
+  if (spacing == 0 || spacing > 64 || !std::has_single_bit(spacing)) {
+    throw InvalidArgument(
+        fmt::format("render.interpolation_spacing = {}: must be a power of two in [1, 64]", spacing));
+  }
+}
+
 
 void RenderOptions::validate() const {
   gather.validate();

@@ -6,6 +6,7 @@
 #include "server/gather/gather.h"
 #include "server/render/camera_sample.h"
 #include "server/render/gather_lattice.h"
+#include "server/render/render_options.h"
 #include "server/scene/ray_scene.h"
 
 #include <cstdint>
@@ -19,26 +20,6 @@ struct TileRect {
   uint32_t x0 = 0, y0 = 0, x1 = 0, y1 = 0;   // [x0,x1) x [y0,y1), y down from the top
   uint32_t width() const { return x1 - x0; }
   uint32_t height() const { return y1 - y0; }
-};
-
-struct RenderOptions {
-  GatherOptions gather;
-  // Stratified shadow rays per light: per camera sample with interpolation
-  // off; per pixel, spread over its camera samples (at least one each),
-  // with interpolation on.
-  uint32_t light_samples = 16;
-  // Camera rays per pixel (stratified). 4 antialiases edges; with
-  // interpolation they share the lattice's gathers, so they cost camera
-  // and shadow rays only (docs/interpolation.md).
-  uint32_t pixel_samples = 4;
-  uint64_t seed = 1;
-  // Gathers at an adaptive lattice of pixel centres, interpolated to the
-  // camera samples (gather_lattice.h), or one gather per camera sample.
-  InterpolationOptions interpolation;
-  // Camera rays that escape the scene see its DomeLights (beauty and
-  // direct); false: black there.
-  bool dome_visible = true;
-  void validate() const;        // throws pbgi::InvalidArgument
 };
 
 // Row-major AOVs of a tile: rgb layers have 3 floats per pixel, ao has 1.

@@ -26,6 +26,10 @@ struct RequestDefaults {
 // the field the stage's validate() names) when a value is out of range.
 GatherOptions decode_gather_options(const v1::GatherOptions& proto,
                                     const GatherOptions& defaults);
+// GatherOptions.interpolation, _tolerance, _spacing (RenderTile and
+// Gather), validated.
+InterpolationOptions decode_interpolation_options(const v1::GatherOptions& proto,
+                                                  const InterpolationOptions& defaults);
 RenderOptions decode_render_options(const v1::GatherOptions& proto,
                                     const RenderOptions& defaults);
 OpenOptions decode_open_options(const v1::BuildOptions& proto, const OpenOptions& defaults);

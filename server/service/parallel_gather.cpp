@@ -3,7 +3,6 @@
 #include "storage/format/errors.h"
 
 #include <tbb/blocked_range.h>
-#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/partitioner.h>
 #include <tbb/task_group.h>
@@ -14,6 +13,65 @@
 
 namespace pbgi::service {
 
+GatherPool::GatherPool(const tree::TreeSource& tree, const GatherOptions& options,
+                       std::function<bool()> cancelled, std::shared_ptr<const VolumePoints> fog)
+    : tree_(tree), options_(options), cancelled_(std::move(cancelled)), fog_(std::move(fog)) {}
+
+void GatherPool::for_each(size_t n, const std::function<void(Gatherer&, size_t)>& body) {
+  std::atomic<bool> stop{false};
+  tbb::task_group_context group;
+  constexpr size_t kBlock = 64;  // receivers between cancellation checks
+  // simple_partitioner: blocks of at most kBlock receivers. The default
+  // auto_partitioner hands out chunks of thousands, and a cancellation
+  // checked only per chunk would be noticed seconds late.
+  tbb::parallel_for(
+      tbb::blocked_range<size_t>(0, n, kBlock),
+      [&](const tbb::blocked_range<size_t>& range) {
+        if (stop.load(std::memory_order_relaxed)) return;
+        if (cancelled_ && cancelled_()) {
+          stop = true;
+          group.cancel_group_execution();
+          return;
+        }
+        // Created lazily: a thread that never gets a block allocates nothing.
+        std::unique_ptr<Gatherer>& gatherer = gatherers_.local();
+        if (!gatherer) {
+          gatherer = std::make_unique<Gatherer>(tree_, options_);
+          gatherer->set_volume_points(fog_);  // the scene's fog, if any
+        }
+        for (size_t i = range.begin(); i != range.end(); ++i) body(*gatherer, i);
+      },
+      tbb::simple_partitioner(), group);
+  if (stop) throw Cancelled("gather cancelled by the client (disconnect or deadline)");
+}
+
+void GatherPool::for_each(size_t n, const std::function<void(size_t)>& body) {
+  std::atomic<bool> stop{false};
+  tbb::task_group_context group;
+  constexpr size_t kBlock = 256;  // lookups are ~100 times cheaper than gathers
+  tbb::parallel_for(
+      tbb::blocked_range<size_t>(0, n, kBlock),
+      [&](const tbb::blocked_range<size_t>& range) {
+        if (stop.load(std::memory_order_relaxed)) return;
+        if (cancelled_ && cancelled_()) {
+          stop = true;
+          group.cancel_group_execution();
+          return;
+        }
+        for (size_t i = range.begin(); i != range.end(); ++i) body(i);
+      },
+      tbb::simple_partitioner(), group);
+  if (stop) throw Cancelled("gather cancelled by the client (disconnect or deadline)");
+}
+
+GatherCounters GatherPool::counters() const {
+  GatherCounters out;
+  for (const auto& gatherer : gatherers_) {
+    if (gatherer) out.add(gatherer->counters());
+  }
+  return out;
+}
+
 GatherBatch gather_receivers(const tree::TreeSource& tree, const std::vector<Receiver>& receivers,
                              const GatherOptions& options,
                              const std::function<bool()>& cancelled,
@@ -21,40 +79,11 @@ GatherBatch gather_receivers(const tree::TreeSource& tree, const std::vector<Rec
   const auto start = std::chrono::steady_clock::now();
   GatherBatch batch;
   batch.results.resize(receivers.size());
-
-  // Created lazily: a thread that never gets a block allocates nothing.
-  tbb::enumerable_thread_specific<std::unique_ptr<Gatherer>> gatherers;
-  std::atomic<bool> stop{false};
-  tbb::task_group_context group;
-  constexpr size_t kBlock = 64;  // receivers between cancellation checks
-  // simple_partitioner: blocks of at most kBlock receivers. The default
-  // auto_partitioner hands out chunks of thousands, and a cancellation
-  // checked only per chunk would be noticed seconds late.
-
-  tbb::parallel_for(
-      tbb::blocked_range<size_t>(0, receivers.size(), kBlock),
-      [&](const tbb::blocked_range<size_t>& range) {
-        if (stop.load(std::memory_order_relaxed)) return;
-        if (cancelled && cancelled()) {
-          stop = true;
-          group.cancel_group_execution();
-          return;
-        }
-        std::unique_ptr<Gatherer>& gatherer = gatherers.local();
-        if (!gatherer) {
-          gatherer = std::make_unique<Gatherer>(tree, options);
-          gatherer->set_volume_points(fog);  // the scene's fog, if any
-        }
-        for (size_t i = range.begin(); i != range.end(); ++i) {
-          batch.results[i] = gatherer->gather(receivers[i]);
-        }
-      },
-      tbb::simple_partitioner(), group);
-
-  if (stop) throw Cancelled("gather cancelled by the client (disconnect or deadline)");
-  for (const auto& gatherer : gatherers) {
-    if (gatherer) batch.counters.add(gatherer->counters());
-  }
+  GatherPool pool(tree, options, cancelled, std::move(fog));
+  pool.for_each(receivers.size(), [&](Gatherer& gatherer, size_t i) {
+    batch.results[i] = gatherer.gather(receivers[i]);
+  });
+  batch.counters = pool.counters();
   batch.counters.receivers = receivers.size();  // whatever each gatherer counted
   batch.seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

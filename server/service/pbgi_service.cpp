@@ -1,5 +1,6 @@
 #include "server/service/pbgi_service.h"
 
+#include "server/service/interpolated_gather.h"
 #include "server/service/parallel_gather.h"
 #include "server/service/process_memory.h"
 #include "server/service/receiver_codec.h"
@@ -308,6 +309,8 @@ grpc::Status PbgiService::Gather(grpc::ServerContext* context, const v1::GatherR
                             request->specular_color(), receivers);
     const GatherOptions options =
         decode_gather_options(request->options(), options_.defaults.render.gather);
+    const InterpolationOptions interpolation =
+        decode_interpolation_options(request->options(), options_.defaults.render.interpolation);
     const std::shared_ptr<SceneSession> session = find_session(request->scene_id());
     // Receivers come in world coordinates; the session renders in its
     // scene-local frame (server/scene/render_origin.h).
@@ -317,11 +320,16 @@ grpc::Status PbgiService::Gather(grpc::ServerContext* context, const v1::GatherR
       }
     }
 
-    // 2. A worker slot, then the gather over all cores; both give up when
-    //    the client leaves or the deadline passes.
+    // 2. A worker slot, then the gather over all cores: every receiver, or
+    //    a subset and the rest interpolated (interpolated_gather.h); both
+    //    give up when the client leaves or the deadline passes.
     auto cancelled = [context] { return context->IsCancelled() || past_deadline(*context); };
     const AdmissionGate::Ticket slot = gate_.enter(context->deadline(), cancelled);
-    GatherBatch batch = gather_receivers(*session->tree, receivers, options, cancelled, session->fog);
+    const GatherBatch batch =
+        interpolation.mode == InterpolationMode::kOff
+            ? gather_receivers(*session->tree, receivers, options, cancelled, session->fog)
+            : gather_interpolated(*session->tree, receivers, options, interpolation.tolerance, cancelled,
+                                  session->fog);
 
     // 3. Packed results.
     std::vector<float> ao(receivers.size());
@@ -332,6 +340,7 @@ grpc::Status PbgiService::Gather(grpc::ServerContext* context, const v1::GatherR
     if (!request->specular_color().empty()) response->set_glossy(pack_triples(batch.results, &GatherResult::glossy));
     if (options.bent_normal) response->set_bent_normals(pack_triples(batch.results, &GatherResult::bent_normal));
     set_stats(batch.counters, batch.seconds, response->mutable_stats());
+    response->mutable_stats()->set_requested_receivers(receivers.size());
     return grpc::Status::OK;
   });
 }

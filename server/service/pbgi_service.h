@@ -6,6 +6,7 @@
 #pragma once
 
 #include "pbgi/v1/pbgi.grpc.pb.h"
+#include "common/options/option_table.h"
 #include "server/service/admission.h"
 #include "server/service/bearer_auth.h"
 #include "server/service/options_codec.h"
@@ -38,6 +39,17 @@ struct RequestLimits {
   // More waiting for a slot; beyond: RESOURCE_EXHAUSTED + retry-after-ms.
   uint32_t max_queued = 64;
 };
+
+// RequestLimits' options (common/options/option_table.h): [limits] in the
+// config; not part of any request.
+inline constexpr auto kRequestLimitsTable = options::table(
+    options::field<&RequestLimits::max_receivers>("max_receivers"),
+    options::field<&RequestLimits::max_image_side>("max_image_side"),
+    options::field<&RequestLimits::max_tile_pixels>("max_tile_pixels"),
+    options::field<&RequestLimits::max_tiles_per_call>("max_tiles_per_call"),
+    options::field<&RequestLimits::max_in_flight>("max_in_flight"),
+    options::field<&RequestLimits::max_queued>("max_queued"),
+    options::field<&RequestLimits::max_surfels>("max_surfels"));
 
 struct ServiceOptions {
   RequestDefaults defaults;

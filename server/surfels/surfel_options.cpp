@@ -8,14 +8,12 @@
 
 namespace pbgi {
 
-std::string to_string(SurfelSampler sampler) {
-  return sampler == SurfelSampler::kPoisson ? "poisson" : "uniform";
-}
+std::string to_string(SurfelSampler sampler) { return std::string(options::enum_name(sampler)); }
 
 SurfelSampler parse_surfel_sampler(const std::string& name) {
-  if (name == "uniform") return SurfelSampler::kUniform;
-  if (name == "poisson") return SurfelSampler::kPoisson;
-  throw InvalidArgument(fmt::format("sampler '{}' is not uniform or poisson", name));
+  if (const auto sampler = options::parse_enum<SurfelSampler>(name)) return *sampler;
+  throw InvalidArgument(fmt::format("sampler '{}' is not {}", name,
+                                    options::enum_name_list<SurfelSampler>(" or ")));
 }
 
 void SurfelOptions::validate() const {

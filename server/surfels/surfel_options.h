@@ -2,7 +2,10 @@
 // proto BuildOptions message.
 #pragma once
 
+#include "common/options/option_table.h"
+
 #include <cstdint>
+#include <span>
 #include <string>
 
 namespace pbgi {
@@ -16,6 +19,11 @@ enum class SurfelSampler : uint8_t {
   // follow a camera (poisson_sampling.cpp).
   kPoisson,
 };
+inline constexpr options::EnumName<SurfelSampler> kSurfelSamplerNames[] = {
+    {SurfelSampler::kUniform, "uniform"}, {SurfelSampler::kPoisson, "poisson"}};
+constexpr std::span<const options::EnumName<SurfelSampler>> enum_names(SurfelSampler) {
+  return kSurfelSamplerNames;
+}
 
 struct SurfelOptions {
   SurfelSampler sampler = SurfelSampler::kUniform;
@@ -63,5 +71,45 @@ struct SurfelOptions {
 std::string to_string(SurfelSampler sampler);
 // Throws InvalidArgument naming the value for any other name.
 SurfelSampler parse_surfel_sampler(const std::string& name);
+
+// SurfelOptions' options (common/options/option_table.h says how to add
+// one), part of OpenOptions': [build] in the config, pbgi.v1.BuildOptions,
+// `pbgi` flags. min_spacing, offscreen_factor, frustum_margin and
+// batch_surfels are fixed (not options); the first three are in the build
+// key nonetheless.
+inline constexpr auto kSurfelOptionTable = options::table(
+    options::field<&SurfelOptions::spacing>(
+        "surfel_spacing", {1, {"--surfel-spacing", "surfel spacing, world units"}, options::KeyMember::kFrozen}),
+    options::field<&SurfelOptions::sampler>(
+        "sampler",
+        {10, {"--sampler", "surfel sampler: uniform or poisson (blue noise) [uniform]"}, options::KeyMember::kFrozen}),
+    options::field<&SurfelOptions::camera>(
+        "spacing_camera",
+        {11,
+         {"--spacing-camera",
+          "camera-adaptive surfel spacing (poisson): the spacing follows this camera's "
+          "pixel footprint for the rendered image size"},
+         options::KeyMember::kFrozen}),
+    // No flags: `pbgi` sends the size of the image it renders.
+    options::field<&SurfelOptions::image_width>("spacing_image_width", {12, {}, options::KeyMember::kFrozen}),
+    options::field<&SurfelOptions::image_height>("spacing_image_height", {13, {}, options::KeyMember::kFrozen}),
+    options::field<&SurfelOptions::pixel_footprint>(
+        "pixel_footprint",
+        {14, {"--pixel-footprint", "with --spacing-camera: surfel spacing in pixels [1]"}, options::KeyMember::kFrozen}),
+    options::field<&SurfelOptions::glossy_roughness>(
+        "glossy_roughness",
+        {15,
+         {"--glossy-roughness",
+          "materials with a GGX roughness below this are glossy senders whose outgoing radiance "
+          "the tree stores as wavelet cube maps; 0 = none [0.3]",
+          options::range(0, 1)},
+         options::KeyMember::kFrozen}),
+    options::field<&SurfelOptions::target_surfels>(
+        "target_surfels",
+        {2, {"--target-surfels", "surfels to sample [200000]"}, options::KeyMember::kFrozen}),
+    options::field<&SurfelOptions::light_samples>(
+        "light_samples",
+        {3, {"--build-light-samples", "shadow rays per surfel and light [16]"}, options::KeyMember::kFrozen}),
+    options::field<&SurfelOptions::seed>("seed", {0, {}, options::KeyMember::kFrozen}));
 
 }  // namespace pbgi

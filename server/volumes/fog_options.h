@@ -3,6 +3,8 @@
 // scattering of the scene's direct lights by baked volume points.
 #pragma once
 
+#include "common/options/option_table.h"
+
 #include <Imath/ImathColor.h>
 
 #include <cstdint>
@@ -30,5 +32,25 @@ struct FogOptions {
 
   void validate() const;  // throws InvalidArgument naming the field
 };
+
+// FogOptions' options (common/options/option_table.h says how to add one):
+// [fog] in the config, pbgi.v1.FogOptions (BuildOptions.fog), `pbgi`
+// flags. Fog is not in the page set (server/engine/scene_fog.h): no
+// build-key membership.
+inline constexpr auto kFogOptionTable = options::table(
+    options::field<&FogOptions::extinction_per_density>(
+        "extinction_per_density",
+        {1,
+         {"--fog-extinction",
+          "fog grids: extinction per unit density and world unit (sigma_t = density x this) [1]",
+          options::positive()}}),
+    // Grey: one value for r, g and b.
+    options::custom<FogOptions, float>(
+        "albedo", [](const FogOptions& f) { return f.albedo.x; },
+        [](FogOptions& f, const float& grey) { f.albedo = Imath::C3f(grey); },
+        {2, {"--fog-albedo", "fog grids: grey single-scattering albedo, 0 = absorbing [0.8]", options::range(0, 1)}}),
+    options::field<&FogOptions::step_voxels>("step_voxels", {3}),
+    options::field<&FogOptions::light_samples>("light_samples", {4}),
+    options::field<&FogOptions::max_block_voxels>("max_block_voxels", {5}));
 
 }  // namespace pbgi

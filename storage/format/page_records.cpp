@@ -76,12 +76,14 @@ void read_link_record(const uint8_t* in, uint32_t& page, tree::Node& n) {
 }
 
 LeafFormat parse_leaf_format(const std::string& name) {
-  if (name == "relative") return LeafFormat::kRelative;
-  if (name == "half") return LeafFormat::kHalf;
-  throw InvalidArgument("leaf_format '" + name + "' is not one of: relative, half");
+  if (const auto format = options::parse_enum<LeafFormat>(name)) return *format;
+  throw InvalidArgument("leaf_format '" + name + "' is not one of: " + options::enum_name_list<LeafFormat>());
 }
 
-std::string to_string(LeafFormat format) { return format == LeafFormat::kHalf ? "half" : "relative"; }
+std::string to_string(LeafFormat format) {
+  const std::string_view name = options::enum_name(format);
+  return std::string(name.empty() ? options::enum_name(LeafFormat::kRelative) : name);  // a bad number, as before
+}
 
 namespace {
 void encode_relative(const Surfel& s, const LeafFrame& f, uint8_t* out) {

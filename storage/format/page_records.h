@@ -24,6 +24,7 @@
 // [0, 65408] (relative) / [0, 65504] (half).
 #pragma once
 
+#include "common/options/option_table.h"
 #include "storage/tree/node.h"
 #include "storage/tree/surfel.h"
 
@@ -31,6 +32,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <string>
 
 namespace pbgi::storage {
@@ -53,6 +55,9 @@ inline constexpr size_t kLinkRecordBytes = 40;
 // (The paper's records hold one colour; ours hold albedo, emission and
 // radiance, which multiple bounces need.)
 enum class LeafFormat : uint8_t { kRelative = 0, kHalf = 1 };
+inline constexpr options::EnumName<LeafFormat> kLeafFormatNames[] = {{LeafFormat::kRelative, "relative"},
+                                                                     {LeafFormat::kHalf, "half"}};
+constexpr std::span<const options::EnumName<LeafFormat>> enum_names(LeafFormat) { return kLeafFormatNames; }
 
 inline constexpr size_t kRelativeSurfelRecordBytes = 24;
 inline constexpr size_t kHalfSurfelRecordBytes = 38;

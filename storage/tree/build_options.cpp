@@ -9,22 +9,14 @@
 namespace pbgi::tree {
 
 PayloadCodecOption parse_payload_codec(const std::string& name) {
-  for (PayloadCodecOption o : {PayloadCodecOption::kDerived, PayloadCodecOption::kFloatSh,
-                               PayloadCodecOption::kQuantizedSh, PayloadCodecOption::kAuto}) {
-    if (name == to_string(o)) return o;
-  }
+  if (const auto option = options::parse_enum<PayloadCodecOption>(name)) return *option;
   throw InvalidArgument("tree.payload_codec = \"" + name +
-                        "\": must be one of derived, float32-sh, kmeans-sh, auto");
+                        "\": must be one of " + options::enum_name_list<PayloadCodecOption>());
 }
 
 std::string to_string(PayloadCodecOption option) {
-  switch (option) {
-    case PayloadCodecOption::kDerived: return "derived";
-    case PayloadCodecOption::kFloatSh: return "float32-sh";
-    case PayloadCodecOption::kQuantizedSh: return "kmeans-sh";
-    case PayloadCodecOption::kAuto: return "auto";
-  }
-  return "payload codec " + std::to_string(int(option));
+  const std::string_view name = options::enum_name(option);
+  return name.empty() ? "payload codec " + std::to_string(int(option)) : std::string(name);
 }
 
 void BuildOptions::validate() const {

@@ -1,9 +1,11 @@
 // Options of the tree build and page layout (documented defaults).
 #pragma once
 
+#include "common/options/option_table.h"
 #include "storage/format/page_records.h"
 
 #include <cstdint>
+#include <span>
 #include <string>
 
 namespace pbgi::tree {
@@ -22,6 +24,14 @@ namespace pbgi::tree {
 //               derived for diffuse senders (measured smallest, exact, as fast
 //               to load: docs/codecs.md); glossy wavelets once they exist.
 enum class PayloadCodecOption : uint8_t { kDerived = 0, kFloatSh = 1, kQuantizedSh = 2, kAuto = 3 };
+inline constexpr options::EnumName<PayloadCodecOption> kPayloadCodecNames[] = {
+    {PayloadCodecOption::kDerived, "derived"},
+    {PayloadCodecOption::kFloatSh, "float32-sh"},
+    {PayloadCodecOption::kQuantizedSh, "kmeans-sh"},
+    {PayloadCodecOption::kAuto, "auto"}};
+constexpr std::span<const options::EnumName<PayloadCodecOption>> enum_names(PayloadCodecOption) {
+  return kPayloadCodecNames;
+}
 
 // InvalidArgument naming the accepted values for anything else.
 PayloadCodecOption parse_payload_codec(const std::string& name);
@@ -58,5 +68,55 @@ struct BuildOptions {
 
   void validate() const;  // throws pbgi::InvalidArgument
 };
+
+// `pbgi --payload`'s short names (the codec names pass through unchecked:
+// the daemon refuses unknown ones, naming the field).
+inline constexpr options::FlagAlias kPayloadFlagAliases[] = {
+    {"sh", "derived", ""},
+    {"quantized", "kmeans-sh", ""},
+    {"wavelet", "",
+     "--payload wavelet: --payload picks the diffuse SH payload (sh, quantized or auto); "
+     "glossy senders get Haar-wavelet radiance whatever it is (see --glossy-roughness, "
+     "--glossy-resolution and --wavelet-threshold)"}};
+
+// BuildOptions' options (common/options/option_table.h says how to add
+// one), part of OpenOptions': [build] in the config, pbgi.v1.BuildOptions,
+// `pbgi` flags. sort_memory_bytes is not one (memory only).
+inline constexpr auto kTreeOptionTable = options::table(
+    options::field<&BuildOptions::glossy_resolution>(
+        "glossy_resolution",
+        {16,
+         {"--glossy-resolution", "glossy senders' cube maps: pixels per face side [16]", options::one_of({8, 16, 32})},
+         options::KeyMember::kFrozen}),
+    options::field<&BuildOptions::wavelet_threshold>(
+        "wavelet_threshold",
+        {17,
+         {"--wavelet-threshold",
+          "drop wavelet detail blocks (one cube face) whose L2 norm is below this; 0 = exact [0]",
+          options::non_negative()},
+         options::KeyMember::kFrozen}),
+    options::field<&BuildOptions::page_size>("page_size", {4, {}, options::KeyMember::kFrozen}),
+    options::field<&BuildOptions::leaf_size>("leaf_size", {5, {}, options::KeyMember::kFrozen}),
+    options::field<&BuildOptions::leaf_format>(
+        "leaf_format",
+        {19,
+         {"--leaf-format",
+          "how leaves store surfels: relative (24 B, positions relative to the leaf, RGB9E5 "
+          "colours) or half (38 B, float32 positions, half-float colours) [relative]"},
+         options::KeyMember::kFrozen}),
+    options::field<&BuildOptions::payload_codec>(
+        "payload_codec",
+        {6,
+         {"--payload",
+          "node payloads: sh (exact, derived from the surfels as pages load), quantized "
+          "(k-means LUT), auto, or a codec name (derived, float32-sh, kmeans-sh); "
+          "glossy senders' wavelet radiance has its own flags [daemon default]",
+          {}, options::Flag::Kind::kValue, kPayloadFlagAliases},
+         options::KeyMember::kFrozen}),
+    options::field<&BuildOptions::lut_entries>(
+        "lut_entries",
+        {7, {"--lut-entries", "quantized payloads: LUT size [4096]", options::range(64, 65536)},
+         options::KeyMember::kFrozen}),
+    options::field<&BuildOptions::lut_sample_fraction>("lut_sample_fraction", {8, {}, options::KeyMember::kFrozen}));
 
 }  // namespace pbgi::tree

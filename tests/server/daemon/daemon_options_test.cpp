@@ -5,6 +5,7 @@
 
 #include "storage/format/errors.h"
 #include "tests/server/service/temp_dir.h"
+#include "tests/support/perturbed_option.h"
 
 #include <gtest/gtest.h>
 
@@ -116,6 +117,34 @@ TEST(DaemonOptions, TomlRoundTrip) {
   EXPECT_NE(text.find("max_solid_angle = 0.03\n"), std::string::npos) << text;
   // And the defaults round-trip too.
   EXPECT_TRUE(parse_daemon_config(to_toml(DaemonOptions()), "defaults") == DaemonOptions());
+}
+
+// Each stage option changed alone: the options differ, and the TOML
+// round trip keeps the change (the tables drive both, key by key).
+template <class Table, class Section>
+void expect_each_option_in_toml(const Table& table, Section section) {
+  int checked = 0;
+  options::for_each_field(table, [&](const auto& probe) {
+    DaemonOptions changed;
+    options::for_each_value(
+        table,
+        [&](const auto& f, auto& values) {
+          if constexpr (std::is_same_v<std::remove_cvref_t<decltype(f)>, std::remove_cvref_t<decltype(probe)>>) {
+            if (f.name == probe.name && f.get == probe.get) f.set(values, testing::perturbed(f.get(values)));
+          }
+        },
+        section(changed));
+    EXPECT_FALSE(changed == DaemonOptions()) << probe.name << " is not compared";
+    EXPECT_TRUE(parse_daemon_config(to_toml(changed), "round-trip") == changed) << probe.name;
+    ++checked;
+  });
+  EXPECT_GT(checked, 4);
+}
+
+TEST(DaemonOptions, EveryStageOptionIsComparedAndRoundTrips) {
+  expect_each_option_in_toml(kRenderOptionTable, [](DaemonOptions& o) -> auto& { return o.service.defaults.render; });
+  expect_each_option_in_toml(kOpenOptionTable, [](DaemonOptions& o) -> auto& { return o.service.defaults.open; });
+  expect_each_option_in_toml(service::kRequestLimitsTable, [](DaemonOptions& o) -> auto& { return o.service.limits; });
 }
 
 TEST(DaemonOptions, TheExampleConfigParsesToTheDefaults) {

@@ -1,6 +1,7 @@
 // Build keys: every option that changes the stored bytes changes the key;
 // the defaults keep the key they had before payload codecs were options.
 #include "server/engine/build_key.h"
+#include "tests/support/perturbed_option.h"
 
 #include <gtest/gtest.h>
 
@@ -118,6 +119,87 @@ TEST(BuildKey, LeafFormatChangesTheKeyButItsDefaultDoesNot) {
   OpenOptions half = a;
   half.tree.leaf_format = storage::LeafFormat::kHalf;
   EXPECT_NE(page_set_build_key("h", half), page_set_build_key("h", a));
+}
+
+// Keys computed by the build key code before the options tables existed
+// (main at 1833fb7): cached page sets keep their keys, byte for byte.
+TEST(BuildKey, KeysOfExistingOptionsArePinned) {
+  const std::string scene = "0123456789abcdef";
+  EXPECT_EQ(page_set_build_key(scene, OpenOptions()), "eeeca49a259ff0f4ced67a7476be9c50");
+  OpenOptions a;
+  a.surfels.spacing = 0.013f;
+  a.surfels.target_surfels = 12345;
+  a.surfels.light_samples = 9;
+  a.surfels.seed = 42;
+  a.tree.leaf_size = 8;
+  a.tree.page_size = 32768;
+  EXPECT_EQ(page_set_build_key(scene, a), "6c2c3355b63375f552e51c15a9b983c2");
+  OpenOptions b;
+  b.surfels.sampler = SurfelSampler::kPoisson;
+  b.surfels.camera = "/World/Camera";
+  b.surfels.image_width = 640;
+  b.surfels.image_height = 360;
+  b.surfels.pixel_footprint = 1.5f;
+  b.surfels.glossy_roughness = 0.2f;
+  b.tree.glossy_resolution = 32;
+  b.tree.wavelet_threshold = 0.05f;
+  b.tree.leaf_format = storage::LeafFormat::kHalf;
+  EXPECT_EQ(page_set_build_key(scene, b), "cdbd9b46fb1d70e210c97f2b77e1dd9b");
+  OpenOptions c;
+  c.tree.payload_codec = tree::PayloadCodecOption::kQuantizedSh;
+  c.tree.lut_entries = 1000;
+  c.tree.lut_sample_fraction = 0.05;
+  c.bounce.bounces = 3;
+  c.bounce.splatting = true;
+  c.bounce.view_solid_angle = 0.02f;
+  c.bounce.receiver_stride = 4;
+  c.bounce.gather.microbuffer_resolution = 16;
+  c.bounce.gather.max_solid_angle = 0.05f;
+  EXPECT_EQ(page_set_build_key(scene, c), "00769ec3aaf19c77dedbbfdd7a343bfc");
+  // Fog and the default lights are not in the page set (the lights reach
+  // it through the scene's content hash).
+  OpenOptions e;
+  e.tree.payload_codec = tree::PayloadCodecOption::kFloatSh;
+  e.bounce.bounces = 2;
+  e.bounce.splatting = false;
+  e.bounce.receiver_stride = 1;
+  e.default_light = true;
+  e.fog.extinction_per_density = 3.f;
+  EXPECT_EQ(page_set_build_key(scene, e), "799548a721d2e172693ff756116e98cb");
+}
+
+// Build-key membership is what the tables say: every option marked as a
+// member changes the key (where its group applies: a learned LUT, a camera,
+// bounce gathers with splatting), every other one does not.
+TEST(BuildKey, MembershipFollowsTheOptionsTables) {
+  OpenOptions context;
+  context.tree.payload_codec = tree::PayloadCodecOption::kQuantizedSh;
+  context.surfels.sampler = SurfelSampler::kPoisson;
+  context.surfels.camera = "/Camera";
+  context.bounce.bounces = 2;
+  const std::string base = page_set_build_key("h", context);
+  int members = 0, others = 0;
+  options::for_each_field(kOpenOptionTable, [&](const auto& probe) {
+    OpenOptions changed = context;
+    // The probe's own field, found again by walking to it with its name.
+    options::for_each_value(
+        kOpenOptionTable,
+        [&](const auto& f, auto& values) {
+          if constexpr (std::is_same_v<std::remove_cvref_t<decltype(f)>, std::remove_cvref_t<decltype(probe)>>) {
+            if (f.name == probe.name && f.get == probe.get) f.set(values, testing::perturbed(f.get(values)));
+          }
+        },
+        changed);
+    const bool keyed = probe.spec.key != options::KeyMember::kNo;
+    (keyed ? members : others)++;
+    if (keyed) {
+      EXPECT_NE(page_set_build_key("h", changed), base) << probe.name << " is a member but does not change the key";
+    } else {
+      EXPECT_EQ(page_set_build_key("h", changed), base) << probe.name << " is not a member but changes the key";
+    }
+  });
+  EXPECT_GT(members, 20);
+  EXPECT_GT(others, 3);  // default_light and the fog
 }
 
 }  // namespace

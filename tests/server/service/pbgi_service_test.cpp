@@ -14,6 +14,7 @@
 #include <fstream>
 #include <limits>
 #include <mutex>
+#include <vector>
 
 namespace fs = std::filesystem;
 
@@ -210,6 +211,72 @@ TEST_F(PbgiServiceTest, GatherRequestErrors) {
   s = gather(request);
   EXPECT_EQ(s.error_code(), grpc::StatusCode::NOT_FOUND);
   EXPECT_TRUE(mentions(s, "no-such-scene")) << s.error_message();
+}
+
+// A bad interpolation tolerance is refused on the Gather path too (it was
+// ignored there while Gather gathered every receiver).
+TEST_F(PbgiServiceTest, GatherRefusesBadInterpolationOptions) {
+  std::vector<v1::OpenSceneEvent> events;
+  ASSERT_TRUE(open("lit.usda", &events).ok());  // a real tree: the request could be served
+  const std::string id = events.back().ready().scene_id();
+  const float up[3] = {0, 0, 1};
+  v1::GatherRequest request;
+  request.set_scene_id(id);
+  request.set_positions(std::string(12, '\0'));
+  request.set_normals(std::string(reinterpret_cast<const char*>(up), sizeof(up)));
+  for (const float t : {-0.1f, 0.f, 1.5f, std::numeric_limits<float>::quiet_NaN()}) {
+    request.mutable_options()->set_interpolation_tolerance(t);
+    const grpc::Status s = gather(request);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << "tolerance " << t;
+    EXPECT_TRUE(mentions(s, "interpolation_tolerance")) << s.error_message();
+  }
+  request.mutable_options()->clear_interpolation_tolerance();
+  request.mutable_options()->set_interpolation(static_cast<v1::GatherOptions::Interpolation>(9));
+  const grpc::Status s = gather(request);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_TRUE(mentions(s, "GatherOptions.interpolation")) << s.error_message();
+}
+
+// By default Gather gathers a subset of a dense grid of receivers under a
+// lit ceiling and interpolates the rest within the tolerance; the stats
+// say how many it gathered of how many were sent. OFF gathers them all.
+TEST_F(PbgiServiceTest, GatherInterpolatesDenseReceiversAndSaysHowManyItGathered) {
+  std::vector<v1::OpenSceneEvent> events;
+  ASSERT_TRUE(open("lit.usda", &events).ok());
+  constexpr int kSide = 24;
+  std::vector<float> positions, normals;
+  for (int j = 0; j < kSide; ++j) {
+    for (int i = 0; i < kSide; ++i) {
+      positions.insert(positions.end(), {-0.6f + 1.2f * (i + 0.5f) / kSide, -0.6f + 1.2f * (j + 0.5f) / kSide, 0.f});
+      normals.insert(normals.end(), {0.f, 0.f, 1.f});
+    }
+  }
+  v1::GatherRequest request;
+  request.set_scene_id(events.back().ready().scene_id());
+  request.set_positions(std::string(reinterpret_cast<const char*>(positions.data()), positions.size() * sizeof(float)));
+  request.set_normals(std::string(reinterpret_cast<const char*>(normals.data()), normals.size() * sizeof(float)));
+  auto run = [&](v1::GatherResponse* response) {
+    grpc::ClientContext context;
+    const grpc::Status s = stub->Gather(&context, request, response);
+    ASSERT_TRUE(s.ok()) << s.error_message();
+    ASSERT_EQ(response->irradiance().size(), 3 * sizeof(float) * kSide * kSide);
+  };
+  v1::GatherResponse interpolated, full;
+  run(&interpolated);
+  request.mutable_options()->set_interpolation(v1::GatherOptions::INTERPOLATION_OFF);
+  run(&full);
+  constexpr uint64_t kReceivers = kSide * kSide;
+  EXPECT_EQ(interpolated.stats().requested_receivers(), kReceivers);
+  EXPECT_EQ(full.stats().requested_receivers(), kReceivers);
+  EXPECT_EQ(full.stats().receivers(), kReceivers);
+  EXPECT_GT(interpolated.stats().receivers(), 0u);
+  EXPECT_LT(interpolated.stats().receivers(), kReceivers / 4);
+  std::vector<float> a(3 * kReceivers), b(3 * kReceivers);
+  std::memcpy(a.data(), interpolated.irradiance().data(), a.size() * sizeof(float));
+  std::memcpy(b.data(), full.irradiance().data(), b.size() * sizeof(float));
+  for (size_t i = 0; i < kReceivers; ++i) {
+    EXPECT_NEAR(a[3 * i], b[3 * i], 0.1f * b[3 * i]) << "receiver " << i;
+  }
 }
 
 TEST_F(PbgiServiceTest, RenderTileRequestErrors) {

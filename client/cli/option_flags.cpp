@@ -1,0 +1,9 @@
+#include "client/cli/option_flags.h"
+
+#include "storage/format/errors.h"
+
+namespace pbgi::cli {
+
+void refuse_flag_alias(const options::FlagAlias& alias) { throw InvalidArgument(std::string(alias.error)); }
+
+}  // namespace pbgi::cli
