@@ -39,6 +39,9 @@ void RenderOptions::validate() const {
     throw InvalidArgument(
         fmt::format("render.pixel_samples = {}: must be in [1, 1024]", pixel_samples));
   }
+  if (edge_samples > 4096) {
+    throw InvalidArgument(fmt::format("render.edge_samples = {}: must be at most 4096", edge_samples));
+  }
 }
 
 }  // namespace pbgi

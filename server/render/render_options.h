@@ -67,6 +67,12 @@ struct RenderOptions {
   // interpolation they share the lattice's gathers, so they cost camera
   // and shadow rays only (docs/interpolation.md).
   uint32_t pixel_samples = 4;
+  // Camera rays of a pixel on a light's silhouette (a light seen directly
+  // next to anything else, in the pixel or a neighbour), in place of its
+  // pixel_samples, with interpolation on. There the image's contrast is
+  // largest and a few samples alias most; the extra rays share the
+  // lattice's gathers (docs/interpolation.md). <= pixel_samples: none.
+  uint32_t edge_samples = 256;
   uint64_t seed = 1;
   // Gathers at an adaptive lattice of pixel centres, interpolated to the
   // camera samples (gather_lattice.h), or one gather per camera sample.
@@ -87,6 +93,9 @@ inline constexpr auto kRenderOptionTable = options::table(
         "light_samples", {5, {"--light-samples", "shadow rays per pixel and light [16]"}}),
     options::field<&RenderOptions::pixel_samples>(
         "pixel_samples", {6, {"--pixel-samples", "camera rays per pixel [4]"}}),
+    options::field<&RenderOptions::edge_samples>(
+        "edge_samples",
+        {21, {"--edge-samples", "camera rays per pixel on a light's silhouette (interpolation auto) [256]"}}),
     options::nest<&RenderOptions::interpolation>(kInterpolationOptionTable),
     options::field<&RenderOptions::dome_visible>(
         "dome_visible",
