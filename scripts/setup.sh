@@ -18,9 +18,10 @@ DEB_PACKAGES=(
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
   libgtest-dev libgmock-dev libbenchmark-dev
   libspdlog-dev libfmt-dev libcli11-dev libtomlplusplus-dev libxxhash-dev libpng-dev
-  libopenimageio-dev
+  libopenimageio-dev libhwy-dev
   python3 python3-venv openimageio-tools ccache
   clang-14 libclang-rt-14-dev llvm-14
+  clang-format-14 clang-tidy-14
 )
 missing=()
 for p in "${DEB_PACKAGES[@]}"; do
@@ -64,12 +65,17 @@ fi
 # 3. Configure (once) and build. ccache makes a fresh clone's build (CI, a
 #    second worktree) reuse objects compiled before on this machine;
 #    CCACHE_BASEDIR keeps its keys independent of where the clone lives.
+#    PBGI_CMAKE_ARGS adds cache settings (scripts/test.sh: -DPBGI_WERROR=ON);
+#    given to an existing build directory, they update its cache.
 export CCACHE_BASEDIR="$ROOT" CCACHE_NOHASHDIR=1
+read -r -a EXTRA_CMAKE_ARGS <<< "${PBGI_CMAKE_ARGS:-}"
 if [ ! -f "$BUILD_DIR/build.ninja" ]; then
   log "configuring $BUILD_DIR"
   cmake -S "$ROOT" -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release \
         -DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache \
-        -DPBGI_PYTHON="$VENV/bin/python3"
+        -DPBGI_PYTHON="$VENV/bin/python3" "${EXTRA_CMAKE_ARGS[@]}"
+elif ((${#EXTRA_CMAKE_ARGS[@]})); then
+  cmake -S "$ROOT" -B "$BUILD_DIR" "${EXTRA_CMAKE_ARGS[@]}" >/dev/null
 fi
 log "building ($JOBS jobs)"
 cmake --build "$BUILD_DIR" -j "$JOBS"

@@ -291,7 +291,7 @@ std::string bench_summary(const BenchResult& r) {
                    r.reference.noise_mse_indirect, r.reference.noise_mse_beauty);
   s += equal_error_text(r.equal_indirect);
   s += equal_error_text(r.equal_beauty);
-  if (!r.equal_points.empty()) s += "\n" + equal_points_table(r);
+  if (!r.equal_points.empty()) s += fmt::format("\n{}", equal_points_table(r));
   for (const auto& w : r.warnings) s += "warning: " + w + "\n";
   return s;
 }

@@ -45,7 +45,7 @@ MethodPlan path_plan(const PathSweep& sweep) {
     c.render = [sweep, spp](const BenchInput& in, const BuiltState*) {
       const ReferenceImage r = render_reference(
           in.rays, in.camera, path_render_options(in.width, in.height, spp, sweep.max_depth, sweep.seed));
-      return RenderedAovs{r.beauty, r.direct, r.indirect};
+      return RenderedAovs{r.beauty, r.direct, r.indirect, {}};
     };
     plan.configs.push_back(std::move(c));
   }

@@ -137,6 +137,7 @@ void PbgiSweep::validate() const {
     }
   RenderOptions r;
   r.pixel_samples = pixel_samples;
+  r.edge_samples = edge_samples;
   r.light_samples = light_samples;
   r.validate();
   if (interpolations.empty()) throw InvalidArgument("bench: the PBGI sweep needs at least one interpolation setting");
@@ -182,7 +183,7 @@ namespace {
 // Names carry the payload codec unless it is the library default (derived),
 // so that a plain PBGI sweep keeps its names.
 std::string payload_suffix(const PayloadSpec& p) {
-  return p.codec == tree::PayloadCodecOption::kDerived ? "" : "/" + p.label();
+  return p.codec == tree::PayloadCodecOption::kDerived ? "" : fmt::format("/{}", p.label());
 }
 
 // One gather setting of one page set. `main_payload`: the sweep's first
@@ -216,6 +217,7 @@ MethodConfig pbgi_config(const PbgiSweep& sweep, const std::string& build, const
   options.gather.glossy_max_resolution = sweep.glossy_max_resolution;
   options.gather.glossy_radiance_weight = sweep.glossy_radiance_weight;
   options.pixel_samples = k.pixel_samples;
+  options.edge_samples = sweep.edge_samples;
   options.light_samples = sweep.light_samples;
   options.seed = sweep.seed;
   options.interpolation = sweep.interpolations[k.interpolation];
@@ -242,6 +244,7 @@ MethodConfig pbgi_config(const PbgiSweep& sweep, const std::string& build, const
               {"microbuffer_resolution", std::to_string(k.mb)},
               {"max_solid_angle", fmt::format("{:g}", k.sa)},
               {"pixel_samples", std::to_string(k.pixel_samples)},
+              {"edge_samples", std::to_string(sweep.edge_samples)},
               {"light_samples", std::to_string(sweep.light_samples)},
               {"glossy_max_resolution", std::to_string(sweep.glossy_max_resolution)},
               {"glossy_radiance_weight", fmt::format("{:g}", sweep.glossy_radiance_weight)},

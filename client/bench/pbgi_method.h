@@ -51,6 +51,8 @@ struct PbgiSweep {
   // RenderOptions of every PBGI render (camera rays per pixel, shadow rays
   // per pixel sample and light) and SurfelOptions::light_samples of builds.
   uint32_t pixel_samples = RenderOptions{}.pixel_samples;
+  // Camera rays of a pixel on a light's silhouette (RenderOptions::edge_samples).
+  uint32_t edge_samples = RenderOptions{}.edge_samples;
   // Extra renders of the default configuration with more camera rays per
   // pixel. The beauty's error against the pixel-averaged reference is
   // mostly aliasing of edges and of lights seen by the camera; these show

@@ -40,6 +40,7 @@ struct BenchArgs {
   std::optional<uint32_t> bounce_receiver_stride, bounce_microbuffer_resolution;
   std::optional<float> bounce_max_solid_angle;
   std::optional<uint32_t> pixel_samples;
+  std::optional<uint32_t> edge_samples;
   std::vector<std::string> interpolations;
   std::vector<float> tolerances;
   std::optional<uint32_t> spacing;
@@ -97,6 +98,7 @@ int run(const BenchArgs& args) {
       if (px != 0) o.pbgi.extra_pixel_samples.push_back(px);
   }
   if (args.pixel_samples) o.pbgi.pixel_samples = *args.pixel_samples;
+  if (args.edge_samples) o.pbgi.edge_samples = *args.edge_samples;
   if (!args.interpolations.empty() || !args.tolerances.empty()) {
     // Each mode; "auto" once per tolerance (the library default if none given).
     const std::vector<std::string> modes =
@@ -177,6 +179,8 @@ const CommandRegistrar kRegistrar("bench", [](CLI::App& app, int* exit_code) {
   cmd->add_option("--clusters", args->clusters, "FPBGI clusters per 1024 receivers (default 100)");
   cmd->add_option("--pixel-samples", args->pixel_samples,
                   "Camera rays per pixel of every PBGI render (default 4)");
+  cmd->add_option("--edge-samples", args->edge_samples,
+                  "Camera rays of a pixel on a light's silhouette, interpolation auto (default 256; 0 = none)");
   cmd->add_option("--interpolation", args->interpolations,
                   "Gather interpolation modes to sweep: off (a gather per camera sample), auto "
                   "(adaptive lattice); the first is the default's (default auto)")

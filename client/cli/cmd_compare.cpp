@@ -2,6 +2,7 @@
 // reference, per AOV (see client/metrics/): MSE, RMSE, PSNR (peak = the
 // reference's max), relative MSE, bias and the perceptual pixel count.
 #include "client/cli/command.h"
+#include "client/cli/json_text.h"
 #include "client/image/exr_image.h"
 #include "client/metrics/image_comparison.h"
 #include "client/metrics/pixel_mask.h"
@@ -35,22 +36,8 @@ struct CompareArgs {
 std::string layer_from_flag(const std::string& aov) { return aov == "beauty" ? "" : aov; }
 std::string layer_label(const std::string& layer) { return layer.empty() ? "beauty" : layer; }
 
-std::string json_number(double v) {
-  return std::isfinite(v) ? fmt::format("{:.9g}", v) : "null";
-}
-
-std::string json_string(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    if (static_cast<unsigned char>(c) < 0x20) {
-      out += fmt::format("\\u{:04x}", int(c));
-      continue;
-    }
-    out += c;
-  }
-  return out + "\"";
-}
+// Metrics keep 9 significant digits (bench tables compare them closely).
+std::string json_number(double v) { return cli::json_number(v, 9); }
 
 void print_json(const CompareArgs& args, const std::vector<metrics::AovMetrics>& all) {
   std::string out = fmt::format("{{\"test\": {}, \"reference\": {}, \"aovs\": [",

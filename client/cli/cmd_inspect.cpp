@@ -3,6 +3,7 @@
 // statistics, page count and fill. The walk reads and verifies every page
 // (checksums included), so a clean run also means an intact page set.
 #include "client/cli/command.h"
+#include "client/cli/json_text.h"
 #include "storage/cache/page_cache.h"
 #include "storage/format/format_version.h"
 #include "storage/pages/page_set.h"
@@ -24,20 +25,7 @@ struct InspectArgs {
   uint64_t cache_mb = 256;
 };
 
-std::string json_string(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    if (static_cast<unsigned char>(c) < 0x20) {
-      out += fmt::format("\\u{:04x}", int(c));
-      continue;
-    }
-    out += c;
-  }
-  return out + "\"";
-}
-
-std::string json_number(double v) { return std::isfinite(v) ? fmt::format("{:.6g}", v) : "null"; }
+std::string json_number(double v) { return cli::json_number(v, 6); }
 
 double per(uint64_t a, uint64_t b) { return b ? double(a) / double(b) : 0.0; }
 

@@ -21,17 +21,38 @@ void blit(const std::vector<float>& tile_values, const v1::Tile& tile, uint32_t 
   }
 }
 
-void add_stats(const v1::GatherStats& s, v1::GatherStats* total) {
-  total->set_receivers(total->receivers() + s.receivers());
-  total->set_nodes_visited(total->nodes_visited() + s.nodes_visited());
-  total->set_nodes_rasterized(total->nodes_rasterized() + s.nodes_rasterized());
-  total->set_surfels_raycast(total->surfels_raycast() + s.surfels_raycast());
-  total->set_seconds(total->seconds() + s.seconds());
-  total->set_camera_samples(total->camera_samples() + s.camera_samples());
-  total->set_pixels(total->pixels() + s.pixels());
+}  // namespace
+
+Frame blank_frame(uint32_t width, uint32_t height) {
+  Frame frame;
+  frame.width = width;
+  frame.height = height;
+  const size_t pixels = size_t(width) * height;
+  frame.beauty.assign(3 * pixels, 0.f);
+  frame.direct.assign(3 * pixels, 0.f);
+  frame.indirect.assign(3 * pixels, 0.f);
+  frame.albedo.assign(3 * pixels, 0.f);
+  frame.ao.assign(pixels, 0.f);
+  return frame;
 }
 
-}  // namespace
+void place_tile(const TileImage& tile, const v1::Tile& where, Frame& frame) {
+  blit(tile.beauty, where, frame.width, 3, frame.beauty);
+  blit(tile.direct, where, frame.width, 3, frame.direct);
+  blit(tile.indirect, where, frame.width, 3, frame.indirect);
+  blit(tile.albedo, where, frame.width, 3, frame.albedo);
+  blit(tile.ao, where, frame.width, 1, frame.ao);
+}
+
+void add_tile_stats(const v1::GatherStats& s, v1::GatherStats& total) {
+  total.set_receivers(total.receivers() + s.receivers());
+  total.set_nodes_visited(total.nodes_visited() + s.nodes_visited());
+  total.set_nodes_rasterized(total.nodes_rasterized() + s.nodes_rasterized());
+  total.set_surfels_raycast(total.surfels_raycast() + s.surfels_raycast());
+  total.set_seconds(total.seconds() + s.seconds());
+  total.set_camera_samples(total.camera_samples() + s.camera_samples());
+  total.set_pixels(total.pixels() + s.pixels());
+}
 
 std::vector<v1::Tile> tile_grid(uint32_t width, uint32_t height, uint32_t tile_size) {
   std::vector<v1::Tile> tiles;
@@ -57,15 +78,7 @@ Frame render_frame(PbgiClient& client, const FrameRequest& request, const TilePr
   if (request.jobs == 0) throw InvalidArgument("render_frame: jobs is 0");
   const auto start = std::chrono::steady_clock::now();
 
-  Frame frame;
-  frame.width = request.width;
-  frame.height = request.height;
-  const size_t pixels = size_t(request.width) * request.height;
-  frame.beauty.assign(3 * pixels, 0.f);
-  frame.direct.assign(3 * pixels, 0.f);
-  frame.indirect.assign(3 * pixels, 0.f);
-  frame.albedo.assign(3 * pixels, 0.f);
-  frame.ao.assign(pixels, 0.f);
+  Frame frame = blank_frame(request.width, request.height);
 
   const std::vector<v1::Tile> grid = tile_grid(request.width, request.height, request.tile_size);
   const uint32_t total = static_cast<uint32_t>(grid.size());
@@ -84,12 +97,7 @@ Frame render_frame(PbgiClient& client, const FrameRequest& request, const TilePr
                             std::to_string(request.width) + "x" + std::to_string(request.height) +
                             " grid of " + std::to_string(request.tile_size) + " or has wrong sizes");
     }
-    const v1::Tile& g = *it;
-    blit(t.beauty, g, request.width, 3, frame.beauty);
-    blit(t.direct, g, request.width, 3, frame.direct);
-    blit(t.indirect, g, request.width, 3, frame.indirect);
-    blit(t.albedo, g, request.width, 3, frame.albedo);
-    blit(t.ao, g, request.width, 1, frame.ao);
+    place_tile(t, *it, frame);
     skip[size_t(it - grid.begin())] = true;
   }
   std::vector<v1::Tile> tiles;
@@ -116,13 +124,9 @@ Frame render_frame(PbgiClient& client, const FrameRequest& request, const TilePr
         *tile_request.mutable_tile() = tiles[i];
         const TileImage tile = client.render_tile(tile_request);
         // Tiles are disjoint: the copies need no lock.
-        blit(tile.beauty, tiles[i], request.width, 3, frame.beauty);
-        blit(tile.direct, tiles[i], request.width, 3, frame.direct);
-        blit(tile.indirect, tiles[i], request.width, 3, frame.indirect);
-        blit(tile.albedo, tiles[i], request.width, 3, frame.albedo);
-        blit(tile.ao, tiles[i], request.width, 1, frame.ao);
+        place_tile(tile, tiles[i], frame);
         std::lock_guard lock(mutex);
-        add_stats(tile.stats, &frame.stats);
+        add_tile_stats(tile.stats, frame.stats);
         if (request.on_tile) request.on_tile(tile);
         ++done;
         if (progress) progress(done, total);

@@ -40,6 +40,17 @@ struct Frame {
 // Row-major tiles covering width x height.
 std::vector<v1::Tile> tile_grid(uint32_t width, uint32_t height, uint32_t tile_size);
 
+// Pieces of render_frame() that other frame assemblers (client/stress's
+// replicated frame) share, so that every assembler fills a Frame alike.
+// A width x height frame with every AOV zeroed (no tiles, no stats).
+Frame blank_frame(uint32_t width, uint32_t height);
+// Copies `tile`'s AOVs into `frame` at `where`, a tile of the frame's grid
+// whose size is the tile's (not checked). Tiles are disjoint, so
+// concurrent calls for different tiles need no lock.
+void place_tile(const TileImage& tile, const v1::Tile& where, Frame& frame);
+// Adds every counter of a tile's statistics to `total`.
+void add_tile_stats(const v1::GatherStats& tile, v1::GatherStats& total);
+
 // Called after each tile, from the thread that received it (calls are
 // serialized): tiles done, total.
 using TileProgress = std::function<void(uint32_t done, uint32_t total)>;

@@ -11,19 +11,6 @@
 #include <thread>
 
 namespace pbgi::stress {
-namespace {
-
-void blit(const std::vector<float>& tile_values, const v1::Tile& tile, uint32_t frame_width,
-          int channels, std::vector<float>& frame_values) {
-  const uint32_t w = tile.x1() - tile.x0();
-  for (uint32_t y = tile.y0(); y < tile.y1(); ++y) {
-    const float* src = tile_values.data() + size_t(y - tile.y0()) * w * channels;
-    float* dst = frame_values.data() + (size_t(y) * frame_width + tile.x0()) * channels;
-    std::copy(src, src + size_t(w) * channels, dst);
-  }
-}
-
-}  // namespace
 
 ReplicaFrame render_frame_replicated(const std::vector<client::PbgiClient*>& replicas,
                                      const client::FrameRequest& request) {
@@ -35,15 +22,8 @@ ReplicaFrame render_frame_replicated(const std::vector<client::PbgiClient*>& rep
   const auto start = std::chrono::steady_clock::now();
   const size_t n = replicas.size();
   ReplicaFrame out;
+  out.frame = client::blank_frame(request.width, request.height);
   client::Frame& frame = out.frame;
-  frame.width = request.width;
-  frame.height = request.height;
-  const size_t pixels = size_t(request.width) * request.height;
-  frame.beauty.assign(3 * pixels, 0.f);
-  frame.direct.assign(3 * pixels, 0.f);
-  frame.indirect.assign(3 * pixels, 0.f);
-  frame.albedo.assign(3 * pixels, 0.f);
-  frame.ao.assign(pixels, 0.f);
   out.tiles_per_replica.assign(n, 0);
 
   const std::vector<v1::Tile> tiles = client::tile_grid(request.width, request.height, request.tile_size);
@@ -72,20 +52,11 @@ ReplicaFrame render_frame_replicated(const std::vector<client::PbgiClient*>& rep
         const size_t r = (home + attempt) % n;
         try {
           const client::TileImage tile = replicas[r]->render_tile(tile_request);
-          blit(tile.beauty, tile.tile, frame.width, 3, frame.beauty);
-          blit(tile.direct, tile.tile, frame.width, 3, frame.direct);
-          blit(tile.indirect, tile.tile, frame.width, 3, frame.indirect);
-          blit(tile.albedo, tile.tile, frame.width, 3, frame.albedo);
-          blit(tile.ao, tile.tile, frame.width, 1, frame.ao);
+          client::place_tile(tile, tiles[i], frame);
           std::lock_guard lock(mutex);
           ++out.tiles_per_replica[r];
           if (attempt > 0) ++out.failovers;
-          v1::GatherStats& s = frame.stats;
-          s.set_receivers(s.receivers() + tile.stats.receivers());
-          s.set_nodes_visited(s.nodes_visited() + tile.stats.nodes_visited());
-          s.set_nodes_rasterized(s.nodes_rasterized() + tile.stats.nodes_rasterized());
-          s.set_surfels_raycast(s.surfels_raycast() + tile.stats.surfels_raycast());
-          s.set_seconds(s.seconds() + tile.stats.seconds());
+          client::add_tile_stats(tile.stats, frame.stats);
           break;
         } catch (const client::RpcError& e) {
           if (e.code() == grpc::StatusCode::UNAVAILABLE && attempt + 1 < n) continue;

@@ -18,13 +18,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 constexpr size_t kMaxErrorSamples = 8;
 
-std::string pick_camera(const v1::SceneInfo& info, const std::string& requested) {
-  if (!requested.empty()) return requested;
-  if (info.cameras_size() == 1) return info.cameras(0);
-  throw InvalidArgument(fmt::format("scene '{}' has {} cameras: pass a camera",
-                                    info.scene_path(), info.cameras_size()));
-}
-
 // What one client thread saw; merged after the run (no shared counters on
 // the hot path beyond two progress atomics).
 struct ClientTally {
@@ -57,7 +50,7 @@ StressResult run_stress(const StressOptions& options, const StressProgress& prog
     client::PbgiClient opener(client::normalize_address(server), client_options);
     const v1::SceneInfo info =
         opener.open_scene(client::scene_request_path(options.scene), options.build);
-    if (result.camera.empty()) result.camera = pick_camera(info, options.camera);
+    if (result.camera.empty()) result.camera = client::camera_for(info, options.camera);
     result.scene_ids.push_back(info.scene_id());
   }
   const std::vector<v1::Tile> grid = client::tile_grid(options.width, options.height, options.tile);

@@ -21,7 +21,7 @@ struct StressOptions {
   // round robin over replicas). At least one.
   std::vector<std::string> servers;
   std::string scene;                    // path as sent in OpenScene
-  std::string camera;                   // "" = the scene's only camera
+  std::string camera;                   // "" = client::camera_for(): the only camera, or auto
   unsigned clients = 4;                 // concurrent clients, one request in flight each
   std::chrono::duration<double> duration{10.0};
   uint32_t width = 256, height = 256;   // image the random tiles are cut from

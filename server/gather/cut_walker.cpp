@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <limits>
 #include <string>
 
@@ -50,6 +51,22 @@ constexpr float kWideRefineFraction = 1.f / 16.f;
 // refined once it brings this fraction of the HDR threshold.
 constexpr float kHdrStraddleFraction = 1.f / 16.f;
 
+// A walk's splats are queued and drawn in batches (rasterizer.h): the
+// walk flushes them before it returns; when it throws they are dropped
+// (the receiver is lost, and the next one starts a new microbuffer).
+class DiscardQueuedOnThrow {
+ public:
+  explicit DiscardQueuedOnThrow(Rasterizer& raster)
+      : raster_(raster), exceptions_(std::uncaught_exceptions()) {}
+  ~DiscardQueuedOnThrow() {
+    if (std::uncaught_exceptions() > exceptions_) raster_.discard();
+  }
+
+ private:
+  Rasterizer& raster_;
+  int exceptions_;
+};
+
 // Safety net against a cyclic (corrupt) tree: no valid traversal comes near.
 constexpr size_t kMaxStack = size_t(1) << 24;
 
@@ -57,10 +74,10 @@ inline float luminance(const Imath::C3f& c) {
   return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z;
 }
 
-// Starts loading a node's traversal data (48 bytes, at most two lines).
-inline void prefetch(const HotNode* h) {
-  __builtin_prefetch(h);
-  __builtin_prefetch(reinterpret_cast<const char*>(h) + sizeof(HotNode) - 1);
+// Starts loading a node's traversal line and its look (page_views.h).
+inline void prefetch(const PageView& view, uint32_t index) {
+  __builtin_prefetch(&view.nodes[index]);
+  __builtin_prefetch(&view.looks[index]);
 }
 
 }  // namespace
@@ -183,7 +200,7 @@ void CutWalker::push_children(const StackEntry& parent, const HotNode& h) {
   // Pushed last to first so that the first child is visited first: the
   // traversal then runs in the depth-first pre-order pages are laid out in.
   for (uint32_t c = h.size(); c-- > 0;) {
-    const tree::NodeRef ref = view.links[h.first + c];
+    const tree::NodeRef ref = h.children[c];
     const PageView* child_view = &view;
     uint32_t pin = parent.pin;
     if (ref.page == view.id) {
@@ -201,7 +218,7 @@ void CutWalker::push_children(const StackEntry& parent, const HotNode& h) {
       }
     }
     // The node is popped soon; start fetching it now.
-    prefetch(&child_view->nodes[ref.index]);
+    prefetch(*child_view, ref.index);
     stack_.push_back({child_view, ref.index, pin});
   }
   if (stack_.size() > kMaxStack) {
@@ -213,7 +230,7 @@ void CutWalker::push_children(const StackEntry& parent, const HotNode& h) {
 const HotNode& CutWalker::resolve(StackEntry& e) {
   const HotNode& h = e.view->nodes[e.index];
   if (!h.proxy()) return h;
-  const tree::NodeRef ref = e.view->links[h.first];
+  const tree::NodeRef ref = h.children[0];
   const tree::Page* page = nullptr;
   const PageView* view = nullptr;
   const uint32_t pin = pins_.acquire(ref.page, page, view);
@@ -308,11 +325,8 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
   if (light > hdr_threshold_ || (straddles && light > kHdrStraddleFraction * hdr_threshold_)) {
     return false;
   }
-  if (far) {
-    raster_.splat_far(*far, dir, shape, d, radiance);
-  } else {
-    raster_.splat(dir, shape, d, radiance);
-  }
+  // Drawn in batches (rasterizer.h); the walks flush before they return.
+  raster_.queue(dir, shape, d, radiance, far);
   ++counters_.nodes_rasterized;
   return true;
 }
@@ -361,7 +375,7 @@ void CutWalker::leaf_surfels(const StackEntry& e, const tree::Page& page, const 
       // occluding each other pixel by pixel (7% of the light of a wall
       // 1 cm away was lost).
       shape.depth_extent = s.radius * std::sqrt(std::max(0.f, 1.f - shape.ratio * shape.ratio));
-      raster_.splat(q / d, shape, d, radiance);
+      raster_.queue(q / d, shape, d, radiance);
       ++counters_.surfels_splatted;
     } else {
       raster_.raycast(q, s.normal, s.radius * kRaycastRadiusScale, radiance);
@@ -372,11 +386,12 @@ void CutWalker::leaf_surfels(const StackEntry& e, const tree::Page& page, const 
 
 template <class CutOf>
 void CutWalker::walk(const CutOf& cut_of) {
+  const DiscardQueuedOnThrow discard{raster_};
   uint64_t visited = 0;
   while (!stack_.empty()) {
     StackEntry e = stack_.back();
     stack_.pop_back();
-    if (!stack_.empty()) prefetch(&stack_.back().view->nodes[stack_.back().index]);
+    if (!stack_.empty()) prefetch(*stack_.back().view, stack_.back().index);
     const HotNode& h = e.view->nodes[e.index];
     ++visited;
     const Imath::V3f v(h.cx - p_.x, h.cy - p_.y, h.cz - p_.z);
@@ -402,6 +417,7 @@ void CutWalker::walk(const CutOf& cut_of) {
     }
     pins_.release(e.pin);
   }
+  raster_.flush();
   counters_.nodes_visited += visited;
 }
 
@@ -429,12 +445,13 @@ void CutWalker::walk_cluster(const ClusterFrame& c, float epsilon, std::span<con
 
 void CutWalker::walk_cluster_stack(const ClusterFrame& c, float eps, bool open_near, FarBuffer& far,
                                    std::vector<StackEntry>& near) {
+  const DiscardQueuedOnThrow discard{raster_};
   const float omega_max = cut_;
   uint64_t visited = 0;
   while (!stack_.empty()) {
     StackEntry e = stack_.back();
     stack_.pop_back();
-    if (!stack_.empty()) prefetch(&stack_.back().view->nodes[stack_.back().index]);
+    if (!stack_.empty()) prefetch(*stack_.back().view, stack_.back().index);
     const HotNode& h = e.view->nodes[e.index];
     ++visited;
     const Imath::V3f v(h.cx - c.p.x, h.cy - c.p.y, h.cz - c.p.z);
@@ -477,6 +494,7 @@ void CutWalker::walk_cluster_stack(const ClusterFrame& c, float eps, bool open_n
     push_children(e, open);
     pins_.release(e.pin);
   }
+  raster_.flush();
   counters_.nodes_visited += visited;
 }
 

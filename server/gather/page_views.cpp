@@ -49,7 +49,7 @@ PageView::PageView(const tree::Page& page)
         throw CorruptionError(where(page, i) + ": child_count " + std::to_string(node.child_count) +
                               " exceeds " + std::to_string(tree::Node::kMaxChildren));
       }
-      h.first = uint32_t(links.size());
+      h.first = 0;
       h.count = flags | node.child_count;
       for (uint32_t c = 0; c < node.child_count; ++c) {
         const tree::NodeRef ref = node.children[c];
@@ -58,7 +58,7 @@ PageView::PageView(const tree::Page& page)
                                 std::to_string(ref.page) + " node " + std::to_string(ref.index) +
                                 " is out of range (" + std::to_string(n) + " nodes)");
         }
-        links.push_back(ref);
+        h.children[c] = ref;
       }
     }
   }
@@ -75,9 +75,9 @@ PageView::PageView(const tree::Page& page)
     }
     HotNode& h = nodes[i];
     h.count = describe(l.summary, i) | HotNode::kProxy | 1u;
-    h.first = uint32_t(links.size());
-    links.push_back(l.summary.children[0]);
-    links[nodes[l.parent].first + l.slot] = {page.id, uint32_t(i)};
+    h.first = 0;
+    h.children[0] = l.summary.children[0];
+    nodes[l.parent].children[l.slot] = {page.id, uint32_t(i)};
   }
 }
 

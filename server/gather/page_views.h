@@ -1,11 +1,20 @@
 // The gather's own compact view of a tree page: what the traversal's hot
 // loop reads per node (bounding sphere, normal cone, precomputed cone
-// sine and coplanarity bound, links) in 48 bytes, apart from the 208-byte
-// decoded tree::Node whose payload only splats need. Building a view costs
-// about one pass over the page's nodes; views are cached per Gatherer and
-// reused by every receiver, so the cull and cut tests of the ~3000 nodes a
-// receiver visits touch 48 bytes each (one cache line for the top of the
-// tree that every receiver shares) and compute no square roots for cones.
+// sine and coplanarity bound, child links) in one 64-byte cache line, and
+// in an array of its own what a narrow-cone node shows when it is splatted
+// (NodeLook, one line), apart from the 208-byte decoded tree::Node whose
+// SH payload only wide-cone splats read. Building a view costs about one
+// pass over the page's nodes; views are cached and reused by every
+// receiver, so the cull and cut tests of the ~3500 nodes a receiver visits
+// touch one line each and compute no square roots for cones.
+//
+// The walk is bound by memory latency (perf on bench_gather and pbgi
+// bench, docs/gather.md section 12). The child links live in the node's
+// own line: in an array of their own, loading them was a cache miss of its
+// own (a third of push_children's time). Nodes stay dense, one line each,
+// in the depth-first pre-order of the page: a node's first child, popped
+// next, is the following line. A node's look is prefetched when the node
+// is pushed, so that it is on its way when the node is splatted.
 //
 // A view is derived from the page's content only. A TreeSource returns the
 // same content for a page id for its whole life (pages are immutable), so
@@ -36,7 +45,7 @@ namespace pbgi::gather {
 // Culling them saves refining the receiver's own surface down to leaves.
 inline constexpr float kCoplanarAngle = 0.02f;
 
-struct alignas(16) HotNode {
+struct alignas(64) HotNode {
   static constexpr uint32_t kLeaf = 1u << 31;       // in `count`: a leaf
   static constexpr uint32_t kInvisible = 1u << 30;  // in `count`: no area or NaN bounds
   // In `count`: a narrow normal cone (node_appearance.h); its appearance
@@ -51,7 +60,7 @@ struct alignas(16) HotNode {
   static constexpr uint32_t kGlossy = 1u << 27;
   // In `count`: a proxy, the view's copy of a child in another page (the
   // summary its parent's page stores, equal to that page's root); its one
-  // link (PageView::links[first]) is the child itself. Seen, culled or
+  // link (children[0]) is the child itself. Seen, culled or
   // splatted as it is; opening it needs the child's page (PagePins).
   static constexpr uint32_t kProxy = 1u << 26;
   static constexpr uint32_t kCountMask = kProxy - 1;
@@ -63,8 +72,9 @@ struct alignas(16) HotNode {
   // cos(kCoplanarAngle - beta) when beta < kCoplanarAngle, else 2: the node
   // is coplanar with a receiver of normal n when dot(axis, n) exceeds it.
   float coplanar_cos;
-  uint32_t first;  // internal: first entry in PageView::links; leaf: first surfel
+  uint32_t first;  // leaf: first surfel
   uint32_t count;  // flags | child count (internal) or surfel count (leaf)
+  tree::NodeRef children[tree::Node::kMaxChildren];  // internal: its children
 
   bool leaf() const { return count & kLeaf; }
   bool narrow() const { return count & kNarrow; }
@@ -74,18 +84,19 @@ struct alignas(16) HotNode {
   bool proxy() const { return count & kProxy; }
   uint32_t size() const { return count & kCountMask; }
 };
-static_assert(sizeof(HotNode) == 48);
+static_assert(sizeof(HotNode) == 64, "one cache line");
 
 // What a narrow-cone node shows (node_appearance.h), read only when it is
-// splatted: its area-weighted mean radiance, area and cone constants.
-struct NodeLook {
+// splatted: its area-weighted mean radiance, area and cone constants. Wide
+// and bipolar nodes use only its area.
+struct alignas(64) NodeLook {
   float r, g, b;  // >= 0; all 0 when the payload shows nothing
   float area;
   float mx, my, mz;  // area-weighted mean normal (node_appearance.h)
   float pad_ = 0.f;
   FanCone fan;
 };
-static_assert(sizeof(NodeLook) == 48);
+static_assert(sizeof(NodeLook) == 64, "one cache line");
 
 struct PageView {
   uint32_t id = 0;
@@ -93,8 +104,7 @@ struct PageView {
   // in another page that the page describes exactly (tree::Page::links):
   // a walk decides on such a child without loading its page.
   std::vector<HotNode> nodes;
-  std::vector<NodeLook> looks;       // per node; meaningful for narrow ones
-  std::vector<tree::NodeRef> links;  // children of internal nodes
+  std::vector<NodeLook> looks;  // per node; meaningful for narrow ones
   // Bipolar nodes' faces; bipolar_index[i] (sized only when the page has
   // any) is node i's entry.
   std::vector<Bipolar> bipolar;
@@ -121,7 +131,7 @@ struct PageView {
   explicit PageView(const tree::Page& page);
   size_t memory_bytes() const {
     return sizeof(PageView) + nodes.capacity() * sizeof(HotNode) +
-           looks.capacity() * sizeof(NodeLook) + links.capacity() * sizeof(tree::NodeRef) +
+           looks.capacity() * sizeof(NodeLook) +
            full.capacity() * sizeof(tree::Node) + full_index.capacity() * sizeof(uint32_t) +
            bipolar.capacity() * sizeof(Bipolar) + bipolar_index.capacity() * sizeof(uint32_t);
   }

@@ -1,53 +1,14 @@
 #include "server/gather/rasterizer.h"
 
 #include "server/gather/far_field.h"
+#include "server/gather/splat_filter.h"
 
 #include <algorithm>
 #include <cmath>
 
-#ifndef PBGI_SPLAT_SMOOTH
-#define PBGI_SPLAT_SMOOTH 1.f
-#endif
-
 namespace pbgi::gather {
 
 namespace {
-
-constexpr float kInvPi = 0.31830989f;
-
-// The splat's filter over its equal-area rectangle of half widths h: the
-// rectangle (a box of half width h) convolved with a box of half width
-// c h, a trapezoid of support +-(1 + c) h. c = 1 gives a tent, c = 0 the
-// box itself.
-constexpr float kSmooth = PBGI_SPLAT_SMOOTH;
-inline float support(float h) { return (1.f + kSmooth) * h; }
-// CDF at x of the filter centered at 0, given inv = 1 / h: a ramp
-// (x + A + B)^2 / 8AB up to -(A - B), linear 1/2 + x/2A across the flat
-// top, symmetric above (A = h, B = c h).
-inline float inner_cdf(float x, float inv) {
-  const float t = x * inv;  // in units of h, inside the support
-  if constexpr (kSmooth <= 0.f) return 0.5f + 0.5f * t;
-  constexpr float k = kSmooth > 0.f ? 1.f / (8.f * kSmooth) : 0.f;
-  if (t < kSmooth - 1.f) return k * (t + 1.f + kSmooth) * (t + 1.f + kSmooth);
-  if (t > 1.f - kSmooth) return 1.f - k * (1.f + kSmooth - t) * (1.f + kSmooth - t);
-  return 0.5f + 0.5f * t;
-}
-inline float tent_cdf(float x, float inv) {
-  const float t = x * inv;
-  if (t <= -1.f - kSmooth) return 0.f;
-  if (t >= 1.f + kSmooth) return 1.f;
-  return inner_cdf(x, inv);
-}
-
-// Components of a vector in the frame of cube face axis k (0..2): w along
-// the axis (before its sign), u and v across (see cube_layout.h).
-inline void axis_coords(int k, const Imath::V3f& d, float& u, float& v, float& w) {
-  switch (k) {
-    case 0: u = d.y; v = d.z; w = d.x; return;
-    case 1: u = d.z; v = d.x; w = d.y; return;
-    default: u = d.x; v = d.y; w = d.z; return;
-  }
-}
 
 // Tent masses of the columns [i0, i1] over the support [s0, s1] (clipped to
 // the face) of a tent centered at c, and the centers of their covered parts.
@@ -61,13 +22,13 @@ inline bool tent_masses(float c, float s0, float s1, float inv, float pw, uint32
   i1 = std::min(n - 1, uint32_t((b1 + 1.f) * inv_pw));
   // The CDF is 0 at s0 and 1 at s1: only clipped ends and inner column
   // edges need evaluating.
-  float prev = a0 > s0 ? tent_cdf(a0 - c, inv) : 0.f;
+  float prev = a0 > s0 ? splat_tent_cdf(a0 - c, inv) : 0.f;
   float lo = a0;
   for (uint32_t i = i0; i <= i1; ++i) {
     const float edge = -1.f + pw * float(i + 1);
     const bool last = i == i1;
     const float hi = last ? b1 : edge;
-    const float cdf = last ? (b1 < s1 ? tent_cdf(b1 - c, inv) : 1.f) : tent_cdf(edge - c, inv);
+    const float cdf = last ? (b1 < s1 ? splat_tent_cdf(b1 - c, inv) : 1.f) : splat_tent_cdf(edge - c, inv);
     mass[i - i0] = cdf - prev;
     mid[i - i0] = 0.5f * (lo + hi);
     prev = cdf;
@@ -79,69 +40,53 @@ inline bool tent_masses(float c, float s0, float s1, float inv, float pw, uint32
 }  // namespace
 
 Rasterizer::Rasterizer(Microbuffer& buffer)
-    : buffer_(buffer), layout_(buffer.layout()), inv_pw_(1.f / layout_.pixel_width()) {
+    : buffer_(buffer),
+      layout_(buffer.layout()),
+      inv_pw_(1.f / layout_.pixel_width()),
+      batch_(std::make_unique<SplatBatch>()) {
   candidates_.reserve(layout_.pixel_count());
+  kernel_layout_.resolution = layout_.resolution();
+  kernel_layout_.pixel_width = layout_.pixel_width();
+  kernel_layout_.inv_pixel_width = inv_pw_;
+  kernel_layout_.solid_angles = layout_.solid_angles();
 }
 
-void Rasterizer::ellipse(const Imath::V3f& dir, const Shape& shape, Ellipse& e) const {
-  const float omega = shape.omega;
-  // Semi-axes (radians): pi * major * minor = omega, minor = ratio * major,
-  // and the major axis no longer than the node itself.
-  const float ratio = std::clamp(shape.ratio, 1e-3f, 1.f);
-  const float a2 = omega * kInvPi;  // major * minor
-  const float round_r = std::sqrt(a2);
-  e.major = ratio >= 1.f ? round_r
-                         : std::min(round_r / std::sqrt(ratio), std::max(shape.max_radius, round_r));
-  e.minor = a2 / e.major;
+void Rasterizer::queue(const Imath::V3f& dir, const Shape& shape, float depth,
+                       const Imath::C3f& radiance, FarBuffer* far) {
+  if (!(shape.omega > 0.f) || !(depth > 0.f)) return;
+  SplatBatch& b = *batch_;
+  if (b.size == SplatBatch::kCapacity) flush();
+  const size_t i = b.size++;
+  b.dx[i] = dir.x;
+  b.dy[i] = dir.y;
+  b.dz[i] = dir.z;
+  b.omega[i] = shape.omega;
+  b.ratio[i] = shape.ratio;
+  b.max_radius[i] = shape.max_radius;
+  b.sx[i] = shape.squash.x;
+  b.sy[i] = shape.squash.y;
+  b.sz[i] = shape.squash.z;
+  const float extent = std::clamp(shape.depth_extent, 0.f, 0.9f * depth);
+  pending_[i] = {depth - extent, depth + extent, radiance, far};
+}
 
-  // 1. Home face: the one the center projects onto (largest component).
-  const float ax = std::abs(dir.x), ay = std::abs(dir.y), az = std::abs(dir.z);
-  const int k = ax >= ay && ax >= az ? 0 : (ay >= az ? 1 : 2);
-  float cu, cv, cw;
-  axis_coords(k, dir, cu, cv, cw);
-  e.k = k;
-  e.home = 2 * k + (cw < 0.f ? 1 : 0);
-  const float inv_w = 1.f / std::abs(cw);  // face coordinates: w is |cw|, u and v as they are
-  const float u = cu * inv_w, v = cv * inv_w;
-  e.u = u;
-  e.v = v;
-
-  // 2. The ellipse mapped to the face plane (linearized at its center). The
-  // gnomonic projection scales solid angle by q^(3/2), q = 1 + u^2 + v^2, so
-  // the ellipse's plane area is omega q^(3/2). Its bounding box: the
-  // tangent-plane gradient of u is (e_u - u e_w)/w, of squared length
-  // (1 + u^2) q, and the ellipse's extent along it is
-  // sqrt(major^2 |grad u|^2 - (major^2 - minor^2) (grad u . e2)^2) with e2
-  // the minor axis (along the squash direction).
-  const float q = 1.f + u * u + v * v;
-  const float M2 = e.major * e.major;
-  float bu2 = M2 * (1.f + u * u) * q, bv2 = M2 * (1.f + v * v) * q;
-  if (e.major > e.minor) {
-    const Imath::V3f e2 = shape.squash - dir * dir.dot(shape.squash);
-    const float len2 = e2.length2();
-    float gu2, gv2;
-    if (len2 > 1e-12f) {
-      float su, sv, sw;
-      axis_coords(k, e2, su, sv, sw);
-      if (e.home & 1) sw = -sw;
-      const float s = inv_w / std::sqrt(len2);
-      const float gu = (su - u * sw) * s, gv = (sv - v * sw) * s;
-      gu2 = gu * gu;
-      gv2 = gv * gv;
+void Rasterizer::flush() {
+  SplatBatch& b = *batch_;
+  if (b.size == 0) return;
+  // The kernel's padding lanes (up to a vector past size) read whatever a
+  // previous batch left: finite values, results unused.
+  run_splat_kernel(kernel_layout_, b);
+  for (size_t i = 0; i < b.size; ++i) {
+    const Ellipse e{b.major[i], b.minor[i], b.home[i] >> 1, b.home[i],
+                    b.u[i],     b.v[i],     b.hu[i],       b.hv[i]};
+    if (!(e.hu > 0.f) || !(e.hv > 0.f) || !std::isfinite(e.hu * e.hv)) continue;
+    if (pending_[i].far) {
+      draw_far(i, e, pending_[i]);
     } else {
-      // No squash direction (seen face-on): any orientation; take the mean.
-      gu2 = 0.5f * (1.f + u * u) * q;
-      gv2 = 0.5f * (1.f + v * v) * q;
+      draw(i, e, pending_[i]);
     }
-    const float d2 = M2 - e.minor * e.minor;
-    bu2 = std::max(bu2 - d2 * gu2, 1e-3f * bu2);
-    bv2 = std::max(bv2 - d2 * gv2, 1e-3f * bv2);
   }
-  // The axis-aligned rectangle of the ellipse's area and its box's aspect,
-  // half sizes hu, hv; the splat is that rectangle convolved with itself.
-  const float area = omega * q * std::sqrt(q);
-  e.hu = 0.5f * std::sqrt(area * std::sqrt(bu2 / bv2));
-  e.hv = 0.25f * area / e.hu;
+  b.size = 0;
 }
 
 bool Rasterizer::footprint(const Ellipse& e, bool clip_horizon) {
@@ -159,73 +104,41 @@ bool Rasterizer::footprint(const Ellipse& e, bool clip_horizon) {
   // gets R's share of the tent spread evenly. Points of R beyond both edges
   // of a corner fall outside the neighbour's face and are clipped there, so
   // each lands on the one face it belongs to.
-  const float su0 = u - support(hu), su1 = u + support(hu);
-  const float sv0 = v - support(hv), sv1 = v + support(hv);
+  const float su0 = u - splat_support(hu), su1 = u + splat_support(hu);
+  const float sv0 = v - splat_support(hv), sv1 = v + splat_support(hv);
   if (su0 < -1.f || su1 > 1.f || sv0 < -1.f || sv1 > 1.f) {
     const float tent_area = 4.f * hu * hv;  // the filter's total, in plane units
     const int ku = (e.k + 1) % 3, kv = (e.k + 2) % 3;
     const float iu = 1.f / hu, iv = 1.f / hv;
     const int home = e.home;
     if (su1 > 1.f)
-      overflow(home, 2 * ku, 1.f, su1, sv0, sv1, tent_area * (1.f - tent_cdf(1.f - u, iu)));
+      overflow(home, 2 * ku, 1.f, su1, sv0, sv1, tent_area * (1.f - splat_tent_cdf(1.f - u, iu)));
     if (su0 < -1.f)
-      overflow(home, 2 * ku + 1, su0, -1.f, sv0, sv1, tent_area * tent_cdf(-1.f - u, iu));
+      overflow(home, 2 * ku + 1, su0, -1.f, sv0, sv1, tent_area * splat_tent_cdf(-1.f - u, iu));
     if (sv1 > 1.f)
-      overflow(home, 2 * kv, su0, su1, 1.f, sv1, tent_area * (1.f - tent_cdf(1.f - v, iv)));
+      overflow(home, 2 * kv, su0, su1, 1.f, sv1, tent_area * (1.f - splat_tent_cdf(1.f - v, iv)));
     if (sv0 < -1.f)
-      overflow(home, 2 * kv + 1, su0, su1, sv0, -1.f, tent_area * tent_cdf(-1.f - v, iv));
+      overflow(home, 2 * kv + 1, su0, su1, sv0, -1.f, tent_area * splat_tent_cdf(-1.f - v, iv));
   }
   return covered_ > 0.f && !candidates_.empty();
 }
 
-bool Rasterizer::inside_masses(const Ellipse& e, Inside& in) const {
-  // The tent's support [u - 2hu, u + 2hu] x [v - 2hv, v + 2hv] lies inside
-  // the home face: no clipping, no overflow; the CDF is 0 and 1 at the
-  // support's ends, so only inner column edges need evaluating.
-  const float su0 = e.u - support(e.hu), su1 = e.u + support(e.hu);
-  const float sv0 = e.v - support(e.hv), sv1 = e.v + support(e.hv);
-  if (!(su0 > -1.f && su1 < 1.f && sv0 > -1.f && sv1 < 1.f)) return false;
-  const uint32_t n = layout_.resolution();
-  in.i0 = uint32_t((su0 + 1.f) * inv_pw_);
-  in.i1 = std::min(n - 1, uint32_t((su1 + 1.f) * inv_pw_));
-  in.j0 = uint32_t((sv0 + 1.f) * inv_pw_);
-  in.j1 = std::min(n - 1, uint32_t((sv1 + 1.f) * inv_pw_));
-  if (in.i1 - in.i0 >= Inside::kMaxSide || in.j1 - in.j0 >= Inside::kMaxSide) return false;
-  const float pw = layout_.pixel_width();
-  const auto masses = [pw](float c, float inv, uint32_t a, uint32_t b, float* m) {
-    float prev = 0.f;
-    for (uint32_t i = a; i < b; ++i) {
-      // Inner edges lie inside the support.
-      const float cdf = inner_cdf(-1.f + pw * float(i + 1) - c, inv);
-      m[i - a] = cdf - prev;
-      prev = cdf;
-    }
-    m[b - a] = 1.f - prev;
-  };
-  masses(e.u, 1.f / e.hu, in.i0, in.i1, in.mu);
-  masses(e.v, 1.f / e.hv, in.j0, in.j1, in.mv);
-  const float* solid = layout_.solid_angles();
-  in.base = layout_.index(e.home, 0, 0);
-  float covered = 0.f;
-  for (uint32_t j = in.j0; j <= in.j1; ++j) {
-    const uint32_t row = in.base + j * n;
-    float row_sum = 0.f;
-    for (uint32_t i = in.i0; i <= in.i1; ++i) row_sum += in.mu[i - in.i0] * solid[row + i];
-    covered += in.mv[j - in.j0] * row_sum;
-  }
-  in.covered = covered;
-  return true;
-}
-
 void Rasterizer::splat(const Imath::V3f& dir, const Shape& shape, float depth,
                        const Imath::C3f& radiance) {
-  const float omega = shape.omega;
-  if (!(omega > 0.f) || !(depth > 0.f)) return;
-  const float extent = std::clamp(shape.depth_extent, 0.f, 0.9f * depth);
-  Ellipse e;
-  ellipse(dir, shape, e);
-  if (!(e.hu > 0.f) || !(e.hv > 0.f) || !std::isfinite(e.hu * e.hv)) return;
-  const float z0 = depth - extent, z1 = depth + extent;
+  queue(dir, shape, depth, radiance);
+  flush();
+}
+
+void Rasterizer::splat_far(FarBuffer& far, const Imath::V3f& dir, const Shape& shape, float depth,
+                           const Imath::C3f& radiance) {
+  queue(dir, shape, depth, radiance, &far);
+  flush();
+}
+
+void Rasterizer::draw(size_t i, const Ellipse& e, const Pending& p) {
+  const SplatBatch& b = *batch_;
+  const Imath::V3f dir(b.dx[i], b.dy[i], b.dz[i]);
+  const float omega = b.omega[i];
   // The tent blurs the splat, which lowers its cosine-weighted solid angle
   // near the normal (by 8% for a 0.28 sr splat). When the whole footprint
   // is above the horizon, the weights are rescaled to the exact value for
@@ -235,65 +148,67 @@ void Rasterizer::splat(const Imath::V3f& dir, const Shape& shape, float depth,
   const bool above = cos_center > reach;
   const float rho2 = e.major * e.minor;
   const float target = omega * cos_center * (1.f - 0.25f * rho2);  // (1 + cos rho) / 2
-  // Common case: wholly above the horizon and inside one face. The cosine
-  // varies by a few percent over a splat; weights are spread in proportion
-  // of solid angle, and their total is exact.
-  Inside in;
-  if (above && inside_masses(e, in)) {
-    if (!(in.covered > 0.f)) return;
+  // Common case: wholly above the horizon and inside one face (the
+  // kernel's masses). The cosine varies by a few percent over a splat;
+  // weights are spread in proportion of solid angle, and their total is
+  // exact.
+  const float* solid = layout_.solid_angles();
+  if (above && b.inside[i]) {
+    const float covered = b.covered[i];
+    if (!(covered > 0.f)) return;
     // Coverage adds up to the splat's solid angle, weights to the target.
     const uint32_t n = layout_.resolution();
-    const float* solid = layout_.solid_angles();
-    const float scale = omega / in.covered, wscale = target / in.covered;
-    for (uint32_t j = in.j0; j <= in.j1; ++j) {
-      const uint32_t row = in.base + j * n;
-      const float a_v = in.mv[j - in.j0] * scale, w_v = in.mv[j - in.j0] * wscale;
-      for (uint32_t i = in.i0; i <= in.i1; ++i) {
-        const uint32_t k = row + i;
-        const float m = in.mu[i - in.i0];
-        buffer_.add_coverage(k, z0, z1, m * a_v, m * w_v * solid[k], radiance);
+    const uint32_t base = layout_.index(e.home, 0, 0);
+    const uint32_t i0 = uint32_t(b.i0[i]), j0 = uint32_t(b.j0[i]);
+    const uint32_t ni = uint32_t(b.ni[i]), nj = uint32_t(b.nj[i]);
+    const float scale = omega / covered, wscale = target / covered;
+    for (uint32_t r = 0; r < nj; ++r) {
+      const uint32_t row = base + (j0 + r) * n + i0;
+      const float a_v = b.mv[r][i] * scale, w_v = b.mv[r][i] * wscale;
+      for (uint32_t c = 0; c < ni; ++c) {
+        const uint32_t k = row + c;
+        const float m = b.mu[c][i];
+        buffer_.add_coverage(k, p.z0, p.z1, m * a_v, m * w_v * solid[k], p.radiance);
       }
     }
     return;
   }
   if (!footprint(e, true)) return;
   // Rescale so that the pieces add up to exactly the splat's solid angle.
-  const float* solid = layout_.solid_angles();
   const float scale = omega / covered_;
   const float weight_scale = above && weighted_ > 0.f ? target / weighted_ : scale;
   for (const Candidate& c : candidates_) {
-    buffer_.add_coverage(c.pixel, z0, z1, c.fraction * scale,
-                         c.fraction * weight_scale * solid[c.pixel] * c.cosine, radiance);
+    buffer_.add_coverage(c.pixel, p.z0, p.z1, c.fraction * scale,
+                         c.fraction * weight_scale * solid[c.pixel] * c.cosine, p.radiance);
   }
 }
 
-void Rasterizer::splat_far(FarBuffer& far, const Imath::V3f& dir, const Shape& shape, float depth,
-                           const Imath::C3f& radiance) {
-  const float omega = shape.omega;
-  if (!(omega > 0.f) || !(depth > 0.f)) return;
-  Ellipse e;
-  ellipse(dir, shape, e);
-  if (!(e.hu > 0.f) || !(e.hv > 0.f) || !std::isfinite(e.hu * e.hv)) return;
-  const float extent = std::clamp(shape.depth_extent, 0.f, 0.9f * depth);
-  const float z0 = depth - extent, z1 = depth + extent;
+void Rasterizer::draw_far(size_t i, const Ellipse& e, const Pending& p) {
+  const SplatBatch& b = *batch_;
+  const Imath::V3f dir(b.dx[i], b.dy[i], b.dz[i]);
+  const float omega = b.omega[i];
+  FarBuffer& far = *p.far;
   const float* solid = layout_.solid_angles();
   // Every piece carries the splat's exact first moment per unit solid
   // angle, (1 + cos rho)/2 dir, so that a receiver of normal n weights it
   // with the cap's exact cosine integral (see far_field.h).
   const float rho2 = e.major * e.minor;
   const Imath::V3f moment = dir * (1.f - 0.25f * rho2);
-  Inside in;
-  if (inside_masses(e, in)) {
-    if (!(in.covered > 0.f)) return;
+  if (b.inside[i]) {
+    const float covered = b.covered[i];
+    if (!(covered > 0.f)) return;
     const uint32_t n = layout_.resolution();
-    const float scale = omega / in.covered;
-    for (uint32_t j = in.j0; j <= in.j1; ++j) {
-      const uint32_t row = in.base + j * n;
-      const float a_v = in.mv[j - in.j0] * scale;
-      for (uint32_t i = in.i0; i <= in.i1; ++i) {
-        const uint32_t k = row + i;
-        const float alpha = in.mu[i - in.i0] * a_v;
-        far.add(k, z0, z1, alpha, alpha * solid[k], moment, radiance);
+    const uint32_t base = layout_.index(e.home, 0, 0);
+    const uint32_t i0 = uint32_t(b.i0[i]), j0 = uint32_t(b.j0[i]);
+    const uint32_t ni = uint32_t(b.ni[i]), nj = uint32_t(b.nj[i]);
+    const float scale = omega / covered;
+    for (uint32_t r = 0; r < nj; ++r) {
+      const uint32_t row = base + (j0 + r) * n + i0;
+      const float a_v = b.mv[r][i] * scale;
+      for (uint32_t c = 0; c < ni; ++c) {
+        const uint32_t k = row + c;
+        const float alpha = b.mu[c][i] * a_v;
+        far.add(k, p.z0, p.z1, alpha, alpha * solid[k], moment, p.radiance);
       }
     }
     return;
@@ -302,7 +217,7 @@ void Rasterizer::splat_far(FarBuffer& far, const Imath::V3f& dir, const Shape& s
   const float scale = omega / covered_;
   for (const Candidate& c : candidates_) {
     const float alpha = c.fraction * scale;
-    far.add(c.pixel, z0, z1, alpha, alpha * solid[c.pixel], moment, radiance);
+    far.add(c.pixel, p.z0, p.z1, alpha, alpha * solid[c.pixel], moment, p.radiance);
   }
 }
 
@@ -347,9 +262,9 @@ void Rasterizer::deposit_tent(int face, float uc, float hu, float vc, float hv) 
   uint32_t i0, i1, j0, j1;
   float mass_u[CubeLayout::kMaxResolution], mid_u[CubeLayout::kMaxResolution];
   float mass_v[CubeLayout::kMaxResolution], mid_v[CubeLayout::kMaxResolution];
-  if (!tent_masses(uc, uc - support(hu), uc + support(hu), 1.f / hu, pw, n, i0, i1, mass_u,
+  if (!tent_masses(uc, uc - splat_support(hu), uc + splat_support(hu), 1.f / hu, pw, n, i0, i1, mass_u,
                    mid_u) ||
-      !tent_masses(vc, vc - support(hv), vc + support(hv), 1.f / hv, pw, n, j0, j1, mass_v,
+      !tent_masses(vc, vc - splat_support(hv), vc + splat_support(hv), 1.f / hv, pw, n, j0, j1, mass_v,
                    mid_v)) {
     return;
   }
@@ -437,6 +352,7 @@ void Rasterizer::deposit(int face, float u0, float u1, float v0, float v1, float
 
 uint32_t Rasterizer::raycast(const Imath::V3f& offset, const Imath::V3f& normal, float radius,
                              const Imath::C3f& radiance) {
+  flush();  // queued splats come first, as if drawn when queued
   const float d2 = offset.length2();
   const float r2 = radius * radius;
   const float plane = normal.dot(offset);  // < 0: the receiver is in front

@@ -21,20 +21,23 @@
 // receiver's microbuffer; splat_far() writes receiver-independent fragments
 // (solid angle and direction moment) into a cluster's FarBuffer (FPBGI).
 //
-// Cost (N = 8, measured with callgrind on bench_gather): about 300
-// instructions per splat plus the fragment insertions; a sub-pixel splat
-// touches the 2 x 2 pixels it straddles.
+// Splats are queued and drawn in batches: the ellipse and the in-face tent
+// masses of a batch run in SIMD lanes (splat_kernels.h), the fragments'
+// insertion stays scalar, in the order the splats were queued. A sub-pixel
+// splat touches the 2 x 2 pixels it straddles.
 //
 // Thread-safety: none; one per Gatherer.
 #pragma once
 
 #include "server/gather/cube_layout.h"
 #include "server/gather/microbuffer.h"
+#include "server/gather/splat_kernels.h"
 
 #include <Imath/ImathColor.h>
 #include <Imath/ImathVec.h>
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace pbgi::gather {
@@ -60,15 +63,30 @@ class Rasterizer {
   };
 
   // Splat centered on unit direction `dir`, at distance `depth`, showing
-  // `radiance`.
+  // `radiance` (drawn at once, as queue() then flush()).
   void splat(const Imath::V3f& dir, const Shape& shape, float depth, const Imath::C3f& radiance);
   // The same splat into a cluster's far buffer, with no horizon: the
   // receivers sharing it weight it with their own normals.
   void splat_far(FarBuffer& far, const Imath::V3f& dir, const Shape& shape, float depth,
                  const Imath::C3f& radiance);
 
+  // Batched splats: queue() records a splat (into the microbuffer, or with
+  // `far` into that far buffer), flush() draws every queued one in the
+  // order queued, exactly as splat() / splat_far() would have one by one:
+  // the per-splat arithmetic runs for a batch of them in SIMD lanes
+  // (splat_kernels.h). A full batch is flushed by queue() itself.
+  // Whatever else writes to or reads the microbuffer (or a far buffer of
+  // queued splats) must flush() first: raycast() does; the receiver's
+  // normal must not change (Microbuffer::begin) while splats are queued.
+  void queue(const Imath::V3f& dir, const Shape& shape, float depth, const Imath::C3f& radiance,
+             FarBuffer* far = nullptr);
+  void flush();
+  // Drops the queued splats (a walk that threw).
+  void discard() { batch_->size = 0; }
+
   // Disk of `radius` centered at `offset` (relative to the receiver) with
   // unit `normal`, seen from its front side. Returns the pixels it covers.
+  // Flushes the queued splats first.
   uint32_t raycast(const Imath::V3f& offset, const Imath::V3f& normal, float radius,
                    const Imath::C3f& radiance);
 
@@ -79,28 +97,27 @@ class Rasterizer {
     float cosine;    // receiver cosine at the center of the covered part
   };
 
-  // A splat's ellipse on its home face: semi-axes (radians), the face, the
-  // center (u, v) on it and the half sizes of the equal-area rectangle.
+  // A splat's ellipse on its home face: semi-axes (radians), the face's
+  // axis and index, the center (u, v) on it and the half sizes of the
+  // equal-area rectangle (computed by the splat kernel).
   struct Ellipse {
     float major, minor;
     int k, home;
     float u, v, hu, hv;
   };
-  void ellipse(const Imath::V3f& dir, const Shape& shape, Ellipse& e) const;
+  // What queue() keeps of a splat besides the kernel's inputs.
+  struct Pending {
+    float z0, z1;  // depth interval of its fragments
+    Imath::C3f radiance;
+    FarBuffer* far;  // null: the microbuffer
+  };
+  // Draws queued splat i of the batch the kernel has run on.
+  void draw(size_t i, const Ellipse& e, const Pending& p);
+  void draw_far(size_t i, const Ellipse& e, const Pending& p);
   // Fills candidates_ with the splat's pixels; clip_horizon drops those
   // below the receiver's horizon and computes their cosines. False when
   // nothing is covered.
   bool footprint(const Ellipse& e, bool clip_horizon);
-  // The fast path for a tent whose support lies inside the home face: the
-  // pixel rectangle, the column and row masses and the solid angle they
-  // cover. False when the support crosses an edge or is too large.
-  struct Inside {
-    static constexpr uint32_t kMaxSide = 8;
-    uint32_t i0, i1, j0, j1, base;
-    float mu[kMaxSide], mv[kMaxSide];
-    float covered;
-  };
-  bool inside_masses(const Ellipse& e, Inside& in) const;
   // Box-filters, on `face`, the tent of the rectangle of half sizes hu, hv
   // centered at (uc, vc) (clipped to the face) into candidates.
   void deposit_tent(int face, float uc, float hu, float vc, float hv);
@@ -116,6 +133,9 @@ class Rasterizer {
   const CubeLayout& layout_;
   const float inv_pw_;  // 1 / pixel width
   std::vector<Candidate> candidates_;
+  SplatLayout kernel_layout_;
+  std::unique_ptr<SplatBatch> batch_;  // queued splats (kernel inputs, outputs)
+  Pending pending_[SplatBatch::kCapacity];
   float covered_ = 0.f;   // solid angle of the candidates, before rescaling
   float weighted_ = 0.f;  // their cosine-weighted solid angle (clip_ only)
   bool clip_ = true;      // footprint for a receiver (horizon, cosines)

@@ -3,6 +3,7 @@
 #include "pbgi/v1/scene.pb.h"
 #include "server/ingest/scene_entry.h"
 #include "server/ingest/subdivision.h"
+#include "server/scene/file_digest.h"
 #include "server/volumes/scene_volumes.h"
 #include "storage/format/errors.h"
 #include "storage/format/format_version.h"
@@ -38,20 +39,9 @@ std::string hex_key(const std::string& text) {
                      XXH64(text.data(), text.size(), 0x9E3779B97F4A7C15ull));
 }
 
-std::string file_digest(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return "missing";
-  XXH64_state_t* state = XXH64_createState();
-  XXH64_reset(state, 0);
-  std::vector<char> buffer(1 << 20);
-  while (in) {
-    in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
-    XXH64_update(state, buffer.data(), static_cast<size_t>(in.gcount()));
-  }
-  const uint64_t h = XXH64_digest(state);
-  XXH64_freeState(state);
-  return fmt::format("{:016x}", h);
-}
+// A dependency that cannot be read digests as "missing", which matches no
+// stored digest: the entry no longer holds.
+std::string dependency_digest(const std::string& path) { return file_digest(path).value_or("missing"); }
 
 void set_vec3(pbgi::v1::Vec3* out, float x, float y, float z) {
   out->set_x(x);
@@ -313,7 +303,7 @@ std::string dependencies(const Scene& scene) {
   std::set<std::string> files;
   for (const Volume& v : scene.volumes) files.insert(v.file);
   std::string out;
-  for (const std::string& f : files) out += file_digest(f) + "\t" + f + "\n";
+  for (const std::string& f : files) out += dependency_digest(f) + "\t" + f + "\n";
   return out;
 }
 
@@ -323,7 +313,7 @@ bool dependencies_unchanged(const std::string& deps) {
   while (std::getline(in, line)) {
     const size_t tab = line.find('\t');
     if (tab == std::string::npos) return false;
-    if (file_digest(line.substr(tab + 1)) != line.substr(0, tab)) return false;
+    if (dependency_digest(line.substr(tab + 1)) != line.substr(0, tab)) return false;
   }
   return true;
 }

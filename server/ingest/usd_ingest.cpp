@@ -4,6 +4,7 @@
 #include "server/ingest/draco_mesh.h"
 #include "server/ingest/reader_process.h"
 #include "server/ingest/scene_stream_decoder.h"
+#include "server/scene/file_digest.h"
 #include "server/scene/scene_validation.h"
 #include "server/volumes/scene_volumes.h"
 #include "storage/format/errors.h"
@@ -18,7 +19,6 @@
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
-#include <xxhash.h>
 
 extern char** environ;
 
@@ -210,19 +210,10 @@ Scene run_usd_reader(const std::filesystem::path& path, const IngestOptions& opt
   return std::move(*scene);
 }
 
-std::string file_digest(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw SceneError(fmt::format("cannot read scene '{}': no such file or not readable", path.string()));
-  XXH64_state_t* state = XXH64_createState();
-  XXH64_reset(state, 0);
-  std::vector<char> buffer(1 << 20);
-  while (in) {
-    in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
-    XXH64_update(state, buffer.data(), static_cast<size_t>(in.gcount()));
-  }
-  const uint64_t h = XXH64_digest(state);
-  XXH64_freeState(state);
-  return fmt::format("{:016x}", h);
+std::string scene_file_digest(const std::filesystem::path& path) {
+  const std::optional<std::string> digest = file_digest(path);
+  if (!digest) throw SceneError(fmt::format("cannot read scene '{}': no such file or not readable", path.string()));
+  return *digest;
 }
 
 }  // namespace
@@ -245,7 +236,7 @@ Scene read_usd_scene(const std::filesystem::path& path, const IngestOptions& opt
 std::string usd_content_hash(const std::filesystem::path& path, const IngestOptions& options) {
   options.asset_roots.check(path, fmt::format("scene '{}'", path.string()));
   const std::string extension = lowercase_extension(path);
-  if (extension == ".vdb" || extension == ".drc") return extension.substr(1) + "-file:" + file_digest(path);
+  if (extension == ".vdb" || extension == ".drc") return extension.substr(1) + "-file:" + scene_file_digest(path);
   return run_usd_reader(path, options, {}, /*hash_only=*/true).content_hash;
 }
 

@@ -74,8 +74,10 @@
 //             This is what a single-bounce PBGI gather of surfels shaded
 //             with emission + direct light estimates, with x1's diffuse
 //             lobe times the irradiance plus its GGX lobe convolved by the
-//             glossy gather (docs/gather.md, "Glossy receivers"); glossy
-//             x2 (senders) are not in PBGI yet: surfels are Lambertian.
+//             glossy gather (docs/glossy.md); a glossy x2 (sender) is a
+//             surfel that keeps its GGX lobe lit by direct light, whose
+//             wavelet-coded radiance the gather evaluates towards x1
+//             (docs/gather.md, section 3).
 //             Fog scattering counts as a surface here: light of a UsdLux
 //             light scattered once in the fog on its way to x1 (what the
 //             daemon's gather adds from its fog points) has s = 1.

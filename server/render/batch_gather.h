@@ -1,6 +1,8 @@
 // Gathers a list of receivers in parallel with the tile's shared cache:
-// PBGI one receiver at a time, factorized PBGI in batches of 1024 (in the
-// given order, so that neighbours in the list share their far light).
+// PBGI in blocks of 64 receivers gathered one at a time (Gatherer::
+// gather_tile: the block's pages stay pinned), factorized PBGI in batches
+// of 1024 (in the given order, so that neighbours in the list share their
+// far light).
 #pragma once
 
 #include "server/gather/gather.h"

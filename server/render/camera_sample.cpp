@@ -44,7 +44,7 @@ SurfaceSample trace_sample(const RayScene& rays, const Ray& ray, uint32_t light_
   const Hit hit = rays.intersect(ray.origin, ray.direction, ray.tmin, ray.tmax);
 
   // 1. An emitter in front of the first surface: its radiance, nothing to gather.
-  C3f emitted;
+  C3f emitted(0.f);
   if (nearest_light(scene.lights, ray, hit.valid() ? hit.t : ray.tmax, &emitted)) {
     v.beauty = v.direct = emitted;
     v.ao = 1.f;

@@ -2,10 +2,13 @@
 
 #include "server/scene/rng.h"
 #include "server/scene/sample_patterns.h"
+#include "server/scene/brdf.h"
+#include "server/scene/dome_light.h"
 #include "server/scene/light_sampling.h"
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace pbgi {
 
@@ -34,9 +37,36 @@ void visit_light_samples(const RayScene& rays, const V3f& p, const V3f& n, uint3
     Rng rng(seed, li);
     const bool delta = light.kind == LightKind::Distant;
     const uint32_t n_samples = delta ? 1u : count;
+    // A dome lights p through its cosine-weighted hemisphere: sampling the
+    // dome's own distribution alone (uniform on the sphere for a constant
+    // dome) sends half the rays below the horizon and weights none by the
+    // cosine, several times the variance. Its first n_dome samples follow
+    // the dome's distribution (an HDR map's sun), the others the cosine,
+    // combined by the balance heuristic (the mixture density); a constant
+    // dome takes the cosine alone.
+    const bool dome = light.kind == LightKind::Dome;
+    const uint32_t n_dome = dome ? (light.environment ? n_samples / 2 : 0u) : n_samples;
+    const uint32_t n_cosine = n_samples - n_dome;
     for (uint32_t k = 0; k < n_samples; ++k) {
-      const Imath::V2f u = stratified_sample(k, n_samples, rng);
-      const LightSample s = sample_light(light, p, u.x, u.y);
+      const bool cosine = k >= n_dome;
+      const Imath::V2f u = cosine ? stratified_sample(k - n_dome, n_cosine, rng) : stratified_sample(k, n_dome, rng);
+      LightSample s;
+      float p_dome = 0.f;
+      if (cosine) {
+        s.direction = cosine_hemisphere(n, u.x, u.y);
+        s.distance = std::numeric_limits<float>::infinity();
+        s.radiance = dome_radiance(light, s.direction, &p_dome);
+      } else {
+        s = sample_light(light, p, u.x, u.y);
+        p_dome = s.pdf;
+      }
+      if (dome) {
+        // Mixture density of both strategies, scaled so that end_light's
+        // division by n_samples gives sum f / (n_dome p_dome + n_cosine p_cos).
+        const float p_cos = std::max(n.dot(s.direction), 0.f) * kInvPi;
+        if (n_dome == 0) p_dome = 0.f;
+        s.pdf = (float(n_dome) * p_dome + float(n_cosine) * p_cos) / float(n_samples);
+      }
       if (!(s.pdf > 0.f)) continue;
       const float cos_r = n.dot(s.direction);
       if (!(cos_r > 0.f)) continue;  // below the receiver's hemisphere

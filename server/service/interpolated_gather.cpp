@@ -2,6 +2,7 @@
 
 #include "server/gather/irradiance_cache.h"
 #include "server/gather/receiver_check.h"
+#include "storage/tree/morton.h"
 
 #include <algorithm>
 #include <array>
@@ -20,17 +21,6 @@ using Imath::V3f;
 // (about one per 8 x 8 pixels of a tile's shading points), then denser
 // where no record reached.
 constexpr std::array<size_t, 4> kRoundStrides{64, 16, 4, 1};
-
-// 21 bits of each coordinate interleaved.
-uint64_t spread_bits(uint32_t v) {
-  uint64_t x = v & 0x1fffff;
-  x = (x | x << 32) & 0x1f00000000ffffull;
-  x = (x | x << 16) & 0x1f0000ff0000ffull;
-  x = (x | x << 8) & 0x100f00f00f00f00full;
-  x = (x | x << 4) & 0x10c30c30c30c30c3ull;
-  x = (x | x << 2) & 0x1249249249249249ull;
-  return x;
-}
 
 // The diffuse receivers' indices along a Morton curve over their bounding
 // box; ties (receivers in one cell of 2^-21 of the box) by the bits of
@@ -53,7 +43,7 @@ std::vector<uint32_t> morton_order(const std::vector<Receiver>& receivers, const
     uint64_t code = 0;
     for (int a = 0; a < 3; ++a) {
       const uint32_t q = uint32_t(std::clamp((r.position[a] - lo[a]) * scale, 0.f, float((1u << 21) - 1)));
-      code |= spread_bits(q) << a;
+      code |= tree::spread_bits_3(q) << a;
     }
     const std::array<uint32_t, 6> bits{std::bit_cast<uint32_t>(r.position.x), std::bit_cast<uint32_t>(r.position.y),
                                        std::bit_cast<uint32_t>(r.position.z), std::bit_cast<uint32_t>(r.normal.x),

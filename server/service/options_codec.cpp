@@ -14,28 +14,32 @@ namespace pbgi::service {
 // what stays here is per struct, not per field: validation, and the
 // message a request's error names.
 
-GatherOptions decode_gather_options(const v1::GatherOptions& proto,
-                                    const GatherOptions& defaults) {
-  GatherOptions out = defaults;
-  decode_fields(kGatherOptionTable, proto, out);
+namespace {
+
+// `defaults` with the fields the request sets, per `table`, then validated
+// (throws InvalidArgument naming the field).
+template <class Options, class Table, class Proto>
+Options decode_validated(const Table& table, const Proto& proto, const Options& defaults) {
+  Options out = defaults;
+  decode_fields(table, proto, out);
   out.validate();
   return out;
+}
+
+}  // namespace
+
+GatherOptions decode_gather_options(const v1::GatherOptions& proto, const GatherOptions& defaults) {
+  return decode_validated(kGatherOptionTable, proto, defaults);
 }
 
 InterpolationOptions decode_interpolation_options(const v1::GatherOptions& proto,
                                                   const InterpolationOptions& defaults) {
-  InterpolationOptions out = defaults;
-  decode_fields(kInterpolationOptionTable, proto, out);
-  out.validate();
-  return out;
+  return decode_validated(kInterpolationOptionTable, proto, defaults);
 }
 
 RenderOptions decode_render_options(const v1::GatherOptions& proto,
                                     const RenderOptions& defaults) {
-  RenderOptions out = defaults;
-  decode_fields(kRenderOptionTable, proto, out);
-  out.validate();
-  return out;
+  return decode_validated(kRenderOptionTable, proto, defaults);
 }
 
 OpenOptions decode_open_options(const v1::BuildOptions& proto, const OpenOptions& defaults) {

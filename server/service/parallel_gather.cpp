@@ -17,51 +17,52 @@ GatherPool::GatherPool(const tree::TreeSource& tree, const GatherOptions& option
                        std::function<bool()> cancelled, std::shared_ptr<const VolumePoints> fog)
     : tree_(tree), options_(options), cancelled_(std::move(cancelled)), fog_(std::move(fog)) {}
 
-void GatherPool::for_each(size_t n, const std::function<void(Gatherer&, size_t)>& body) {
+namespace {
+
+// body(range) over [0, n) in blocks of at most `block` indices, checking
+// `cancelled` before each block: simple_partitioner keeps the blocks that
+// small (the default auto_partitioner hands out chunks of thousands, and a
+// cancellation checked only per chunk would be noticed seconds late).
+// Throws Cancelled once the rest has been skipped.
+template <class Body>
+void cancellable_for(size_t n, size_t block, const std::function<bool()>& cancelled, const Body& body) {
   std::atomic<bool> stop{false};
   tbb::task_group_context group;
-  constexpr size_t kBlock = 64;  // receivers between cancellation checks
-  // simple_partitioner: blocks of at most kBlock receivers. The default
-  // auto_partitioner hands out chunks of thousands, and a cancellation
-  // checked only per chunk would be noticed seconds late.
   tbb::parallel_for(
-      tbb::blocked_range<size_t>(0, n, kBlock),
+      tbb::blocked_range<size_t>(0, n, block),
       [&](const tbb::blocked_range<size_t>& range) {
         if (stop.load(std::memory_order_relaxed)) return;
-        if (cancelled_ && cancelled_()) {
+        if (cancelled && cancelled()) {
           stop = true;
           group.cancel_group_execution();
           return;
         }
-        // Created lazily: a thread that never gets a block allocates nothing.
-        std::unique_ptr<Gatherer>& gatherer = gatherers_.local();
-        if (!gatherer) {
-          gatherer = std::make_unique<Gatherer>(tree_, options_);
-          gatherer->set_volume_points(fog_);  // the scene's fog, if any
-        }
-        for (size_t i = range.begin(); i != range.end(); ++i) body(*gatherer, i);
+        body(range);
       },
       tbb::simple_partitioner(), group);
   if (stop) throw Cancelled("gather cancelled by the client (disconnect or deadline)");
 }
 
+}  // namespace
+
+void GatherPool::for_each(size_t n, const std::function<void(Gatherer&, size_t)>& body) {
+  constexpr size_t kBlock = 64;  // receivers between cancellation checks
+  cancellable_for(n, kBlock, cancelled_, [&](const tbb::blocked_range<size_t>& range) {
+    // Created lazily: a thread that never gets a block allocates nothing.
+    std::unique_ptr<Gatherer>& gatherer = gatherers_.local();
+    if (!gatherer) {
+      gatherer = std::make_unique<Gatherer>(tree_, options_);
+      gatherer->set_volume_points(fog_);  // the scene's fog, if any
+    }
+    for (size_t i = range.begin(); i != range.end(); ++i) body(*gatherer, i);
+  });
+}
+
 void GatherPool::for_each(size_t n, const std::function<void(size_t)>& body) {
-  std::atomic<bool> stop{false};
-  tbb::task_group_context group;
   constexpr size_t kBlock = 256;  // lookups are ~100 times cheaper than gathers
-  tbb::parallel_for(
-      tbb::blocked_range<size_t>(0, n, kBlock),
-      [&](const tbb::blocked_range<size_t>& range) {
-        if (stop.load(std::memory_order_relaxed)) return;
-        if (cancelled_ && cancelled_()) {
-          stop = true;
-          group.cancel_group_execution();
-          return;
-        }
-        for (size_t i = range.begin(); i != range.end(); ++i) body(i);
-      },
-      tbb::simple_partitioner(), group);
-  if (stop) throw Cancelled("gather cancelled by the client (disconnect or deadline)");
+  cancellable_for(n, kBlock, cancelled_, [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t i = range.begin(); i != range.end(); ++i) body(i);
+  });
 }
 
 GatherCounters GatherPool::counters() const {

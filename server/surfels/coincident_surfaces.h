@@ -37,8 +37,8 @@ namespace pbgi {
 // inside a box): the triangle's frame for inside tests, and the piece's
 // bounds for pairing.
 struct PlanarPiece {
-  V3f p0;          // the triangle's first vertex
-  V3f e1, e2, n;   // unit in-plane axes (e1 along p0->p1) and unit normal
+  V3f p0{0.f};                   // the triangle's first vertex
+  V3f e1{0.f}, e2{0.f}, n{0.f};  // unit in-plane axes (e1 along p0->p1) and unit normal
   float u1 = 0.f;  // p1 = p0 + u1 e1
   float u2 = 0.f, v2 = 0.f;  // p2 = p0 + u2 e1 + v2 e2
   Box3f bounds;    // of the piece

@@ -1,5 +1,6 @@
 #include "server/volumes/scene_volumes.h"
 
+#include "server/scene/file_digest.h"
 #include "server/scene/scene_validation.h"
 #include "server/volumes/level_set_mesh.h"
 #include "server/volumes/volume_grid.h"
@@ -17,7 +18,6 @@
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
-#include <xxhash.h>
 
 namespace pbgi {
 namespace {
@@ -28,21 +28,6 @@ constexpr int kVolumeAlgorithmVersion = 1;
 void initialize_openvdb() {
   static std::once_flag once;
   std::call_once(once, [] { openvdb::initialize(); });
-}
-
-std::string file_digest(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return "unreadable";
-  XXH64_state_t* state = XXH64_createState();
-  XXH64_reset(state, 0);
-  std::vector<char> buffer(1 << 20);
-  while (in) {
-    in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
-    XXH64_update(state, buffer.data(), static_cast<size_t>(in.gcount()));
-  }
-  const uint64_t h = XXH64_digest(state);
-  XXH64_freeState(state);
-  return fmt::format("{:016x}", h);
 }
 
 // The grids of one file, opened once.
@@ -159,7 +144,7 @@ void load_scene_volumes(Scene& scene, const VolumeOptions& options) {
     auto& file = files[v.file];
     if (!file) {
       file = std::make_unique<VdbFile>(v.file);
-      digests[v.file] = file->open() ? file_digest(v.file) : "unreadable";
+      digests[v.file] = file->open() ? file_digest(v.file).value_or("unreadable") : "unreadable";
     }
     if (!file->open()) {
       scene.warnings.push_back(fmt::format("{}: cannot open the OpenVDB file: {} (skipped)", where(v), file->error()));

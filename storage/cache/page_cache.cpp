@@ -6,6 +6,7 @@
 #include <future>
 #include <list>
 #include <mutex>
+#include <optional>
 #include <unordered_map>
 
 namespace pbgi::storage {
@@ -103,7 +104,9 @@ PageCache::~PageCache() = default;
 tree::PagePtr PageCache::get(uint64_t owner, uint32_t page_id,
                              const std::function<tree::PagePtr()>& load) {
   const Key key{owner, page_id};
-  std::promise<tree::PagePtr> promise;
+  // Made only on a miss: a hit (every page of every gather, once the cache
+  // is warm) allocates nothing.
+  std::optional<std::promise<tree::PagePtr>> promise;
   bool was_ghost = false;
   {
     std::unique_lock lock(impl_->mu);
@@ -124,7 +127,8 @@ tree::PagePtr PageCache::get(uint64_t owner, uint32_t page_id,
       impl_->ghosts.erase(g->second);
       impl_->ghost_index.erase(g);
     }
-    impl_->loading.emplace(key, promise.get_future().share());
+    promise.emplace();
+    impl_->loading.emplace(key, promise->get_future().share());
   }
 
   // Load outside the lock: I/O and decoding must not block other pages.
@@ -137,7 +141,7 @@ tree::PagePtr PageCache::get(uint64_t owner, uint32_t page_id,
       std::lock_guard lock(impl_->mu);
       impl_->loading.erase(key);
     }
-    promise.set_exception(std::current_exception());
+    promise->set_exception(std::current_exception());
     throw;
   }
   {
@@ -145,7 +149,7 @@ tree::PagePtr PageCache::get(uint64_t owner, uint32_t page_id,
     impl_->loading.erase(key);
     impl_->hold(key, page, was_ghost);
   }
-  promise.set_value(page);
+  promise->set_value(page);
   return page;
 }
 

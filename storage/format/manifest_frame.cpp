@@ -3,6 +3,7 @@
 #include "storage/format/byte_order.h"
 #include "storage/format/checksum.h"
 #include "storage/format/errors.h"
+#include "storage/format/known_versions.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -42,8 +43,7 @@ ManifestBody unframe_manifest(std::span<const uint8_t> file, const std::string& 
   const uint32_t version = load_le<uint32_t>(file.data() + 4);
   if (!is_known_manifest_format(version)) {
     throw VersionError(path + ": manifest format version " + std::to_string(version) +
-                       " is not supported by this build (reads " +
-                       std::to_string(kManifestFormatCurrent) + ")");
+                       " is not supported by this build (reads " + known_versions(is_known_manifest_format) + ")");
   }
   const uint64_t body_bytes = load_le<uint64_t>(file.data() + 8);
   const uint64_t expected_size = kManifestHeaderBytes + body_bytes + kManifestTrailerBytes;

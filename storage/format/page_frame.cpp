@@ -3,6 +3,7 @@
 #include "storage/format/byte_order.h"
 #include "storage/format/checksum.h"
 #include "storage/format/errors.h"
+#include "storage/format/known_versions.h"
 
 #include <cstdio>
 
@@ -52,8 +53,7 @@ std::string hex32(uint32_t v) {
 }  // namespace
 
 std::string unsupported_page_format(uint32_t version) {
-  const std::string reads = " (this build reads page formats " + std::to_string(kPageFormatV4) + " and " +
-                            std::to_string(kPageFormatV5) + ")";
+  const std::string reads = " (reads " + known_versions(is_known_page_format) + ")";
   if (is_retired_page_format(version)) {
     return "page format version " + std::to_string(version) +
            " is retired (treelets not shaped for cuts): rebuild the page set" + reads;

@@ -29,7 +29,7 @@ struct PageHeader {
   uint32_t surfel_count = 0;
   uint32_t payload_bytes = 0;  // size of the payload array
   uint32_t page_bytes = 0;     // whole page: header + arrays + trailer
-  uint32_t flags = 0;          // reserved; 0 in V1
+  uint32_t flags = 0;          // kPageFlag* bits (format_version.h): V2 and V3
 };
 
 // Where a page lives, for error messages.

@@ -71,8 +71,10 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
     throw corrupt("payload codec " + std::to_string(h.codec) + " differs from the manifest's " +
                   std::to_string(codec.id()));
   }
-  // V2 has no flags; V3 always stores node payloads (format_version.h).
-  // The leaf format is the manifest's: a page flagged otherwise is refused.
+  // kPageFlagNodePayloads is set exactly in V5 pages, kPageFlagHalfLeaves
+  // exactly when the manifest's leaf format is half (a page flagged
+  // otherwise is refused); kPageFlagGlossy only where the manifest declares
+  // glossy radiance (format_version.h).
   const uint32_t want_flags = (page_format_stores_node_payloads(h.format_version) ? kPageFlagNodePayloads : 0u) |
                               (leaf_format == LeafFormat::kHalf ? kPageFlagHalfLeaves : 0u);
   const size_t record_bytes = surfel_record_bytes(leaf_format);

@@ -101,7 +101,8 @@ class TreeSource {
   virtual ~TreeSource() = default;
   virtual NodeRef root() const = 0;
   // Returns the page, loading and decoding it if needed. Throws
-  // pbgi::storage::CorruptionError / IoError with the page id on failure.
+  // pbgi::CorruptionError, VersionError or IoError (storage/format/errors.h)
+  // naming the page on failure.
   virtual PagePtr page(uint32_t id) const = 0;
 };
 

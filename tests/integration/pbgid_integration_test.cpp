@@ -16,7 +16,7 @@
 #include "client/image/exr_image.h"
 #include "client/lib/frame_renderer.h"
 #include "client/lib/pbgi_client.h"
-#include "tests/integration/daemon_process.h"
+#include "tests/support/daemon_process.h"
 
 #include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>

@@ -6,7 +6,7 @@
 
 #include "client/lib/frame_renderer.h"
 #include "client/lib/pbgi_client.h"
-#include "tests/reliability/daemon_instance.h"
+#include "tests/support/daemon_process.h"
 
 #include <gtest/gtest.h>
 

@@ -14,6 +14,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace pbgi::testing {
 
@@ -76,5 +77,35 @@ class FakePbgiServer {
   std::string address_;
   std::unique_ptr<grpc::Server> server_;
 };
+
+// A RenderTile answer that encodes each pixel's image coordinates in its
+// AOVs (rgb = (x, y, 1), ao = x + 1000 y), so a test can check where every
+// pixel of an assembled frame came from. Statistics: one node visited per
+// tile; one receiver, 4 camera samples and one pixel per pixel.
+inline grpc::Status coordinate_tile(const v1::RenderTileRequest* r, v1::RenderTileResponse* out) {
+  const v1::Tile& t = r->tile();
+  std::vector<float> rgb, y;
+  for (uint32_t py = t.y0(); py < t.y1(); ++py) {
+    for (uint32_t px = t.x0(); px < t.x1(); ++px) {
+      rgb.insert(rgb.end(), {float(px), float(py), 1.f});
+      y.push_back(float(px + 1000 * py));
+    }
+  }
+  auto bytes = [](const std::vector<float>& v) {
+    return std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(float));
+  };
+  *out->mutable_tile() = t;
+  out->set_beauty(bytes(rgb));
+  out->set_direct(bytes(rgb));
+  out->set_indirect(bytes(rgb));
+  out->set_albedo(bytes(rgb));
+  out->set_ao(bytes(y));
+  const uint32_t pixels = (t.x1() - t.x0()) * (t.y1() - t.y0());
+  out->mutable_stats()->set_nodes_visited(1);
+  out->mutable_stats()->set_receivers(pixels);
+  out->mutable_stats()->set_camera_samples(4 * pixels);
+  out->mutable_stats()->set_pixels(pixels);
+  return grpc::Status::OK;
+}
 
 }  // namespace pbgi::testing

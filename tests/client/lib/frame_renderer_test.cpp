@@ -23,28 +23,7 @@ TEST(TileGrid, CoversImageWithEdgeTiles) {
   EXPECT_TRUE(tile_grid(10, 10, 0).empty());
 }
 
-// The fake encodes each pixel's image coordinates in its AOVs.
-grpc::Status coordinate_tile(const v1::RenderTileRequest* r, v1::RenderTileResponse* out) {
-  const v1::Tile& t = r->tile();
-  std::vector<float> rgb, y;
-  for (uint32_t py = t.y0(); py < t.y1(); ++py) {
-    for (uint32_t px = t.x0(); px < t.x1(); ++px) {
-      rgb.insert(rgb.end(), {float(px), float(py), 1.f});
-      y.push_back(float(px + 1000 * py));
-    }
-  }
-  auto bytes = [](const std::vector<float>& v) {
-    return std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(float));
-  };
-  *out->mutable_tile() = t;
-  out->set_beauty(bytes(rgb));
-  out->set_direct(bytes(rgb));
-  out->set_indirect(bytes(rgb));
-  out->set_albedo(bytes(rgb));
-  out->set_ao(bytes(y));
-  out->mutable_stats()->set_nodes_visited(1);
-  return grpc::Status::OK;
-}
+using testing::coordinate_tile;  // AOVs encode each pixel's coordinates
 
 TEST(RenderFrame, AssemblesTilesInPlace) {
   FakePbgiServer server;
@@ -81,6 +60,57 @@ TEST(RenderFrame, AssemblesTilesInPlace) {
       ASSERT_EQ(frame.ao[i], float(x + 1000 * y));
     }
   }
+}
+
+// The pieces every frame assembler shares (render_frame, client/stress's
+// replicated frame): a tile lands at its place in each AOV, and every
+// statistic is summed.
+TEST(FramePieces, PlaceTileAndSumEveryStatistic) {
+  Frame frame = blank_frame(5, 4);
+  ASSERT_EQ(frame.beauty.size(), 60u);
+  ASSERT_EQ(frame.ao.size(), 20u);
+  TileImage tile;
+  tile.tile.set_x0(3);
+  tile.tile.set_y0(1);
+  tile.tile.set_x1(5);
+  tile.tile.set_y1(3);
+  for (float v = 0; v < 4; ++v) {
+    tile.beauty.insert(tile.beauty.end(), {v, v, v});
+    tile.direct.insert(tile.direct.end(), {v + 10, 0, 0});
+    tile.indirect.insert(tile.indirect.end(), {0, v + 20, 0});
+    tile.albedo.insert(tile.albedo.end(), {0, 0, v + 30});
+    tile.ao.push_back(v + 40);
+  }
+  place_tile(tile, tile.tile, frame);
+  // Tile pixel (1, 1) is frame pixel (4, 2).
+  const size_t i = 2 * 5 + 4;
+  EXPECT_EQ(frame.beauty[3 * i], 3.f);
+  EXPECT_EQ(frame.direct[3 * i], 13.f);
+  EXPECT_EQ(frame.indirect[3 * i + 1], 23.f);
+  EXPECT_EQ(frame.albedo[3 * i + 2], 33.f);
+  EXPECT_EQ(frame.ao[i], 43.f);
+  EXPECT_EQ(frame.ao[1 * 5 + 3], 40.f);
+  EXPECT_EQ(frame.ao[0], 0.f);  // outside the tile: untouched
+  EXPECT_EQ(frame.ao[2 * 5 + 2], 0.f);
+
+  v1::GatherStats s;
+  s.set_receivers(1);
+  s.set_nodes_visited(2);
+  s.set_nodes_rasterized(3);
+  s.set_surfels_raycast(4);
+  s.set_seconds(0.5);
+  s.set_camera_samples(6);
+  s.set_pixels(7);
+  v1::GatherStats total;
+  add_tile_stats(s, total);
+  add_tile_stats(s, total);
+  EXPECT_EQ(total.receivers(), 2u);
+  EXPECT_EQ(total.nodes_visited(), 4u);
+  EXPECT_EQ(total.nodes_rasterized(), 6u);
+  EXPECT_EQ(total.surfels_raycast(), 8u);
+  EXPECT_DOUBLE_EQ(total.seconds(), 1.0);
+  EXPECT_EQ(total.camera_samples(), 12u);
+  EXPECT_EQ(total.pixels(), 14u);
 }
 
 TEST(RenderFrame, FirstErrorStopsTheFrame) {

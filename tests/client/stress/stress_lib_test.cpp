@@ -3,15 +3,18 @@
 // reports, and option checks.
 #include "client/stress/health_check.h"
 #include "client/stress/latency_summary.h"
+#include "client/stress/replica_frame.h"
 #include "client/stress/rss_sampler.h"
 #include "client/stress/stress_report.h"
 #include "client/stress/stress_runner.h"
 #include "storage/format/errors.h"
+#include "tests/client/lib/fake_pbgi_server.h"
 
 #include <gtest/gtest.h>
 
 #include <unistd.h>
 
+#include <atomic>
 #include <filesystem>
 #include <fstream>
 #include <thread>
@@ -147,6 +150,69 @@ TEST(Runner, RejectsMeaninglessOptions) {
   o.clients = 1;
   o.tile = 0;
   EXPECT_THROW(run_stress(o), InvalidArgument);
+}
+
+// A frame dealt over two replicas sums every tile statistic, camera samples
+// and pixels included (its own copy of the summing left those two at 0),
+// and puts each tile's pixels where the tile belongs.
+TEST(ReplicaFrame, SumsEveryStatisticAndPlacesTiles) {
+  auto render = [](auto*, const v1::RenderTileRequest* r, v1::RenderTileResponse* out) {
+    return testing::coordinate_tile(r, out);
+  };
+  testing::FakePbgiServer a, b;
+  a.service.render = render;
+  b.service.render = render;
+  client::PbgiClient ca(a.address()), cb(b.address());
+  client::FrameRequest request;
+  request.scene_id = std::string("scene");
+  request.camera = "/Camera";
+  request.width = 20;
+  request.height = 12;
+  request.tile_size = 8;
+  const ReplicaFrame out = render_frame_replicated({&ca, &cb}, request);
+  EXPECT_EQ(out.frame.stats.pixels(), 240u);
+  EXPECT_EQ(out.frame.stats.camera_samples(), 960u);
+  EXPECT_EQ(out.frame.stats.receivers(), 240u);
+  EXPECT_EQ(out.frame.stats.nodes_visited(), 6u);  // one per tile
+  EXPECT_GT(a.service.render_calls.load(), 0);
+  EXPECT_GT(b.service.render_calls.load(), 0);
+  for (uint32_t y = 0; y < 12; ++y) {
+    for (uint32_t x = 0; x < 20; ++x) {
+      const size_t i = size_t(y) * 20 + x;
+      ASSERT_EQ(out.frame.beauty[3 * i], float(x));
+      ASSERT_EQ(out.frame.beauty[3 * i + 1], float(y));
+      ASSERT_EQ(out.frame.ao[i], float(x + 1000 * y));
+    }
+  }
+}
+
+// A scene without a camera is rendered through the auto camera, as by
+// pbgi render (its own camera choice refused such a scene: "has 0 cameras").
+TEST(Runner, SceneWithoutCameraUsesTheAutoCamera) {
+  testing::FakePbgiServer server;
+  server.service.open = [](auto*, const v1::OpenSceneRequest* r, grpc::ServerWriter<v1::OpenSceneEvent>* w) {
+    v1::OpenSceneEvent e;
+    e.mutable_ready()->set_scene_id("id");
+    e.mutable_ready()->set_scene_path(r->scene_path());
+    w->Write(e);
+    return grpc::Status::OK;
+  };
+  std::atomic<int> auto_camera_tiles{0};
+  server.service.render = [&](auto*, const v1::RenderTileRequest* r, v1::RenderTileResponse* out) {
+    if (r->camera() == client::kAutoCamera) ++auto_camera_tiles;
+    return testing::coordinate_tile(r, out);
+  };
+  StressOptions options;
+  options.servers = {server.address()};
+  options.scene = "asset.usda";
+  options.clients = 1;
+  options.width = options.height = options.tile = 8;
+  options.duration = std::chrono::duration<double>(0.2);
+  const StressResult result = run_stress(options, {});
+  EXPECT_EQ(result.camera, client::kAutoCamera);
+  EXPECT_GT(result.ok, 0u);
+  EXPECT_EQ(result.ok, result.requests);
+  EXPECT_GT(auto_camera_tiles.load(), 0);
 }
 
 }  // namespace

@@ -198,11 +198,11 @@ TEST(BadInputFiles, RandomBrokenMeshesNeverLoseTheScene) {
       indices += std::to_string(next(10) == 0 ? next(points + 3) - 1 : next(std::max(points, 1))) + ", ";
     for (int p = 0; p < points; ++p) {
       auto coord = [&] { return next(15) == 0 ? std::string(specials[next(5)]) : std::to_string(next(7) - 3); };
-      pts += "(" + coord() + ", " + coord() + ", " + coord() + "), ";
+      pts += std::string("(") + coord() + ", " + coord() + ", " + coord() + "), ";
     }
     for (int n = 0; n < next(points + 2); ++n) normals += "(0, " + std::string(next(4) == 0 ? "nan" : "1") + ", 0), ";
     const std::string scheme = next(3) == 0 ? "catmullClark" : "none";
-    text += mesh("M" + std::to_string(m), counts, indices, pts,
+    text += mesh(std::string("M") + std::to_string(m), counts, indices, pts,
                  normals.empty() ? "" : "    normal3f[] normals = [" + normals + "]\n", scheme);
   }
   const Scene s = read_usd_scene(write_file("random.usda", text), IngestOptions{});

@@ -341,7 +341,7 @@ MeshDistance distance_to(const RefinedMesh& fine, const RefinedMesh& coarse) {
   for (size_t v = 0; v < fine.positions.size(); ++v) {
     const V3f& p = fine.positions[v];
     float best = std::numeric_limits<float>::max();
-    V3f normal;
+    V3f normal(0.f);
     for (size_t t = 0; t < coarse.triangle_count(); ++t) {
       const V3f a = vertex(coarse, t, 0), b = vertex(coarse, t, 1), c = vertex(coarse, t, 2);
       const V3f w = closest_barycentric(p, a, b, c);

@@ -129,6 +129,28 @@ Deviation deviation(const TileAovs& a, const TileAovs& b, float floor) {
   return d;
 }
 
+// Every tile of each size renders its pixels (beauty, indirect, AO) as
+// the whole image does, bit for bit.
+void expect_tiles_match(const Scene& s, const tree::TreeSource& tree, const RenderOptions& o, const Rendered& whole,
+                        std::initializer_list<uint32_t> tiles) {
+  for (const uint32_t tile : tiles) {
+    for (uint32_t y0 = 0; y0 < kSize; y0 += tile)
+      for (uint32_t x0 = 0; x0 < kSize; x0 += tile) {
+        const TileRect r{x0, y0, std::min(x0 + tile, kSize), std::min(y0 + tile, kSize)};
+        const Rendered part = render(s, tree, o, r);
+        for (uint32_t y = r.y0; y < r.y1; ++y)
+          for (uint32_t x = r.x0; x < r.x1; ++x) {
+            const size_t i = (y - r.y0) * r.width() + (x - r.x0), j = y * kSize + x;
+            ASSERT_EQ(part.aovs.ao[i], whole.aovs.ao[j]) << tile << ": " << x << "," << y;
+            for (int c = 0; c < 3; ++c) {
+              ASSERT_EQ(part.aovs.indirect[3 * i + c], whole.aovs.indirect[3 * j + c]) << tile << ": " << x << "," << y;
+              ASSERT_EQ(part.aovs.beauty[3 * i + c], whole.aovs.beauty[3 * j + c]) << tile << ": " << x << "," << y;
+            }
+          }
+      }
+  }
+}
+
 TEST(InterpolatedTile, NeverTakesAValueAcrossANormalEdge) {
   const Scene s = corner_scene();
   const tree::MemoryTree tree = surfel_tree(s);
@@ -195,22 +217,7 @@ TEST(InterpolatedTile, TheSameWhateverTheTileSplitAndThreads) {
   const RenderOptions o = options(InterpolationMode::kAuto, 2);
   const Rendered whole = render(s, tree, o);
   // Tiles aligned with the lattice and not (odd sizes, odd origins).
-  for (const uint32_t tile : {16u, 13u, 7u}) {
-    for (uint32_t y0 = 0; y0 < kSize; y0 += tile)
-      for (uint32_t x0 = 0; x0 < kSize; x0 += tile) {
-        const TileRect r{x0, y0, std::min(x0 + tile, kSize), std::min(y0 + tile, kSize)};
-        const Rendered part = render(s, tree, o, r);
-        for (uint32_t y = r.y0; y < r.y1; ++y)
-          for (uint32_t x = r.x0; x < r.x1; ++x) {
-            const size_t i = (y - r.y0) * r.width() + (x - r.x0), j = y * kSize + x;
-            ASSERT_EQ(part.aovs.ao[i], whole.aovs.ao[j]) << tile << ": " << x << "," << y;
-            for (int c = 0; c < 3; ++c) {
-              ASSERT_EQ(part.aovs.indirect[3 * i + c], whole.aovs.indirect[3 * j + c]) << tile << ": " << x << "," << y;
-              ASSERT_EQ(part.aovs.beauty[3 * i + c], whole.aovs.beauty[3 * j + c]) << tile << ": " << x << "," << y;
-            }
-          }
-      }
-  }
+  expect_tiles_match(s, tree, o, whole, {16u, 13u, 7u});
   tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
   const Rendered serial = render(s, tree, o);
   EXPECT_EQ(serial.aovs.beauty, whole.aovs.beauty);
@@ -316,19 +323,7 @@ TEST(InterpolatedTile, LightSilhouettesTheSameWhateverTheTileSplit) {
   RenderOptions o = options(InterpolationMode::kAuto, 2);
   o.edge_samples = 16;
   const Rendered whole = render(s, tree, o);
-  for (const uint32_t tile : {16u, 7u}) {
-    for (uint32_t y0 = 0; y0 < kSize; y0 += tile)
-      for (uint32_t x0 = 0; x0 < kSize; x0 += tile) {
-        const TileRect r{x0, y0, std::min(x0 + tile, kSize), std::min(y0 + tile, kSize)};
-        const Rendered part = render(s, tree, o, r);
-        for (uint32_t y = r.y0; y < r.y1; ++y)
-          for (uint32_t x = r.x0; x < r.x1; ++x) {
-            const size_t i = (y - r.y0) * r.width() + (x - r.x0), j = y * kSize + x;
-            for (int c = 0; c < 3; ++c)
-              ASSERT_EQ(part.aovs.beauty[3 * i + c], whole.aovs.beauty[3 * j + c]) << tile << ": " << x << "," << y;
-          }
-      }
-  }
+  expect_tiles_match(s, tree, o, whole, {16u, 7u});
 }
 
 TEST(InterpolationMode, NamesRoundTrip) {

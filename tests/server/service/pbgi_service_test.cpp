@@ -334,8 +334,12 @@ TEST_F(PbgiServiceTest, OpenSceneProgressHasElapsedAndEta) {
     const auto& p = events[i].progress();
     EXPECT_GE(p.elapsed_seconds(), 0.0);
     // Too early to estimate at 0%, nothing left at 100%.
-    if (p.fraction() == 0.f) EXPECT_LT(p.eta_seconds(), 0.0) << p.stage();
-    if (p.fraction() == 1.f) EXPECT_EQ(p.eta_seconds(), 0.0) << p.stage();
+    if (p.fraction() == 0.f) {
+      EXPECT_LT(p.eta_seconds(), 0.0) << p.stage();
+    }
+    if (p.fraction() == 1.f) {
+      EXPECT_EQ(p.eta_seconds(), 0.0) << p.stage();
+    }
   }
 }
 

@@ -64,7 +64,9 @@ TEST(SurfelMaterial, GlossyRoughnessZeroTurnsLobesOff) {
   o.glossy_roughness = 0.f;
   for (const Surfel& x : sample_surfels(s, o)) {
     EXPECT_FALSE(x.gloss.glossy());
-    if (x.position.x < 1.5f) EXPECT_EQ(x.albedo, C3f(0.95f, 0.8f, 0.45f));
+    if (x.position.x < 1.5f) {
+      EXPECT_EQ(x.albedo, C3f(0.95f, 0.8f, 0.45f));
+    }
   }
   o.glossy_roughness = 1.5f;
   EXPECT_THROW(o.validate(), InvalidArgument);

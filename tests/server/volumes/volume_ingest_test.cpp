@@ -226,8 +226,11 @@ TEST(VolumeIngest, ChunkStoreFollowsTheVdbFile) {
   EXPECT_EQ(second.content_hash, first.content_hash);
   // Fog grids are opened again; level sets are not meshed twice.
   ASSERT_EQ(second.volumes.size(), first.volumes.size());
-  for (const Volume& v : second.volumes)
-    if (v.field == "density") EXPECT_NE(v.grid, nullptr);
+  for (const Volume& v : second.volumes) {
+    if (v.field == "density") {
+      EXPECT_NE(v.grid, nullptr);
+    }
+  }
   const V3f center(kCenter.x(), kCenter.y() + 10.f, kCenter.z());
   // Draco (16 bits over a ~2-unit chunk) adds < 2e-5 to the half voxel.
   expect_on_sphere(second, "/Vol", center, 0.5f * kVoxel + 1e-4f);

@@ -18,8 +18,8 @@
 // get wavelet radiance in every variant (exact, threshold 0); each
 // --wavelet-threshold adds a variant with derived SH payloads and that
 // threshold, and a second table compares glossy bytes and PSNR:
-//   bench_codecs --scene scenes/cornell_gold.usda --surfels 5000000 --lut 1000 \
-//       --wavelet-threshold 0.01 --wavelet-threshold 0.1
+//   bench_codecs --scene scenes/cornell_gold.usda --surfels 5000000 --lut 1000
+//       --wavelet-threshold 0.01 --wavelet-threshold 0.1   (one command)
 #include "server/ingest/usd_ingest.h"
 #include "server/render/tile_renderer.h"
 #include "server/scene/ray_scene.h"

@@ -280,7 +280,9 @@ TEST(QuantizedSh, HdrRuleBoundsTheErrorOfBrightNodes) {
     const QuantizedPayload q = codec->quantize(n);
     EXPECT_EQ(codec->escapes(n), q.raw);  // the cheap sizing check agrees
     if (!t.is_hdr(p.scale)) {
-      if (p.scale < 1.f) EXPECT_FALSE(q.raw);
+      if (p.scale < 1.f) {
+        EXPECT_FALSE(q.raw);
+      }
       continue;
     }
     ++hdr;
@@ -299,8 +301,11 @@ TEST(QuantizedSh, HdrRuleBoundsTheErrorOfBrightNodes) {
   codec->encode(sample, bytes);
   std::vector<tree::Node> back(sample.size());
   codec->decode(bytes, back, "p");
-  for (size_t i = 0; i < sample.size(); ++i)
-    if (codec->quantize(sample[i]).raw) EXPECT_TRUE(same_bits(back[i], sample[i])) << i;
+  for (size_t i = 0; i < sample.size(); ++i) {
+    if (codec->quantize(sample[i]).raw) {
+      EXPECT_TRUE(same_bits(back[i], sample[i])) << i;
+    }
+  }
 }
 
 TEST(QuantizedShTable, SerializationRoundTripAndDamage) {

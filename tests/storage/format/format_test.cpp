@@ -143,6 +143,54 @@ TEST(PageFrame, UnknownVersionIsVersionError) {
   EXPECT_THROW(open_page(page, {"p", 3, 0}, kPageFormatCurrent), VersionError);
 }
 
+// The versions named in a VersionError's "(reads ...)", e.g. {2, 3}.
+std::vector<uint32_t> versions_named(const std::string& message) {
+  const size_t at = message.find("(reads ");
+  const size_t end = message.find(')', at);
+  std::vector<uint32_t> out;
+  if (at == std::string::npos || end == std::string::npos) return out;
+  std::string list = message.substr(at + 7, end - at - 7);
+  for (size_t pos = 0; pos < list.size();) {
+    size_t next = list.find(", ", pos);
+    if (next == std::string::npos) next = list.size();
+    out.push_back(uint32_t(std::stoul(list.substr(pos, next - pos))));
+    pos = next + 2;
+  }
+  return out;
+}
+
+std::vector<uint32_t> versions_accepted(bool (*is_known)(uint32_t)) {
+  std::vector<uint32_t> out;
+  for (uint32_t v = 1; v < 256; ++v) {
+    if (is_known(v)) out.push_back(v);
+  }
+  return out;
+}
+
+// The message named only the current version although two page formats
+// and V1-V4 manifests are read.
+TEST(PageFrame, VersionErrorNamesEveryVersionRead) {
+  const auto page = sample_page(3, 99);
+  try {
+    open_page(page, {"p", 3, 0}, kPageFormatCurrent);
+    FAIL() << "version 99 accepted";
+  } catch (const VersionError& e) {
+    EXPECT_EQ(versions_named(e.what()), versions_accepted(is_known_page_format)) << e.what();
+    EXPECT_GE(versions_accepted(is_known_page_format).size(), 2u);
+  }
+}
+
+TEST(ManifestFrame, VersionErrorNamesEveryVersionRead) {
+  const std::vector<uint8_t> body{1, 2, 3};
+  try {
+    unframe_manifest(frame_manifest(body, kManifestFormatLatest + 1), "m.pbgm");
+    FAIL() << "unknown manifest version accepted";
+  } catch (const VersionError& e) {
+    EXPECT_EQ(versions_named(e.what()), versions_accepted(is_known_manifest_format)) << e.what();
+    EXPECT_GE(versions_accepted(is_known_manifest_format).size(), 2u);
+  }
+}
+
 // Pages of the formats before cut-shaped treelets (V2, V3) are refused as
 // a version, not read: the message asks for a rebuild (the daemon's build
 // keys changed with kPageSetFormatVersion, so it rebuilds on its own).
@@ -157,6 +205,7 @@ TEST(PageFrame, RetiredVersionIsVersionErrorAskingForARebuild) {
       EXPECT_TRUE(contains(m, "/x/pages.pbgp")) << m;
       EXPECT_TRUE(contains(m, "page format version " + std::to_string(v))) << m;
       EXPECT_TRUE(contains(m, "rebuild")) << m;
+      EXPECT_EQ(versions_named(m), versions_accepted(is_known_page_format)) << m;
     }
   }
 }
@@ -203,7 +252,9 @@ TEST(PageRecords, ShapeLeafAndLinkRoundTrip) {
     const bool e0 = byte & 4, e1 = byte & 8;
     const bool want = (byte & 0xf0) == 0 && count <= 2 && (!e0 || count >= 1) && (!e1 || count >= 2);
     EXPECT_EQ(ok, want) << int(byte);
-    if (ok) EXPECT_EQ(encode_shape(sh), byte);
+    if (ok) {
+      EXPECT_EQ(encode_shape(sh), byte);
+    }
     if (byte == 255) break;
   }
 

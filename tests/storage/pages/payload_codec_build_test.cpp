@@ -177,7 +177,9 @@ TEST_F(PayloadCodecBuildTest, HdrEmitterNextToDimSurfacesStaysAccurate) {
     // Relative DC error of the red channel.
     const double rel = std::abs(double(q.radiance_sh.r[0]) - e.radiance_sh.r[0]) / e.radiance_sh.r[0];
     if (e.radiance_sh.r[0] / e.coverage_sh[0] < 0.1f) worst_dim = std::max(worst_dim, rel);  // dim nodes
-    if (e.radiance_sh.r[0] / e.coverage_sh[0] > 1e4f) EXPECT_LT(rel, 0.05) << "bright node " << i;
+    if (e.radiance_sh.r[0] / e.coverage_sh[0] > 1e4f) {
+      EXPECT_LT(rel, 0.05) << "bright node " << i;
+    }
   }
   EXPECT_LT(worst_dim, 0.25);  // the emitter did not wash out the dim nodes' LUT
 }

@@ -1,7 +1,8 @@
-#include "tests/reliability/daemon_instance.h"
+#include "tests/support/daemon_process.h"
 
 #include <fcntl.h>
 #include <signal.h>
+#include <spawn.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -34,6 +35,33 @@ int decode_status(int status) {
 }
 
 }  // namespace
+
+pid_t spawn(const std::vector<std::string>& argv, const fs::path& out_file, const fs::path& err_file) {
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, out_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, err_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  std::vector<char*> args;
+  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  pid_t pid = -1;
+  const int rc = posix_spawn(&pid, argv[0].c_str(), &actions, nullptr, args.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (rc != 0) throw std::runtime_error("posix_spawn " + argv[0] + ": " + std::strerror(rc));
+  return pid;
+}
+
+int wait_for_exit(pid_t pid, std::chrono::milliseconds timeout) {
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  for (;;) {
+    int status = 0;
+    const pid_t r = waitpid(pid, &status, WNOHANG);
+    if (r == pid) return decode_status(status);
+    if (r < 0) return -3;
+    if (std::chrono::steady_clock::now() >= end) return -1;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));  // polling, not a fixed wait
+  }
+}
 
 DaemonInstance::DaemonInstance(DaemonLaunch launch) : launch_(std::move(launch)) {
   fs::create_directories(launch_.log_dir);
@@ -89,7 +117,8 @@ DaemonInstance::DaemonInstance(DaemonLaunch launch) : launch_(std::move(launch))
       kill(pid_, SIGKILL);
       waitpid(pid_, nullptr, 0);
       pid_ = -1;
-      throw std::runtime_error("pbgid not ready in time:\n" + log());
+      throw std::runtime_error("pbgid not ready after " + std::to_string(launch_.ready_timeout.count()) + " ms:\n" +
+                               log());
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
@@ -118,16 +147,9 @@ int DaemonInstance::kill9() {
 int DaemonInstance::terminate(std::chrono::milliseconds timeout) {
   if (pid_ <= 0) return -3;
   kill(pid_, SIGTERM);
-  const auto end = std::chrono::steady_clock::now() + timeout;
-  for (;;) {
-    int status = 0;
-    if (waitpid(pid_, &status, WNOHANG) == pid_) {
-      pid_ = -1;
-      return decode_status(status);
-    }
-    if (std::chrono::steady_clock::now() >= end) return -1;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
+  const int status = wait_for_exit(pid_, timeout);
+  if (status != -1) pid_ = -1;
+  return status;
 }
 
 double process_cpu_seconds(pid_t pid) {
@@ -153,6 +175,19 @@ TempDir::TempDir(const std::string& prefix) {
 TempDir::~TempDir() {
   std::error_code ec;
   fs::remove_all(path_, ec);
+}
+
+DaemonProcess::DaemonProcess(const fs::path& binary, const std::vector<std::string>& extra_args,
+                             std::chrono::milliseconds timeout)
+    : dir_("pbgi-it") {
+  DaemonLaunch launch;
+  launch.binary = binary;
+  launch.cache_dir = dir_ / "cache";
+  launch.socket = dir_ / "pbgid.sock";
+  launch.log_dir = dir_.path();
+  launch.extra_args = extra_args;
+  launch.ready_timeout = timeout;
+  daemon_.emplace(std::move(launch));
 }
 
 }  // namespace pbgi::testing
