@@ -87,8 +87,7 @@ struct Page {
 
   size_t memory_bytes() const {
     return sizeof(Page) + nodes.capacity() * sizeof(Node) + surfels.capacity() * sizeof(Surfel) +
-           links.capacity() * sizeof(PageLink) +
-           (attachment ? attachment->memory_bytes() : 0) + glossy_bytes;
+           links.capacity() * sizeof(PageLink) + (attachment ? attachment->memory_bytes() : 0) + glossy_bytes;
   }
 };
 

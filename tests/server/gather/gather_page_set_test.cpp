@@ -149,7 +149,8 @@ TEST(GatherPageSet, ProxiesOfLinkedChildrenChangeOnlyThePagesLoaded) {
     std::vector<Receiver> receivers;
     for (int i = 0; i < 16; ++i) {
       // Below the emitter, some far off to the side: cuts stop at every depth.
-      receivers.push_back({V3f(0.3f * float(i) - 2.f, 0.1f * float(i % 4), 0), V3f(0.05f * float(i % 3), 0, 1).normalized()});
+      receivers.push_back(
+          {V3f(0.3f * float(i) - 2.f, 0.1f * float(i % 4), 0), V3f(0.05f * float(i % 3), 0, 1).normalized()});
     }
     std::vector<GatherResult> ra(receivers.size()), rb(receivers.size());
     a.gather_tile(receivers, ra);

@@ -189,7 +189,7 @@ std::vector<Receiver> make_receivers(const storage::PageSetReader& set, uint32_t
 
 struct GatherRun {
   double receivers_per_s = 0;
-  double cpu_seconds = 0;  // of the timed pass, all threads
+  double cpu_seconds = 0;             // of the timed pass, all threads
   std::vector<GatherResult> results;  // of the timed pass, per receiver
   storage::CacheCounters cache;
   double pages_per_receiver = 0;
@@ -315,14 +315,15 @@ int run(const Args& a) {
   const std::vector<Receiver> rs = city ? make_receivers(*city, a.receivers) : make_receivers(probe, a.receivers);
   auto print_run = [](const char* name, uint64_t budget, const GatherRun& r) {
     const double lookups = double(r.cache.hits + r.cache.misses);
-    std::printf("gather %-7s budget %8.1f MiB: %8.1f receivers/s, %.3f CPU s, %.0f nodes and %.1f pages/receiver, "
-                "hit rate %.3f, %.1f MiB read, %.1f MiB held\n",
-                name, budget == ~uint64_t(0) ? -1.0 : double(budget) / (1 << 20), r.receivers_per_s, r.cpu_seconds,
-                r.nodes_per_receiver, r.pages_per_receiver, lookups > 0 ? double(r.cache.hits) / lookups : 0.0,
-                double(r.cache.bytes_read) / (1 << 20), double(r.cache.bytes_held) / (1 << 20));
+    std::printf(
+        "gather %-7s budget %8.1f MiB: %8.1f receivers/s, %.3f CPU s, %.0f nodes and %.1f pages/receiver, "
+        "hit rate %.3f, %.1f MiB read, %.1f MiB held\n",
+        name, budget == ~uint64_t(0) ? -1.0 : double(budget) / (1 << 20), r.receivers_per_s, r.cpu_seconds,
+        r.nodes_per_receiver, r.pages_per_receiver, lookups > 0 ? double(r.cache.hits) / lookups : 0.0,
+        double(r.cache.bytes_read) / (1 << 20), double(r.cache.bytes_held) / (1 << 20));
   };
-  const uint64_t eighth = a.budget_fraction > 0 ? uint64_t(double(m.stats.file_bytes) * a.budget_fraction)
-                                                : m.stats.file_bytes / 8;
+  const uint64_t eighth =
+      a.budget_fraction > 0 ? uint64_t(double(m.stats.file_bytes) * a.budget_fraction) : m.stats.file_bytes / 8;
   const GatherRun small = gather(set, eighth, rs, a.threads);
   print_run("1/8", eighth, small);  // as each budget ends: a 100M run is long
   const uint64_t eighth_decoded = decoded / 8;
@@ -342,15 +343,16 @@ int run(const Args& a) {
   }
   std::printf("budgets        %zu of %zu receivers differ between the smaller caches and the unlimited one\n", differ, rs.size());
   std::printf("peak RSS       %.2f GiB at the end (the unlimited cache included)\n", peak_rss_gib());
-  std::printf("{\"surfels\": %llu, \"bytes_per_surfel\": %.3f, \"file_bytes\": %llu, \"build_seconds\": %.2f, "
-              "\"tree_surfels_per_s\": %.4g, \"build_peak_rss_gib\": %.3f, \"runs\": %u, \"merges\": %u, "
-              "\"receivers\": %u, \"threads\": %u, \"receivers_per_s_eighth\": %.2f, "
-              "\"receivers_per_s_eighth_decoded\": %.2f, \"receivers_per_s_all\": %.2f, "
-              "\"cpu_s_eighth\": %.3f, \"cpu_s_all\": %.3f, \"results_differ\": %zu}\n",
-              (unsigned long long)m.stats.surfel_count, bytes_per_surfel, (unsigned long long)m.stats.file_bytes,
-              build_seconds, built ? double(report.surfels) / (report.add_seconds + report.finish_seconds) : 0.0,
-              build_rss, report.runs, report.merges, a.receivers, a.threads, small.receivers_per_s,
-              medium.receivers_per_s, full.receivers_per_s, small.cpu_seconds, full.cpu_seconds, differ);
+  std::printf(
+      "{\"surfels\": %llu, \"bytes_per_surfel\": %.3f, \"file_bytes\": %llu, \"build_seconds\": %.2f, "
+      "\"tree_surfels_per_s\": %.4g, \"build_peak_rss_gib\": %.3f, \"runs\": %u, \"merges\": %u, "
+      "\"receivers\": %u, \"threads\": %u, \"receivers_per_s_eighth\": %.2f, "
+      "\"receivers_per_s_eighth_decoded\": %.2f, \"receivers_per_s_all\": %.2f, "
+      "\"cpu_s_eighth\": %.3f, \"cpu_s_all\": %.3f, \"results_differ\": %zu}\n",
+      (unsigned long long)m.stats.surfel_count, bytes_per_surfel, (unsigned long long)m.stats.file_bytes, build_seconds,
+      built ? double(report.surfels) / (report.add_seconds + report.finish_seconds) : 0.0, build_rss, report.runs,
+      report.merges, a.receivers, a.threads, small.receivers_per_s, medium.receivers_per_s, full.receivers_per_s,
+      small.cpu_seconds, full.cpu_seconds, differ);
   if (city && !a.keep && !a.reuse) fs::remove_all(set);
   return differ == 0 ? 0 : 1;
 }
