@@ -128,18 +128,25 @@ void CutWalker::push_root() {
   }
   if (hdr_threshold_ < 0.f) {
     // The scene's mean radiance: the root's area-weighted mean (DC ratio).
-    const tree::Node* full = view->full_node(root.index);
-    if (!full && root.index < page->nodes.size()) full = &page->nodes[root.index];
-    if (!full) {
-      pins_.release(pin);
-      throw CorruptionError("tree root: page " + std::to_string(root.page) + " node " +
-                            std::to_string(root.index) + " has no payload");
+    // The view keeps node 0's DC terms (a page's node 0 is its treelet's
+    // root, pre-order); a root elsewhere is read from its node.
+    float dc[4] = {0.f, 0.f, 0.f, 0.f};
+    if (root.index == 0) {
+      std::copy(view->node0_dc, view->node0_dc + 4, dc);
+    } else {
+      const tree::Node* full = view->full_node(root.index);
+      if (!full && root.index < page->nodes.size()) full = &page->nodes[root.index];
+      if (!full) {
+        pins_.release(pin);
+        throw CorruptionError("tree root: page " + std::to_string(root.page) + " node " + std::to_string(root.index) +
+                              " has no payload");
+      }
+      dc[0] = full->radiance_sh.r[0];
+      dc[1] = full->radiance_sh.g[0];
+      dc[2] = full->radiance_sh.b[0];
+      dc[3] = full->coverage_sh[0];
     }
-    const tree::Node& n = *full;
-    const float c0 = n.coverage_sh[0];
-    const float mean = c0 > 0.f ? luminance(Imath::C3f(n.radiance_sh.r[0], n.radiance_sh.g[0],
-                                                       n.radiance_sh.b[0])) / c0
-                                : 0.f;
+    const float mean = dc[3] > 0.f ? luminance(Imath::C3f(dc[0], dc[1], dc[2])) / dc[3] : 0.f;
     hdr_threshold_ = options_.hdr_refine > 0.f && mean > 0.f && std::isfinite(mean)
                          ? options_.hdr_refine * kPi * mean
                          : std::numeric_limits<float>::infinity();

@@ -33,30 +33,27 @@ PageView::PageView(const tree::Page& page)
     if (node.is_leaf()) {
       const uint64_t end = uint64_t(node.first_surfel) + node.surfel_count;
       if (end > page.surfels.size()) {
-        throw CorruptionError("tree page " + std::to_string(page.id) + " leaf " +
-                              std::to_string(i) + ": surfels [" + std::to_string(node.first_surfel) +
-                              ", " + std::to_string(end) + ") outside the page's " +
+        throw CorruptionError("tree page " + std::to_string(page.id) + " leaf " + std::to_string(i) + ": surfels [" +
+                              std::to_string(node.first_surfel) + ", " + std::to_string(end) + ") outside the page's " +
                               std::to_string(page.surfels.size()));
       }
       if (node.surfel_count > HotNode::kCountMask) {
-        throw CorruptionError(where(page, i) + ": " + std::to_string(node.surfel_count) +
-                              " surfels in one leaf");
+        throw CorruptionError(where(page, i) + ": " + std::to_string(node.surfel_count) + " surfels in one leaf");
       }
       h.first = node.first_surfel;
       h.count = flags | HotNode::kLeaf | node.surfel_count;
     } else {
       if (node.child_count > tree::Node::kMaxChildren) {
-        throw CorruptionError(where(page, i) + ": child_count " + std::to_string(node.child_count) +
-                              " exceeds " + std::to_string(tree::Node::kMaxChildren));
+        throw CorruptionError(where(page, i) + ": child_count " + std::to_string(node.child_count) + " exceeds " +
+                              std::to_string(tree::Node::kMaxChildren));
       }
       h.first = 0;
       h.count = flags | node.child_count;
       for (uint32_t c = 0; c < node.child_count; ++c) {
         const tree::NodeRef ref = node.children[c];
         if (ref.page == page.id && ref.index >= n) {
-          throw CorruptionError(where(page, i) + ": child link to page " +
-                                std::to_string(ref.page) + " node " + std::to_string(ref.index) +
-                                " is out of range (" + std::to_string(n) + " nodes)");
+          throw CorruptionError(where(page, i) + ": child link to page " + std::to_string(ref.page) + " node " +
+                                std::to_string(ref.index) + " is out of range (" + std::to_string(n) + " nodes)");
         }
         h.children[c] = ref;
       }
@@ -107,8 +104,7 @@ uint32_t PageView::describe(const tree::Node& n, size_t i) {
     const float c0 = n.coverage_sh[0];
     if (c0 > 0.f) {
       const float inv = 1.f / c0;
-      const Imath::C3f L(std::max(0.f, n.radiance_sh.r[0] * inv),
-                         std::max(0.f, n.radiance_sh.g[0] * inv),
+      const Imath::C3f L(std::max(0.f, n.radiance_sh.r[0] * inv), std::max(0.f, n.radiance_sh.g[0] * inv),
                          std::max(0.f, n.radiance_sh.b[0] * inv));
       if (std::isfinite(L.x) && std::isfinite(L.y) && std::isfinite(L.z)) {
         look.r = L.x;
@@ -135,7 +131,13 @@ uint32_t PageView::describe(const tree::Node& n, size_t i) {
     }
   }
   if (glossy && i < page_nodes && glossy->glossy(static_cast<uint32_t>(i))) flags |= HotNode::kGlossy;
-  if (i == 0 || !(flags & (HotNode::kNarrow | HotNode::kBipolar))) {
+  if (i == 0) {
+    node0_dc[0] = n.radiance_sh.r[0];
+    node0_dc[1] = n.radiance_sh.g[0];
+    node0_dc[2] = n.radiance_sh.b[0];
+    node0_dc[3] = n.coverage_sh[0];
+  }
+  if (!(flags & (HotNode::kNarrow | HotNode::kBipolar))) {
     full_index[i] = uint32_t(full.size());
     full.push_back(n);
   }

@@ -113,10 +113,14 @@ struct PageView {
   std::shared_ptr<const storage::GlossyNodes> glossy;
   size_t surfel_count = 0;
   size_t page_nodes = 0;  // nodes of the page; proxies follow them
+  // Node 0's DC radiance and coverage (radiance_sh[0], coverage_sh[0]):
+  // a tree root's mean radiance, kept apart so that node 0 needs no full
+  // copy (most pages' node 0 is narrow).
+  float node0_dc[4] = {0.f, 0.f, 0.f, 0.f};
   // The decoded tree::Node of the nodes whose SH payload a splat reads
-  // (wide cones that are not bipolar) and of node 0 (a root's mean
-  // radiance): full[full_index[i]]. The rest need only `nodes` and
-  // `looks`, so a page that carries its view need not keep its nodes.
+  // (wide cones that are not bipolar): full[full_index[i]]. The rest need
+  // only `nodes` and `looks`, so a page that carries its view need not keep
+  // its nodes.
   std::vector<tree::Node> full;
   std::vector<uint32_t> full_index;
 
@@ -130,15 +134,14 @@ struct PageView {
   // a leaf's surfel range outside the page.
   explicit PageView(const tree::Page& page);
   size_t memory_bytes() const {
-    return sizeof(PageView) + nodes.capacity() * sizeof(HotNode) +
-           looks.capacity() * sizeof(NodeLook) +
+    return sizeof(PageView) + nodes.capacity() * sizeof(HotNode) + looks.capacity() * sizeof(NodeLook) +
            full.capacity() * sizeof(tree::Node) + full_index.capacity() * sizeof(uint32_t) +
            bipolar.capacity() * sizeof(Bipolar) + bipolar_index.capacity() * sizeof(uint32_t);
   }
   // Whether `page` could be the page this view was built from.
   bool matches(const tree::Page& page) const {
-    return page.id == id && page.nodes.size() == page_nodes &&
-           page.nodes.size() + page.links.size() == nodes.size() && page.surfels.size() == surfel_count;
+    return page.id == id && page.nodes.size() == page_nodes && page.nodes.size() + page.links.size() == nodes.size() &&
+           page.surfels.size() == surfel_count;
   }
 
  private:
