@@ -10,6 +10,7 @@
 #
 # e.g. scripts/ooc_render.sh /work/tmp/city/city.usda /work/tmp/city/cache 0.05 8MiB 64 48 fpbgi
 # BUDGET "0" means unlimited (the daemon's default budget is not used).
+# JOBS (environment, default 4 as `pbgi render`): tile requests in flight.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 SCENE="$(realpath "$1")"
@@ -36,15 +37,21 @@ for _ in $(seq 100); do [ -S "$SOCK" ] && break; sleep 0.1; done
 cpu_ticks() { awk '{print $14 + $15}' "/proc/$daemon/stat"; }
 render() {
   "$PBGI" render --server "unix:$SOCK" "$SCENE" --camera /World/Camera --surfel-spacing "$SPACING" \
-    --width "$WIDTH" --height "$HEIGHT" --method "$METHOD" -q -o "$CACHE/ooc-$1.exr" >/dev/null
+    --width "$WIDTH" --height "$HEIGHT" --method "$METHOD" --jobs "${JOBS:-4}" -q -o "$CACHE/ooc-$1.exr" >/dev/null
 }
 render cold
-ticks0=$(cpu_ticks)
-start=$(date +%s.%N)
-render warm
-end=$(date +%s.%N)
-ticks1=$(cpu_ticks)
+# The cache counters after the cold render (warm = final - these).
+"$PBGI" status --server "unix:$SOCK" | grep -i "^cache" | sed 's/^/after cold: /' || true
+# WARM (environment, default 1): warm renders, each reported on its own
+# line (take the median).
 hz=$(getconf CLK_TCK)
-awk -v s="$start" -v e="$end" -v t0="$ticks0" -v t1="$ticks1" -v hz="$hz" -v b="$BUDGET" -v w="$WIDTH" -v h="$HEIGHT" \
-  'BEGIN { printf "warm render   budget %s, %dx%d: %.1f s wall, %.1f s daemon CPU\n", b, w, h, e - s, (t1 - t0) / hz }'
+for n in $(seq "${WARM:-1}"); do
+  ticks0=$(cpu_ticks)
+  start=$(date +%s.%N)
+  render warm
+  end=$(date +%s.%N)
+  ticks1=$(cpu_ticks)
+  awk -v s="$start" -v e="$end" -v t0="$ticks0" -v t1="$ticks1" -v hz="$hz" -v b="$BUDGET" -v w="$WIDTH" -v h="$HEIGHT" -v n="$n" \
+    'BEGIN { printf "warm render %d budget %s, %dx%d: %.1f s wall, %.2f s daemon CPU\n", n, b, w, h, e - s, (t1 - t0) / hz }'
+done
 "$PBGI" status --server "unix:$SOCK" | grep -i "cache\|page\|hit\|miss\|read\|held\|budget" || true

@@ -35,6 +35,7 @@
 #include <filesystem>
 #include <optional>
 #include <random>
+#include <span>
 #include <string>
 #include <thread>
 #include <tuple>
@@ -101,6 +102,10 @@ struct Args {
   // The small budget as a fraction of the page set's size on disk (1/8
   // unless given; the slowdown-against-budget sweep).
   double budget_fraction = 0;
+  // The gather method; receivers are gathered a tile (64) at a time
+  // through Gatherer::gather_tile, as the daemon's batches are (PBGI:
+  // the tile's pages stay pinned; FPBGI: clustered over the tile).
+  GatherMethod method = GatherMethod::kPbgi;
 };
 
 Args parse(int argc, char** argv) {
@@ -126,12 +131,20 @@ Args parse(int argc, char** argv) {
     else if (k == "--skip-decoded-budget") a.skip_decoded_budget = true;
     else if (k == "--page-set") a.page_set = val();
     else if (k == "--budget-fraction") a.budget_fraction = std::strtod(val().c_str(), nullptr);
-    else {
+    else if (k == "--method") {
+      const std::string m = val();
+      if (m != "pbgi" && m != "fpbgi") {
+        std::fprintf(stderr, "--method: pbgi or fpbgi, not %s\n", m.c_str());
+        std::exit(2);
+      }
+      a.method = m == "fpbgi" ? GatherMethod::kFpbgi : GatherMethod::kPbgi;
+    } else {
       std::fprintf(stderr,
                    "usage: bench_out_of_core [--surfels N] [--dir DIR] [--sort-memory SIZE] [--leaf-size N]\n"
                    "       [--page-size BYTES] [--receivers N] [--threads N] [--reuse] [--keep]\n"
                    "       bench_out_of_core --page-set DIR [--receivers N] [--threads N] [--skip-decoded-budget]\n"
-                   "       [--budget-fraction F]  (the small budget: F x the page set's size on disk; 1/8)\n");
+                   "       [--budget-fraction F]  (the small budget: F x the page set's size on disk; 1/8)\n"
+                   "       [--method pbgi|fpbgi]\n");
       std::exit(2);
     }
   }
@@ -198,7 +211,8 @@ struct GatherRun {
 
 // Two passes over the receivers with `threads` gatherers; the second pass
 // is timed (steady state of the cache). Counters are of the timed pass.
-GatherRun gather(const fs::path& set, uint64_t budget, const std::vector<Receiver>& rs, uint32_t threads) {
+GatherRun gather(const fs::path& set, uint64_t budget, const std::vector<Receiver>& rs, uint32_t threads,
+                 GatherMethod method) {
   auto cache = std::make_shared<storage::PageCache>(budget);
   storage::PageSetReader reader(set, cache, gather::attach_view);
   GatherRun out;
@@ -212,10 +226,14 @@ GatherRun gather(const fs::path& set, uint64_t budget, const std::vector<Receive
     std::vector<std::thread> pool;
     for (uint32_t t = 0; t < threads; ++t) {
       pool.emplace_back([&] {
-        Gatherer g(reader, GatherOptions{});
-        constexpr size_t kChunk = 64;  // one tile at a time
+        GatherOptions options;
+        options.method = method;
+        Gatherer g(reader, options);
+        constexpr size_t kChunk = 64;  // one tile at a time, as the daemon's batches
         for (size_t at = next.fetch_add(kChunk); at < rs.size(); at = next.fetch_add(kChunk)) {
-          for (size_t i = at; i < std::min(rs.size(), at + kChunk); ++i) out.results[i] = g.gather(rs[i]);
+          const size_t n = std::min(rs.size(), at + kChunk) - at;
+          g.gather_tile(std::span<const Receiver>(rs).subspan(at, n),
+                        std::span<GatherResult>(out.results).subspan(at, n));
         }
         pages += g.counters().pages_fetched;
         nodes += g.counters().nodes_visited;
@@ -324,11 +342,11 @@ int run(const Args& a) {
   };
   const uint64_t eighth =
       a.budget_fraction > 0 ? uint64_t(double(m.stats.file_bytes) * a.budget_fraction) : m.stats.file_bytes / 8;
-  const GatherRun small = gather(set, eighth, rs, a.threads);
+  const GatherRun small = gather(set, eighth, rs, a.threads, a.method);
   print_run("1/8", eighth, small);  // as each budget ends: a 100M run is long
   const uint64_t eighth_decoded = decoded / 8;
-  const GatherRun medium = a.skip_decoded_budget ? GatherRun{} : gather(set, eighth_decoded, rs, a.threads);
-  const GatherRun full = gather(set, ~uint64_t(0), rs, a.threads);
+  const GatherRun medium = a.skip_decoded_budget ? GatherRun{} : gather(set, eighth_decoded, rs, a.threads, a.method);
+  const GatherRun full = gather(set, ~uint64_t(0), rs, a.threads, a.method);
   if (!a.skip_decoded_budget) print_run("1/8dec", eighth_decoded, medium);
   print_run("all", ~uint64_t(0), full);
   size_t differ = 0;
