@@ -24,6 +24,10 @@ totalling 20M triangles"), has no instancing at all:
     .venv/bin/python scripts/gen_large_scene.py --kind assets --assets 200 \
         --triangles 20e6 --out /work/tmp/assets200/assets.usda
 
+With --subdivision each asset is a dense Catmull-Clark cage (the same grid
+as quads) instead: issue 21's "21 subdivision meshes with 400,798 cage
+faces" is --assets 21 --triangles 801596 --subdivision.
+
 A fourth kind, for instancing memory (issue 3: "memory reflects the number
 of prototypes, not instances"):
 
@@ -241,11 +245,14 @@ def write_district(path, kind, cells, seed, mats_colors):
     return area, len(positions)
 
 
-def write_asset(path, triangles, seed, color):
+def write_asset(path, triangles, seed, color, subdivision=False):
     """One asset layer: /Asset (defaultPrim) with a material and one mesh of
     `triangles` triangles (rounded to an even grid): a torus (major radius 1,
     minor 0.35, so closed and without degenerate poles) displaced along its
-    normal. Returns (triangles written, area estimate in m^2)."""
+    normal. subdivision: the same grid as a Catmull-Clark cage of
+    triangles / 2 quads instead (a dense cage, as DCCs export smooth
+    assets). Returns (triangles or cage faces written, area estimate in
+    m^2)."""
     import numpy as np
     rng = np.random.default_rng(seed)
     quads = max(1, triangles // 2)
@@ -273,6 +280,9 @@ def write_asset(path, triangles, seed, color):
     tris = np.stack([np.stack([a_, d_, c_], -1), np.stack([a_, c_, b_], -1)], axis=2)
     indices = tris.reshape(-1).astype(np.int32)
     count = indices.size // 3
+    if subdivision:  # the quads themselves, wound as the triangles are
+        indices = np.stack([a_, d_, c_, b_], -1).reshape(-1).astype(np.int32)
+        count = indices.size // 4
 
     stage = Usd.Stage.CreateNew(path)
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
@@ -281,10 +291,11 @@ def write_asset(path, triangles, seed, color):
     stage.SetDefaultPrim(root.GetPrim())
     mat = material(stage, "/Asset/Looks/M", color)
     m = UsdGeom.Mesh.Define(stage, "/Asset/Body")
-    m.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+    m.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.catmullClark if subdivision else UsdGeom.Tokens.none)
     m.CreateOrientationAttr(UsdGeom.Tokens.rightHanded)
     m.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
-    m.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(count, 3, dtype=np.int32)))
+    m.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(count, 4 if subdivision else 3,
+                                                               dtype=np.int32)))
     m.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(indices))
     lo, hi = points.min(axis=0), points.max(axis=0)
     m.CreateExtentAttr(Vt.Vec3fArray([Gf.Vec3f(*map(float, lo)), Gf.Vec3f(*map(float, hi))]))
@@ -311,7 +322,8 @@ def write_assets_scene(a, stage, out_dir, stem, colors):
     area, triangles = 0.0, 0
     for k in range(a.assets):
         layer = f"{stem}_assets/a{k:04d}.usdc"
-        t, ar = write_asset(os.path.join(out_dir, layer), per_asset, a.seed * 7919 + k, colors[k % 4])
+        t, ar = write_asset(os.path.join(out_dir, layer), per_asset, a.seed * 7919 + k, colors[k % 4],
+                            a.subdivision)
         triangles += t
         area += ar
         prim = stage.DefinePrim(f"/World/Assets/A{k:04d}", "Xform")
@@ -364,6 +376,9 @@ def main():
     ap.add_argument("--flatten", action="store_true",
                     help="--kind instances: the same prims without instanceable (flattened)")
     ap.add_argument("--assets", type=int, default=200, help="assets of --kind assets (default 200)")
+    ap.add_argument("--subdivision", action="store_true",
+                    help="--kind assets: each asset a Catmull-Clark cage of --triangles / --assets / 2 "
+                         "quads instead of triangles")
     ap.add_argument("--triangles", type=float, default=20e6,
                     help="triangles of all assets together, --kind assets (default 2e7)")
     ap.add_argument("--surfels", type=float, default=100e6,
@@ -407,7 +422,8 @@ def main():
     if a.kind == "assets":
         a_area, triangles = write_assets_scene(a, stage, out_dir, stem, colors)
         area += a_area
-        summary = f"{a.assets} payload assets, {triangles} triangles"
+        summary = (f"{a.assets} payload assets, {triangles} "
+                   f"{'Catmull-Clark cage quads' if a.subdivision else 'triangles'}")
     elif a.kind == "instances":
         i_area, triangles = write_instances_scene(a, stage, out_dir, stem, colors)
         area += i_area

@@ -79,4 +79,4 @@ elif ((${#EXTRA_CMAKE_ARGS[@]})); then
 fi
 log "building ($JOBS jobs)"
 cmake --build "$BUILD_DIR" -j "$JOBS"
-log "built: $BUILD_DIR/bin/pbgid, $BUILD_DIR/bin/pbgi"
+log "built: $BUILD_DIR/bin/pbgid, $BUILD_DIR/bin/pbgi (and pbgi-tools, which it runs for bench, inspect, reference)"

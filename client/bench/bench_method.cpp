@@ -1,6 +1,6 @@
 #include "client/bench/bench_method.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <set>
 

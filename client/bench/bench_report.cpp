@@ -1,7 +1,7 @@
 #include "client/bench/bench_report.h"
 
 #include "client/bench/json_writer.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fmt/format.h>
 

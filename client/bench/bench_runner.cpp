@@ -8,10 +8,10 @@
 #include "client/bench/stopwatch.h"
 #include "client/image/exr_image.h"
 #include "client/metrics/perceptual_diff.h"
+#include "common/errors.h"
 #include "server/ingest/usd_ingest.h"
 #include "server/scene/auto_camera.h"
 #include "server/volumes/fog_field.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 #include <tbb/task_arena.h>

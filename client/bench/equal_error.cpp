@@ -1,6 +1,6 @@
 #include "client/bench/equal_error.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,7 +1,7 @@
 #include "client/bench/path_method.h"
 
+#include "common/errors.h"
 #include "server/reference/path_tracer.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 

@@ -1,9 +1,9 @@
 #include "client/bench/pbgi_method.h"
 
+#include "common/errors.h"
 #include "server/engine/scene_session.h"
 #include "server/render/tile_renderer.h"
 #include "server/scene/auto_camera.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 

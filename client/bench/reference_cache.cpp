@@ -2,7 +2,7 @@
 
 #include "client/bench/scene_hash.h"
 #include "client/image/exr_image.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fmt/format.h>
 #include <xxhash.h>
@@ -83,13 +83,7 @@ std::optional<CachedReference> load_cached_reference(const std::filesystem::path
   }
 }
 
-void store_cached_reference(const std::filesystem::path& file, const std::string& key,
-                            const ReferenceImage& r, double seconds, double cpu_seconds) {
-  std::error_code ec;
-  std::filesystem::create_directories(file.parent_path(), ec);
-  if (ec)
-    throw IoError(fmt::format("cannot create reference cache {}: {}", file.parent_path().string(),
-                              ec.message()));
+image::ExrImage reference_exr(const ReferenceImage& r) {
   image::ExrImage img(r.width, r.height);
   img.set_rgb("", r.beauty);
   img.set_rgb("direct", r.direct);
@@ -97,6 +91,15 @@ void store_cached_reference(const std::filesystem::path& file, const std::string
   img.set_rgb("indirect1", r.indirect1);
   img.set_rgb("albedo", r.albedo);
   img.set_layer("ao", image::y_channels(), r.ao);
+  return img;
+}
+
+void store_cached_reference(const std::filesystem::path& file, const std::string& key, const ReferenceImage& r,
+                            double seconds, double cpu_seconds) {
+  std::error_code ec;
+  std::filesystem::create_directories(file.parent_path(), ec);
+  if (ec) throw IoError(fmt::format("cannot create reference cache {}: {}", file.parent_path().string(), ec.message()));
+  image::ExrImage img = reference_exr(r);
   img.attributes()[kKeyAttribute] = key;
   img.attributes()[kSppAttribute] = std::to_string(r.spp);
   img.attributes()[kSecondsAttribute] = fmt::format("{:.6f}", seconds);

@@ -7,6 +7,7 @@
 // key race benignly (write_exr publishes with a rename).
 #pragma once
 
+#include "client/image/exr_image.h"
 #include "server/reference/path_tracer.h"
 
 #include <filesystem>
@@ -14,6 +15,11 @@
 #include <string>
 
 namespace pbgi::bench {
+
+// The reference's layers as one EXR image (beauty as RGB, direct,
+// indirect, indirect1, albedo, ao): the layout of the cache files and of
+// `pbgi reference --out`.
+image::ExrImage reference_exr(const ReferenceImage& r);
 
 // 16 hex digits identifying a reference render.
 std::string reference_cache_key(const std::string& scene_hash, const Camera& camera,

@@ -6,7 +6,7 @@
 #include "client/image/exr_image.h"
 #include "client/metrics/image_comparison.h"
 #include "client/metrics/pixel_mask.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fmt/format.h>
 

@@ -7,19 +7,19 @@
 // file <out>.partial; `--resume` reads it back and renders only the tiles
 // missing from it (after a crash, a daemon restart or Ctrl-C). The sidecar
 // is removed once the images are written.
-#include "client/cli/command.h"
 #include "client/cli/build_flags.h"
-#include "client/cli/gather_flags.h"
+#include "client/cli/command.h"
 #include "client/cli/connection_flags.h"
+#include "client/cli/gather_flags.h"
 #include "client/cli/open_progress.h"
+#include "client/cli/output_paths.h"
 #include "client/cli/scene_flags.h"
 #include "client/cli/scene_warnings.h"
-#include "client/cli/output_paths.h"
 #include "client/image/exr_image.h"
 #include "client/image/png_display.h"
 #include "client/lib/frame_renderer.h"
 #include "client/lib/pbgi_client.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fmt/format.h>
 

@@ -1,15 +1,15 @@
 // `pbgi tile SCENE --tile-rect x0,y0,x1,y1`: renders one tile through a
 // running pbgid, writes its AOVs as a tile-sized multi-layer EXR and prints
 // the gather statistics of that tile (text, or JSON with --json).
-#include "client/cli/command.h"
 #include "client/cli/build_flags.h"
-#include "client/cli/gather_flags.h"
+#include "client/cli/command.h"
 #include "client/cli/connection_flags.h"
+#include "client/cli/gather_flags.h"
 #include "client/cli/scene_flags.h"
 #include "client/cli/scene_warnings.h"
 #include "client/image/exr_image.h"
 #include "client/lib/pbgi_client.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fmt/format.h>
 

@@ -1,6 +1,6 @@
 #include "client/cli/connection_flags.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <cstdlib>
 #include <fstream>

@@ -1,51 +1,9 @@
-// pbgi: the command-line client. Thin: each subcommand lives in cmd_*.cpp.
-#include "client/cli/command.h"
-#include "client/cli/subcommand_suggestion.h"
-#include "pbgi_build_config.h"
-
-#include <spdlog/spdlog.h>
-
-#include <algorithm>
-#include <cstdio>
-#include <exception>
-
-namespace pbgi::cli {
-std::vector<std::pair<std::string, CommandSetup>>& command_registry() {
-  static std::vector<std::pair<std::string, CommandSetup>> registry;
-  return registry;
-}
-}  // namespace pbgi::cli
+// pbgi: the command-line client. Thin: each subcommand lives in cmd_*.cpp;
+// those that run the pipeline in-process are pbgi-tools' (tool_commands.h).
+#include "client/cli/cli_main.h"
+#include "client/cli/tool_commands.h"
 
 int main(int argc, char** argv) {
-  CLI::App app{"pbgi: point-based global illumination client tools"};
-  app.set_version_flag("--version", std::string("pbgi ") + PBGI_VERSION);
-  app.require_subcommand(1);
-  int exit_code = 0;
-  auto& registry = pbgi::cli::command_registry();
-  std::sort(registry.begin(), registry.end(),
-            [](const auto& a, const auto& b) { return a.first < b.first; });
-  std::vector<std::string> names;
-  for (auto& [name, setup] : registry) {
-    setup(app, &exit_code);
-    names.push_back(name);
-  }
-  // A first word that names no subcommand: say which one was meant, rather
-  // than CLI11's "A subcommand is required".
-  if (argc > 1 && argv[1][0] != '-' && std::find(names.begin(), names.end(), argv[1]) == names.end()) {
-    const std::string guess = pbgi::cli::suggest_subcommand(argv[1], names);
-    std::string all;
-    for (const std::string& n : names) all += (all.empty() ? "" : ", ") + n;
-    std::fprintf(stderr, "pbgi: unknown subcommand '%s'%s\nsubcommands: %s (pbgi --help)\n", argv[1],
-                 guess.empty() ? "" : ("; did you mean '" + guess + "'?").c_str(), all.c_str());
-    return static_cast<int>(CLI::ExitCodes::ExtrasError);
-  }
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  } catch (const std::exception& e) {
-    spdlog::error("{}", e.what());
-    return 1;
-  }
-  return exit_code;
+  if (argc > 1 && pbgi::cli::is_tool_command(argv[1])) return pbgi::cli::exec_tool(argc, argv);
+  return pbgi::cli::run_cli(argc, argv, "pbgi: point-based global illumination client tools", pbgi::cli::kToolCommands);
 }

@@ -1,6 +1,6 @@
 #include "client/cli/option_flags.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 namespace pbgi::cli {
 

@@ -1,6 +1,6 @@
 #include "client/cli/output_paths.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fmt/format.h>
 

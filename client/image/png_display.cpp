@@ -1,7 +1,7 @@
 #include "client/image/png_display.h"
 
+#include "common/errors.h"
 #include "pbgi_build_config.h"
-#include "storage/format/errors.h"
 
 #include <OpenColorIO/OpenColorIO.h>
 #include <png.h>

@@ -2,7 +2,7 @@
 // AOVs...) to and from vectors; little-endian hosts only, like the daemon.
 #pragma once
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <Imath/ImathVec.h>
 

@@ -2,8 +2,8 @@
 // and the server's own message (which names the scene, tile or field).
 #pragma once
 
+#include "common/errors.h"
 #include "proto/status_code_name.h"
-#include "storage/format/errors.h"
 
 #include <grpcpp/support/status.h>
 

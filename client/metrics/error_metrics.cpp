@@ -1,6 +1,6 @@
 #include "client/metrics/error_metrics.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <cmath>
 #include <string>

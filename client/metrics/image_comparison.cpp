@@ -1,6 +1,6 @@
 #include "client/metrics/image_comparison.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <algorithm>
 

@@ -1,6 +1,6 @@
 #include "client/metrics/perceptual_diff.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <algorithm>
 #include <array>

@@ -1,6 +1,6 @@
 #include "client/metrics/pixel_mask.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fmt/format.h>
 

@@ -1,7 +1,7 @@
 #include "client/stress/health_check.h"
 
 #include "client/lib/pbgi_client.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fmt/format.h>
 #include <grpcpp/generic/generic_stub.h>

@@ -1,6 +1,6 @@
 #include "client/stress/replica_frame.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fmt/format.h>
 

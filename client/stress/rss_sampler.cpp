@@ -1,6 +1,6 @@
 #include "client/stress/rss_sampler.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fmt/format.h>
 

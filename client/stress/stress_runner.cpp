@@ -2,7 +2,7 @@
 
 #include "client/lib/frame_renderer.h"
 #include "client/lib/pbgi_client.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fmt/format.h>
 

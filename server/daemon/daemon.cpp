@@ -1,5 +1,6 @@
 #include "server/daemon/daemon.h"
 
+#include "common/errors.h"
 #include "pbgi_build_config.h"
 #include "server/daemon/listen_address.h"
 #include "server/daemon/tls_credentials.h"
@@ -9,7 +10,6 @@
 #include "server/service/pbgi_service.h"
 #include "server/service/prometheus_text.h"
 #include "storage/cache/page_cache.h"
-#include "storage/format/errors.h"
 #include "storage/pages/cache_files.h"
 
 #include <fmt/format.h>

@@ -1,10 +1,11 @@
 #include "server/daemon/daemon_options.h"
 
+#include "common/errors.h"
 #include "pbgi_build_config.h"
 #include "server/daemon/byte_size.h"
+#include "server/daemon/daemon_settings.h"
 #include "server/daemon/listen_address.h"
 #include "server/daemon/toml_options.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 #include <toml++/toml.h>
@@ -69,17 +70,6 @@ void for_each_section(Fn&& fn, D&... o) {
   fn("fog", kFogOptionTable, o.service.defaults.open.fog...);
   fn("limits", kLimitsTable, o...);
   fn("security", kSecurityTable, o...);
-}
-
-uint32_t parse_unsigned(const char* variable, const char* text) {
-  uint32_t value = 0;
-  const char* end = text + std::strlen(text);
-  auto [ptr, ec] = std::from_chars(text, end, value);
-  if (ec != std::errc() || ptr != end) {
-    throw InvalidArgument(fmt::format("environment {}='{}' is not an unsigned integer",
-                                      variable, text));
-  }
-  return value;
 }
 
 }  // namespace
@@ -244,28 +234,10 @@ void apply_environment(DaemonOptions& o, const Environment& env) {
                                         name));
     }
   }
-  if (const char* v = get("PBGI_LISTEN")) o.listen = v;
-  if (const char* v = get("PBGI_SCENE_ROOTS")) {
-    o.scene_roots.clear();
-    std::string_view rest(v);
-    while (!rest.empty()) {
-      const size_t colon = rest.find(':');
-      std::string_view item = rest.substr(0, colon);
-      if (!item.empty()) o.scene_roots.emplace_back(item);
-      rest = colon == std::string_view::npos ? std::string_view() : rest.substr(colon + 1);
-    }
+  for (const DaemonSetting& setting : daemon_settings()) {
+    if (!setting.env) continue;
+    if (const char* v = get(setting.env)) setting.apply_env(setting, o, v);
   }
-  if (const char* v = get("PBGI_CACHE_DIR")) o.cache_dir = v;
-  if (const char* v = get("PBGI_MEMORY_BUDGET")) {
-    parse_byte_size(v, "environment PBGI_MEMORY_BUDGET");  // fail here, naming the variable
-    o.memory_budget = v;
-  }
-  if (const char* v = get("PBGI_THREADS")) o.threads = parse_unsigned("PBGI_THREADS", v);
-  if (const char* v = get("PBGI_LOG_LEVEL")) o.log_level = v;
-  if (const char* v = get("PBGI_PYTHON")) o.python = v;
-  if (const char* v = get("PBGI_AUTH_TOKEN")) o.auth_token = v;
-  if (const char* v = get("PBGI_AUTH_TOKEN_FILE")) o.auth_token_file = v;
-  if (const char* v = get("PBGI_METRICS_LISTEN")) o.metrics_listen = v;
 }
 
 bool operator==(const DaemonOptions& a, const DaemonOptions& b) {

@@ -114,10 +114,11 @@ std::string to_toml(const DaemonOptions& options);
 using Environment = std::function<const char*(const char* name)>;
 Environment process_environment();
 
-// Applies PBGI_LISTEN, PBGI_SCENE_ROOTS (':'-separated), PBGI_CACHE_DIR,
-// PBGI_MEMORY_BUDGET, PBGI_THREADS, PBGI_LOG_LEVEL, PBGI_PYTHON,
-// PBGI_AUTH_TOKEN, PBGI_AUTH_TOKEN_FILE, PBGI_METRICS_LISTEN. Throws
-// InvalidArgument naming the variable for a malformed value.
+// Applies the PBGI_* variables of daemon_settings.h's table (PBGI_LISTEN,
+// PBGI_SCENE_ROOTS (':'-separated), PBGI_CACHE_DIR, PBGI_MEMORY_BUDGET,
+// PBGI_THREADS, PBGI_LOG_LEVEL, PBGI_PYTHON, PBGI_AUTH_TOKEN,
+// PBGI_AUTH_TOKEN_FILE, PBGI_METRICS_LISTEN). Throws InvalidArgument
+// naming the variable for a malformed value.
 void apply_environment(DaemonOptions& options, const Environment& env);
 
 bool operator==(const DaemonOptions& a, const DaemonOptions& b);

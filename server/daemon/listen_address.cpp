@@ -1,6 +1,6 @@
 #include "server/daemon/listen_address.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fmt/format.h>
 

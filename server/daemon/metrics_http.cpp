@@ -1,7 +1,7 @@
 #include "server/daemon/metrics_http.h"
 
+#include "common/errors.h"
 #include "server/service/bearer_auth.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>

@@ -1,7 +1,7 @@
 #include "server/daemon/tls_credentials.h"
 
+#include "common/errors.h"
 #include "server/service/secret_files.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 #include <grpcpp/security/server_credentials.h>

@@ -5,8 +5,8 @@
 // Header-only templates over the tables; used by daemon_options.cpp.
 #pragma once
 
+#include "common/errors.h"
 #include "common/options/option_table.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 #include <toml++/toml.h>

@@ -1,6 +1,6 @@
 #include "server/engine/bounce_pages.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <Imath/ImathColor.h>
 

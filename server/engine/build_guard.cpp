@@ -1,7 +1,7 @@
 #include "server/engine/build_guard.h"
 
+#include "common/errors.h"
 #include "server/surfels/surfel_samplers.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 

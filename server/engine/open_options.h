@@ -5,7 +5,7 @@
 #pragma once
 
 #include "common/options/option_table.h"
-#include "server/gather/surfel_bounce.h"
+#include "server/gather/bounce_options.h"
 #include "server/surfels/surfel_options.h"
 #include "server/volumes/fog_options.h"
 #include "storage/tree/build_options.h"

@@ -4,17 +4,17 @@
 #include "server/engine/scene_fog.h"
 #include "server/surfels/surfel_samplers.h"
 
+#include "common/errors.h"
 #include "server/engine/bounce_pages.h"
 #include "server/engine/build_key.h"
 #include "server/gather/page_views.h"
+#include "server/ingest/usd_ingest.h"
 #include "server/scene/default_lights.h"
 #include "server/scene/render_origin.h"
 #include "server/scene/scene_bulk.h"
-#include "server/ingest/usd_ingest.h"
 #include "server/surfels/glossy_shading.h"
 #include "server/surfels/surfel_gloss_lookup.h"
 #include "server/surfels/surfels.h"
-#include "storage/format/errors.h"
 #include "storage/pages/cache_files.h"
 
 #include <spdlog/spdlog.h>
@@ -185,8 +185,8 @@ std::shared_ptr<SceneSession> open_scene(const fs::path& scene_path, const OpenO
   if (!ctx.python.empty()) ingest.python = ctx.python;
   // Subdivision surfaces are refined until their triangles are within a
   // fraction of the surfel spacing of the limit surface (0: spacing derived
-  // later from the area; each mesh is bounded by the spacing it would get
-  // alone).
+  // later from the area; each mesh is bounded by the spacing target_surfels
+  // would have on all the scene's subdivision cages).
   ingest.target_edge_length = options.surfels.spacing;
   ingest.target_surfels = options.surfels.target_surfels;
   // The reader stops (its process killed) when this throws.

@@ -1,6 +1,6 @@
 #include "server/gather/bounce_receivers.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <algorithm>
 #include <cmath>

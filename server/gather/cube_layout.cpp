@@ -1,6 +1,6 @@
 #include "server/gather/cube_layout.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <algorithm>
 #include <array>

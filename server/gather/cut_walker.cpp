@@ -1,7 +1,7 @@
 #include "server/gather/cut_walker.h"
 
+#include "common/errors.h"
 #include "server/gather/node_appearance.h"
-#include "storage/format/errors.h"
 
 #include <algorithm>
 #include <cmath>

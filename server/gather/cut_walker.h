@@ -58,7 +58,7 @@ class CutWalker {
   const GatherOptions& options() const { return options_; }
   PagePins& pins() { return pins_; }
   // The receiver's microbuffer: fog fragments are added to it
-  // (volume_points.h), glossy lobes read its pixels (glossy_gather.h).
+  // (volume_fragments.h), glossy lobes read its pixels (glossy_gather.h).
   Microbuffer& buffer() { return buffer_; }
   const Microbuffer& buffer() const { return buffer_; }
   PageViews& views() { return views_; }

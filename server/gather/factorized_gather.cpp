@@ -1,6 +1,6 @@
 #include "server/gather/factorized_gather.h"
 
-#include "server/gather/volume_points.h"
+#include "server/gather/volume_fragments.h"
 
 #include <algorithm>
 

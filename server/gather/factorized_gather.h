@@ -27,7 +27,7 @@
 #include <vector>
 
 namespace pbgi {
-class VolumePoints;  // volume_points.h
+class VolumePoints;  // server/scene/volume_points.h
 }  // namespace pbgi
 
 namespace pbgi::gather {
@@ -38,7 +38,7 @@ class FactorizedGather {
 
   // `receivers` are validated (finite, unit normals); results in order.
   // `glossy` serves the members with an active lobe (null: none has one);
-  // `fog`: the scene's volume points (volume_points.h), added to each
+  // `fog`: the scene's volume points (volume_fragments.h), added to each
   // receiver's microbuffer, or null.
   void gather(std::span<const Receiver> receivers, std::span<GatherResult> results,
               GatherCounters& counters, GlossyGather* glossy = nullptr, const VolumePoints* fog = nullptr);

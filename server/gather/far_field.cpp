@@ -1,6 +1,6 @@
 #include "server/gather/far_field.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <algorithm>
 #include <string>

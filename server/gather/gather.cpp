@@ -6,12 +6,12 @@
 //    by receiver, or factorized PBGI, factorized_gather.h).
 #include "server/gather/gather.h"
 
+#include "common/errors.h"
 #include "server/gather/cut_walker.h"
 #include "server/gather/factorized_gather.h"
 #include "server/gather/glossy_gather.h"
 #include "server/gather/receiver_check.h"
-#include "server/gather/volume_points.h"
-#include "storage/format/errors.h"
+#include "server/gather/volume_fragments.h"
 
 #include <algorithm>
 #include <cmath>
@@ -78,7 +78,7 @@ GatherResult Gatherer::gather_pinned(const Receiver& r) {
   w.walk_receiver();
   ++counters_.receivers;
 
-  // 3. Fog in front of (and behind) the surfaces: volume_points.h.
+  // 3. Fog in front of (and behind) the surfaces: volume_fragments.h.
   if (impl_->fog) gather::add_volume_fragments(*impl_->fog, r.position, w.buffer());
 
   // 4. Visibility and convolution; a glossy receiver also convolves its

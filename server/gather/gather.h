@@ -17,7 +17,7 @@
 
 namespace pbgi {
 
-class VolumePoints;  // server/gather/volume_points.h
+class VolumePoints;  // server/scene/volume_points.h
 
 // The specular part of a glossy receiver: a GGX lobe (server/scene/brdf.h,
 // specular lobe only) seen from `view`. A zero (or absent) specular colour
@@ -112,7 +112,7 @@ class Gatherer {
 
   GatherResult gather(const Receiver& r);
 
-  // Fog of the scene (volume_points.h), added to every receiver's
+  // Fog of the scene (volume_fragments.h), added to every receiver's
   // microbuffer as an attenuating, emitting layer (both methods: the
   // factorized gather composites the cluster's far content behind it);
   // null = none.

@@ -1,6 +1,6 @@
 #include "server/gather/gather_options.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <cmath>
 #include <string>

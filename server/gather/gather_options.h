@@ -10,6 +10,20 @@
 namespace pbgi {
 
 // How a batch of receivers (an image tile) is gathered (docs/gather.md).
+//
+// How to add a gather method:
+//  1. A value here and its name in kGatherMethodNames: the config file,
+//     `pbgi` flags, `pbgi bench --methods` and requests read the names.
+//  2. The same name in GatherOptions.Method (proto/pbgi/v1/pbgi.proto;
+//     the proto conversion maps enum values by name) and its check in
+//     GatherOptions::validate().
+//  3. Its dispatch in Gatherer::gather_tile() (gather.cpp), which every
+//     caller (tiles, lattices, the Gather RPC, bounces) goes through, and
+//     its batch size in server/render/batch_gather.cpp if it shares work
+//     across receivers.
+//  4. Tests against PBGI on tests/server/gather's scenes (accuracy, hard
+//     cases, results independent of thread count and page layout), and a
+//     row in `pbgi bench` (client/bench/pbgi_method.cpp).
 enum class GatherMethod : uint8_t {
   // Every receiver walks the tree from the root into its own microbuffer
   // (Christensen 2008).

@@ -1,6 +1,6 @@
 #include "server/gather/glossy_gather.h"
 
-#include "server/gather/volume_points.h"
+#include "server/gather/volume_fragments.h"
 
 namespace pbgi::gather {
 

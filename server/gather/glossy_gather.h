@@ -34,7 +34,7 @@ class GlossyGather {
   // the unrefined pixels' part of r's glossy radiance.
   Resolved resolve(const Receiver& r, CutWalker& walker, const FarBuffer* far);
   // The refined pixels' part of r's glossy radiance (after resolve(r)):
-  // the fine walk, with the fog's points if any (volume_points.h), with
+  // the fine walk, with the fog's points if any (volume_fragments.h), with
   // pages pinned only during the call. Adds its node visits to
   // counters.glossy_nodes_visited and its page fetches to
   // counters.pages_fetched.

@@ -1,7 +1,7 @@
 #include "server/gather/irradiance_cache.h"
 
+#include "common/errors.h"
 #include "server/gather/result_mix.h"
-#include "storage/format/errors.h"
 
 #include <algorithm>
 #include <cmath>

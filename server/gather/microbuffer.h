@@ -173,7 +173,7 @@ class Microbuffer {
   // bounds how far the receiver's irradiance may be carried to a neighbour
   // (server/gather/irradiance_cache.h). Pixels straddling the horizon are
   // left out: they hold the receiver's own surface. Fog fragments
-  // (volume_points.h) count as surfaces.
+  // (volume_fragments.h) count as surfaces.
   float harmonic_mean_distance() const;
   size_t fragment_count() const { return fragments_.size(); }
   size_t touched_pixel_count() const { return touched_.size(); }

@@ -15,7 +15,7 @@
 // Non-finite payloads yield "invisible".
 #pragma once
 
-#include "storage/math/sh.h"
+#include "storage/sh/sh.h"
 #include "storage/tree/node.h"
 
 #include <Imath/ImathColor.h>

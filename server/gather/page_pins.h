@@ -17,8 +17,8 @@
 // Thread-safety: none; one per Gatherer.
 #pragma once
 
+#include "common/errors.h"
 #include "server/gather/page_views.h"
-#include "storage/format/errors.h"
 #include "storage/tree/node.h"
 
 #include <cstdint>

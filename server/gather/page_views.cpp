@@ -1,6 +1,6 @@
 #include "server/gather/page_views.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <algorithm>
 #include <cmath>

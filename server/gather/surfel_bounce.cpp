@@ -1,9 +1,9 @@
 #include "server/gather/surfel_bounce.h"
 
+#include "common/errors.h"
 #include "server/gather/bounce_receivers.h"
 #include "server/gather/gather.h"
 #include "server/gather/view_tree_gather.h"
-#include "storage/format/errors.h"
 #include "storage/tree/node_payload.h"
 #include "storage/tree/tree_builder.h"
 

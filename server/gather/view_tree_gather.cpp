@@ -1,7 +1,7 @@
 #include "server/gather/view_tree_gather.h"
 
+#include "common/errors.h"
 #include "server/gather/receiver_check.h"
-#include "storage/format/errors.h"
 
 #include <algorithm>
 #include <cmath>

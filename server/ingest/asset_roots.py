@@ -12,7 +12,11 @@ The daemon checks the scene file it is asked to open against its
    expressions and search paths resolved to) is checked again;
 3. every file path a chunk carries to the daemon (textures, dome maps,
    OpenVDB fields) is checked as the chunk is written (ChunkStream), and a
-   Draco file before its bytes are read.
+   Draco file before its bytes are read;
+4. a texture, dome map or OpenVDB file USD cannot resolve (it does not
+   exist) is checked where it would be (`unresolved_location`) before the
+   reader says "not found": otherwise the answer would tell whether a file
+   outside the roots exists.
 
 Paths are compared after symlinks are resolved (os.path.realpath), so a
 symlink inside a root that points outside is outside. A violation raises
@@ -74,6 +78,16 @@ class AssetRoots:
             for field in chunk.volume.fields:
                 self.check(field.file, f"volume {chunk.volume.prim_path}: the OpenVDB file of field "
                            f"'{field.name}'")
+
+
+def unresolved_location(attr, authored):
+    """Where the asset path `authored` of `attr` points though USD found no
+    file there: absolute as authored, else anchored to the layer holding
+    the attribute's strongest opinion ("" if it has none)."""
+    if os.path.isabs(authored):
+        return authored
+    stack = attr.GetPropertyStack() if attr else []
+    return stack[0].layer.ComputeAbsolutePath(authored) if stack else ""
 
 
 def _layer_name(layer):

@@ -1,11 +1,11 @@
 #include "server/ingest/chunk_store.h"
 
+#include "common/errors.h"
 #include "pbgi/v1/scene.pb.h"
 #include "server/ingest/scene_entry.h"
 #include "server/ingest/subdivision.h"
 #include "server/scene/file_digest.h"
 #include "server/volumes/scene_volumes.h"
-#include "storage/format/errors.h"
 #include "storage/format/format_version.h"
 #include "storage/pages/cache_files.h"
 
@@ -207,6 +207,9 @@ void write_scene(const Scene& scene, const ChunkStoreOptions& options, SceneEntr
     if (!m.albedo_texture.file.empty()) texture_ref(m.albedo_texture, d->mutable_diffuse_texture());
     if (!m.emission_texture.file.empty()) texture_ref(m.emission_texture, d->mutable_emissive_texture());
     d->set_diffuse_from_vertex_colors(m.albedo_from_vertex_colors);
+    d->set_opacity(m.opacity);
+    if (!m.opacity_texture.file.empty()) texture_ref(m.opacity_texture, d->mutable_opacity_texture());
+    d->set_opacity_threshold(m.opacity_threshold);
     writer.write(chunk);
   }
   uint64_t triangles = write_meshes(scene.triangles, 0, options, writer);

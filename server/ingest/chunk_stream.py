@@ -40,6 +40,13 @@ class ChunkStream:
         # mesh and cage chunks are then tagged with it.
         self.prototype_id = 0
 
+    def check_file(self, path, what):
+        """Confines a file the scene names but no chunk will carry (one that
+        does not exist, say) to the scene roots: raises OutsideRoots naming
+        `what`, never the path."""
+        if self._roots is not None:
+            self._roots.check(path, what)
+
     def write(self, chunk):
         if self.prototype_id and chunk.WhichOneof("body") in ("mesh", "subdiv_cage"):
             getattr(chunk, chunk.WhichOneof("body")).prototype_id = self.prototype_id

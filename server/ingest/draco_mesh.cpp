@@ -1,8 +1,8 @@
 #include "server/ingest/draco_mesh.h"
 
+#include "common/errors.h"
 #include "server/ingest/coordinate_limit.h"
 #include "server/scene/scene_validation.h"
-#include "storage/format/errors.h"
 
 #include <draco/compression/decode.h>
 #include <draco/compression/encode.h>

@@ -36,6 +36,7 @@ import math
 import numpy as np
 from pxr import Gf, UsdGeom, UsdLux
 
+from asset_roots import unresolved_location
 from chunk_stream import WARNING
 from pbgi.v1 import scene_pb2
 
@@ -108,6 +109,8 @@ def _dome(prim, light, matrix, time, stream, path):
         return
     resolved = getattr(asset, "resolvedPath", "")
     if not resolved:
+        stream.check_file(unresolved_location(prim.GetAttribute("inputs:texture:file"), authored),
+                          f"light {path}: the dome texture")
         stream.diagnostic(WARNING, path, f"dome texture '{authored}' not found: a constant dome "
                           "of the light's color", kind="dome-texture")
         return

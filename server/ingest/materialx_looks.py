@@ -11,10 +11,10 @@ IOR, emission), with the defaults of the shader's own nodedef from
 MaterialX's standard libraries:
 
   standard_surface   base x base_color, metalness, specular_roughness,
-                     specular_IOR, emission x emission_color
+                     specular_IOR, emission x emission_color, opacity (mean)
   open_pbr_surface   base_weight x base_color, base_metalness,
                      specular_roughness, specular_ior,
-                     emission_luminance x emission_color
+                     emission_luminance x emission_color, geometry_opacity
 
 An input is a constant, or a graph of `image`/`tiledimage` (file, its colour
 space: srgb_texture read as sRGB, lin_rec709 and raw as linear; the
@@ -22,11 +22,12 @@ address modes; a `texcoord` of index 0 or none: the mesh's st; tiledimage's
 uvtiling as an st transform) under `multiply` and `add` by constants (the
 texture's scale and bias) and `dot` pass-throughs; textures drive the base
 and emission colours (the model's textured inputs). Whatever else the
-material authors -- coat, sheen, transmission, subsurface, opacity, a
-specular tint, a texture on roughness, an unsupported node -- is listed in
+material authors -- coat, sheen, transmission, subsurface, a
+specular tint, a texture on roughness or opacity, an unsupported node -- is listed in
 one WARNING per material (kind "materialx"), never silently dropped. The
 arc's composition error itself is then not reported.
 """
+import math
 import os
 import re
 
@@ -37,6 +38,7 @@ except ImportError as e:  # reported once per material that needs it
     mx = None
     _IMPORT_ERROR = e
 
+from asset_roots import OutsideRoots
 from chunk_stream import WARNING
 from pbgi.v1 import scene_pb2
 from preview_materials import Resolved, TextureSpec
@@ -46,12 +48,12 @@ _INPUTS = {
     "standard_surface": {
         "base": "base", "base_color": "base_color", "roughness": "specular_roughness",
         "metalness": "metalness", "ior": "specular_IOR", "emission": "emission",
-        "emission_color": "emission_color",
+        "emission_color": "emission_color", "opacity": "opacity",
     },
     "open_pbr_surface": {
         "base": "base_weight", "base_color": "base_color", "roughness": "specular_roughness",
         "metalness": "base_metalness", "ior": "specular_ior", "emission": "emission_luminance",
-        "emission_color": "emission_color",
+        "emission_color": "emission_color", "opacity": "geometry_opacity",
     },
 }
 _TEXTURED = ("base_color", "emission_color")
@@ -81,6 +83,57 @@ def mtlx_error_files(error_text):
     return sorted(set(m.group(1) for m in _MTLX_ASSET.finditer(error_text)))
 
 
+def _include_reader(roots, files, what):
+    """MaterialX's XInclude hook: an included file is resolved as MaterialX
+    does (the including document's folder first), confined to the scene
+    roots before it is read (OutsideRoots names `what`, never the file),
+    recorded in `files`, then read with the same hook (nested includes)."""
+    def read(doc, filename, search_path, options):
+        path = search_path.find(filename).asString()
+        if not os.path.isabs(path):  # found nowhere: where the includer would have it
+            folders = [f for f in search_path.asString().split(os.pathsep) if f]
+            path = os.path.join(folders[0] if folders else os.getcwd(), path)
+        path = os.path.normpath(path)
+        if roots is not None:
+            roots.check(path, f"a file {what} includes")
+        files.append(path)
+        mx.readFromXmlFile(doc, path, search_path, options)
+    return read
+
+
+def read_mtlx_document(file, roots, what="a MaterialX document"):
+    """(document, [every file read: `file`, then its XIncludes]). Each file
+    is checked against `roots` (an AssetRoots or None) before it is read:
+    raises OutsideRoots. Raises the MaterialX package's errors for missing
+    or malformed documents."""
+    if roots is not None:
+        roots.check(file, what)
+    files = [file]
+    options = mx.XmlReadOptions()
+    options.readXIncludeFunction = _include_reader(roots, files, f"the MaterialX document '{file}'")
+    doc = mx.createDocument()
+    mx.readFromXmlFile(doc, file, mx.FileSearchPath(), options)
+    return doc, files
+
+
+def mtlx_document_files(file, roots):
+    """The files whose bytes make up a .mtlx look (the document and what it
+    XIncludes), for the content hash: editing an included document must
+    change it. Confined like the look's own read (raises OutsideRoots);
+    a document that cannot be read (or no MaterialX package) is itself
+    the only file."""
+    if mx is None:
+        if roots is not None:
+            roots.check(file, "a MaterialX document")
+        return [file]
+    try:
+        return read_mtlx_document(file, roots)[1]
+    except Exception as e:
+        if isinstance(e, OutsideRoots):
+            raise
+        return [file]
+
+
 def mtlx_arcs(prim):
     """[(absolute .mtlx path, material name or "")] of the references and
     payloads authored on `prim` that name a MaterialX document."""
@@ -108,9 +161,10 @@ class _Graph:
     texture (a dict of TextureSpec fields with scale and bias), or None with
     a problem noted."""
 
-    def __init__(self, document_dir, problems):
+    def __init__(self, document_dir, problems, roots=None):
         self.dir = document_dir
         self.problems = problems
+        self.roots = roots  # AssetRoots of the read, or None
 
     def input(self, inp, what):
         node = inp.getConnectedNode()
@@ -164,6 +218,9 @@ class _Graph:
             self.problems.append(f"{what}: UDIM file '{path}' is not supported")
             return None
         if not os.path.isfile(path):
+            # Said only of a path inside the scene roots (no existence leak).
+            if self.roots is not None:
+                self.roots.check(path, f"{what}: the texture file of image {node.getName()}")
             self.problems.append(f"{what}: texture file '{path}' not found")
             return None
         space = file_input.getActiveColorSpace()
@@ -236,17 +293,16 @@ class MaterialXLooks:
 
     def _document(self, file):
         if file not in self._documents:
-            # The document is a file the scene resolves: confined to the
-            # scene roots like its layers (asset_roots.py); raises
-            # OutsideRoots, which refuses the whole read.
+            # The document and its XIncludes are files the scene resolves:
+            # confined to the scene roots like its layers (asset_roots.py);
+            # raises OutsideRoots, which refuses the whole read.
             roots = getattr(self._stream, "_roots", None)
-            if roots is not None:
-                roots.check(file, "a MaterialX document")
             try:
-                doc = mx.createDocument()
-                mx.readFromXmlFile(doc, file)
+                doc, _ = read_mtlx_document(file, roots)
                 doc.importLibrary(_library())
                 self._documents[file] = (doc, None)
+            except OutsideRoots:
+                raise
             except Exception as e:  # a missing or malformed document
                 self._documents[file] = (None, str(e).strip() or type(e).__name__)
         return self._documents[file]
@@ -275,7 +331,7 @@ class MaterialXLooks:
 
     def _map(self, shader, names, document_dir, problems):
         nodedef = shader.getNodeDef()
-        graph = _Graph(document_dir, problems)
+        graph = _Graph(document_dir, problems, getattr(self._stream, "_roots", None))
         used = set(names.values())
 
         def get(key):
@@ -307,9 +363,14 @@ class MaterialXLooks:
             connected = inp.getConnectedNode() is not None or inp.getConnectedOutput() is not None
             if connected or default is None or inp.getValueString() != default.getValueString():
                 problems.append(f"{inp.getName()} = {'(connected)' if connected else inp.getValueString()}")
+        # standard_surface's opacity is a colour (its mean: opacity is
+        # presence here, server/scene/surface_opacity.h), OpenPBR's a float.
+        opacity = get("opacity")
+        opacity = sum(opacity) / len(opacity) if opacity else 1.0
+        opacity = min(max(float(opacity), 0.0), 1.0) if math.isfinite(opacity) else 1.0
         return Resolved(diffuse, emissive, float(get("roughness")[0]), float(get("metalness")[0]),
                         diffuse_texture, emissive_texture, False, (0.0, 0.0, 0.0), False,
-                        float(get("ior")[0]))
+                        float(get("ior")[0]), opacity)
 
 
 def _weighted(color, weight, stand_in):

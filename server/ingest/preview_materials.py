@@ -30,6 +30,7 @@ import math
 import numpy as np
 from pxr import UsdGeom, UsdShade
 
+from asset_roots import unresolved_location
 from chunk_stream import WARNING
 from pbgi.v1 import scene_pb2
 
@@ -42,13 +43,15 @@ _DEFAULTS = {
     "specularColor": (0.0, 0.0, 0.0),
     "useSpecularWorkflow": 0,
     "ior": 1.5,
+    "opacity": 1.0,
+    "opacityThreshold": 0.0,
 }
 # Unknown average albedo of a texture: mid grey keeps bounce energy plausible.
 _TEXTURE_GREY = (0.5, 0.5, 0.5)
 # Albedo of gprims with neither a bound material nor displayColor.
 _UNBOUND_GREY = (0.5, 0.5, 0.5)
 _CHANNELS = {"r": 0, "g": 1, "b": 2, "a": 3}
-_TEXTURED_INPUTS = ("diffuseColor", "emissiveColor")
+_TEXTURED_INPUTS = ("diffuseColor", "emissiveColor", "opacity")
 
 _WRAPS = {"black": scene_pb2.TextureRef.BLACK, "clamp": scene_pb2.TextureRef.CLAMP,
           "repeat": scene_pb2.TextureRef.REPEAT, "mirror": scene_pb2.TextureRef.MIRROR,
@@ -66,12 +69,14 @@ TextureSpec = collections.namedtuple(
     "TextureSpec", "file wrap_s wrap_t scale bias color_space channel st_transform uv_primvar "
                    "constant_st")
 
-# Resolved material: what MaterialDef carries. The specular inputs default
-# to UsdPreviewSurface's (MaterialX and displayColor materials use them).
+# Resolved material: what MaterialDef carries. The specular and opacity
+# inputs default to UsdPreviewSurface's (MaterialX and displayColor
+# materials use them).
 Resolved = collections.namedtuple(
     "Resolved", "diffuse emissive roughness metallic diffuse_texture emissive_texture vertex_colors "
-                "specular use_specular_workflow ior",
-    defaults=(_DEFAULTS["specularColor"], False, _DEFAULTS["ior"]))
+                "specular use_specular_workflow ior opacity opacity_texture opacity_threshold",
+    defaults=(_DEFAULTS["specularColor"], False, _DEFAULTS["ior"], _DEFAULTS["opacity"], None,
+              _DEFAULTS["opacityThreshold"]))
 
 # MaterialX surfaces: node id -> (base colour inputs (weight, colour),
 # roughness, metalness, emission (weight, colour)) with the defaults of each
@@ -81,17 +86,20 @@ _MTLX = {
         "base": ("base", 0.8), "base_color": ("base_color", (1.0, 1.0, 1.0)),
         "roughness": ("specular_roughness", 0.2), "metalness": ("metalness", 0.0),
         "emission": ("emission", 0.0), "emission_color": ("emission_color", (1.0, 1.0, 1.0)),
+        "opacity": ("opacity", (1.0, 1.0, 1.0)),
     },
     "ND_open_pbr_surface_surfaceshader": {
         "base": ("base_weight", 1.0), "base_color": ("base_color", (0.8, 0.8, 0.8)),
         "roughness": ("specular_roughness", 0.3), "metalness": ("base_metalness", 0.0),
         "emission": ("emission_luminance", 0.0),
         "emission_color": ("emission_color", (1.0, 1.0, 1.0)),
+        "opacity": ("geometry_opacity", 1.0),
     },
     "ND_gltf_pbr_surfaceshader": {
         "base": (None, 1.0), "base_color": ("base_color", (1.0, 1.0, 1.0)),
         "roughness": ("roughness", 1.0), "metalness": ("metallic", 1.0),
         "emission": ("emissive_strength", 1.0), "emission_color": ("emissive", (0.0, 0.0, 0.0)),
+        "opacity": (None, 1.0),
     },
 }
 
@@ -176,7 +184,7 @@ class MaterialTable:
         names = []
         for material_id in np.unique(np.asarray(material_ids)).tolist():
             r = self._by_id[int(material_id)]
-            for t in (r.diffuse_texture, r.emissive_texture):
+            for t in (r.diffuse_texture, r.emissive_texture, r.opacity_texture):
                 if t is not None and t.uv_primvar and t.uv_primvar not in names:
                     names.append(t.uv_primvar)
         return names
@@ -221,6 +229,10 @@ class MaterialTable:
         if values.emissive_texture is not None:
             _fill_texture_ref(m.emissive_texture, values.emissive_texture)
         m.diffuse_from_vertex_colors = bool(values.vertex_colors)
+        m.opacity = min(max(float(values.opacity), 0.0), 1.0)
+        if values.opacity_texture is not None:
+            _fill_texture_ref(m.opacity_texture, values.opacity_texture)
+        m.opacity_threshold = min(max(float(values.opacity_threshold), 0.0), 1.0)
         self._stream.write(chunk)
         return material_id
 
@@ -250,10 +262,13 @@ class MaterialTable:
         specular, _ = self._input(shader, "specularColor", gprim, path)
         workflow, _ = self._input(shader, "useSpecularWorkflow", gprim, path)
         ior, _ = self._input(shader, "ior", gprim, path)
+        opacity, opacity_texture = self._input(shader, "opacity", gprim, path)
+        threshold, _ = self._input(shader, "opacityThreshold", gprim, path)
         return Resolved(_as_color(diffuse), _as_color(emissive), float(roughness[0]),
                         float(metallic[0]), diffuse_texture, emissive_texture,
                         self._vertex_colors, _as_color(specular), bool(workflow[0]),
-                        float(ior[0]))
+                        float(ior[0]), _finite_unit(opacity[0], 1.0), opacity_texture,
+                        _finite_unit(threshold[0], 0.0))
 
     def _input(self, shader, name, gprim, material_path):
         """(constant value, TextureSpec or None) of a UsdPreviewSurface input."""
@@ -310,7 +325,7 @@ class MaterialTable:
         self._stream.diagnostic(
             WARNING, material_path,
             f"{name} is connected to {node or 'a shader'} {source.GetPath()}; only diffuseColor "
-            f"and emissiveColor textures are modelled: using {how}", kind=f"texture:{name}")
+            f"emissiveColor and opacity textures are modelled: using {how}", kind=f"texture:{name}")
         return _to_seq(value), None
 
     def _texture_spec(self, texture, output, material_path):
@@ -325,6 +340,8 @@ class MaterialTable:
             return None, f"UDIM file '{authored}' is not supported"
         resolved = getattr(asset, "resolvedPath", "")
         if not resolved:
+            self._stream.check_file(unresolved_location(_input_attr(texture, "file"), authored),
+                                    f"material {material_path}: a texture file")
             return None, f"file '{authored}' not found"
         channel = _OUTPUT_CHANNELS[output]
         k = _CHANNELS.get(output)
@@ -403,6 +420,8 @@ class MaterialTable:
         emission_color = _as_color(value("emission_color"))
         roughness = float(value("roughness"))
         metallic = float(value("metalness"))
+        opacity = _as_color(value("opacity"))  # standard_surface's is a colour: its mean
+        opacity = _finite_unit(sum(opacity) / 3.0, 1.0)
         diffuse = tuple(base * c for c in base_color)
         emissive = tuple(emission * c for c in emission_color)
         note = "; ".join(approximated)
@@ -410,11 +429,22 @@ class MaterialTable:
             WARNING, path,
             f"MaterialX {node} approximated by a base-colour/roughness/metalness surface "
             f"(Lambert + GGX, as UsdPreviewSurface): base colour {_fmt(diffuse)}, "
-            f"roughness {roughness:g}, metalness {metallic:g}, emission {_fmt(emissive)}; "
+            f"roughness {roughness:g}, metalness {metallic:g}, emission {_fmt(emissive)}, "
+            f"opacity {opacity:g}; "
             f"specular colour and IOR take their defaults; coat, sheen, transmission, "
             f"subsurface and thin-film ignored"
             + (f"; {note}" if note else ""), kind="materialx")
-        return Resolved(diffuse, emissive, roughness, metallic, None, None, False)
+        return Resolved(diffuse, emissive, roughness, metallic, None, None, False,
+                        opacity=opacity)
+
+
+def _finite_unit(value, fallback):
+    """value clamped to [0, 1]; `fallback` if it is not a finite number."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return fallback
+    return min(max(v, 0.0), 1.0) if math.isfinite(v) else fallback
 
 
 def _fill_texture_ref(ref, spec):
@@ -440,6 +470,15 @@ def _connected(inp):
     if not attrs or UsdShade.Input.IsInput(attrs[0]):
         return None, None
     return UsdShade.Shader(attrs[0].GetPrim()), attrs[0]
+
+
+def _input_attr(shader, name):
+    """The attribute holding an input's value (through interface inputs)."""
+    inp = shader.GetInput(name)
+    if not inp:
+        return None
+    attrs = inp.GetValueProducingAttributes()
+    return attrs[0] if attrs and UsdShade.Input.IsInput(attrs[0]) else inp.GetAttr()
 
 
 def _input_value(shader, name, time):

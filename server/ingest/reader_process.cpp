@@ -1,6 +1,6 @@
 #include "server/ingest/reader_process.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fcntl.h>
 #include <signal.h>

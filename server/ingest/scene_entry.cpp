@@ -1,7 +1,7 @@
 #include "server/ingest/scene_entry.h"
 
+#include "common/errors.h"
 #include "storage/format/byte_order.h"
-#include "storage/format/errors.h"
 #include "storage/format/format_version.h"
 
 #include <sys/stat.h>

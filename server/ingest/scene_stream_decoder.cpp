@@ -1,12 +1,12 @@
 #include "server/ingest/scene_stream_decoder.h"
 
+#include "common/errors.h"
 #include "pbgi/v1/scene.pb.h"
 #include "server/ingest/coordinate_limit.h"
 #include "server/ingest/draco_mesh.h"
 #include "server/ingest/subdiv_cage_message.h"
 #include "server/ingest/texture_loader.h"
 #include "server/scene/scene_validation.h"
-#include "storage/format/errors.h"
 
 #include <unistd.h>
 
@@ -280,6 +280,9 @@ class SceneAssembler {
       fail(at, fmt::format("invalid metersPerUnit {}", h.meters_per_unit()));
     scene_.meters_per_unit = h.meters_per_unit();
     if (!h.up_axis().empty()) scene_.up_axis = h.up_axis();
+    if (!(h.subdiv_cage_area() >= 0.0) || !std::isfinite(h.subdiv_cage_area()))
+      fail(at, fmt::format("invalid subdiv_cage_area {}", h.subdiv_cage_area()));
+    subdiv_cage_area_ = h.subdiv_cage_area();
   }
 
   void mesh(const pbgi::v1::MeshChunk& chunk, const FramePosition& at) {
@@ -518,7 +521,7 @@ class SceneAssembler {
     ++cage_count_;
     RefinedMesh refined;
     try {
-      refined = refine_subdivision_cage(decoded.cage, subdivision_);
+      refined = refine_subdivision_cage(decoded.cage, subdivision_, subdiv_cage_area_);
     } catch (const SceneError& e) {
       // Bad topology of one prim (the reader checks what it can first): like
       // the reader's own per-prim failures, it must not lose the scene.
@@ -578,6 +581,14 @@ class SceneAssembler {
     if (d.has_emissive_texture() && !d.emissive_texture().file().empty())
       m.emission_texture = binding_from(d.emissive_texture());
     m.albedo_from_vertex_colors = d.diffuse_from_vertex_colors();
+    if (d.has_opacity()) m.opacity = d.opacity();
+    if (d.has_opacity_texture() && !d.opacity_texture().file().empty())
+      m.opacity_texture = binding_from(d.opacity_texture());
+    m.opacity_threshold = d.opacity_threshold();
+    if (!std::isfinite(m.opacity) || m.opacity < 0.f || m.opacity > 1.f || !std::isfinite(m.opacity_threshold) ||
+        m.opacity_threshold < 0.f || m.opacity_threshold > 1.f)
+      fail(at, fmt::format("material {}: opacity {} or opacity_threshold {} outside [0, 1]", d.prim_path(), m.opacity,
+                           m.opacity_threshold));
     scene_.materials.push_back(std::move(m));
   }
 
@@ -747,6 +758,7 @@ class SceneAssembler {
 
   const std::string& source_;
   const SubdivisionOptions& subdivision_;
+  double subdiv_cage_area_ = 0.0;  // SceneHeader's: bounds each cage's refinement error
   Scene scene_;
   uint64_t streamed_triangles_ = 0;
   uint64_t cage_count_ = 0;

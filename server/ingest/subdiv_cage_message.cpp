@@ -1,6 +1,6 @@
 #include "server/ingest/subdiv_cage_message.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <bit>
 #include <cstring>

@@ -15,11 +15,11 @@ requires triangles for Loop), faces with fewer than 3 vertices, and cages too
 large for one stream frame.
 """
 import numpy as np
-from pxr import UsdGeom
+from pxr import Usd, UsdGeom
 
 from chunk_stream import ERROR, WARNING
 from pbgi.v1 import scene_pb2
-from triangle_chunks import GeometryError
+from triangle_chunks import GeometryError, transform_points
 
 SCHEMES = {
     UsdGeom.Tokens.catmullClark: scene_pb2.SubdivCage.CATMULL_CLARK,
@@ -179,3 +179,58 @@ def cage_chunk(mesh, scheme, world_points, counts, indices, flip, material, face
         mesh, mesh.GetTriangleSubdivisionRuleAttr(), time, _TRIANGLE_RULE,
         scene_pb2.SubdivCage.TRIANGLE_CATMULL_CLARK, stream, "triangleSubdivisionRule")
     return chunk
+
+
+def polygon_areas(points, counts, indices):
+    """Area of every face (Newell: half the length of the sum of its edges'
+    cross products), for planar and non-planar polygons alike."""
+    if len(counts) == 0:
+        return np.zeros(0)
+    starts = np.cumsum(counts) - counts
+    following = np.arange(1, len(indices) + 1, dtype=np.int64)
+    following[starts + counts - 1] = starts  # each face's last corner wraps to its first
+    cross = np.cross(points[indices], points[indices[following]])
+    return 0.5 * np.linalg.norm(np.add.reduceat(cross, starts, axis=0), axis=1)
+
+
+def total_cage_area(stage, time, xforms, visible):
+    """The summed world-space area of the subdivision cages the traversal
+    will send (both faces of double-sided ones, as the surfel sampler counts
+    them; every native instance once), for SceneHeader.subdiv_cage_area: the
+    daemon derives from it the surfel spacing each cage's refinement error
+    is bounded by, before the cages arrive. `visible(prim)` is the
+    traversal's pruning test. PointInstancer prototypes, polygon meshes and
+    implicit shapes are left out (a smaller area only makes the bound
+    stricter), and so are hole faces. Cages whose arrays are unusable count 0."""
+    predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+    prims = iter(Usd.PrimRange(stage.GetPseudoRoot(), predicate))
+    total = 0.0
+    for prim in prims:
+        if prim.IsA(UsdGeom.PointInstancer) or not visible(prim):
+            prims.PruneChildren()
+            continue
+        if not prim.IsA(UsdGeom.Mesh):
+            continue
+        mesh = UsdGeom.Mesh(prim)
+        if mesh.GetSubdivisionSchemeAttr().Get(time) not in SCHEMES:
+            continue
+        points = mesh.GetPointsAttr().Get(time)
+        counts = mesh.GetFaceVertexCountsAttr().Get(time)
+        indices = mesh.GetFaceVertexIndicesAttr().Get(time)
+        if points is None or counts is None or indices is None:
+            continue
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        counts = np.asarray(counts, dtype=np.int64)
+        indices = np.asarray(indices, dtype=np.int64)
+        if len(counts) == 0 or counts.min() < 1 or int(counts.sum()) != len(indices) or \
+                (len(indices) and (indices.min() < 0 or indices.max() >= len(points))):
+            continue
+        world = transform_points(points, xforms.GetLocalToWorldTransform(prim))
+        areas = polygon_areas(world, counts, indices)
+        holes = _array(mesh.GetHoleIndicesAttr(), time, np.int64)
+        areas[holes[(holes >= 0) & (holes < len(counts))]] = 0.0
+        area = float(np.nansum(areas))
+        if not np.isfinite(area):
+            continue
+        total += area * (2.0 if mesh.GetDoubleSidedAttr().Get(time) else 1.0)
+    return total

@@ -1,7 +1,7 @@
 #include "server/ingest/subdivision.h"
 
+#include "common/errors.h"
 #include "server/ingest/subdivision_topology.h"
-#include "storage/format/errors.h"
 
 #include <opensubdiv/far/primvarRefiner.h>
 #include <opensubdiv/far/topologyRefiner.h>
@@ -377,7 +377,8 @@ double limit_deviation(const SubdivCage& cage, uint32_t level) {
   return worst;
 }
 
-SubdivisionLevel choose_subdivision_level(const SubdivCage& cage, const SubdivisionOptions& options) {
+SubdivisionLevel choose_subdivision_level(const SubdivCage& cage, const SubdivisionOptions& options,
+                                          double scene_cage_area) {
   options.validate();
   validate_cage(cage);
   SubdivisionLevel choice;
@@ -414,7 +415,7 @@ SubdivisionLevel choose_subdivision_level(const SubdivCage& cage, const Subdivis
   // at most the cap, so the face budget holds while measuring too.
   choice.spacing = target;
   if (target <= 0.0 && options.target_surfels > 0)
-    choice.spacing = std::sqrt(cage_area(cage) / double(options.target_surfels));
+    choice.spacing = std::sqrt(std::max(cage_area(cage), scene_cage_area) / double(options.target_surfels));
   if (choice.spacing > 0.0 && options.max_deviation_fraction > 0.f) {
     choice.tolerance = double(options.max_deviation_fraction) * choice.spacing;
     for (uint32_t level = std::max(floor, semi_sharp_levels(cage)); level < choice.level; ++level) {
@@ -430,11 +431,11 @@ SubdivisionLevel choose_subdivision_level(const SubdivCage& cage, const Subdivis
   return choice;
 }
 
-RefinedMesh refine_subdivision_cage(const SubdivCage& cage, const SubdivisionOptions& options) {
+RefinedMesh refine_subdivision_cage(const SubdivCage& cage, const SubdivisionOptions& options, double scene_cage_area) {
   // 1. The level, from the geometric error and the target edge length
   // (validates options and cage).
   RefinedMesh out;
-  out.level = choose_subdivision_level(cage, options);
+  out.level = choose_subdivision_level(cage, options, scene_cage_area);
   if (!out.level.warning.empty()) out.warnings.push_back(out.level.warning);
   const int level = static_cast<int>(out.level.level);
 

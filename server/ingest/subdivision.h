@@ -87,10 +87,12 @@ struct SubdivisionOptions {
   // refined to the edge-length level.
   float max_deviation_fraction = 0.1f;
   // When target_edge_length is 0: the error rule's spacing is the one this
-  // many surfels would have on this mesh alone, sqrt(cage area /
-  // target_surfels) -- never larger than the spacing of the whole scene,
-  // which is derived from its total area only after every mesh is read --
-  // and default_level is the cap. 0 = no error rule then.
+  // many surfels would have on the scene's cages, sqrt(max(scene cage area,
+  // this cage's area) / target_surfels) (the scene cage area comes from
+  // the reader's SceneHeader before the cages: the spacing the sampler
+  // derives from the whole scene's area is never smaller, up to a cage's
+  // area exceeding its limit surface's), and default_level is the cap.
+  // 0 = no error rule then.
   uint64_t target_surfels = 0;
   // Level used when target_edge_length is 0.
   uint32_t default_level = 2;
@@ -110,8 +112,9 @@ inline constexpr uint32_t kMaxSubdivisionLevel = 10;
 
 // Version of the refinement algorithm, folded into the content hash of
 // scenes with subdivision surfaces and into chunk store keys; bump when the
-// refined triangles change. 2: level by geometric error.
-inline constexpr int kSubdivisionAlgorithmVersion = 2;
+// refined triangles change. 2: level by geometric error. 3: the error
+// bound from the spacing of the scene's cages, not of each cage alone.
+inline constexpr int kSubdivisionAlgorithmVersion = 3;
 
 struct SubdivisionLevel {
   uint32_t level = 0;
@@ -131,9 +134,12 @@ struct SubdivisionLevel {
 // cages with non-quad faces get at least level 1 (the limit is evaluated on
 // quads). With the error rule this refines the cage (once per level tried,
 // each time one level deeper than the level tried), so it costs about as
-// much as the refinement itself. Throws SceneError naming the prim if the
-// topology is invalid.
-SubdivisionLevel choose_subdivision_level(const SubdivCage& cage, const SubdivisionOptions& options);
+// much as the refinement itself. scene_cage_area: the summed area of all
+// the scene's cages (SceneHeader.subdiv_cage_area; 0 = unknown, this
+// cage's own area is used), see SubdivisionOptions::target_surfels. Throws
+// SceneError naming the prim if the topology is invalid.
+SubdivisionLevel choose_subdivision_level(const SubdivCage& cage, const SubdivisionOptions& options,
+                                          double scene_cage_area = 0.0);
 
 // Largest distance between the limit surface and the triangles of the cage
 // refined uniformly to `level` (vertices on the limit, quads split along the
@@ -160,6 +166,7 @@ struct RefinedMesh {
 // naming the prim for invalid input (indices out of range, faces with
 // fewer than 3 vertices, non-triangles with Loop, inconsistent crease or
 // corner arrays, non-finite points) or when OpenSubdiv rejects the topology.
-RefinedMesh refine_subdivision_cage(const SubdivCage& cage, const SubdivisionOptions& options);
+RefinedMesh refine_subdivision_cage(const SubdivCage& cage, const SubdivisionOptions& options,
+                                    double scene_cage_area = 0.0);
 
 }  // namespace pbgi

@@ -1,6 +1,6 @@
 #include "server/ingest/subdivision_topology.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <opensubdiv/far/error.h>
 #include <opensubdiv/far/topologyDescriptor.h>

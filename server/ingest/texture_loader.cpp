@@ -1,9 +1,9 @@
 #include "server/ingest/texture_loader.h"
 
+#include "common/errors.h"
 #include "pbgi_build_config.h"
 #include "server/scene/environment_map.h"
 #include "server/scene/texture.h"
-#include "storage/format/errors.h"
 
 #include <OpenColorIO/OpenColorIO.h>
 #include <OpenImageIO/imageio.h>
@@ -270,13 +270,15 @@ void check_confined(const Scene& scene, const AssetRoots& roots) {
   for (const Material& m : scene.materials) {
     check(m.albedo_texture.file, m.prim_path, "diffuseColor");
     check(m.emission_texture.file, m.prim_path, "emissiveColor");
+    check(m.opacity_texture.file, m.prim_path, "opacity");
   }
   for (const Light& l : scene.lights) check(l.texture_file, l.prim_path, "dome");
 }
 
 bool names_files(const Scene& scene) {
   for (const Material& m : scene.materials)
-    if (!m.albedo_texture.file.empty() || !m.emission_texture.file.empty()) return true;
+    if (!m.albedo_texture.file.empty() || !m.emission_texture.file.empty() || !m.opacity_texture.file.empty())
+      return true;
   for (const Light& l : scene.lights)
     if (!l.texture_file.empty()) return true;
   return false;
@@ -292,6 +294,7 @@ void load_scene_textures(Scene& scene, const TextureLoadOptions& options) {
   for (Material& m : scene.materials) {
     loader.bind(m.albedo_texture, m.prim_path, "diffuseColor");
     loader.bind(m.emission_texture, m.prim_path, "emissiveColor");
+    loader.bind(m.opacity_texture, m.prim_path, "opacity");
   }
   for (Light& l : scene.lights)
     if (l.kind == LightKind::Dome) loader.bind_dome(l);

@@ -1,5 +1,6 @@
 #include "server/ingest/usd_ingest.h"
 
+#include "common/errors.h"
 #include "pbgi_build_config.h"
 #include "server/ingest/draco_mesh.h"
 #include "server/ingest/reader_process.h"
@@ -7,7 +8,6 @@
 #include "server/scene/file_digest.h"
 #include "server/scene/scene_validation.h"
 #include "server/volumes/scene_volumes.h"
-#include "storage/format/errors.h"
 
 #include <algorithm>
 #include <cctype>

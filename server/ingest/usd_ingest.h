@@ -50,8 +50,10 @@ struct IngestOptions {
   float target_edge_length = 0.f;
   // When target_edge_length is 0 (the spacing is derived from the whole
   // scene's area, unknown while meshes stream in): the error rule bounds
-  // each mesh by the spacing this many surfels would have on that mesh
-  // alone -- never larger than the scene's. 0 = no error rule then.
+  // each mesh by the spacing this many surfels would have on all the
+  // scene's subdivision cages (their area is measured by the reader before
+  // it sends them) -- never larger than the scene's, up to a cage's area
+  // exceeding its limit surface's. 0 = no error rule then.
   uint64_t target_surfels = 0;
   // Refinement never goes deeper (a warning names each capped mesh).
   uint32_t max_subdivision_level = 6;

@@ -49,11 +49,12 @@ try:
     from gprim_triangles import read_implicit, read_mesh
     from implicit_shapes import is_implicit
     from light_defs import is_light, light_def, matrix_floats
-    from materialx_looks import MaterialXLooks, mtlx_error_files
+    from materialx_looks import MaterialXLooks, mtlx_document_files, mtlx_error_files
     from pbgi.v1 import scene_pb2
     from point_instancers import read_point_instancer
     from preview_materials import MaterialTable
     from prototypes import PrototypeTable
+    from subdiv_cages import total_cage_area
     from triangle_chunks import GeometryError, TriangleEmitter
     from volume_defs import volume_def
     _IMPORT_ERROR = None
@@ -62,7 +63,7 @@ except ImportError as e:  # reported by main() with a clear message
 
 # Bumped whenever the reader's output for the same input changes, so that
 # caches keyed by the content hash are invalidated.
-READER_VERSION = "pbgi-usd-reader/5"  # 5: MaterialX documents read (materialx_looks.py)
+READER_VERSION = "pbgi-usd-reader/6"  # 6: subdiv_cage_area, XIncludes hashed, opacity
 _HASH_BLOCK = 1 << 20
 EXIT_OUTSIDE_ROOTS = 5
 EXIT_BAD_SELECTION = 6
@@ -133,14 +134,16 @@ def parse_variant(text):
     return path, variant_set, selection
 
 
-def content_hash(stage, time_code, flatten_instances=False):
+def content_hash(stage, time_code, flatten_instances=False, roots=None):
     """sha256 over every layer the stage used (file bytes; exported text for
     anonymous layers), order- and location-independent, plus the time code
     (and whether instances are flattened: a different stream), and the
-    MaterialX documents read in place of layers (materialx_looks.py)."""
+    MaterialX documents read in place of layers with the files they
+    XInclude (materialx_looks.py; confined to `roots` before being read)."""
     digests = []
     documents = {f for e in stage.GetCompositionErrors() for f in mtlx_error_files(str(e))}
-    for document in sorted(documents):
+    files = {f for d in documents for f in mtlx_document_files(d, roots)}
+    for document in sorted(files):
         if os.path.isfile(document):
             with open(document, "rb") as f:
                 digests.append(hashlib.sha256(f.read()).hexdigest())
@@ -388,14 +391,31 @@ def render_purpose(imageable, stream):
     return computed in _RENDERED_PURPOSES
 
 
-def _write_header(stage, path, time, stream, flatten_instances):
+def _rendered(prim, time):
+    """The traversal's pruning test (visibility, render purpose) without its
+    diagnostics: what the pass before the header may use."""
+    if not prim.IsA(UsdGeom.Imageable):
+        return True
+    imageable = UsdGeom.Imageable(prim)
+    if imageable.GetVisibilityAttr().Get(time) == UsdGeom.Tokens.invisible:
+        return False
+    return imageable.GetPurposeAttr().Get() in _RENDERED_PURPOSES or \
+        imageable.ComputePurpose() in _RENDERED_PURPOSES
+
+
+def _write_header(stage, path, time, stream, flatten_instances, hash_only, roots):
     chunk = scene_pb2.SceneChunk()
     header = chunk.header
     header.source_path = stage.GetRootLayer().realPath or os.path.abspath(path)
-    header.content_hash = content_hash(stage, time.GetValue(), flatten_instances)
+    header.content_hash = content_hash(stage, time.GetValue(), flatten_instances, roots)
     header.meters_per_unit = UsdGeom.GetStageMetersPerUnit(stage)
     header.up_axis = str(UsdGeom.GetStageUpAxis(stage))
     header.time_code = time.GetValue()
+    if not hash_only:
+        # Before any cage: each cage's refinement is bounded by the surfel
+        # spacing of the whole scene (server/ingest/subdivision.h).
+        header.subdiv_cage_area = total_cage_area(stage, time, UsdGeom.XformCache(time),
+                                                  lambda prim: _rendered(prim, time))
     stream.write(chunk)
 
 
@@ -456,7 +476,7 @@ def main(argv):
     stream = ChunkStream(out, roots)
     stream.stage = stage
     try:
-        _write_header(stage, args.scene, time, stream, args.flatten_instances)
+        _write_header(stage, args.scene, time, stream, args.flatten_instances, args.hash_only, roots)
         if args.hash_only:
             stream.end()
             out.close()

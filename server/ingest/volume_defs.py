@@ -11,6 +11,7 @@ reported once per prim and skipped.
 """
 from pxr import UsdVol
 
+from asset_roots import unresolved_location
 from chunk_stream import WARNING
 from light_defs import matrix_floats
 from pbgi.v1 import scene_pb2
@@ -38,6 +39,9 @@ def volume_def(prim, matrix, time, xforms, materials, stream):
         resolved = file_path.resolvedPath if file_path is not None else ""
         if not resolved:
             shown = file_path.path if file_path is not None else ""
+            if shown:
+                stream.check_file(unresolved_location(asset.GetFilePathAttr(), shown),
+                                  f"volume {path}: the OpenVDB file of field '{name}'")
             stream.diagnostic(WARNING, path, f"field '{name}': cannot resolve the file "
                               f"'{shown}' of {target}: skipped", kind=f"volume-file:{name}")
             continue

@@ -1,6 +1,6 @@
 #include "server/reference/reference_options.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <cmath>
 #include <string>

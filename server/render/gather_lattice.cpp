@@ -1,6 +1,6 @@
 #include "server/render/gather_lattice.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fmt/format.h>
 

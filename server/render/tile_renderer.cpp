@@ -1,10 +1,10 @@
 #include "server/render/tile_renderer.h"
 
+#include "common/errors.h"
 #include "server/render/batch_gather.h"
 #include "server/render/interpolated_tile.h"
 #include "server/scene/camera_rays.h"
 #include "server/scene/rng.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>

@@ -2,7 +2,7 @@
 
 #include "server/scene/scene_bulk.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,7 +1,7 @@
 #include "server/scene/environment_map.h"
 
+#include "common/errors.h"
 #include "server/scene/sample_patterns.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 

@@ -1,8 +1,10 @@
 #include "server/scene/ray_scene.h"
 
+#include "common/errors.h"
+#include "server/scene/rng.h"
 #include "server/scene/scene_bulk.h"
 #include "server/scene/scene_validation.h"
-#include "storage/format/errors.h"
+#include "server/scene/surface_opacity.h"
 
 #include <embree3/rtcore.h>
 #include <fmt/format.h>
@@ -59,6 +61,50 @@ std::string& device_config() {
   return config;
 }
 
+// What the opacity filter of one Embree geometry needs (surface_opacity.h).
+struct OpacityGeometry {
+  const TriangleSoup* soup = nullptr;
+  const std::vector<Material>* materials = nullptr;
+};
+
+uint32_t float_bits(float f) {
+  uint32_t b;
+  std::memcpy(&b, &f, sizeof b);
+  return b;
+}
+
+// Embree's intersect and occluded filter of geometries with non-opaque
+// materials: a hit where the surface is absent is passed through, for
+// every kind of ray alike (camera, path, shadow). Fractional opacity
+// decides per ray, by a hash of the ray and the triangle, so a ray asked
+// twice gets the same answer and different rays are independent.
+void opacity_filter(const RTCFilterFunctionNArguments* args) {
+  const auto* g = static_cast<const OpacityGeometry*>(args->geometryUserPtr);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] == 0) continue;
+    const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
+    const Material& m = (*g->materials)[g->soup->material[prim]];
+    if (!has_opacity(m)) continue;
+    const float opacity =
+        soup_opacity(*g->soup, m, prim, RTCHitN_u(args->hit, args->N, i), RTCHitN_v(args->hit, args->N, i));
+    uint64_t h =
+        hash_ids(float_bits(RTCRayN_org_x(args->ray, args->N, i)), float_bits(RTCRayN_org_y(args->ray, args->N, i)),
+                 float_bits(RTCRayN_org_z(args->ray, args->N, i)), float_bits(RTCRayN_dir_x(args->ray, args->N, i)));
+    h = hash_ids(h, float_bits(RTCRayN_dir_y(args->ray, args->N, i)), float_bits(RTCRayN_dir_z(args->ray, args->N, i)),
+                 (uint64_t(RTCHitN_instID(args->hit, args->N, i, 0)) << 32) | prim);
+    if (!surface_present(m, opacity, uint32_t(h >> 32))) args->valid[i] = 0;
+  }
+}
+
+bool any_opacity(const Scene& scene, const TriangleSoup& soup) {
+  std::vector<bool> used(scene.materials.size(), false);
+  for (const uint32_t m : soup.material)
+    if (m < used.size()) used[m] = true;
+  for (size_t m = 0; m < used.size(); ++m)
+    if (used[m] && has_opacity(scene.materials[m])) return true;
+  return false;
+}
+
 }  // namespace
 
 void set_embree_device_config(std::string config) { device_config() = std::move(config); }
@@ -68,6 +114,7 @@ struct RayScene::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
   std::vector<RTCScene> prototypes;  // one BVH per prototype, shared by its instances
+  std::vector<std::unique_ptr<OpacityGeometry>> opacity;  // user data of the filtered geometries
   float extent = 0.f;     // largest side of the scene's bounds
   float epsilon = 1e-7f;  // ray_epsilon()
   ErrorSink errors;
@@ -110,6 +157,13 @@ struct RayScene::Impl {
       vertices[3 * i + 2] = t.positions[i].z;
     }
     std::memcpy(indices, t.indices.data(), t.indices.size() * sizeof(uint32_t));
+    // Opaque geometry pays nothing: the filter is set only where needed.
+    if (any_opacity(s, t)) {
+      opacity.push_back(std::make_unique<OpacityGeometry>(OpacityGeometry{&t, &s.materials}));
+      rtcSetGeometryUserData(geom, opacity.back().get());
+      rtcSetGeometryIntersectFilterFunction(geom, opacity_filter);
+      rtcSetGeometryOccludedFilterFunction(geom, opacity_filter);
+    }
     rtcCommitGeometry(geom);
     rtcAttachGeometryByID(target, geom, id);
     rtcReleaseGeometry(geom);  // the scene holds a reference

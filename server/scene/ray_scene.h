@@ -1,6 +1,9 @@
 // Embree acceleration structure over a Scene's triangles (instances as
 // Embree instances of one BVH per prototype): closest hits for
-// camera and path rays, occlusion for shadow rays. Thread-safe after build.
+// camera and path rays, occlusion for shadow rays. Every query passes
+// through surfaces where their material's opacity makes them absent
+// (cutouts; fractional opacity per ray, server/scene/surface_opacity.h).
+// Thread-safe after build.
 #pragma once
 
 #include "server/scene/participating_medium.h"

@@ -1,7 +1,7 @@
 #include "server/scene/render_origin.h"
 
+#include "common/errors.h"
 #include "server/scene/scene_bulk.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 

@@ -1,6 +1,6 @@
 #include "server/scene/scene.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fmt/format.h>
 

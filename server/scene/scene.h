@@ -74,6 +74,14 @@ struct Material {
   TextureBinding albedo_texture;    // diffuseColor
   TextureBinding emission_texture;  // emissiveColor
   bool albedo_from_vertex_colors = false;  // diffuse = TriangleSoup::colors
+  // Opacity (UsdPreviewSurface opacity / opacityThreshold, MaterialX
+  // standard_surface opacity, OpenPBR geometry_opacity), evaluated by
+  // server/scene/surface_opacity.h: the texture (its first component) wins
+  // over the constant. opacity_threshold > 0 makes it a cutout: present
+  // where opacity >= threshold, absent elsewhere; 0 = fractional opacity.
+  float opacity = 1.f;
+  TextureBinding opacity_texture;
+  float opacity_threshold = 0.f;
 };
 
 // All triangles of the scene, flattened; per triangle its material and the

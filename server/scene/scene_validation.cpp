@@ -1,6 +1,6 @@
 #include "server/scene/scene_validation.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fmt/format.h>
 

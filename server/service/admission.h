@@ -7,7 +7,7 @@
 // for it, so that each finishes in a predictable time.
 #pragma once
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <chrono>
 #include <condition_variable>

@@ -2,7 +2,7 @@
 
 #include "server/service/secret_files.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fmt/format.h>
 

@@ -1,8 +1,8 @@
 #include "server/service/options_codec.h"
 
+#include "common/errors.h"
 #include "common/options/option_text.h"
 #include "server/service/proto_options.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 

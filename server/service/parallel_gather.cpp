@@ -1,6 +1,6 @@
 #include "server/service/parallel_gather.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>

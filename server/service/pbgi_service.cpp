@@ -1,13 +1,13 @@
 #include "server/service/pbgi_service.h"
 
+#include "common/errors.h"
+#include "server/scene/auto_camera.h"
+#include "server/scene/render_origin.h"
 #include "server/service/interpolated_gather.h"
 #include "server/service/parallel_gather.h"
 #include "server/service/process_memory.h"
 #include "server/service/receiver_codec.h"
-#include "server/scene/auto_camera.h"
-#include "server/scene/render_origin.h"
 #include "server/service/status_mapping.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>

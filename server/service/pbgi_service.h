@@ -3,6 +3,21 @@
 // authenticate, check requests, take an admission slot for the expensive
 // calls, convert messages and map errors (status_mapping.h); every call is
 // counted in metrics() by RPC, status and latency.
+//
+// How to add an RPC:
+//  1. The rpc and its messages in proto/pbgi/v1/pbgi.proto, additive only
+//     (docs/protocol.md: new messages, fields, RPCs, enum values).
+//  2. A handler here that is thin: its body runs inside serve(), which
+//     authenticates, counts the call under its name and maps the core
+//     library's errors (common/errors.h) to status codes
+//     (status_mapping.h); expensive work also takes an admission slot
+//     (admission.h). Request fields are checked before any work and named
+//     in InvalidArgument; the work itself belongs to a library below.
+//  3. The client library's call (client/lib/pbgi_client.h, with deadline
+//     and retries) and, if users need it, a `pbgi` subcommand.
+//  4. A row in docs/protocol.md's RPC table; tests in
+//     tests/server/service/ (each error code it can return) and through
+//     the client (tests/client/lib/).
 #pragma once
 
 #include "pbgi/v1/pbgi.grpc.pb.h"

@@ -5,8 +5,8 @@
 // (proto3 cannot tell those from "not sent"); an enum when 0 (*_DEFAULT).
 #pragma once
 
+#include "common/errors.h"
 #include "common/options/proto_fields.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 

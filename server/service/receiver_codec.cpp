@@ -1,6 +1,6 @@
 #include "server/service/receiver_codec.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fmt/format.h>
 

@@ -1,7 +1,7 @@
 #include "server/service/scene_registry.h"
 
+#include "common/errors.h"
 #include "server/service/options_codec.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>

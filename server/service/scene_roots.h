@@ -6,8 +6,8 @@
 // IngestOptions::asset_roots; server/scene/asset_roots.h).
 #pragma once
 
+#include "common/errors.h"
 #include "server/scene/asset_roots.h"
-#include "storage/format/errors.h"
 
 #include <filesystem>
 #include <string>

@@ -1,8 +1,8 @@
 #include "server/service/status_mapping.h"
 
+#include "common/errors.h"
 #include "server/service/admission.h"
 #include "server/service/scene_roots.h"
-#include "storage/format/errors.h"
 
 #include <spdlog/spdlog.h>
 

@@ -3,7 +3,7 @@
 // prefixed with what the request was about (scene, tile, field).
 #pragma once
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <grpcpp/support/status.h>
 

@@ -59,16 +59,17 @@
 // Everything derives from hashes of (seed, triangle, lattice cell), and the
 // order of tiles and candidates is fixed: the result does not depend on
 // threads or batch sizes.
+#include "common/errors.h"
 #include "server/scene/rng.h"
 #include "server/scene/sample_patterns.h"
 #include "server/scene/surface_colors.h"
+#include "server/scene/surface_opacity.h"
 #include "server/surfels/coincident_surfaces.h"
 #include "server/surfels/progress_meter.h"
 #include "server/surfels/spacing_field.h"
 #include "server/surfels/surfel_material.h"
 #include "server/surfels/surfel_samplers.h"
 #include "server/surfels/triangle_ranges.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
@@ -588,7 +589,10 @@ class PoissonSampler {
     Surfel out;
     out.position = s.p;
     out.normal = s.n;
-    out.radius = std::sqrt(float(s.weight) * kInvPi);
+    // Cut-out or partly transparent surface (surface_opacity.h): the
+    // surfel covers only what is there; none where it is cut out.
+    out.radius = std::sqrt(float(s.weight) * surface_coverage(scene_, s.tri, s.b1, s.b2) * kInvPi);
+    if (!(out.radius > 0.f)) return;
     const SurfaceColors colors = surface_colors(scene_, s.tri, s.b1, s.b2, 2.f * out.radius);
     set_surfel_material(scene_, s.tri, colors, options_.glossy_roughness, out);
     out.radiance = colors.emission;

@@ -3,7 +3,7 @@
 #include "server/scene/auto_camera.h"
 #include "server/scene/scene_bulk.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fmt/format.h>
 

@@ -1,6 +1,6 @@
 #include "server/surfels/surfel_options.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fmt/format.h>
 

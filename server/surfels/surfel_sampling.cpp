@@ -52,17 +52,18 @@
 // vertex-coloured one is evaluated at each surfel's point
 // (server/scene/surface_colors.h), with textures averaged over a square of
 // the surfel's area, so that the surfels of a mesh keep the texture's mean.
+#include "common/errors.h"
 #include "server/scene/rng.h"
 #include "server/scene/sample_patterns.h"
 #include "server/scene/scene_bulk.h"
 #include "server/scene/scene_validation.h"
 #include "server/scene/surface_colors.h"
+#include "server/scene/surface_opacity.h"
 #include "server/surfels/coincident_surfaces.h"
 #include "server/surfels/progress_meter.h"
 #include "server/surfels/surfel_material.h"
 #include "server/surfels/surfel_samplers.h"
 #include "server/surfels/triangle_ranges.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -219,13 +220,18 @@ void emit_range(const Scene& scene, const TriangleRange& range, const std::vecto
           const V3f at = range.instance ? range.soup_point(uint32_t(i), b.x, b.y) : s.position;
           share /= float(cover.cover(uint32_t(i), at));
         }
+        // Cut-out or partly transparent surface (surface_opacity.h): the
+        // surfel covers only what is there (0: dropped below).
+        share *= surface_coverage(scene, id, b.x, b.y);
         s.radius = std::sqrt(share * kInvPi);
+        if (!(s.radius > 0.f)) continue;
         const SurfaceColors colors = surface_colors(scene, id, b.x, b.y, 2.f * s.radius);
         set_surfel_material(scene, id, colors, options.glossy_roughness, s);
         s.radiance = colors.emission;
       }
       meter.advance(r.size());
     });
+    std::erase_if(chunk, [](const Surfel& s) { return !(s.radius > 0.f); });
     sink(chunk);
   }
 }

@@ -1,8 +1,8 @@
 #include "server/volumes/fog_field.h"
 
-#include "server/gather/volume_points.h"
+#include "common/errors.h"
+#include "server/scene/volume_points.h"
 #include "server/volumes/volume_grid.h"
-#include "storage/format/errors.h"
 
 #include <openvdb/tools/Interpolation.h>
 
@@ -42,7 +42,7 @@ float FogField::density(const Fog& f, const openvdb::FloatGrid::ConstAccessor& a
 
 bool FogField::march(const Fog& f, const V3f& origin, const V3f& dir, float tmin, float tmax, March* out) const {
   float t0 = tmin, t1 = tmax;
-  if (!gather::clip_to_box(f.bounds, origin, dir, t0, t1)) return false;
+  if (!clip_to_box(f.bounds, origin, dir, t0, t1)) return false;
   // Midpoint rule with steps of at most f.step (the segment split evenly).
   const float length = t1 - t0;
   out->t0 = t0;

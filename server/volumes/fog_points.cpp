@@ -1,10 +1,10 @@
 #include "server/volumes/fog_points.h"
 
+#include "common/errors.h"
 #include "server/scene/light_sampling.h"
 #include "server/scene/rng.h"
 #include "server/scene/sample_patterns.h"
 #include "server/volumes/volume_grid.h"
-#include "storage/format/errors.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>

@@ -1,5 +1,6 @@
-// Fog grids -> the volume points the gather composites (server/gather/
-// volume_points.h), at the level of detail the surfel spacing needs.
+// Fog grids -> the volume points (server/scene/volume_points.h) the gather
+// composites (server/gather/volume_fragments.h), at the level of detail the
+// surfel spacing needs.
 //
 // Level of detail: a point stands for a cubic block of f^3 voxels, f the
 // largest power of two with f * voxel <= spacing (at most
@@ -22,8 +23,8 @@
 // the cell holding its centre), so the gather marches one structure.
 #pragma once
 
-#include "server/gather/volume_points.h"
 #include "server/scene/ray_scene.h"
+#include "server/scene/volume_points.h"
 #include "server/volumes/fog_field.h"
 #include "server/volumes/fog_options.h"
 

@@ -1,6 +1,6 @@
 #include "server/volumes/level_set_mesh.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/LevelSetRebuild.h>

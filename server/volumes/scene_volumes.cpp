@@ -1,10 +1,10 @@
 #include "server/volumes/scene_volumes.h"
 
+#include "common/errors.h"
 #include "server/scene/file_digest.h"
 #include "server/scene/scene_validation.h"
 #include "server/volumes/level_set_mesh.h"
 #include "server/volumes/volume_grid.h"
-#include "storage/format/errors.h"
 
 #include <openvdb/io/File.h>
 

@@ -1,6 +1,6 @@
 #include "storage/cache/page_cache.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <algorithm>
 #include <future>

@@ -1,7 +1,7 @@
 #include "storage/codecs/codec_selection.h"
 
+#include "common/errors.h"
 #include "storage/codecs/cube_wavelet.h"
-#include "storage/format/errors.h"
 
 namespace pbgi::storage {
 

@@ -1,7 +1,7 @@
 #include "storage/codecs/cube_wavelet.h"
 
+#include "common/errors.h"
 #include "storage/codecs/haar_wavelet.h"
-#include "storage/format/errors.h"
 
 #include <algorithm>
 #include <cmath>

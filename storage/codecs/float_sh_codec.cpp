@@ -1,7 +1,7 @@
 #include "storage/codecs/float_sh_codec.h"
 
+#include "common/errors.h"
 #include "storage/format/byte_order.h"
-#include "storage/format/errors.h"
 
 namespace pbgi::storage {
 

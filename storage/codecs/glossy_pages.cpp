@@ -1,7 +1,7 @@
 #include "storage/codecs/glossy_pages.h"
 
+#include "common/errors.h"
 #include "storage/codecs/glossy_section.h"
-#include "storage/format/errors.h"
 
 #include <algorithm>
 #include <bit>

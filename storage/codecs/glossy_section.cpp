@@ -1,9 +1,9 @@
 #include "storage/codecs/glossy_section.h"
 
+#include "common/errors.h"
 #include "storage/codecs/cube_wavelet.h"
 #include "storage/format/byte_stream.h"
 #include "storage/format/checksum.h"
-#include "storage/format/errors.h"
 
 #include <Imath/half.h>
 

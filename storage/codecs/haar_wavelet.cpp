@@ -1,6 +1,6 @@
 #include "storage/codecs/haar_wavelet.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <string>
 #include <vector>

@@ -1,8 +1,8 @@
 #include "storage/codecs/kmeans.h"
 
+#include "common/errors.h"
 #include "storage/codecs/nearest_centre.h"
 #include "storage/codecs/pca_basis.h"
-#include "storage/format/errors.h"
 
 #include <tbb/parallel_for.h>
 

@@ -1,6 +1,6 @@
 #include "storage/codecs/nearest_centre.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <algorithm>
 #include <numeric>

@@ -7,6 +7,22 @@
 //
 // Thread-safety: codec objects are immutable after construction; encode()
 // and decode() may run concurrently from any number of threads.
+//
+// How to add a codec:
+//  1. A new CodecId below (never reuse one: page sets on disk name theirs).
+//  2. A PayloadCodec in a file of its own (storage/codecs/<name>_codec.h);
+//     payload_bits() must predict encode()'s size exactly, and decode()
+//     must throw CorruptionError on any size or content it cannot hold.
+//     Per-page-set state (a LUT) goes through state() and the manifest.
+//  3. Register it in payload_codecs.cpp (make_payload_codec,
+//     is_known_payload_codec, codec_needs_state when it has state).
+//  4. Make it choosable: a PayloadCodecOption value and name
+//     (storage/tree/build_options.h; the config, flags and requests read
+//     the names) and its policy in codec_selection.cpp.
+//  5. Its layout in storage/format/FORMAT.md; a round-trip test with error
+//     bounds in tests/storage/codecs/, and a page of it among the seeds of
+//     the page fuzz target (tests/fuzz/make_corpus.cpp). The page format
+//     version changes only if the page's own layout does.
 #pragma once
 
 #include "storage/tree/node.h"

@@ -1,7 +1,7 @@
 // The registry of payload codecs by id.
+#include "common/errors.h"
 #include "storage/codecs/float_sh_codec.h"
 #include "storage/codecs/quantized_sh_codec.h"
-#include "storage/format/errors.h"
 
 namespace pbgi::storage {
 

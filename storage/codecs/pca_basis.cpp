@@ -1,6 +1,6 @@
 #include "storage/codecs/pca_basis.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,8 +1,8 @@
 #include "storage/codecs/quantized_sh_codec.h"
 
+#include "common/errors.h"
 #include "storage/codecs/bit_packing.h"
 #include "storage/codecs/float_sh_codec.h"
-#include "storage/format/errors.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>

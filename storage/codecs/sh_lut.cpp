@@ -1,9 +1,9 @@
 #include "storage/codecs/sh_lut.h"
 
+#include "common/errors.h"
 #include "storage/codecs/bit_packing.h"
 #include "storage/format/byte_stream.h"
 #include "storage/format/checksum.h"
-#include "storage/format/errors.h"
 
 #include <algorithm>
 #include <chrono>

@@ -1,6 +1,6 @@
 #include "storage/codecs/sh_normalization.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <algorithm>
 #include <cfloat>

@@ -1,8 +1,8 @@
 #include "storage/codecs/wavelet_tree_coding.h"
 
+#include "common/errors.h"
 #include "storage/format/byte_stream.h"
 #include "storage/format/checksum.h"
-#include "storage/format/errors.h"
 
 #include <cmath>
 #include <string>

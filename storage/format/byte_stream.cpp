@@ -1,6 +1,6 @@
 #include "storage/format/byte_stream.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 namespace pbgi::storage {
 

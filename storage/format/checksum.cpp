@@ -1,7 +1,7 @@
 #include "storage/format/checksum.h"
 
+#include "common/errors.h"
 #include "storage/format/byte_order.h"
-#include "storage/format/errors.h"
 
 #include <xxhash.h>
 

@@ -63,7 +63,7 @@ inline constexpr uint32_t kPageLevels = 4;
 // checksummed) instead of ending at its surfel records.
 // kPageFlagHalfLeaves (pages of a V4 manifest whose leaf_format is half):
 // the surfel records are 38-byte half-float records instead of 24-byte
-// frame-relative ones (storage/format/page_records.h). The flag and the
+// frame-relative ones (storage/tree/page_records.h). The flag and the
 // manifest must agree, so a page is never decoded with the wrong stride.
 inline constexpr uint32_t kPageFlagNodePayloads = 1u << 0;
 inline constexpr uint32_t kPageFlagGlossy = 1u << 1;

@@ -1,8 +1,8 @@
 #include "storage/format/manifest_frame.h"
 
+#include "common/errors.h"
 #include "storage/format/byte_order.h"
 #include "storage/format/checksum.h"
-#include "storage/format/errors.h"
 #include "storage/format/known_versions.h"
 
 #include <algorithm>

@@ -1,6 +1,6 @@
 #include "storage/pages/cache_files.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fcntl.h>
 #include <signal.h>

@@ -1,6 +1,6 @@
 #include "storage/pages/file_io.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>

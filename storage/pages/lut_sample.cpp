@@ -1,6 +1,6 @@
 #include "storage/pages/lut_sample.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <algorithm>
 #include <string>

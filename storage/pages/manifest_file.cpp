@@ -1,8 +1,8 @@
 #include "storage/pages/manifest_file.h"
 
+#include "common/errors.h"
 #include "storage/codecs/payload_codec.h"
 #include "storage/format/byte_stream.h"
-#include "storage/format/errors.h"
 #include "storage/format/manifest_frame.h"
 #include "storage/format/page_frame.h"
 #include "storage/pages/file_io.h"

@@ -1,8 +1,8 @@
 #include "storage/pages/page_encoding.h"
 
+#include "common/errors.h"
 #include "storage/codecs/glossy_pages.h"
-#include "storage/format/errors.h"
-#include "storage/format/page_records.h"
+#include "storage/tree/page_records.h"
 
 #include <string>
 

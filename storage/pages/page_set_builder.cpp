@@ -1,12 +1,11 @@
 // PageSetBuilder: surfels -> external sort -> streaming tree -> pages ->
 // manifest -> atomic publish.
+#include "common/errors.h"
 #include "storage/codecs/codec_selection.h"
 #include "storage/codecs/glossy_pages.h"
 #include "storage/codecs/payload_codec.h"
 #include "storage/codecs/quantized_sh_codec.h"
 #include "storage/codecs/sh_lut.h"
-#include "storage/format/errors.h"
-#include "storage/format/page_records.h"
 #include "storage/pages/file_io.h"
 #include "storage/pages/lut_sample.h"
 #include "storage/pages/manifest_file.h"
@@ -15,6 +14,7 @@
 #include "storage/pages/staging_dir.h"
 #include "storage/pages/surfel_sorter.h"
 #include "storage/tree/morton.h"
+#include "storage/tree/page_records.h"
 #include "storage/tree/streaming_tree_builder.h"
 #include "storage/tree/surfel_checks.h"
 #include "storage/tree/tree_builder.h"

@@ -1,7 +1,7 @@
 #include "storage/pages/page_set_inspection.h"
 
 #include "storage/codecs/payload_codec.h"
-#include "storage/format/page_records.h"
+#include "storage/tree/page_records.h"
 
 #include <algorithm>
 #include <limits>

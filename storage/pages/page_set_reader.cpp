@@ -1,6 +1,6 @@
+#include "common/errors.h"
 #include "storage/cache/page_cache.h"
 #include "storage/codecs/payload_codec.h"
-#include "storage/format/errors.h"
 #include "storage/pages/file_io.h"
 #include "storage/pages/manifest_file.h"
 #include "storage/pages/page_encoding.h"

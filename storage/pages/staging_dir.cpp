@@ -1,6 +1,6 @@
 #include "storage/pages/staging_dir.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 #include "storage/pages/cache_files.h"
 #include "storage/pages/file_io.h"
 

@@ -1,6 +1,6 @@
 #include "storage/pages/staging_quota.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <algorithm>
 #include <string>

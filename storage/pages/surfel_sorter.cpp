@@ -1,7 +1,7 @@
 #include "storage/pages/surfel_sorter.h"
 
+#include "common/errors.h"
 #include "storage/format/checksum.h"
-#include "storage/format/errors.h"
 #include "storage/pages/file_io.h"
 #include "storage/pages/staging_quota.h"
 

@@ -1,7 +1,7 @@
 #include "storage/tree/build_options.h"
 
-#include "storage/format/errors.h"
-#include "storage/format/page_records.h"
+#include "common/errors.h"
+#include "storage/tree/page_records.h"
 
 #include <cmath>
 #include <string>

@@ -2,7 +2,7 @@
 #pragma once
 
 #include "common/options/option_table.h"
-#include "storage/format/page_records.h"
+#include "storage/tree/leaf_format.h"
 
 #include <cstdint>
 #include <span>
@@ -61,7 +61,7 @@ struct BuildOptions {
   // block: exact). Scenes without glossy surfels never pay for them.
   uint32_t glossy_resolution = 16;
   float wavelet_threshold = 0.f;
-  // How leaves store surfels (storage/format/page_records.h): relative
+  // How leaves store surfels (storage/tree/page_records.h): relative
   // (the paper's format B, 24 B per surfel, the default) or half (format
   // A, 38 B: float32 positions, half-float colours).
   storage::LeafFormat leaf_format = storage::LeafFormat::kRelative;

@@ -1,5 +1,5 @@
 // Turns the surfels of a leaf into surfel records of a leaf format, relative
-// to the leaf's frame (storage/format/page_records.h), and back.
+// to the leaf's frame (storage/tree/page_records.h), and back.
 //
 // The frame is the bounding sphere of the surfel disks, widened until every
 // *decoded* disk lies inside it: the tree's bounds are computed from the
@@ -9,7 +9,7 @@
 // Thread-safety: pure functions.
 #pragma once
 
-#include "storage/format/page_records.h"
+#include "storage/tree/page_records.h"
 #include "storage/tree/surfel.h"
 
 #include <cstdint>

@@ -1,6 +1,6 @@
 #include "storage/tree/memory_tree.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <string>
 

@@ -10,7 +10,7 @@
 // shows radiance radiance(w)/coverage(w).
 #pragma once
 
-#include "storage/math/sh.h"
+#include "storage/sh/sh.h"
 #include "storage/tree/surfel.h"
 
 #include <cstdint>
@@ -100,7 +100,7 @@ class TreeSource {
   virtual ~TreeSource() = default;
   virtual NodeRef root() const = 0;
   // Returns the page, loading and decoding it if needed. Throws
-  // pbgi::CorruptionError, VersionError or IoError (storage/format/errors.h)
+  // pbgi::CorruptionError, VersionError or IoError (common/errors.h)
   // naming the page on failure.
   virtual PagePtr page(uint32_t id) const = 0;
 };

@@ -7,7 +7,7 @@
 // float precision.
 #pragma once
 
-#include "storage/math/sh.h"
+#include "storage/sh/sh.h"
 #include "storage/tree/node.h"
 #include "storage/tree/surfel.h"
 

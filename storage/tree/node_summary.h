@@ -8,8 +8,8 @@
 // Thread-safety: pure functions.
 #pragma once
 
-#include "storage/format/page_records.h"
 #include "storage/tree/node.h"
+#include "storage/tree/page_records.h"
 #include "storage/tree/surfel.h"
 
 #include <span>

@@ -1,10 +1,10 @@
 #include "storage/tree/streaming_tree_builder.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 #include "storage/format/format_version.h"
-#include "storage/format/page_records.h"
 #include "storage/tree/leaf_quantizer.h"
 #include "storage/tree/node_summary.h"
+#include "storage/tree/page_records.h"
 
 #include <algorithm>
 #include <bit>

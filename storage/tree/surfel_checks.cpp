@@ -1,6 +1,6 @@
 #include "storage/tree/surfel_checks.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <cmath>
 #include <string>

@@ -1,6 +1,6 @@
 #include "storage/tree/tree_builder.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 #include "storage/tree/morton.h"
 #include "storage/tree/streaming_tree_builder.h"
 #include "storage/tree/surfel_checks.h"

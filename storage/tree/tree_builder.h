@@ -22,7 +22,7 @@ struct BuiltTree {
   // child follows it directly. Child links are NodeRef{0, index into nodes}.
   std::vector<Node> nodes;
   // The input surfels as stored (quantized relative to their leaf, see
-  // storage/format/page_records.h), in leaf order: a leaf holds
+  // storage/tree/page_records.h), in leaf order: a leaf holds
   // surfels[first_surfel, first_surfel + surfel_count).
   std::vector<Surfel> surfels;
   uint64_t leaf_count = 0;

@@ -1,8 +1,8 @@
 #include "storage/tree/treelet.h"
 
-#include "storage/format/errors.h"
-#include "storage/format/page_records.h"
+#include "common/errors.h"
 #include "storage/tree/node_summary.h"
+#include "storage/tree/page_records.h"
 
 #include <array>
 

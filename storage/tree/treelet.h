@@ -8,8 +8,8 @@
 // Thread-safety: values; expand_treelet() is reentrant.
 #pragma once
 
-#include "storage/format/page_records.h"
 #include "storage/tree/node.h"
+#include "storage/tree/page_records.h"
 
 #include <cstdint>
 #include <span>

@@ -2,8 +2,8 @@
 // parse or throw pbgi::Error naming the key or position; a configuration
 // that parses and validates must survive to_toml() and back unchanged
 // (the daemon prints its effective configuration that way).
+#include "common/errors.h"
 #include "server/daemon/daemon_options.h"
-#include "storage/format/errors.h"
 
 #include <cstddef>
 #include <cstdint>

@@ -3,10 +3,10 @@
 // a GatherRequest / RenderTileRequest / OpenSceneRequest before touching a
 // scene must either succeed or throw a pbgi::Error (INVALID_ARGUMENT),
 // never crash, hang or allocate without bound.
+#include "common/errors.h"
 #include "pbgi/v1/pbgi.pb.h"
 #include "server/service/options_codec.h"
 #include "server/service/receiver_codec.h"
-#include "storage/format/errors.h"
 
 #include <cstddef>
 #include <cstdint>

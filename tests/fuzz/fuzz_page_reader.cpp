@@ -4,9 +4,9 @@
 // checks behind the checksum (header, sizes, shapes, links, payloads) see
 // the corruption too. Also the manifest, raw and re-framed. Everything must
 // end in CorruptionError / VersionError, never a crash or a wild read.
+#include "common/errors.h"
 #include "storage/codecs/payload_codec.h"
 #include "storage/format/byte_order.h"
-#include "storage/format/errors.h"
 #include "storage/format/manifest_frame.h"
 #include "storage/format/page_frame.h"
 #include "storage/pages/manifest_file.h"

@@ -8,9 +8,9 @@
 //
 // The dependency lines are only read here, not checked: the chunk store
 // hashes the files they name, which a fuzzer must not open.
+#include "common/errors.h"
 #include "server/ingest/scene_entry.h"
 #include "storage/format/byte_order.h"
-#include "storage/format/errors.h"
 
 #include <sys/mman.h>
 #include <unistd.h>

@@ -2,8 +2,8 @@
 // stream (the daemon's trust boundary with the reader process). The input
 // is the stream, fed through a memfd as the pipe would; it must decode or
 // throw a pbgi::Error naming the frame, never crash.
+#include "common/errors.h"
 #include "server/ingest/scene_stream_decoder.h"
-#include "storage/format/errors.h"
 
 #include <sys/mman.h>
 #include <unistd.h>

@@ -464,6 +464,42 @@ TEST_F(Integration, BareAssetRendersWithAutoCameraAndWarnings) {
   EXPECT_NE(message.find("the prim has no variant set 'look' (it has: color)"), std::string::npos) << message;
 }
 
+// The USD Working Group's Teapot and Vehicles (../shared/scenes, when the
+// checkout has it beside it) render with no flag but the scene: they have
+// no camera and no light, and Vehicles a variant set -- the auto camera
+// frames them, the CLI says that nothing lights them, and the render is
+// not refused. (A small image and surfel budget keep the test short; no
+// flag names a camera, a light or a variant.)
+TEST(UsdWgAssets, TeapotAndVehiclesRenderWithNoFlagButTheScene) {
+  const fs::path shared = (kSourceDir / ".." / "shared" / "scenes").lexically_normal();
+  const fs::path assets = shared / "usd-wg" / "full_assets";
+  if (!fs::is_directory(assets)) GTEST_SKIP() << assets << " is not present";
+  testing::DaemonProcess daemon(kBinaryDir / "bin" / "pbgid", {"--scene-root", shared.string()});
+  for (const fs::path& scene : {assets / "Teapot" / "Teapot.usd", assets / "Vehicles" / "USD_Mini_Car_Kit" / "assets" /
+                                                                      "vehicles" / "vehicleVariants.usda"}) {
+    SCOPED_TRACE(scene.string());
+    const fs::path out = daemon.dir() / (scene.stem().string() + ".exr");
+    std::string text;
+    ASSERT_EQ(run_cli({"render", scene.string(), "--server", daemon.address(), "-o", out.string(), "--width", "32",
+                       "--height", "24", "--target-surfels", "20000", "--light-samples", "4", "--build-light-samples",
+                       "4", "-q"},
+                      daemon.dir(), &text),
+              0)
+        << text;
+    EXPECT_NE(text.find("warning: the scene has no light"), std::string::npos) << text;
+    const image::ExrImage img = image::read_exr(out.string());
+    EXPECT_EQ(img.attributes().at("pbgi/camera"), "auto");
+    double albedo = 0;
+    size_t covered = 0;
+    for (const float v : img.channel("albedo.G")) {
+      albedo += v;
+      covered += v > 0.f;
+    }
+    EXPECT_GT(albedo, 0.0) << "the auto camera sees the asset";
+    EXPECT_GT(covered, 32u * 24u / 20u) << "the asset fills a part of the frame";
+  }
+}
+
 TEST_F(Integration, OneMillisecondDeadlineIsHonoured) {
   client::ClientOptions hurried;
   hurried.call_deadline = std::chrono::milliseconds(1);

@@ -1,10 +1,10 @@
 #include "tests/stability/stability_harness.h"
 
 #include "client/image/exr_image.h"
+#include "common/errors.h"
 #include "server/engine/scene_session.h"
 #include "server/reference/path_tracer.h"
 #include "server/render/tile_renderer.h"
-#include "storage/format/errors.h"
 
 #include <gtest/gtest.h>
 

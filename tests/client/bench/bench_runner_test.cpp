@@ -1,6 +1,6 @@
 #include "client/bench/bench_runner.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 #include "tests/stability/stability_scenes.h"
 
 #include <gtest/gtest.h>

@@ -1,6 +1,6 @@
 #include "client/bench/json_writer.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 #include "client/bench/payload_spec.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 

@@ -4,7 +4,7 @@
 #include "client/cli/build_flags.h"
 #include "tests/client/cli/parse_flags.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 

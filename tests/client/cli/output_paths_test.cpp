@@ -2,7 +2,7 @@
 // directory or a directory given as the file fails at once, with a reason.
 #include "client/cli/output_paths.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>

@@ -3,7 +3,7 @@
 #include "client/cli/scene_flags.h"
 #include "tests/client/cli/parse_flags.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 #include "client/image/exr_image.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 

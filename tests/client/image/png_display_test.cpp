@@ -1,6 +1,6 @@
 #include "client/image/png_display.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 #include <png.h>

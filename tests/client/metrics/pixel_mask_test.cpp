@@ -1,8 +1,8 @@
 // Region comparisons: the pixels of one value of a mask layer, gathered
 // into a strip that the usual metrics measure alone.
-#include "client/metrics/image_comparison.h"
 #include "client/metrics/pixel_mask.h"
-#include "storage/format/errors.h"
+#include "client/metrics/image_comparison.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 

@@ -7,7 +7,7 @@
 #include "client/stress/rss_sampler.h"
 #include "client/stress/stress_report.h"
 #include "client/stress/stress_runner.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
 #include "tests/client/lib/fake_pbgi_server.h"
 
 #include <gtest/gtest.h>

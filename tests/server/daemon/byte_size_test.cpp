@@ -1,6 +1,6 @@
 #include "server/daemon/byte_size.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 

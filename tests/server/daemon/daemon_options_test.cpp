@@ -3,7 +3,7 @@
 #include "server/daemon/daemon_command_line.h"
 #include "server/daemon/daemon_options.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 #include "tests/server/service/temp_dir.h"
 #include "tests/support/perturbed_option.h"
 

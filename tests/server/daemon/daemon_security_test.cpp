@@ -6,7 +6,7 @@
 
 #include "client/lib/pbgi_client.h"
 #include "client/stress/health_check.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
 #include "tests/server/service/fake_sessions.h"
 #include "tests/server/service/temp_dir.h"
 

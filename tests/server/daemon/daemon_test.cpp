@@ -4,7 +4,7 @@
 #include "server/daemon/daemon.h"
 
 #include "client/lib/pbgi_client.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
 #include "tests/server/service/fake_sessions.h"
 #include "tests/server/service/temp_dir.h"
 #include "tests/storage/pages/dead_process.h"

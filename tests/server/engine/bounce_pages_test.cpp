@@ -3,9 +3,9 @@
 // A white furnace gives the exact answer: inside a closed box whose walls
 // all emit Le and reflect a fraction a, the radiance after n bounces is
 // Le (1 + a + ... + a^(n-1)), everywhere.
+#include "common/errors.h"
 #include "server/engine/scene_session.h"
 #include "storage/cache/page_cache.h"
-#include "storage/format/errors.h"
 #include "tests/stability/stability_scenes.h"
 
 #include <gtest/gtest.h>

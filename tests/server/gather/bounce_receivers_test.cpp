@@ -1,7 +1,7 @@
 // Sparse bounce receivers (server/gather/bounce_receivers.h): which surfels
 // are gathered, and how the others' irradiance is interpolated.
 #include "server/gather/bounce_receivers.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
 #include "surfel_shapes.h"
 
 #include <gtest/gtest.h>

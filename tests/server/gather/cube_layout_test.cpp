@@ -1,5 +1,5 @@
 #include "server/gather/cube_layout.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 

@@ -1,9 +1,9 @@
 // Factorized PBGI (gather_tile with GatherMethod::kFpbgi): agreement with
 // plain PBGI, the limits of its parameters, clustering, and the work it
 // saves.
+#include "common/errors.h"
 #include "server/gather/gather.h"
 #include "server/gather/receiver_clusters.h"
-#include "storage/format/errors.h"
 #include "surfel_shapes.h"
 #include "surfel_tree.h"
 

@@ -1,5 +1,5 @@
 #include "server/gather/gather_options.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 

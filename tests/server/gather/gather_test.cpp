@@ -1,7 +1,7 @@
 // Behaviour of the gather: visibility (occlusion, back faces, tangent
 // plane), AO distance, degenerate input, page pinning and counters.
 #include "server/gather/gather.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
 #include "surfel_shapes.h"
 #include "surfel_tree.h"
 

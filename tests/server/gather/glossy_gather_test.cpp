@@ -4,9 +4,9 @@
 // sampler), what a near mirror shows, the adaptive microbuffer against the
 // fixed one at an equal node budget, the diffuse path left untouched, and
 // input errors.
+#include "common/errors.h"
 #include "server/gather/gather.h"
 #include "server/scene/brdf.h"
-#include "storage/format/errors.h"
 #include "surfel_shapes.h"
 #include "surfel_tree.h"
 

@@ -2,7 +2,7 @@
 // distance the gather reports (Gatherer::harmonic_mean_distance).
 #include "server/gather/irradiance_cache.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 #include "surfel_shapes.h"
 #include "surfel_tree.h"
 

@@ -3,7 +3,7 @@
 // view-tree splatting (server/gather/view_tree_gather.h) must give the
 // unsplatted bounce's answer.
 #include "server/gather/surfel_bounce.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
 #include "surfel_shapes.h"
 #include "surfel_tree.h"
 

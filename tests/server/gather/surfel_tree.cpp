@@ -1,7 +1,7 @@
 #include "surfel_tree.h"
 
-#include "storage/format/errors.h"
-#include "storage/math/sh.h"
+#include "common/errors.h"
+#include "storage/sh/sh.h"
 
 #include <algorithm>
 #include <cmath>

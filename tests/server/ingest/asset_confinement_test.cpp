@@ -6,16 +6,17 @@
 // and the error never names the outside path. Both sides are checked: the
 // reader process (layers, files it resolves) and the daemon's own loaders
 // (textures, OpenVDB grids, scene files given directly, stored scenes).
+#include "common/errors.h"
 #include "server/ingest/chunk_store.h"
 #include "server/ingest/draco_mesh.h"
 #include "server/ingest/texture_loader.h"
 #include "server/ingest/usd_ingest.h"
 #include "server/volumes/scene_volumes.h"
-#include "storage/format/errors.h"
 #include "tests/server/service/temp_dir.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 
@@ -174,6 +175,63 @@ def Volume "Fog"
                  Escape::kFile);
 }
 
+// A file outside the roots that does not exist is refused like one that
+// does: "not found" would tell the client which files exist outside.
+TEST_F(AssetConfinement, MissingFilesOutsideAreRefusedNotReportedMissing) {
+  expect_refused("no-texture.usda", textured_scene("../elsewhere/none.png"), Escape::kFile);
+  expect_refused("no-texture-abs.usda", textured_scene((outside / "none.png").string()), Escape::kFile);
+  expect_refused("no-dome.usda",
+                 "#usda 1.0\ndef DomeLight \"Sky\"\n{\n    asset inputs:texture:file = @../elsewhere/none.exr@\n}\n",
+                 Escape::kFile);
+  expect_refused("no-volume.usda", R"(#usda 1.0
+def Volume "Fog"
+{
+    rel field:density = </Fog/Density>
+    def OpenVDBAsset "Density"
+    {
+        asset filePath = @../elsewhere/none.vdb@
+        token fieldName = "density"
+    }
+}
+)",
+                 Escape::kFile);
+  write(root / "look.mtlx", R"(<?xml version="1.0"?>
+<materialx version="1.39">
+  <image name="tex" type="color3">
+    <input name="file" type="filename" value="../elsewhere/none.png" />
+  </image>
+  <standard_surface name="SR" type="surfaceshader">
+    <input name="base_color" type="color3" nodename="tex" />
+  </standard_surface>
+  <surfacematerial name="M" type="material">
+    <input name="surfaceshader" type="surfaceshader" nodename="SR" />
+  </surfacematerial>
+</materialx>
+)");
+  expect_refused("no-mtlx-texture.usda", R"(#usda 1.0
+def Material "Look" (
+    prepend references = @./look.mtlx@</MaterialX/Materials/M>
+)
+{
+}
+def Mesh "Floor" (
+    prepend apiSchemas = ["MaterialBindingAPI"]
+)
+{
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    rel material:binding = </Look>
+}
+)",
+                 Escape::kFile);
+  // Inside the roots a missing texture is still a warning, not a refusal.
+  write(root / "missing-inside.usda", textured_scene("./none.png"));
+  const Scene scene = read_usd_scene(root / "missing-inside.usda", confined);
+  EXPECT_TRUE(std::any_of(scene.warnings.begin(), scene.warnings.end(),
+                          [](const std::string& w) { return w.find("not found") != std::string::npos; }));
+}
+
 // A MaterialX look (materialx_looks.py reads the document itself: usd-core
 // cannot compose .mtlx) is a file the scene resolves like any other.
 TEST_F(AssetConfinement, MaterialXDocumentOutsideIsRefused) {
@@ -193,8 +251,43 @@ def Mesh "Floor" (
     point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
     rel material:binding = </Look>
 }
-)",
-                 Escape::kFile);
+)");
+}
+
+// A document inside the roots that XIncludes one outside: refused before
+// the include is read, by the read and by the content hash (which hashes
+// the included bytes); also when the included file does not exist (the
+// answer must not tell whether it does).
+TEST_F(AssetConfinement, MaterialXIncludeOutsideIsRefused) {
+  for (const char* include : {"../elsewhere/secret.mtlx", "../elsewhere/none.mtlx"}) {
+    write(outside / "secret.mtlx", "<?xml version=\"1.0\"?>\n<materialx version=\"1.38\"/>\n");
+    write(root / "look.mtlx", std::string(R"(<?xml version="1.0"?>
+<materialx version="1.39" xmlns:xi="http://www.w3.org/2001/XInclude">
+  <xi:include href=")") + include +
+                                  R"(" />
+  <standard_surface name="SR" type="surfaceshader" />
+  <surfacematerial name="M" type="material">
+    <input name="surfaceshader" type="surfaceshader" nodename="SR" />
+  </surfacematerial>
+</materialx>
+)");
+    expect_refused("mtlx_include.usda", R"(#usda 1.0
+def Material "Look" (
+    prepend references = @./look.mtlx@</MaterialX/Materials/M>
+)
+{
+}
+def Mesh "Floor" (
+    prepend apiSchemas = ["MaterialBindingAPI"]
+)
+{
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    rel material:binding = </Look>
+}
+)");
+  }
 }
 
 TEST_F(AssetConfinement, DracoFileOutsideIsRefused) {

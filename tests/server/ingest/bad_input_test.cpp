@@ -3,7 +3,7 @@
 // repaired or skipped; the scene is never lost and nothing crashes.
 #include "server/ingest/usd_ingest.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>

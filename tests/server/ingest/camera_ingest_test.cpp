@@ -4,7 +4,7 @@
 #include "server/scene/auto_camera.h"
 #include "server/scene/camera_rays.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>

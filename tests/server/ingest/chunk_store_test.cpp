@@ -4,8 +4,8 @@
 #include "server/ingest/draco_mesh.h"
 #include "server/ingest/usd_ingest.h"
 
+#include "common/errors.h"
 #include "pbgi/v1/scene.pb.h"
-#include "storage/format/errors.h"
 #include "tests/server/ingest/scene_frames.h"
 
 #include <fcntl.h>
@@ -207,6 +207,8 @@ def Scope "Looks"
             int inputs:useSpecularWorkflow = 1
             color3f inputs:specularColor = (0.5, 0.25, 0.125)
             float inputs:ior = 1.33
+            float inputs:opacity = 0.75
+            float inputs:opacityThreshold = 0.5
             token outputs:surface
         }
     }
@@ -292,6 +294,12 @@ TEST(ChunkStore, ReopeningAnUnchangedSceneSkipsIngest) {
     EXPECT_EQ(second.materials[m].use_specular_workflow, first.materials[m].use_specular_workflow);
     EXPECT_EQ(second.materials[m].ior, first.materials[m].ior);
     EXPECT_EQ(second.materials[m].albedo_from_vertex_colors, first.materials[m].albedo_from_vertex_colors);
+    EXPECT_EQ(second.materials[m].opacity, first.materials[m].opacity);
+    EXPECT_EQ(second.materials[m].opacity_threshold, first.materials[m].opacity_threshold);
+    if (first.materials[m].prim_path == "/Looks/Shiny") {
+      EXPECT_EQ(first.materials[m].opacity, 0.75f);
+      EXPECT_EQ(first.materials[m].opacity_threshold, 0.5f);
+    }
   }
   ASSERT_EQ(second.lights.size(), 1u);
   EXPECT_EQ(second.lights[0].radiance, first.lights[0].radiance);

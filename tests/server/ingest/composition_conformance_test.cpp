@@ -11,8 +11,8 @@
 //   repaired is printed.
 #include "server/ingest/usd_ingest.h"
 
+#include "common/errors.h"
 #include "pbgi_build_config.h"
-#include "storage/format/errors.h"
 
 #include <gtest/gtest.h>
 

@@ -539,5 +539,31 @@ TEST(LooksIngestFiles, ContentHashFollowsTheTextureFiles) {
   EXPECT_NE(read_usd_scene(dir / "looks.usda", IngestOptions{}).content_hash, first);
 }
 
+// UsdPreviewSurface opacity and opacityThreshold (scenes/cutout_test.usda):
+// a cutout whose opacity reads a texture's alpha (st sent with the mesh),
+// and a constant fractional opacity; unauthored means opaque.
+TEST(LooksIngestFiles, PreviewSurfaceOpacityAndThreshold) {
+  const Scene s = read_usd_scene(fs::path(PBGI_TEST_SOURCE_DIR) / "scenes" / "cutout_test.usda", IngestOptions{});
+  const auto find = [&](const std::string& path) -> const Material& {
+    const auto it =
+        std::find_if(s.materials.begin(), s.materials.end(), [&](const Material& m) { return m.prim_path == path; });
+    if (it == s.materials.end()) throw std::runtime_error("no material " + path);
+    return *it;
+  };
+  const Material& leaf = find("/World/Materials/Leaf");
+  EXPECT_FLOAT_EQ(leaf.opacity_threshold, 0.5f);
+  ASSERT_TRUE(leaf.opacity_texture.bound());
+  EXPECT_EQ(leaf.opacity_texture.channel, TextureChannel::A);
+  EXPECT_TRUE(leaf.opacity_texture.uses_uvs);
+  EXPECT_FALSE(s.triangles.uvs.empty());
+  const Material& veil = find("/World/Materials/Veil");
+  EXPECT_FLOAT_EQ(veil.opacity, 0.5f);
+  EXPECT_FLOAT_EQ(veil.opacity_threshold, 0.f);
+  EXPECT_FALSE(veil.opacity_texture.bound());
+  const Material& ground = find("/World/Materials/White");
+  EXPECT_FLOAT_EQ(ground.opacity, 1.f);
+  for (const std::string& w : s.warnings) EXPECT_EQ(w.find("opacity"), std::string::npos) << w;
+}
+
 }  // namespace
 }  // namespace pbgi

@@ -3,8 +3,8 @@
 // file, the offset and the expected and found values.
 #include "server/ingest/scene_entry.h"
 
+#include "common/errors.h"
 #include "pbgi/v1/scene.pb.h"
-#include "storage/format/errors.h"
 #include "tests/server/ingest/scene_frames.h"
 
 #include <fcntl.h>

@@ -3,9 +3,9 @@
 // crash, no hang).
 #include "server/ingest/usd_ingest.h"
 
+#include "common/errors.h"
 #include "pbgi/v1/scene.pb.h"
 #include "server/ingest/scene_stream_decoder.h"
-#include "storage/format/errors.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>

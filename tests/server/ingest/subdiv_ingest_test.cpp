@@ -241,6 +241,35 @@ def Xform "Big"
             2);
 }
 
+TEST(SubdivIngestOptions, WithoutATargetEachCageIsBoundedByTheSpacingOfAllTheScenesCages) {
+  // A unit cube beside a flat 1000 x 1000 cage, 10,000 surfels: the scene's
+  // spacing (~10) is far wider than the cube's alone (~0.025, which needs
+  // the default level 2); the reader sends the cages' total area first, so
+  // the cube stays at its cage.
+  const fs::path path = write_file("wide.usda", R"(#usda 1.0
+def Xform "W"
+{
+)" + cube("Cube") + R"(    def Mesh "Ground"
+    {
+        int[] faceVertexCounts = [4]
+        int[] faceVertexIndices = [0, 1, 2, 3]
+        point3f[] points = [(-500, -1, -500), (-500, -1, 500), (500, -1, 500), (500, -1, -500)]
+    }
+}
+)");
+  IngestOptions options;
+  options.target_surfels = 10000;
+  const Scene scene = read_usd_scene(path, options);
+  std::vector<size_t> per_mesh(scene.triangles.mesh_paths.size(), 0);
+  for (const uint32_t m : scene.triangles.mesh) ++per_mesh[m];
+  ASSERT_EQ(scene.triangles.mesh_paths.size(), 2u);
+  EXPECT_EQ(scene.triangles.mesh_paths[0], "/W/Cube");
+  EXPECT_EQ(per_mesh[0], 2u * 6);  // level 0 (per-cage spacing: level 2, 2 * 6 * 16)
+  // Alone, the cube is bounded by its own spacing.
+  const Scene alone = read_usd_scene(write_file("alone.usda", "#usda 1.0\n" + cube("Cube")), options);
+  EXPECT_EQ(alone.triangles.triangle_count(), 2u * 6 * 16);
+}
+
 TEST(SubdivTestScene, ReadsEverySurfaceRefinedAndResting) {
   // scenes/subdiv_test.usda: the Cornell room with five subdivision meshes.
   const Scene scene = read_usd_scene(fs::path(PBGI_TEST_SOURCE_DIR) / "scenes/subdiv_test.usda", IngestOptions{});

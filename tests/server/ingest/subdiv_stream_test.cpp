@@ -3,8 +3,8 @@
 // topology reported per prim without losing the scene.
 #include "server/ingest/usd_ingest.h"
 
+#include "common/errors.h"
 #include "pbgi/v1/scene.pb.h"
-#include "storage/format/errors.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>

@@ -4,7 +4,7 @@
 // naming the prim.
 #include "server/ingest/subdivision.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 
@@ -407,6 +407,22 @@ TEST(Subdivision, WithoutATargetTheSpacingOfTargetSurfelsOnTheMeshBoundsTheError
   // No target and no surfel count: the default level, no error rule.
   o.target_surfels = 0;
   EXPECT_EQ(choose_subdivision_level(grid_cage(100, 1.f, 1.f), o).level, 2u);
+}
+
+TEST(Subdivision, TheScenesCageAreaWidensTheBoundOfEachCage) {
+  // A cage that is a small part of the scene: the surfels are spread over
+  // the scene's cages, so its bound follows their spacing, not its own.
+  SubdivisionOptions o;
+  o.target_surfels = 10000;
+  const SubdivisionLevel alone = choose_subdivision_level(cube_cage(), o);
+  const SubdivisionLevel in_scene = choose_subdivision_level(cube_cage(), o, 60000.0);
+  EXPECT_EQ(alone.level, 2u);
+  EXPECT_NEAR(in_scene.spacing, std::sqrt(60000.0 / 10000), 1e-6);
+  EXPECT_NEAR(in_scene.tolerance, 0.1 * in_scene.spacing, 1e-6);
+  EXPECT_LT(in_scene.level, alone.level);
+  EXPECT_LE(in_scene.deviation, in_scene.tolerance);
+  // An area below the cage's own (a stale or partial sum) never tightens it.
+  EXPECT_NEAR(choose_subdivision_level(cube_cage(), o, 1.0).spacing, alone.spacing, 1e-12);
 }
 
 TEST(Subdivision, CurvedCageIsRefinedUntilItsTrianglesMeetTheBound) {

@@ -2,7 +2,7 @@
 // what it reports (once, naming the prim), and how it fails.
 #include "server/ingest/usd_ingest.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 

@@ -2,7 +2,7 @@
 // session layer authored before composition) and the time code option.
 #include "server/ingest/usd_ingest.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>

@@ -1,6 +1,6 @@
 #include "server/reference/path_tracer.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>

@@ -2,9 +2,9 @@
 // never takes a value across a depth or normal edge, stays near the
 // per-sample gather, is independent of the tile split and thread count,
 // and `off` gathers once per camera sample.
+#include "common/errors.h"
 #include "server/render/tile_renderer.h"
 #include "server/surfels/surfels.h"
-#include "storage/format/errors.h"
 #include "storage/tree/memory_tree.h"
 #include "storage/tree/tree_builder.h"
 #include "tests/server/render/surfel_tree.h"

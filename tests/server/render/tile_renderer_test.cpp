@@ -1,7 +1,7 @@
 #include "server/render/tile_renderer.h"
+#include "common/errors.h"
 #include "server/scene/brdf.h"
 #include "server/surfels/surfels.h"
-#include "storage/format/errors.h"
 #include "storage/tree/memory_tree.h"
 #include "storage/tree/tree_builder.h"
 #include "tests/server/render/surfel_tree.h"

@@ -1,7 +1,7 @@
 // resolve_camera: how every client names the camera of a request (a prim,
 // "auto", or nothing), so that a scene without a camera renders with no flag.
 #include "server/scene/auto_camera.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
 #include "tests/server/scene/test_scenes.h"
 
 #include <gtest/gtest.h>

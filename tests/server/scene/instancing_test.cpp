@@ -3,11 +3,11 @@
 // and the geometry's memory.
 #include "tests/server/scene/instanced_scenes.h"
 
+#include "common/errors.h"
 #include "server/reference/emissive_triangles.h"
 #include "server/scene/ray_scene.h"
 #include "server/scene/scene_validation.h"
 #include "server/scene/surface_colors.h"
-#include "storage/format/errors.h"
 
 #include <gtest/gtest.h>
 

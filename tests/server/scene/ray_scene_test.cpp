@@ -1,6 +1,6 @@
 #include "server/scene/ray_scene.h"
+#include "common/errors.h"
 #include "server/scene/scene_validation.h"
-#include "storage/format/errors.h"
 #include "tests/server/scene/test_scenes.h"
 
 #include <gtest/gtest.h>

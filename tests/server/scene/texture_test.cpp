@@ -1,8 +1,8 @@
 // Texture lookups (UsdUVTexture conventions) and material evaluation with
 // textures and vertex colours.
-#include "server/scene/surface_colors.h"
 #include "server/scene/texture.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
+#include "server/scene/surface_colors.h"
 #include "tests/server/scene/test_scenes.h"
 
 #include <gtest/gtest.h>

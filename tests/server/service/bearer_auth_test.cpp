@@ -2,7 +2,7 @@
 // comparison semantics, and token files (trimmed, private, non-empty).
 #include "server/service/bearer_auth.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 #include "tests/server/service/temp_dir.h"
 
 #include <gtest/gtest.h>

@@ -5,7 +5,7 @@
 // thread count and the receivers' order.
 #include "server/service/interpolated_gather.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 #include "tests/server/gather/surfel_shapes.h"
 #include "tests/server/gather/surfel_tree.h"
 

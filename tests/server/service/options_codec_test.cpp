@@ -2,7 +2,7 @@
 // set fields win, invalid values are refused naming the field.
 #include "server/service/options_codec.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 

@@ -3,7 +3,7 @@
 // and the service keeps serving afterwards.
 #include "server/service/pbgi_service.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 #include "tests/server/service/fake_sessions.h"
 #include "tests/server/service/temp_dir.h"
 

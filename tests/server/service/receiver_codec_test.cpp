@@ -1,7 +1,7 @@
 // Packed receivers: sizes are checked and named, normals are normalized.
 #include "server/service/receiver_codec.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 

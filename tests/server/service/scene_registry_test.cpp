@@ -3,7 +3,7 @@
 // cancels an open once every caller waiting for it has left.
 #include "server/service/scene_registry.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 #include "tests/server/service/fake_sessions.h"
 
 #include <gtest/gtest.h>

@@ -1,9 +1,9 @@
 // Poisson-disk sampling: minimum distance (also across triangle edges and
 // tile boundaries), coverage, exact area, camera-adaptive density, and the
 // streaming generation equal to sampling + shading in memory.
+#include "common/errors.h"
 #include "server/scene/ray_scene.h"
 #include "server/surfels/surfels.h"
-#include "storage/format/errors.h"
 #include "tests/server/scene/test_scenes.h"
 
 #include <gtest/gtest.h>

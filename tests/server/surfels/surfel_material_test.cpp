@@ -2,9 +2,9 @@
 // roughness is below glossy_roughness gives its surfels the lobe (a metal's
 // diffuse part black), rougher ones stay Lambertian with the full albedo,
 // and glossy_roughness 0 turns the lobes off.
+#include "common/errors.h"
 #include "server/scene/brdf.h"
 #include "server/surfels/surfels.h"
-#include "storage/format/errors.h"
 #include "tests/server/scene/test_scenes.h"
 
 #include <gtest/gtest.h>

@@ -1,6 +1,6 @@
+#include "common/errors.h"
 #include "server/scene/rng.h"
 #include "server/surfels/surfels.h"
-#include "storage/format/errors.h"
 #include "tests/server/scene/test_scenes.h"
 
 #include <gtest/gtest.h>

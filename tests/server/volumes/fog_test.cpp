@@ -3,9 +3,9 @@
 // points' level of detail and single scattering, and the gather seeing them
 // as an attenuating layer (irradiance through a slab, AO behind a cube).
 #include "server/gather/gather.h"
-#include "server/gather/volume_points.h"
 #include "server/scene/direct_lighting.h"
 #include "server/scene/ray_scene.h"
+#include "server/scene/volume_points.h"
 #include "server/volumes/fog_field.h"
 #include "server/volumes/fog_points.h"
 #include "server/volumes/volume_grid.h"

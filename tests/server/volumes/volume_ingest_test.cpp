@@ -8,7 +8,7 @@
 #include "server/volumes/scene_volumes.h"
 #include "server/volumes/volume_grid.h"
 
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 #include <openvdb/openvdb.h>

@@ -20,13 +20,13 @@
 // threshold, and a second table compares glossy bytes and PSNR:
 //   bench_codecs --scene scenes/cornell_gold.usda --surfels 5000000 --lut 1000
 //       --wavelet-threshold 0.01 --wavelet-threshold 0.1   (one command)
+#include "common/errors.h"
 #include "server/ingest/usd_ingest.h"
 #include "server/render/tile_renderer.h"
 #include "server/scene/ray_scene.h"
 #include "server/surfels/glossy_shading.h"
 #include "server/surfels/surfels.h"
 #include "storage/cache/page_cache.h"
-#include "storage/format/errors.h"
 #include "storage/format/page_frame.h"
 #include "storage/pages/page_set.h"
 #include "storage/tree/tree_builder.h"
@@ -70,7 +70,7 @@ struct Args {
   // (threshold 0) glossy radiance.
   std::vector<float> wavelet_thresholds;
   uint32_t glossy_resolution = 16;
-  // Leaf formats (storage/format/page_records.h) besides relative, the
+  // Leaf formats (storage/tree/page_records.h) besides relative, the
   // paper's format B: each repeats float32-sh and every LUT in that format.
   std::vector<std::string> leaf_formats;
 };

@@ -2,7 +2,7 @@
 // single load under concurrency, and identical traversals whatever the
 // budget.
 #include "storage/cache/page_cache.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
 #include "storage/pages/page_set.h"
 #include "storage/tree/memory_tree.h"
 #include "tests/storage/pages/temp_dir.h"

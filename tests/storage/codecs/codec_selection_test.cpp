@@ -1,5 +1,5 @@
 #include "storage/codecs/codec_selection.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 #include "storage/codecs/float_sh_codec.h"
+#include "common/errors.h"
 #include "storage/format/byte_order.h"
-#include "storage/format/errors.h"
 
 #include <gtest/gtest.h>
 

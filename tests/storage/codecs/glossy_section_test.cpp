@@ -4,8 +4,8 @@
 // damaged or foreign bytes are refused.
 #include "storage/codecs/glossy_section.h"
 
+#include "common/errors.h"
 #include "storage/codecs/cube_wavelet.h"
-#include "storage/format/errors.h"
 
 #include <gtest/gtest.h>
 

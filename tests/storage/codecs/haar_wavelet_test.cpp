@@ -1,6 +1,6 @@
-#include "storage/codecs/cube_wavelet.h"
 #include "storage/codecs/haar_wavelet.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
+#include "storage/codecs/cube_wavelet.h"
 
 #include <gtest/gtest.h>
 

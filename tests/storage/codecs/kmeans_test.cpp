@@ -1,6 +1,6 @@
 #include "storage/codecs/kmeans.h"
+#include "common/errors.h"
 #include "storage/codecs/nearest_centre.h"
-#include "storage/format/errors.h"
 
 #include <gtest/gtest.h>
 

@@ -5,7 +5,7 @@
 // payloads cluster like real ones.
 #pragma once
 
-#include "storage/math/sh.h"
+#include "storage/sh/sh.h"
 #include "storage/tree/node.h"
 
 #include <cmath>

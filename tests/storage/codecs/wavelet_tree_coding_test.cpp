@@ -1,6 +1,6 @@
-#include "storage/codecs/cube_wavelet.h"
 #include "storage/codecs/wavelet_tree_coding.h"
-#include "storage/format/errors.h"
+#include "common/errors.h"
+#include "storage/codecs/cube_wavelet.h"
 #include "tests/storage/codecs/node_payloads.h"
 
 #include <gtest/gtest.h>

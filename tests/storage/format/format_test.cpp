@@ -1,13 +1,13 @@
 // Byte order, frames and records of the on-disk format.
+#include "common/errors.h"
 #include "storage/format/byte_order.h"
 #include "storage/format/byte_stream.h"
 #include "storage/format/checksum.h"
-#include "storage/format/errors.h"
 #include "storage/format/format_version.h"
 #include "storage/format/manifest_frame.h"
-#include "storage/format/page_frame.h"
 #include "storage/format/packed_values.h"
-#include "storage/format/page_records.h"
+#include "storage/format/page_frame.h"
+#include "storage/tree/page_records.h"
 
 #include <gtest/gtest.h>
 

@@ -4,7 +4,7 @@
 // either does not exist or holds a complete page set, identical byte for
 // byte to an uninterrupted build; and the next build in the same parent
 // removes the staging directories the killed builds left behind.
-#include "storage/format/errors.h"
+#include "common/errors.h"
 #include "storage/pages/page_set.h"
 #include "storage/pages/page_set_inspection.h"
 #include "tests/storage/pages/crash_test_options.h"

@@ -4,8 +4,8 @@
 // floats the section stores), thresholds trade
 // bytes for a bounded error, diffuse scenes pay nothing, and a glossy page
 // is refused where its manifest declares none.
+#include "common/errors.h"
 #include "storage/codecs/glossy_pages.h"
-#include "storage/format/errors.h"
 #include "storage/pages/page_encoding.h"
 #include "storage/pages/page_set.h"
 #include "tests/storage/pages/file_bytes.h"

@@ -1,12 +1,12 @@
 // Page sets end to end: build, publish, read back through the cache, and
 // refuse damaged or foreign files.
+#include "storage/pages/page_set.h"
+#include "common/errors.h"
 #include "storage/cache/page_cache.h"
 #include "storage/codecs/payload_codec.h"
-#include "storage/format/errors.h"
 #include "storage/format/manifest_frame.h"
 #include "storage/format/page_frame.h"
 #include "storage/pages/manifest_file.h"
-#include "storage/pages/page_set.h"
 #include "storage/pages/page_set_inspection.h"
 #include "storage/tree/memory_tree.h"
 #include "tests/storage/pages/file_bytes.h"

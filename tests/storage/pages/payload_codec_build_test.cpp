@@ -2,16 +2,16 @@
 // kmeans-sh, auto): what they store equals what the in-memory tree says,
 // the streaming quantization equals quantizing the finished tree, pages
 // keep to their size, and damaged or unknown LUTs are refused.
+#include "common/errors.h"
 #include "storage/codecs/quantized_sh_codec.h"
 #include "storage/format/byte_stream.h"
-#include "storage/format/errors.h"
 #include "storage/format/manifest_frame.h"
 #include "storage/format/page_frame.h"
-#include "storage/format/page_records.h"
 #include "storage/pages/lut_sample.h"
 #include "storage/pages/manifest_file.h"
 #include "storage/pages/page_set.h"
 #include "storage/tree/memory_tree.h"
+#include "storage/tree/page_records.h"
 #include "tests/storage/pages/file_bytes.h"
 #include "tests/storage/pages/temp_dir.h"
 #include "tests/storage/pages/tree_walk.h"

@@ -2,9 +2,9 @@
 // charged before it is written, released when a run is merged away and when
 // the set is published or the build fails; a build that would pass the
 // quota stops with ResourceExhausted naming it and leaves nothing behind.
-#include "storage/format/errors.h"
-#include "storage/pages/page_set.h"
 #include "storage/pages/staging_quota.h"
+#include "common/errors.h"
+#include "storage/pages/page_set.h"
 #include "storage/tree/tree_builder.h"
 #include "tests/storage/pages/temp_dir.h"
 #include "tests/storage/tree/random_surfels.h"

@@ -1,8 +1,8 @@
 // The streaming build: external sort under a memory bound, equality with
 // the in-memory build, independence from batch sizes and sort memory.
+#include "common/errors.h"
 #include "storage/cache/page_cache.h"
 #include "storage/codecs/payload_codec.h"
-#include "storage/format/errors.h"
 #include "storage/pages/page_encoding.h"
 #include "storage/pages/page_set.h"
 #include "storage/pages/surfel_sorter.h"

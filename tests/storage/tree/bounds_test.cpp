@@ -1,5 +1,5 @@
 // Spheres, cones and options: the building blocks of the tree.
-#include "storage/format/errors.h"
+#include "common/errors.h"
 #include "storage/tree/bounding_sphere.h"
 #include "storage/tree/build_options.h"
 #include "storage/tree/normal_cone.h"

@@ -2,11 +2,11 @@
 // contain, areas add up, payloads average, structure is a proper binary
 // tree over a partition of the surfels in Morton order, and the stored
 // (quantized) surfels are within the documented precision of the input.
-#include "storage/format/errors.h"
-#include "storage/math/sh.h"
+#include "storage/tree/tree_builder.h"
+#include "common/errors.h"
+#include "storage/sh/sh.h"
 #include "storage/tree/memory_tree.h"
 #include "storage/tree/morton.h"
-#include "storage/tree/tree_builder.h"
 #include "tests/storage/tree/random_surfels.h"
 
 #include <gtest/gtest.h>
@@ -90,7 +90,7 @@ TEST_P(TreeInvariants, HoldOnRandomSurfels) {
   ASSERT_EQ(t.surfels.size(), n);
 
   // The surfels are the input in Morton order (ties in input order), each
-  // within the documented precision of its input (storage/format/page_records.h).
+  // within the documented precision of its input (storage/tree/page_records.h).
   const std::vector<uint32_t> sorted = morton_order(input);
   std::vector<float> leaf_radius(n, 0.f);
   for (const Node& node : t.nodes)

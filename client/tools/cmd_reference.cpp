@@ -2,16 +2,18 @@
 // USD scene's camera into a multi-layer EXR (the AOVs of path_tracer.h:
 // beauty, direct, indirect, indirect1, albedo, ao), optionally with a PNG of
 // the beauty through the OCIO display transform.
+#include "client/bench/reference_cache.h"
 #include "client/cli/command.h"
 #include "client/cli/output_paths.h"
+#include "client/cli/tool_commands.h"
 #include "client/image/exr_image.h"
 #include "client/image/png_display.h"
+#include "common/errors.h"
 #include "server/ingest/usd_ingest.h"
+#include "server/reference/path_tracer.h"
 #include "server/scene/auto_camera.h"
 #include "server/scene/default_lights.h"
-#include "server/reference/path_tracer.h"
 #include "server/volumes/fog_field.h"
-#include "storage/format/errors.h"
 
 #include <fmt/format.h>
 
@@ -21,8 +23,12 @@
 #include <memory>
 #include <unistd.h>
 
-namespace pbgi::cli {
+namespace pbgi::tools {
 namespace {
+
+using cli::check_output_file;
+using cli::CommandRegistrar;
+using cli::tool_command_description;
 
 struct ReferenceArgs {
   std::string scene;
@@ -68,17 +74,6 @@ class ProgressBar {
   int quarter_ = 0;
 };
 
-image::ExrImage to_exr(const ReferenceImage& r) {
-  image::ExrImage img(r.width, r.height);
-  img.set_rgb("", r.beauty);
-  img.set_rgb("direct", r.direct);
-  img.set_rgb("indirect", r.indirect);
-  img.set_rgb("indirect1", r.indirect1);
-  img.set_rgb("albedo", r.albedo);
-  img.set_layer("ao", image::y_channels(), r.ao);
-  return img;
-}
-
 int run(const ReferenceArgs& args) {
   const auto start = std::chrono::steady_clock::now();
   check_output_file(args.out, "--out");  // before minutes of path tracing
@@ -110,7 +105,7 @@ int run(const ReferenceArgs& args) {
                        &stats);
 
   // 3. Write the EXR (with provenance) and the PNG.
-  image::ExrImage img = to_exr(result);
+  image::ExrImage img = bench::reference_exr(result);
   auto& attrs = img.attributes();
   attrs["pbgi/renderer"] = "reference path tracer";
   attrs["pbgi/scene"] = args.scene;
@@ -149,8 +144,7 @@ int run(const ReferenceArgs& args) {
 
 const CommandRegistrar kRegistrar("reference", [](CLI::App& app, int* exit_code) {
   auto args = std::make_shared<ReferenceArgs>();
-  CLI::App* cmd = app.add_subcommand(
-      "reference", "Render an unbiased path-traced reference (multi-layer EXR of the AOVs)");
+  CLI::App* cmd = app.add_subcommand("reference", tool_command_description("reference"));
   cmd->add_option("scene", args->scene, "USD scene file")->required();
   cmd->add_option("--camera,-c", args->camera, "Camera prim path, or auto: the scene framed (default: the only camera; auto without any)");
   cmd->add_option("--out,-o", args->out, "Output EXR")->capture_default_str();
@@ -187,4 +181,4 @@ const CommandRegistrar kRegistrar("reference", [](CLI::App& app, int* exit_code)
 });
 
 }  // namespace
-}  // namespace pbgi::cli
+}  // namespace pbgi::tools

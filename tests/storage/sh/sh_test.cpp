@@ -1,5 +1,5 @@
 // The SH basis against numerical integration over the sphere.
-#include "storage/math/sh.h"
+#include "storage/sh/sh.h"
 
 #include <gtest/gtest.h>
 

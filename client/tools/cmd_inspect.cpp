@@ -4,6 +4,7 @@
 // (checksums included), so a clean run also means an intact page set.
 #include "client/cli/command.h"
 #include "client/cli/json_text.h"
+#include "client/cli/tool_commands.h"
 #include "storage/cache/page_cache.h"
 #include "storage/format/format_version.h"
 #include "storage/pages/page_set.h"
@@ -15,8 +16,13 @@
 #include <cstdio>
 #include <memory>
 
-namespace pbgi::cli {
+namespace pbgi::tools {
 namespace {
+
+using cli::CommandRegistrar;
+using cli::json_number;
+using cli::json_string;
+using cli::tool_command_description;
 
 struct InspectArgs {
   std::string dir;
@@ -138,8 +144,7 @@ int run(const InspectArgs& args) {
 
 const CommandRegistrar kRegistrar("inspect", [](CLI::App& app, int* exit_code) {
   auto args = std::make_shared<InspectArgs>();
-  CLI::App* cmd = app.add_subcommand(
-      "inspect", "Describe a page set directory (manifest, counts, bytes, depths, page fill)");
+  CLI::App* cmd = app.add_subcommand("inspect", tool_command_description("inspect"));
   cmd->add_option("dir", args->dir, "Page set directory (holds manifest.pbgm and pages.pbgp)")
       ->required();
   cmd->add_flag("--json", args->json, "Machine-readable output");
@@ -150,4 +155,4 @@ const CommandRegistrar kRegistrar("inspect", [](CLI::App& app, int* exit_code) {
 });
 
 }  // namespace
-}  // namespace pbgi::cli
+}  // namespace pbgi::tools

@@ -24,7 +24,7 @@
 // [0, 65408] (relative) / [0, 65504] (half).
 #pragma once
 
-#include "common/options/option_table.h"
+#include "storage/tree/leaf_format.h"
 #include "storage/tree/node.h"
 #include "storage/tree/surfel.h"
 
@@ -40,34 +40,6 @@ namespace pbgi::storage {
 inline constexpr size_t kShapeBytes = 1;
 inline constexpr size_t kLeafRecordBytes = 18;
 inline constexpr size_t kLinkRecordBytes = 40;
-
-// How leaves store their surfels, chosen per page set (BuildOptions::
-// leaf_format, stored in the manifest, flagged in every page). The two
-// formats of Buchholz & Boubekeur 2012, table 2:
-//   relative  format "B": positions relative to the leaf's frame (the
-//             parent-relative coding of QSplat, Rusinkiewicz & Levoy
-//             2000), 16-bit fixed point, octahedral normal, RGB9E5
-//             colours. 24 bytes. The default: smallest.
-//   half      format "A": half floats (Kontkanen et al. 2011) except the
-//             position, which keeps full float32 precision. 38 bytes.
-//             For scenes whose colours need more than RGB9E5's shared
-//             9-bit mantissa, or positions exact to the float.
-// (The paper's records hold one colour; ours hold albedo, emission and
-// radiance, which multiple bounces need.)
-enum class LeafFormat : uint8_t { kRelative = 0, kHalf = 1 };
-inline constexpr options::EnumName<LeafFormat> kLeafFormatNames[] = {{LeafFormat::kRelative, "relative"},
-                                                                     {LeafFormat::kHalf, "half"}};
-constexpr std::span<const options::EnumName<LeafFormat>> enum_names(LeafFormat) { return kLeafFormatNames; }
-
-inline constexpr size_t kRelativeSurfelRecordBytes = 24;
-inline constexpr size_t kHalfSurfelRecordBytes = 38;
-constexpr size_t surfel_record_bytes(LeafFormat f) {
-  return f == LeafFormat::kHalf ? kHalfSurfelRecordBytes : kRelativeSurfelRecordBytes;
-}
-// As written in config files, CLI flags, requests and `pbgi inspect`.
-// parse_leaf_format throws InvalidArgument naming the accepted values.
-LeafFormat parse_leaf_format(const std::string& name);
-std::string to_string(LeafFormat format);
 
 // The largest payload any codec of this build stores per node (float32 SH).
 inline constexpr size_t kMaxPayloadBytesPerNode = 144;

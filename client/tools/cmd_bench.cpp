@@ -7,16 +7,20 @@
 #include "client/bench/bench_report.h"
 #include "client/bench/bench_runner.h"
 #include "client/cli/command.h"
+#include "client/cli/tool_commands.h"
+#include "common/errors.h"
 #include "server/render/gather_lattice.h"
-#include "storage/format/errors.h"
 
 #include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <optional>
 
-namespace pbgi::cli {
+namespace pbgi::tools {
 namespace {
+
+using cli::CommandRegistrar;
+using cli::tool_command_description;
 
 struct BenchArgs {
   std::string scene;
@@ -140,8 +144,7 @@ int run(const BenchArgs& args) {
 
 const CommandRegistrar kRegistrar("bench", [](CLI::App& app, int* exit_code) {
   auto args = std::make_shared<BenchArgs>();
-  CLI::App* cmd = app.add_subcommand(
-      "bench", "Speed against error: PBGI settings and path-tracer spp vs a converged reference");
+  CLI::App* cmd = app.add_subcommand("bench", tool_command_description("bench"));
   cmd->add_option("scene", args->scene, "USD scene file")->required();
   cmd->add_option("--camera,-c", args->camera, "Camera prim path, or auto: the scene framed (default: the only camera; auto without any)");
   cmd->add_option("--out-dir,-o", args->out_dir, "Directory for bench.json/.csv/.png")
@@ -220,4 +223,4 @@ const CommandRegistrar kRegistrar("bench", [](CLI::App& app, int* exit_code) {
 });
 
 }  // namespace
-}  // namespace pbgi::cli
+}  // namespace pbgi::tools

@@ -1,9 +1,9 @@
-#include "storage/format/page_records.h"
+#include "storage/tree/page_records.h"
 
+#include "common/errors.h"
 #include "storage/format/byte_order.h"
 #include "storage/format/packed_values.h"
 #include "storage/format/page_frame.h"
-#include "storage/format/errors.h"
 
 #include <Imath/half.h>
 

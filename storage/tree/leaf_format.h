@@ -1,0 +1,44 @@
+// The leaf formats of a page set: its build option (storage/tree/
+// build_options.h) and the size of its surfel records (page_records.h).
+// Apart from the records so that the options, which the client's flags
+// read too, need nothing of the page layout.
+#pragma once
+
+#include "common/options/option_table.h"
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <string>
+
+namespace pbgi::storage {
+
+// How leaves store their surfels, chosen per page set (BuildOptions::
+// leaf_format, stored in the manifest, flagged in every page). The two
+// formats of Buchholz & Boubekeur 2012, table 2:
+//   relative  format "B": positions relative to the leaf's frame (the
+//             parent-relative coding of QSplat, Rusinkiewicz & Levoy
+//             2000), 16-bit fixed point, octahedral normal, RGB9E5
+//             colours. 24 bytes. The default: smallest.
+//   half      format "A": half floats (Kontkanen et al. 2011) except the
+//             position, which keeps full float32 precision. 38 bytes.
+//             For scenes whose colours need more than RGB9E5's shared
+//             9-bit mantissa, or positions exact to the float.
+// (The paper's records hold one colour; ours hold albedo, emission and
+// radiance, which multiple bounces need.)
+enum class LeafFormat : uint8_t { kRelative = 0, kHalf = 1 };
+inline constexpr options::EnumName<LeafFormat> kLeafFormatNames[] = {{LeafFormat::kRelative, "relative"},
+                                                                     {LeafFormat::kHalf, "half"}};
+constexpr std::span<const options::EnumName<LeafFormat>> enum_names(LeafFormat) { return kLeafFormatNames; }
+
+inline constexpr size_t kRelativeSurfelRecordBytes = 24;
+inline constexpr size_t kHalfSurfelRecordBytes = 38;
+constexpr size_t surfel_record_bytes(LeafFormat f) {
+  return f == LeafFormat::kHalf ? kHalfSurfelRecordBytes : kRelativeSurfelRecordBytes;
+}
+// As written in config files, CLI flags, requests and `pbgi inspect`.
+// parse_leaf_format throws InvalidArgument naming the accepted values.
+LeafFormat parse_leaf_format(const std::string& name);
+std::string to_string(LeafFormat format);
+
+}  // namespace pbgi::storage
