@@ -49,14 +49,24 @@ class PagePins {
                               std::to_string(p->id));
       }
       slot.view = &views_.get(*p);
+      slot.nodes = slot.view->nodes.data();
+      slot.page_nodes = slot.view->page_nodes;
       slot.page = std::move(p);
       ++pinned_;
     }
     ++slot.refs;
+    slot.touched = epoch_;
     page = slot.page.get();
     view = slot.view;
     return s;
   }
+
+  // The view's nodes and how many of them are the page's own (not
+  // proxies), from the slot: opening a proxy reads them without waiting
+  // for the view's header line (a cache miss of its own with pages of a
+  // few nodes each).
+  const HotNode* nodes(uint32_t s) const { return slots_[s].nodes; }
+  uint32_t page_nodes(uint32_t s) const { return slots_[s].page_nodes; }
 
   // The page and view of a pinned slot.
   const tree::Page& page(uint32_t s) const { return *slots_[s].page; }
@@ -81,6 +91,40 @@ class PagePins {
     for (const Slot& slot : slots_) index_[slot.bucket] = kNone;
     slots_.clear();
     pinned_ = 0;
+    ++epoch_;
+  }
+
+  // Between the runs of a batch that holds its pages (no references left):
+  // unpins the pages not acquired since the previous keep_recent() or
+  // clear(), keeps the others pinned (a run's pages are mostly the next
+  // run's), unless they are more than `max_kept`: then clears. So a batch
+  // holds at most the pages of two runs, and fetches again only what the
+  // previous run did not use (a 2M-surfel city with pages of a few levels:
+  // each FPBGI cluster touched ~5000 pages, more than the batch's bound,
+  // and fetched them all again from the page cache).
+  void keep_recent(size_t max_kept) {
+    size_t kept = 0;
+    for (const Slot& slot : slots_) kept += slot.page && slot.touched == epoch_;
+    if (kept > max_kept) {
+      clear();
+      return;
+    }
+    std::vector<Slot> old;
+    old.swap(slots_);
+    std::fill(index_.begin(), index_.end(), kNone);
+    pinned_ = 0;
+    for (Slot& slot : old) {
+      if (!slot.page || slot.touched != epoch_) continue;
+      const size_t mask = index_.size() - 1;
+      size_t b = hash(slot.id) & mask;
+      while (index_[b] != kNone) b = (b + 1) & mask;
+      index_[b] = uint32_t(slots_.size());
+      slot.bucket = uint32_t(b);
+      slot.refs = 0;
+      slots_.push_back(std::move(slot));
+      ++pinned_;
+    }
+    ++epoch_;
   }
 
   // While holding, pages stay pinned until clear() even without references:
@@ -102,8 +146,11 @@ class PagePins {
     uint32_t id = 0;
     uint32_t refs = 0;
     uint32_t bucket = 0;  // its position in index_
+    uint32_t touched = 0;  // epoch_ of its last acquire()
     tree::PagePtr page;   // null when released
     const PageView* view = nullptr;
+    const HotNode* nodes = nullptr;  // view->nodes.data()
+    uint32_t page_nodes = 0;         // view->page_nodes
   };
   static size_t hash(uint32_t id) { return size_t(id) * 0x9E3779B1u; }
 
@@ -121,7 +168,7 @@ class PagePins {
       while (index_[b] != kNone) b = (b + 1) & mask;
     }
     const uint32_t s = uint32_t(slots_.size());
-    slots_.push_back({id, 0, uint32_t(b), nullptr, nullptr});
+    slots_.push_back({id, 0, uint32_t(b), epoch_, nullptr, nullptr, nullptr, 0});
     index_[b] = s;
     return s;
   }
@@ -143,6 +190,7 @@ class PagePins {
   std::vector<uint32_t> index_;
   size_t pinned_ = 0;
   uint64_t fetches_ = 0;
+  uint32_t epoch_ = 0;  // advanced by clear() and keep_recent()
   bool hold_ = false;
 };
 

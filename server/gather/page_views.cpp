@@ -21,11 +21,10 @@ std::string where(const tree::Page& page, size_t node) {
 }  // namespace
 
 PageView::PageView(const tree::Page& page)
-    : id(page.id), glossy(page.glossy), surfel_count(page.surfels.size()), page_nodes(page.nodes.size()) {
+    : id(page.id), page_nodes(uint32_t(page.nodes.size())), glossy(page.glossy), surfel_count(page.surfels.size()) {
   const size_t n = page.nodes.size();
   nodes.resize(n + page.links.size());
   looks.resize(n + page.links.size());
-  full_index.assign(nodes.size(), kNotKept);
   for (size_t i = 0; i < n; ++i) {
     const tree::Node& node = page.nodes[i];
     HotNode& h = nodes[i];
@@ -76,6 +75,7 @@ PageView::PageView(const tree::Page& page)
     h.children[0] = l.summary.children[0];
     nodes[l.parent].children[l.slot] = {page.id, uint32_t(i)};
   }
+  full_nodes = full.data();
 }
 
 uint32_t PageView::describe(const tree::Node& n, size_t i) {
@@ -97,7 +97,8 @@ uint32_t PageView::describe(const tree::Node& n, size_t i) {
 
   uint32_t flags = 0;
   NodeLook& look = looks[i];
-  look = NodeLook{0.f, 0.f, 0.f, n.area, 0.f, 0.f, 0.f, 0.f, FanCone{}};
+  look = NodeLook{};  // zeros; no full entry
+  look.area = n.area;
   if (n.cone_cos >= kNarrowConeCos) {
     // The flat model of node_appearance(): DC ratio and the cone's fan.
     flags |= HotNode::kNarrow;
@@ -138,7 +139,7 @@ uint32_t PageView::describe(const tree::Node& n, size_t i) {
     node0_dc[3] = n.coverage_sh[0];
   }
   if (!(flags & (HotNode::kNarrow | HotNode::kBipolar))) {
-    full_index[i] = uint32_t(full.size());
+    look.full = uint32_t(full.size());
     full.push_back(n);
   }
   // Nothing to see: no area, or NaN/negative/infinite bounds.

@@ -93,18 +93,29 @@ struct alignas(64) NodeLook {
   float r, g, b;  // >= 0; all 0 when the payload shows nothing
   float area;
   float mx, my, mz;  // area-weighted mean normal (node_appearance.h)
-  float pad_ = 0.f;
+  // A wide, non-bipolar node's entry in PageView::full, else kNoFull: kept
+  // in the look, whose line the walk prefetches with the node's, so that a
+  // wide splat reaches its tree::Node without another array's cache miss.
+  uint32_t full = kNoFull;
   FanCone fan;
+  static constexpr uint32_t kNoFull = ~0u;
 };
 static_assert(sizeof(NodeLook) == 64, "one cache line");
 
-struct PageView {
+// alignas(64): the fields every opened page's first visit reads (id,
+// page_nodes, nodes, looks, full_nodes) share the view's first cache line.
+// With pages of a few levels (formats V4/V5) a walk enters a new view every
+// few nodes, and each extra header line was a cache miss of its own.
+struct alignas(64) PageView {
   uint32_t id = 0;
+  uint32_t page_nodes = 0;  // nodes of the page; proxies follow them
   // The page's nodes (indices below page_nodes), then one proxy per child
   // in another page that the page describes exactly (tree::Page::links):
   // a walk decides on such a child without loading its page.
   std::vector<HotNode> nodes;
   std::vector<NodeLook> looks;  // per node; meaningful for narrow ones
+  // full.data(), in the first line (set once the view is built).
+  const tree::Node* full_nodes = nullptr;
   // Bipolar nodes' faces; bipolar_index[i] (sized only when the page has
   // any) is node i's entry.
   std::vector<Bipolar> bipolar;
@@ -112,31 +123,31 @@ struct PageView {
   // The page's glossy radiance (shared with the page), or null.
   std::shared_ptr<const storage::GlossyNodes> glossy;
   size_t surfel_count = 0;
-  size_t page_nodes = 0;  // nodes of the page; proxies follow them
   // Node 0's DC radiance and coverage (radiance_sh[0], coverage_sh[0]):
   // a tree root's mean radiance, kept apart so that node 0 needs no full
   // copy (most pages' node 0 is narrow).
   float node0_dc[4] = {0.f, 0.f, 0.f, 0.f};
   // The decoded tree::Node of the nodes whose SH payload a splat reads
-  // (wide cones that are not bipolar): full[full_index[i]]. The rest need
+  // (wide cones that are not bipolar): full[looks[i].full]. The rest need
   // only `nodes` and `looks`, so a page that carries its view need not keep
   // its nodes.
   std::vector<tree::Node> full;
-  std::vector<uint32_t> full_index;
 
   // The tree::Node of view node `i`, for the nodes `full` keeps; else null.
   const tree::Node* full_node(uint32_t i) const {
-    return i < full_index.size() && full_index[i] != kNotKept ? &full[full_index[i]] : nullptr;
+    return i < looks.size() && looks[i].full != NodeLook::kNoFull ? full_nodes + looks[i].full : nullptr;
   }
 
   // Builds the view; throws CorruptionError for a child count above
   // tree::Node::kMaxChildren, a link to a missing node of the same page or
   // a leaf's surfel range outside the page.
   explicit PageView(const tree::Page& page);
+  PageView(const PageView&) = delete;  // full_nodes points into its own `full`
+  PageView& operator=(const PageView&) = delete;
   size_t memory_bytes() const {
     return sizeof(PageView) + nodes.capacity() * sizeof(HotNode) + looks.capacity() * sizeof(NodeLook) +
-           full.capacity() * sizeof(tree::Node) + full_index.capacity() * sizeof(uint32_t) +
-           bipolar.capacity() * sizeof(Bipolar) + bipolar_index.capacity() * sizeof(uint32_t);
+           full.capacity() * sizeof(tree::Node) + bipolar.capacity() * sizeof(Bipolar) +
+           bipolar_index.capacity() * sizeof(uint32_t);
   }
   // Whether `page` could be the page this view was built from.
   bool matches(const tree::Page& page) const {
@@ -145,7 +156,6 @@ struct PageView {
   }
 
  private:
-  static constexpr uint32_t kNotKept = ~0u;
   // Fills nodes[i] and looks[i] (and the bipolar or full entry) from `n`;
   // returns the HotNode flags.
   uint32_t describe(const tree::Node& n, size_t i);
