@@ -138,7 +138,14 @@ void Daemon::start() {
     throw IoError(fmt::format("cache_dir: {}", e.what()));
   }
   clean_cache_directory(cache_dir);
+  // One budget for the whole daemon: the page cache gets what the request
+  // reserve and the scenes' charges leave (server/engine/memory_accountant.h).
   cache_ = std::make_shared<storage::PageCache>(options_.memory_budget_bytes());
+  MemoryBudget budget;
+  budget.total = options_.memory_budget_bytes();
+  budget.request_reserve = options_.request_memory_bytes();
+  budget.cache_floor = options_.page_cache_floor_bytes();
+  memory_ = MemoryAccountant::create(budget, cache_);
   // Every file an opened scene resolves is confined to the scene roots.
   std::vector<fs::path> roots(options_.scene_roots.begin(), options_.scene_roots.end());
   const service::SceneRoots scene_roots(roots);
@@ -153,6 +160,7 @@ void Daemon::start() {
     // Every build is bounded, whoever asks for it (--preload included).
     context.max_surfels = options_.service.limits.max_surfels;
     context.staging_quota = std::make_shared<storage::StagingQuota>(options_.staging_quota_bytes());
+    context.memory = memory_;
     opener_ = [context, scene_roots](const fs::path& path, const OpenOptions& options,
                                      const service::StageSelection& selection, const StageProgress& progress,
                                      const std::function<bool()>& cancelled) -> std::shared_ptr<SceneSession> {
@@ -187,9 +195,14 @@ void Daemon::start() {
         options_.threads > 0 ? options_.threads : std::max(1u, std::thread::hardware_concurrency());
     service_options.limits.max_in_flight = 2 * threads;
   }
-  service_ = std::make_shared<service::PbgiService>(
-      service_options, scene_roots,
-      std::make_shared<service::SceneRegistry>(opener_, registry_options), std::move(runtime));
+  auto registry = std::make_shared<service::SceneRegistry>(opener_, registry_options);
+  // A charge that does not fit first unloads idle scenes.
+  memory_->set_reclaimer([weak = std::weak_ptr<service::SceneRegistry>(registry)](uint64_t bytes) {
+    auto r = weak.lock();
+    return r && r->unload_idle(bytes);
+  });
+  service_ = std::make_shared<service::PbgiService>(service_options, scene_roots, std::move(registry),
+                                                    std::move(runtime));
 
   // 5. Listen.
   if (listen.kind == ListenAddress::Kind::Unix) {

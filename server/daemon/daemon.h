@@ -5,6 +5,7 @@
 
 #include "server/daemon/daemon_options.h"
 #include "server/daemon/metrics_http.h"
+#include "server/engine/memory_accountant.h"
 #include "server/service/scene_registry.h"
 #include "storage/cache/page_cache.h"
 
@@ -54,6 +55,7 @@ class Daemon {
   service::SceneOpener opener_;
   std::unique_ptr<tbb::global_control> thread_limit_;
   std::shared_ptr<storage::PageCache> cache_;
+  std::shared_ptr<MemoryAccountant> memory_;  // the whole budget; sizes cache_
   std::shared_ptr<service::PbgiService> service_;
   std::unique_ptr<grpc::Server> server_;
   std::unique_ptr<MetricsHttpServer> metrics_;

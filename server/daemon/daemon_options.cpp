@@ -39,6 +39,8 @@ const auto kTopTable = options::table(
     options::field<&DaemonOptions::scene_roots>("scene_roots"),
     options::field<&DaemonOptions::cache_dir>("cache_dir"),
     options::field<&DaemonOptions::memory_budget>("memory_budget"),
+    options::field<&DaemonOptions::request_memory>("request_memory"),
+    options::field<&DaemonOptions::page_cache_floor>("page_cache_floor"),
     options::field<&DaemonOptions::threads>("threads"),
     options::field<&DaemonOptions::log_level>("log_level"),
     options::field<&DaemonOptions::python>("python"),
@@ -83,6 +85,14 @@ std::string DaemonOptions::effective_listen() const {
 
 uint64_t DaemonOptions::memory_budget_bytes() const {
   return parse_byte_size(memory_budget, "memory_budget");
+}
+
+uint64_t DaemonOptions::request_memory_bytes() const {
+  return parse_byte_size(request_memory, "request_memory");
+}
+
+uint64_t DaemonOptions::page_cache_floor_bytes() const {
+  return parse_byte_size(page_cache_floor, "page_cache_floor");
 }
 
 uint64_t DaemonOptions::scene_memory_budget_bytes() const {
@@ -136,6 +146,11 @@ void DaemonOptions::validate() const {
   if (cache_dir.empty()) throw InvalidArgument("cache_dir is empty");
   if (memory_budget_bytes() < (1u << 20)) {
     throw InvalidArgument(fmt::format("memory_budget '{}' is below 1MiB", memory_budget));
+  }
+  if (request_memory_bytes() + page_cache_floor_bytes() >= memory_budget_bytes()) {
+    throw InvalidArgument(fmt::format("memory_budget '{}' leaves nothing for scenes after request_memory '{}' "
+                                      "and page_cache_floor '{}'",
+                                      memory_budget, request_memory, page_cache_floor));
   }
   const uint64_t message = max_message_bytes();
   if (message < (1u << 20) || message > uint64_t(std::numeric_limits<int>::max())) {

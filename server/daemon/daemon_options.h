@@ -3,7 +3,8 @@
 // PBGI_* environment variables, command-line flags (daemon_command_line.h).
 //
 // TOML layout (config/pbgid.toml is a commented example):
-//   listen, scene_roots, cache_dir, memory_budget, scene_memory_budget,
+//   listen, scene_roots, cache_dir, memory_budget, request_memory,
+//   page_cache_floor, scene_memory_budget,
 //   staging_quota, threads, log_level, log_format, python, preload,
 //   allow_insecure_remote, shutdown_grace_seconds, metrics_listen
 //   [security] tls_cert, tls_key, tls_client_ca, auth_token_file
@@ -39,8 +40,24 @@ struct DaemonOptions {
   std::vector<std::string> scene_roots;
   // Page sets are built here (and the default socket lives here).
   std::string cache_dir = "./cache";
-  // Byte budget of the shared page cache, with K/M/G suffixes.
+  // What the whole daemon may hold in memory, with K/M/G suffixes: the
+  // request reserve (request_memory), every open scene's geometry and
+  // ray-tracing structure and every build's working memory (charged before
+  // they are allocated, then measured), and the page cache, which gets
+  // what remains (never less than page_cache_floor) and shrinks as scenes
+  // come. A scene that cannot fit even with the idle scenes unloaded and
+  // the cache at its floor is refused with RESOURCE_EXHAUSTED naming it
+  // and the bytes it needs (server/engine/memory_accountant.h).
+  // Not counted, the overhead (docs/out-of-core.md, "Memory budget"): code
+  // and libraries, allocator slack, gRPC's and TBB's buffers and stacks,
+  // pages gathers still hold after eviction, a scene's geometry while it
+  // is being read; measured under 200 MiB of RSS above the budget.
   std::string memory_budget = "2GiB";
+  // The share of memory_budget kept for the requests in flight (their
+  // messages, receivers and results; limits.max_in_flight bounds them).
+  std::string request_memory = "64MiB";
+  // The page cache is never shrunk below this to make room for scenes.
+  std::string page_cache_floor = "32MiB";
   // TBB worker threads for gathers and renders; 0 = all cores.
   uint32_t threads = 0;
   // spdlog level: trace, debug, info, warn, error, critical, off.
@@ -51,8 +68,11 @@ struct DaemonOptions {
   std::vector<std::string> preload;
   // Allow plaintext TCP on a non-loopback address (TLS needs no permission).
   bool allow_insecure_remote = false;
-  // Whole scenes (geometry + ray structure, estimated) are unloaded least
-  // recently used first above this; "0" = never.
+  // A sub-limit within memory_budget on the open scenes alone (geometry +
+  // ray structure, as charged to the budget): above it the least recently
+  // used other scenes are unloaded after an open, even in use (requests
+  // holding one finish); "0" = none (memory_budget alone, which unloads
+  // only idle scenes and refuses what cannot fit).
   std::string scene_memory_budget = "0";
   // What the staging directories of all builds in progress may hold on
   // disk together (sort runs, pages being written), with K/M/G suffixes;
@@ -90,6 +110,8 @@ struct DaemonOptions {
   // The listen address with the default filled in.
   std::string effective_listen() const;
   uint64_t memory_budget_bytes() const;      // throws InvalidArgument
+  uint64_t request_memory_bytes() const;     // throws InvalidArgument
+  uint64_t page_cache_floor_bytes() const;   // throws InvalidArgument
   uint64_t max_message_bytes() const;        // throws InvalidArgument
   uint64_t scene_memory_budget_bytes() const;  // throws InvalidArgument
   uint64_t staging_quota_bytes() const;        // throws InvalidArgument

@@ -99,6 +99,8 @@ std::string& listen(DaemonOptions& o) { return o.listen; }
 std::vector<std::string>& scene_roots(DaemonOptions& o) { return o.scene_roots; }
 std::string& cache_dir(DaemonOptions& o) { return o.cache_dir; }
 std::string& memory_budget(DaemonOptions& o) { return o.memory_budget; }
+std::string& request_memory(DaemonOptions& o) { return o.request_memory; }
+std::string& page_cache_floor(DaemonOptions& o) { return o.page_cache_floor; }
 uint32_t& threads(DaemonOptions& o) { return o.threads; }
 std::string& log_level(DaemonOptions& o) { return o.log_level; }
 std::string& python(DaemonOptions& o) { return o.python; }
@@ -126,8 +128,13 @@ const DaemonSetting kSettings[] = {
     setting<Strings, scene_roots>("--scene-root", "PBGI_SCENE_ROOTS",
                                   "directory scenes may be opened from (repeatable)"),
     setting<std::string, cache_dir>("--cache-dir", "PBGI_CACHE_DIR", "page sets are built here (./cache)"),
-    {"--memory-budget", "PBGI_MEMORY_BUDGET", "page cache budget, e.g. 2GiB, 512M",
+    {"--memory-budget", "PBGI_MEMORY_BUDGET",
+     "memory of the whole daemon: scenes, builds, request reserve and page cache, e.g. 2GiB, 512M",
      &add_option<std::string, memory_budget>, &set_byte_size_from_env<memory_budget>},
+    flag_only<std::string, request_memory>("--request-memory",
+                                           "share of --memory-budget kept for requests in flight (64MiB)"),
+    flag_only<std::string, page_cache_floor>("--page-cache-floor",
+                                             "the page cache never shrinks below this for scenes (32MiB)"),
     setting<uint32_t, threads>("--threads", "PBGI_THREADS", "worker threads (0 = all cores)"),
     setting<std::string, log_level>("--log-level", "PBGI_LOG_LEVEL", "trace, debug, info, warn, error, critical, off"),
     setting<std::string, python>("--python", "PBGI_PYTHON", "interpreter with usd-core"),
@@ -147,8 +154,8 @@ const DaemonSetting kSettings[] = {
                                          "HOST:PORT for Prometheus GET /metrics (default: off)"),
     flag_only<std::string, log_format>("--log-format", "text or json"),
     flag_only<std::string, scene_memory_budget>("--scene-memory-budget",
-                                                "unload least recently used scenes above this "
-                                                "(e.g. 8GiB; 0 = never)"),
+                                                "sub-limit of --memory-budget on open scenes: "
+                                                "unload least recently used ones above it (e.g. 8GiB; 0 = none)"),
     flag_only<uint32_t, max_in_flight>("--max-in-flight", "gathers/tiles computed at once (0 = 2 x threads)"),
     flag_only<uint32_t, max_queued>("--max-queued", "more waiting; beyond, RESOURCE_EXHAUSTED + retry hint"),
     flag_only<uint64_t, max_surfels>("--max-surfels",

@@ -7,6 +7,7 @@
 #include "common/errors.h"
 #include "server/engine/bounce_pages.h"
 #include "server/engine/build_key.h"
+#include "server/engine/scene_memory.h"
 #include "server/gather/page_views.h"
 #include "server/ingest/usd_ingest.h"
 #include "server/scene/default_lights.h"
@@ -249,12 +250,24 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
   if (frame.outliers) model.content_hash += "+bulk/1";
 
   // 2. Ray-tracing structure: needed for surfel shading and primary hits.
+  //    Charged to the memory budget first (the geometry as read, the
+  //    structure's estimated peak): a scene that cannot fit is refused
+  //    before Embree allocates anything. Then the measured size.
+  const uint64_t geometry_bytes = model.geometry_bytes();
+  if (ctx.memory) {
+    session->memory = ctx.memory->charge(model.source_path, "scene geometry + ray-tracing structure (estimated)",
+                                         geometry_bytes + estimate_ray_structure_bytes(model));
+  }
   session->rays = std::make_unique<RayScene>(*session->scene);
+  const uint64_t resident_bytes = geometry_bytes + session->rays->memory_bytes();
+  if (ctx.memory) session->memory.resize(resident_bytes, "ray-tracing structure (measured)");
   // The point where scene + BVH memory is complete (scripts/scale_build.sh
   // reads the daemon's peak RSS here): instancing keeps it to the prototypes.
-  spdlog::info("ray scene of '{}' built: {} triangles ({} prototypes, {} instances), scene geometry {} bytes",
+  spdlog::info("ray scene of '{}' built: {} triangles ({} prototypes, {} instances), scene geometry {} bytes, "
+               "ray structure {} bytes (peak {} while built)",
                session->scene->source_path, session->scene->triangle_count(), session->scene->prototypes.size(),
-               session->scene->instances.size(), session->scene->geometry_bytes());
+               session->scene->instances.size(), geometry_bytes, session->rays->memory_bytes(),
+               session->rays->peak_memory_bytes());
 
   // 2b. Fog: the rays' medium and the gather's volume points (scene_fog.h),
   // before surfels are shaded through it.
@@ -271,7 +284,16 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
   session->info.reused_cache = session->tree != nullptr;
   if (!session->tree) {
     storage::create_private_directories(ctx.cache_dir);
-    session->tree = build_page_sets(*session, options, ctx, report, cancelled);
+    // The build's working memory is charged while it runs, refused before
+    // it starts if the budget cannot give it; its sort memory shrinks to
+    // what the budget has free (scene_memory.h).
+    OpenOptions build_options = options;
+    if (ctx.memory) {
+      build_options.tree.sort_memory_bytes = fit_sort_memory(options, ctx.memory->available());
+      session->memory.resize(resident_bytes + estimate_build_bytes(build_options), "page-set build (estimated)");
+    }
+    session->tree = build_page_sets(*session, build_options, ctx, report, cancelled);
+    if (ctx.memory) session->memory.resize(resident_bytes, "page-set build");
   }
 
   session->info.scene_id = key;

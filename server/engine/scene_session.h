@@ -4,6 +4,7 @@
 #pragma once
 
 #include "server/engine/build_guard.h"
+#include "server/engine/memory_accountant.h"
 #include "server/engine/open_options.h"
 #include "server/gather/surfel_bounce.h"
 #include "server/ingest/chunk_store.h"
@@ -35,6 +36,10 @@ struct SceneSessionInfo {
 };
 
 struct SceneSession {
+  // The session's share of the daemon's memory budget (its geometry and
+  // ray-tracing structure, measured); released when the session goes.
+  // Declared first: released after what it counts is freed.
+  MemoryCharge memory;
   std::unique_ptr<Scene> scene;
   std::unique_ptr<RayScene> rays;
   // Fog volume points for every Gatherer (Gatherer::set_volume_points);
@@ -57,6 +62,10 @@ struct EngineContext {
   // ResourceExhausted naming it and leaves nothing behind. 0 / null: none.
   uint64_t max_surfels = 0;
   std::shared_ptr<storage::StagingQuota> staging_quota;
+  // The daemon's memory budget (memory_accountant.h): each session is
+  // charged for its geometry and ray structure, each build for its working
+  // memory, before they are allocated. Null: nothing is charged.
+  std::shared_ptr<MemoryAccountant> memory;
 };
 
 using StageProgress = std::function<void(const std::string& stage, float fraction)>;
@@ -69,7 +78,8 @@ using StageProgress = std::function<void(const std::string& stage, float fractio
 // between build batches (build_guard.h): once true the open stops with
 // Cancelled, its reader process and staging directories removed.
 // Throws SceneError / IoError / CorruptionError with the file at fault,
-// ResourceExhausted past ctx's bounds, Cancelled.
+// ResourceExhausted past ctx's bounds (the memory budget: naming the scene
+// and the bytes it needs), Cancelled.
 std::shared_ptr<SceneSession> open_scene(const std::filesystem::path& scene_path,
                                          const OpenOptions& options, const EngineContext& ctx,
                                          const StageProgress& progress = {},

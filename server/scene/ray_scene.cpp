@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -54,6 +55,24 @@ void on_embree_error(void* user, RTCError code, const char* message) {
   auto* sink = static_cast<ErrorSink*>(user);
   std::lock_guard<std::mutex> lock(sink->mutex);
   sink->last = fmt::format("{} ({})", error_name(code), message ? message : "");
+}
+
+// The bytes Embree's device holds (its copies of the geometry buffers, the
+// BVHs, build scratch while building) and the most it held, for the
+// daemon's memory accountant. Embree reports allocations (bytes > 0)
+// before and frees (bytes < 0) after they happen, from its build threads.
+struct MemoryMeter {
+  std::atomic<int64_t> held{0};
+  std::atomic<int64_t> peak{0};
+};
+
+bool on_embree_memory(void* user, ssize_t bytes, bool /*post*/) {
+  auto* meter = static_cast<MemoryMeter*>(user);
+  const int64_t now = meter->held.fetch_add(bytes) + bytes;
+  int64_t peak = meter->peak.load();
+  while (now > peak && !meter->peak.compare_exchange_weak(peak, now)) {
+  }
+  return true;
 }
 
 std::string& device_config() {
@@ -118,6 +137,7 @@ struct RayScene::Impl {
   float extent = 0.f;     // largest side of the scene's bounds
   float epsilon = 1e-7f;  // ray_epsilon()
   ErrorSink errors;
+  MemoryMeter memory;
 
   ~Impl() {
     if (scene) rtcReleaseScene(scene);
@@ -193,6 +213,7 @@ RayScene::RayScene(const Scene& scene) : scene_(scene), impl_(std::make_unique<I
                             error_name(rtcGetDeviceError(nullptr))));
   }
   rtcSetDeviceErrorFunction(impl_->device, on_embree_error, &impl_->errors);
+  rtcSetDeviceMemoryMonitorFunction(impl_->device, on_embree_memory, &impl_->memory);
 
   // 3. The world soup as geometry 0 of the top-level scene.
   impl_->scene = impl_->new_scene();
@@ -246,6 +267,9 @@ RayScene::RayScene(const Scene& scene) : scene_(scene), impl_(std::make_unique<I
 RayScene::~RayScene() = default;
 
 float RayScene::ray_epsilon() const { return impl_->epsilon; }
+
+uint64_t RayScene::memory_bytes() const { return uint64_t(std::max<int64_t>(0, impl_->memory.held.load())); }
+uint64_t RayScene::peak_memory_bytes() const { return uint64_t(std::max<int64_t>(0, impl_->memory.peak.load())); }
 
 V3f RayScene::point_error(const V3f& p) const {
   return gamma_bound(8) * (abs(p) + V3f(impl_->extent));

@@ -117,6 +117,12 @@ class RayScene {
   // which is relative to the point.
   float ray_epsilon() const;
 
+  // Bytes Embree holds for this scene now (its copies of vertices and
+  // indices, the BVHs), and the most it held, build scratch included.
+  // Thread-safe.
+  uint64_t memory_bytes() const;
+  uint64_t peak_memory_bytes() const;
+
  private:
   struct Impl;
   struct FilterContext;  // an Embree intersect context carrying a HitFilter

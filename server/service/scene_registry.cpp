@@ -6,6 +6,8 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <malloc.h>
+
 #include <algorithm>
 #include <chrono>
 #include <condition_variable>
@@ -29,6 +31,7 @@ std::string selection_key(const StageSelection& s) {
 }  // namespace
 
 uint64_t estimate_session_memory(const SceneSession& session) {
+  if (session.memory.bytes() > 0) return session.memory.bytes();
   // Per triangle: the soup (positions, normals, uvs: ~100 bytes) and
   // Embree's BVH (~100 bytes). Good to a factor of two, which is what an
   // eviction policy needs.
@@ -261,6 +264,49 @@ void SceneRegistry::evict_over_budget_locked(const std::string& keep_id) {
     by_id_.erase(victim);
     ++evictions_;
   }
+}
+
+bool SceneRegistry::idle_locked(const Entry& entry) const {
+  // The registry's own references: the entry, and the finished open's
+  // record (by_key_) that callers joining it read the session from.
+  long own = 1;
+  if (auto it = by_key_.find(entry.key); it != by_key_.end()) {
+    std::lock_guard pending_lock(it->second->mutex);
+    if (it->second->session == entry.session) ++own;
+  }
+  return entry.session.use_count() <= own;
+}
+
+bool SceneRegistry::unload_idle(uint64_t bytes) {
+  // Freed outside the lock: a session's destruction releases its Embree
+  // scene, its readers' cached pages and its memory charge.
+  std::vector<std::shared_ptr<SceneSession>> unloaded;
+  {
+    std::unique_lock lock(mutex_);
+    uint64_t freed = 0;
+    while (freed < bytes) {
+      auto victim = by_id_.end();
+      for (auto it = by_id_.begin(); it != by_id_.end(); ++it) {
+        if (!idle_locked(it->second)) continue;
+        if (victim == by_id_.end() || it->second.last_used < victim->second.last_used) victim = it;
+      }
+      if (victim == by_id_.end()) break;
+      spdlog::info("unloading idle scene {} ('{}', {} MiB) to make room within the memory budget", victim->first,
+                   victim->second.session->info.scene_path, victim->second.memory_bytes >> 20);
+      freed += victim->second.memory_bytes;
+      unloaded.push_back(std::move(victim->second.session));
+      by_key_.erase(victim->second.key);
+      by_id_.erase(victim);
+      ++evictions_;
+    }
+  }
+  const bool any = !unloaded.empty();
+  unloaded.clear();
+  // The heap they freed goes back to the system: glibc keeps freed chunks
+  // in its arenas (the worker threads' too), where the next scene may not
+  // fit them, and the budget would pay for them twice.
+  if (any) ::malloc_trim(0);
+  return any;
 }
 
 std::shared_ptr<SceneSession> SceneRegistry::find(const std::string& scene_id) {

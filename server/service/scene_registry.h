@@ -11,10 +11,13 @@
 // `cancelled` callback (the daemon's --preload) never leaves.
 //
 // Memory: a session's pages live in the shared, budgeted page cache; its
-// geometry and ray-tracing structure do not. With a scene memory budget,
-// opening a scene that takes the sessions' estimated total over it unloads
-// the least recently used other sessions (requests already holding one
-// finish normally: sessions are shared_ptrs).
+// geometry and ray-tracing structure are charged to the daemon's memory
+// accountant (server/engine/memory_accountant.h), which calls
+// unload_idle() when a new charge does not fit. With a scene memory budget
+// (a sub-limit on the sessions' total alone), opening a scene that takes
+// the sessions' total over it unloads the least recently used other
+// sessions (requests already holding one finish normally: sessions are
+// shared_ptrs).
 #pragma once
 
 #include "server/engine/scene_session.h"
@@ -50,9 +53,11 @@ using SceneOpener = std::function<std::shared_ptr<SceneSession>(
     const StageSelection& selection, const StageProgress& progress,
     const std::function<bool()>& cancelled)>;
 
-// Estimated bytes of a session outside the page cache.
+// Bytes of a session outside the page cache.
 using SessionMemory = std::function<uint64_t(const SceneSession&)>;
-// Default estimate: ~200 bytes per triangle (soup + Embree BVH).
+// Default: what the session is charged to the daemon's memory budget (its
+// measured geometry and ray structure); a session opened without an
+// accountant, ~200 bytes per triangle (soup + Embree BVH).
 uint64_t estimate_session_memory(const SceneSession& session);
 
 struct RegistryOptions {
@@ -108,6 +113,13 @@ class SceneRegistry {
   // hold it finish; its pages leave the cache when the last one does.
   bool unload(const std::string& scene_id);
 
+  // Unloads idle sessions (held by no request), least recently used first,
+  // until their memory (RegistryOptions::memory_of) reaches `bytes` or none
+  // is left; returns true if it unloaded any. The memory accountant's
+  // reclaimer: the sessions go (and release their charges) before it
+  // returns, outside the registry's lock.
+  bool unload_idle(uint64_t bytes);
+
   // All open sessions, ordered by scene path.
   std::vector<std::shared_ptr<SceneSession>> list() const;
   std::vector<SceneUsage> usage() const;
@@ -115,7 +127,7 @@ class SceneRegistry {
 
   // Number of opens started, of sessions evicted by the memory budget.
   uint64_t opens_started() const;
-  uint64_t evictions() const;
+  uint64_t evictions() const;  // both by the scene memory budget and unload_idle()
   uint64_t memory_budget() const { return options_.scene_memory_budget; }
 
  private:
@@ -128,6 +140,7 @@ class SceneRegistry {
     uint64_t memory_bytes = 0;
   };
   void evict_over_budget_locked(const std::string& keep_id);
+  bool idle_locked(const Entry& entry) const;
   std::shared_ptr<SceneSession> open_once(const std::filesystem::path& canonical_path,
                                           const OpenOptions& options, const StageSelection& selection,
                                           const StageProgress& progress,

@@ -51,7 +51,7 @@ struct Departed {
 }  // namespace
 
 struct PageCache::Impl {
-  const uint64_t budget;
+  uint64_t budget;  // guarded by mu (set_budget)
   mutable std::mutex mu;
   std::list<Key> fresh;  // first-time pages, front = newest (FIFO)
   std::list<Key> hot;    // pages loaded again, front = most recently used (LRU)
@@ -216,7 +216,16 @@ CacheCounters PageCache::counters() const {
   return impl_->counters;
 }
 
-uint64_t PageCache::budget() const { return impl_->budget; }
+uint64_t PageCache::budget() const {
+  std::lock_guard lock(impl_->mu);
+  return impl_->budget;
+}
+
+void PageCache::set_budget(uint64_t budget_bytes) {
+  std::lock_guard lock(impl_->mu);
+  impl_->budget = budget_bytes;
+  while (impl_->counters.bytes_held > impl_->budget) impl_->evict_one();
+}
 
 uint64_t PageCache::new_owner() { return impl_->next_owner.fetch_add(1); }
 

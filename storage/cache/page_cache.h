@@ -55,6 +55,10 @@ class PageCache {
   void note_bytes_read(uint64_t n);
   CacheCounters counters() const;
   uint64_t budget() const;
+  // Changes the budget; a smaller one evicts (as the policy above would)
+  // until the holdings fit it. The daemon's memory accountant moves it as
+  // scenes come and go (server/engine/memory_accountant.h).
+  void set_budget(uint64_t budget_bytes);
 
   // A fresh owner id, distinct from all others this cache has handed out.
   uint64_t new_owner();

@@ -277,6 +277,41 @@ TEST(SceneRegistry, EvictsLeastRecentlyUsedScenesOverTheMemoryBudget) {
   EXPECT_EQ(small.list().size(), 1u);
 }
 
+// With the daemon's memory accountant: a scene that does not fit unloads
+// idle scenes (least recently used first), never one a request holds, and
+// is refused naming itself when only scenes in use are left.
+TEST(SceneRegistry, MakesRoomByUnloadingIdleScenesOnlyForTheMemoryBudget) {
+  constexpr uint64_t kMiB = uint64_t(1) << 20;
+  auto memory = MemoryAccountant::create({100 * kMiB, 10 * kMiB, 20 * kMiB}, nullptr);  // 70 MiB for scenes
+  auto registry = std::make_shared<SceneRegistry>(
+      [&](const std::filesystem::path& path, const OpenOptions&, const StageSelection&, const StageProgress&,
+          const std::function<bool()>&) {
+        auto session = testing::fake_session(path, "id-" + path.stem().string());
+        session->memory = memory->charge(path.string(), "scene geometry", 40 * kMiB);
+        return session;
+      });
+  memory->set_reclaimer([&](uint64_t bytes) { return registry->unload_idle(bytes); });
+
+  registry->open("/s/a.usda", {});
+  EXPECT_EQ(registry->usage().at(0).memory_bytes, 40 * kMiB) << "the charge is the session's memory";
+  registry->open("/s/b.usda", {});  // 80 > 70: a, idle, goes
+  EXPECT_EQ(registry->find("id-a"), nullptr);
+  EXPECT_EQ(registry->evictions(), 1u);
+  EXPECT_EQ(memory->charged(), 40 * kMiB);
+
+  const auto in_use = registry->find("id-b");  // a request holds b
+  try {
+    registry->open("/s/c.usda", {});
+    FAIL() << "c fitted beside b in use";
+  } catch (const ResourceExhausted& e) {
+    EXPECT_NE(std::string(e.what()).find("/s/c.usda"), std::string::npos) << e.what();
+  }
+  EXPECT_NE(registry->find("id-b"), nullptr) << "a scene in use is never unloaded for room";
+  EXPECT_EQ(memory->charged(), 40 * kMiB);
+
+  EXPECT_FALSE(registry->unload_idle(1)) << "nothing idle";
+}
+
 TEST(SceneRegistry, UnloadForgetsTheSessionAndItsKey) {
   int opens = 0;
   SceneRegistry registry([&](const std::filesystem::path& path, const OpenOptions&,

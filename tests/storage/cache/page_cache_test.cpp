@@ -106,6 +106,22 @@ TEST(PageCache, DepartedPageThatDiedIsLoadedAgain) {
   EXPECT_EQ(loads, 6);
 }
 
+TEST(PageCache, SmallerBudgetEvictsDownToItLargerHoldsMore) {
+  PageCache cache(4 * kPageBytes);
+  auto get = [&](uint32_t id) { return cache.get(1, id, [&] { return make_page(id, 10); }); };
+  for (uint32_t id = 0; id < 4; ++id) get(id);
+  ASSERT_EQ(cache.counters().bytes_held, 4 * kPageBytes);
+  cache.set_budget(2 * kPageBytes);  // a scene came: the cache gives way
+  EXPECT_EQ(cache.budget(), 2 * kPageBytes);
+  EXPECT_EQ(cache.counters().bytes_held, 2 * kPageBytes);
+  EXPECT_EQ(cache.counters().evictions, 2u);
+  cache.set_budget(0);
+  EXPECT_EQ(cache.counters().bytes_held, 0u);
+  cache.set_budget(3 * kPageBytes);  // it left: the cache grows again
+  for (uint32_t id = 0; id < 3; ++id) get(id);
+  EXPECT_EQ(cache.counters().bytes_held, 3 * kPageBytes);
+}
+
 TEST(PageCache, HotPagesSurviveScans) {
   // A page every gather needs (the top of the tree) between long runs of
   // pages needed once: after it came back once, scans no longer evict it.

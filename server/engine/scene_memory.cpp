@@ -1,0 +1,51 @@
+#include "server/engine/scene_memory.h"
+
+#include <algorithm>
+
+namespace pbgi {
+namespace {
+
+// Embree's peak while it builds (RTC_BUILD_QUALITY_MEDIUM, robust): its
+// copies of the vertices (16 B each, padded) and indices (12 B a
+// triangle), and per triangle the BVH and the build's primitive
+// references. Measured by Embree's memory monitor (copies included): 83 B
+// per triangle final, 116 B at the peak, on the generated 4M-triangle
+// scene of docs/measurements/2026-11-27-daemon-budget.md (the estimate
+// charged for it was 1.4x the peak).
+constexpr uint64_t kRayBytesPerVertex = 16;
+constexpr uint64_t kRayBytesPerTriangle = 12 + 110;
+// Per instance: an instance geometry and its node in the top-level BVH.
+constexpr uint64_t kRayBytesPerInstance = 512;
+// The device, its thread-local allocators and empty scenes.
+constexpr uint64_t kRayFixedBytes = uint64_t(8) << 20;
+// A build's batches of surfels in flight (65 536 surfels a batch, sampled,
+// shaded and sorted by the worker threads), page encoding and the
+// bounce gather's receivers, beside the sort memory. A bound chosen, not
+// measured per part.
+constexpr uint64_t kBuildBatchBytes = uint64_t(64) << 20;
+// The least sort memory a build is given under a tight budget.
+constexpr uint64_t kMinSortMemory = uint64_t(16) << 20;
+
+}  // namespace
+
+uint64_t estimate_ray_structure_bytes(const Scene& scene) {
+  uint64_t triangles = scene.triangles.triangle_count();
+  uint64_t vertices = scene.triangles.positions.size();
+  for (const Prototype& p : scene.prototypes) {
+    triangles += p.triangles.triangle_count();
+    vertices += p.triangles.positions.size();
+  }
+  return kRayFixedBytes + vertices * kRayBytesPerVertex + triangles * kRayBytesPerTriangle +
+         scene.instances.size() * kRayBytesPerInstance;
+}
+
+uint64_t estimate_build_bytes(const OpenOptions& options) {
+  return options.tree.sort_memory_bytes + kBuildBatchBytes;
+}
+
+uint64_t fit_sort_memory(const OpenOptions& options, uint64_t available) {
+  const uint64_t room = available > kBuildBatchBytes ? available - kBuildBatchBytes : 0;
+  return std::min(options.tree.sort_memory_bytes, std::max(kMinSortMemory, room));
+}
+
+}  // namespace pbgi

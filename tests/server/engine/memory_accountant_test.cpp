@@ -1,0 +1,167 @@
+// The daemon's memory accountant: charges and their release size the page
+// cache; a charge that does not fit unloads idle scenes (the reclaimer),
+// then takes the cache to its floor, and is refused naming the scene and
+// the bytes it needs when even that is not enough.
+#include "server/engine/memory_accountant.h"
+
+#include "common/errors.h"
+#include "storage/cache/page_cache.h"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace pbgi {
+namespace {
+
+constexpr uint64_t kMiB = uint64_t(1) << 20;
+
+MemoryBudget budget_of(uint64_t total_mib, uint64_t reserve_mib = 10, uint64_t floor_mib = 20) {
+  return {total_mib * kMiB, reserve_mib * kMiB, floor_mib * kMiB};
+}
+
+// A page of about `nodes` nodes (the cache's unit of holding).
+tree::PagePtr make_page(uint32_t id, size_t nodes) {
+  auto p = std::make_shared<tree::Page>();
+  p->id = id;
+  p->nodes.resize(nodes);
+  return p;
+}
+
+TEST(MemoryAccountant, TheCacheGetsWhatTheReserveAndChargesLeave) {
+  auto cache = std::make_shared<storage::PageCache>(0);
+  auto memory = MemoryAccountant::create(budget_of(100), cache);
+  EXPECT_EQ(cache->budget(), 90 * kMiB);  // 100 - 10 reserved for requests
+  {
+    MemoryCharge a = memory->charge("/s/a.usda", "geometry", 30 * kMiB);
+    EXPECT_EQ(memory->charged(), 30 * kMiB);
+    EXPECT_EQ(cache->budget(), 60 * kMiB);
+    a.resize(20 * kMiB, "measured");  // the measured size is smaller
+    EXPECT_EQ(cache->budget(), 70 * kMiB);
+    MemoryCharge moved = std::move(a);
+    EXPECT_EQ(memory->charged(), 20 * kMiB);
+  }
+  EXPECT_EQ(memory->charged(), 0u);  // released with the charge
+  EXPECT_EQ(cache->budget(), 90 * kMiB);
+}
+
+TEST(MemoryAccountant, AChargeShrinksTheCacheEvictingPages) {
+  const uint64_t page = make_page(0, 1000)->memory_bytes();
+  auto cache = std::make_shared<storage::PageCache>(0);
+  auto memory = MemoryAccountant::create({100 * page, 0, 10 * page}, cache);
+  for (uint32_t id = 0; id < 80; ++id) cache->get(1, id, [&] { return make_page(id, 1000); });
+  ASSERT_EQ(cache->counters().bytes_held, 80 * page);
+  MemoryCharge scene = memory->charge("/s/big.usda", "geometry", 50 * page);
+  EXPECT_EQ(cache->budget(), 50 * page);
+  EXPECT_LE(cache->counters().bytes_held, 50 * page);
+  EXPECT_GE(cache->counters().evictions, 30u);
+}
+
+TEST(MemoryAccountant, RefusesWhatCanNeverFitNamingSceneAndBytes) {
+  auto memory = MemoryAccountant::create(budget_of(100), nullptr);
+  int reclaims = 0;
+  memory->set_reclaimer([&](uint64_t) { return ++reclaims, false; });
+  try {
+    memory->charge("/scenes/huge.usda", "scene geometry", 71 * kMiB);  // 70 MiB is all scenes get
+    FAIL() << "charged more than the budget gives";
+  } catch (const ResourceExhausted& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("/scenes/huge.usda"), std::string::npos) << what;
+    EXPECT_NE(what.find(std::to_string(71 * kMiB) + " bytes"), std::string::npos) << what;
+    EXPECT_NE(what.find("100.0 MiB"), std::string::npos) << what;   // the budget
+    EXPECT_NE(what.find("70.0 MiB"), std::string::npos) << what;    // what scenes may get
+    EXPECT_NE(what.find("memory_budget"), std::string::npos) << what;
+  }
+  EXPECT_EQ(reclaims, 0) << "nothing is unloaded for a scene that could never fit";
+  EXPECT_EQ(memory->charged(), 0u);
+  EXPECT_EQ(memory->refusals(), 1u);
+  EXPECT_NO_THROW(memory->charge("/scenes/fits.usda", "scene geometry", 70 * kMiB));
+}
+
+TEST(MemoryAccountant, UnloadsIdleScenesBeforeRefusing) {
+  auto memory = MemoryAccountant::create(budget_of(100), nullptr);
+  // Two idle scenes the reclaimer may unload, oldest first.
+  std::vector<MemoryCharge> idle;
+  idle.push_back(memory->charge("/s/old.usda", "geometry", 30 * kMiB));
+  idle.push_back(memory->charge("/s/newer.usda", "geometry", 30 * kMiB));
+  std::vector<uint64_t> asked;
+  memory->set_reclaimer([&](uint64_t bytes) {
+    asked.push_back(bytes);
+    if (idle.empty()) return false;
+    idle.erase(idle.begin());
+    return true;
+  });
+  MemoryCharge next = memory->charge("/s/next.usda", "geometry", 35 * kMiB);
+  ASSERT_EQ(asked.size(), 1u) << "one unload made room";
+  EXPECT_EQ(asked[0], 25 * kMiB) << "asked for what the charge lacked: 60 + 35 - 70";
+  EXPECT_EQ(idle.size(), 1u);
+  EXPECT_EQ(memory->charged(), 65 * kMiB);
+  // Growing a charge goes the same way: the last idle scene goes, then the
+  // growth is refused (nothing more to unload) and the charge is unchanged.
+  EXPECT_THROW(next.resize(71 * kMiB, "page-set build (estimated)"), ResourceExhausted);
+  EXPECT_EQ(next.bytes(), 35 * kMiB);
+  next.resize(70 * kMiB, "page-set build (estimated)");
+  EXPECT_TRUE(idle.empty());
+  EXPECT_EQ(memory->charged(), 70 * kMiB);
+}
+
+TEST(MemoryAccountant, RefusalNamesWhatOtherScenesInUseHold) {
+  auto memory = MemoryAccountant::create(budget_of(100), nullptr);
+  MemoryCharge busy = memory->charge("/s/busy.usda", "geometry", 50 * kMiB);
+  memory->set_reclaimer([](uint64_t) { return false; });  // nothing idle
+  try {
+    memory->charge("/s/b.usda", "scene geometry + ray-tracing structure (estimated)", 30 * kMiB);
+    FAIL();
+  } catch (const ResourceExhausted& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("/s/b.usda"), std::string::npos) << what;
+    EXPECT_NE(what.find("ray-tracing structure"), std::string::npos) << what;
+    EXPECT_NE(what.find("other scenes in use hold 50.0 MiB"), std::string::npos) << what;
+  }
+  EXPECT_EQ(memory->charged(), 50 * kMiB);
+}
+
+TEST(MemoryAccountant, ChargesOutliveTheDaemonsReference) {
+  MemoryCharge charge;
+  {
+    auto memory = MemoryAccountant::create(budget_of(100), nullptr);
+    charge = memory->charge("/s/a.usda", "geometry", kMiB);
+  }
+  charge.release();  // the accountant is still alive through the charge
+  EXPECT_EQ(charge.bytes(), 0u);
+}
+
+TEST(MemoryAccountant, BudgetWithoutRoomForScenesIsInvalid) {
+  EXPECT_THROW(MemoryAccountant::create(budget_of(30, 10, 20), nullptr), InvalidArgument);
+  EXPECT_THROW(MemoryAccountant::create(budget_of(5, 10, 0), nullptr), InvalidArgument);
+}
+
+TEST(MemoryAccountant, ConcurrentChargesNeverPassTheBudget) {
+  auto cache = std::make_shared<storage::PageCache>(0);
+  auto memory = MemoryAccountant::create(budget_of(100), cache);
+  std::atomic<int> refused{0};
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 4; ++t) {
+    threads.emplace_back([&] {
+      for (int i = 0; i < 2000; ++i) {
+        try {
+          MemoryCharge c = memory->charge("/s/x.usda", "geometry", 30 * kMiB);
+          EXPECT_LE(memory->charged(), 70 * kMiB);
+          EXPECT_GE(cache->budget(), 20 * kMiB);
+        } catch (const ResourceExhausted&) {
+          ++refused;
+        }
+      }
+    });
+  }
+  for (auto& t : threads) t.join();
+  EXPECT_EQ(memory->charged(), 0u);
+  EXPECT_EQ(cache->budget(), 90 * kMiB);
+}
+
+}  // namespace
+}  // namespace pbgi
