@@ -22,28 +22,12 @@ Y up, 1 unit = 1 m. Under /World:
 """
 import math
 import os
-import struct
-import zlib
 
+from png_file import write_png
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, Vt
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 MASK = 64
-
-
-def write_png_rgba(path, width, height, rgba8):
-    """8-bit RGBA PNG from a flat list of width*height*4 ints."""
-    raw = b"".join(b"\x00" + bytes(rgba8[y * width * 4:(y + 1) * width * 4]) for y in range(height))
-
-    def chunk(kind, data):
-        body = kind + data
-        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body) & 0xFFFFFFFF)
-
-    with open(path, "wb") as f:
-        f.write(b"\x89PNG\r\n\x1a\n")
-        f.write(chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 6, 0, 0, 0)))
-        f.write(chunk(b"IDAT", zlib.compress(raw, 9)))
-        f.write(chunk(b"IEND", b""))
 
 
 def leaf_alpha(s, t):
@@ -65,7 +49,7 @@ def write_mask(path):
         for col in range(MASK):
             a = 255 * leaf_alpha((col + 0.5) / MASK, t)
             pixels += [40, 150, 40, a]
-    write_png_rgba(path, MASK, MASK, pixels)
+    write_png(path, MASK, MASK, pixels, channels=4)
 
 
 def quad(stage, path, x0, x1, y, z0, z1, st=False):

@@ -25,28 +25,11 @@ ceiling RectLight is deactivated. Added under /World/Looks:
 """
 import math
 import os
-import struct
-import zlib
 
+from png_file import write_png
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, Vt
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-
-
-def write_png(path, width, height, rgb8):
-    """8-bit RGB PNG from a flat list of width*height*3 ints."""
-    raw = b"".join(b"\x00" + bytes(rgb8[y * width * 3:(y + 1) * width * 3]) for y in range(height))
-
-    def chunk(kind, data):
-        body = kind + data
-        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body) & 0xFFFFFFFF)
-
-    with open(path, "wb") as f:
-        f.write(b"\x89PNG\r\n\x1a\n")
-        f.write(chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)))
-        f.write(chunk(b"sRGB", b"\x00"))
-        f.write(chunk(b"IDAT", zlib.compress(raw, 9)))
-        f.write(chunk(b"IEND", b""))
 
 
 def rgbe(r, g, b):
@@ -96,7 +79,7 @@ def main():
         for x in range(64):
             v = 230 if ((x // 8) + (y // 8)) % 2 else 51  # sRGB 0.9 and 0.2
             checker += [v, v, v]
-    write_png(os.path.join(textures, "checker.png"), 64, 64, checker)
+    write_png(os.path.join(textures, "checker.png"), 64, 64, checker, channels=3, srgb=True)
     write_hdr(os.path.join(textures, "sky.hdr"), 128, 64, sky)
 
     out = os.path.join(HERE, "looks_test.usda")

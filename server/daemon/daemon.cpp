@@ -201,8 +201,8 @@ void Daemon::start() {
     auto r = weak.lock();
     return r && r->unload_idle(bytes);
   });
-  service_ = std::make_shared<service::PbgiService>(service_options, scene_roots, std::move(registry),
-                                                    std::move(runtime));
+  service_ =
+      std::make_shared<service::PbgiService>(service_options, scene_roots, std::move(registry), std::move(runtime));
 
   // 5. Listen.
   if (listen.kind == ListenAddress::Kind::Unix) {

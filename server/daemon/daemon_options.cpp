@@ -36,15 +36,12 @@ const auto kTopTable = options::table(
     options::custom<DaemonOptions, std::string>(
         "listen", [](const DaemonOptions& o) { return o.effective_listen(); },
         [](DaemonOptions& o, const std::string& v) { o.listen = v; }),
-    options::field<&DaemonOptions::scene_roots>("scene_roots"),
-    options::field<&DaemonOptions::cache_dir>("cache_dir"),
+    options::field<&DaemonOptions::scene_roots>("scene_roots"), options::field<&DaemonOptions::cache_dir>("cache_dir"),
     options::field<&DaemonOptions::memory_budget>("memory_budget"),
     options::field<&DaemonOptions::request_memory>("request_memory"),
     options::field<&DaemonOptions::page_cache_floor>("page_cache_floor"),
-    options::field<&DaemonOptions::threads>("threads"),
-    options::field<&DaemonOptions::log_level>("log_level"),
-    options::field<&DaemonOptions::python>("python"),
-    options::field<&DaemonOptions::preload>("preload"),
+    options::field<&DaemonOptions::threads>("threads"), options::field<&DaemonOptions::log_level>("log_level"),
+    options::field<&DaemonOptions::python>("python"), options::field<&DaemonOptions::preload>("preload"),
     options::field<&DaemonOptions::allow_insecure_remote>("allow_insecure_remote"),
     options::field<&DaemonOptions::shutdown_grace_seconds>("shutdown_grace_seconds"),
     options::field<&DaemonOptions::scene_memory_budget>("scene_memory_budget"),
@@ -87,13 +84,9 @@ uint64_t DaemonOptions::memory_budget_bytes() const {
   return parse_byte_size(memory_budget, "memory_budget");
 }
 
-uint64_t DaemonOptions::request_memory_bytes() const {
-  return parse_byte_size(request_memory, "request_memory");
-}
+uint64_t DaemonOptions::request_memory_bytes() const { return parse_byte_size(request_memory, "request_memory"); }
 
-uint64_t DaemonOptions::page_cache_floor_bytes() const {
-  return parse_byte_size(page_cache_floor, "page_cache_floor");
-}
+uint64_t DaemonOptions::page_cache_floor_bytes() const { return parse_byte_size(page_cache_floor, "page_cache_floor"); }
 
 uint64_t DaemonOptions::scene_memory_budget_bytes() const {
   return parse_byte_size(scene_memory_budget, "scene_memory_budget");
@@ -148,9 +141,10 @@ void DaemonOptions::validate() const {
     throw InvalidArgument(fmt::format("memory_budget '{}' is below 1MiB", memory_budget));
   }
   if (request_memory_bytes() + page_cache_floor_bytes() >= memory_budget_bytes()) {
-    throw InvalidArgument(fmt::format("memory_budget '{}' leaves nothing for scenes after request_memory '{}' "
-                                      "and page_cache_floor '{}'",
-                                      memory_budget, request_memory, page_cache_floor));
+    throw InvalidArgument(
+        fmt::format("memory_budget '{}' leaves nothing for scenes after request_memory '{}' "
+                    "and page_cache_floor '{}'",
+                    memory_budget, request_memory, page_cache_floor));
   }
   const uint64_t message = max_message_bytes();
   if (message < (1u << 20) || message > uint64_t(std::numeric_limits<int>::max())) {

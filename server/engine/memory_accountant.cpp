@@ -16,9 +16,9 @@ double mib(uint64_t bytes) { return double(bytes) / double(1 << 20); }
 
 uint64_t MemoryBudget::chargeable() const {
   if (request_reserve >= total || cache_floor >= total - request_reserve) {
-    throw InvalidArgument(fmt::format(
-        "memory_budget {} bytes leaves nothing for scenes after request_memory {} and page_cache_floor {}",
-        total, request_reserve, cache_floor));
+    throw InvalidArgument(
+        fmt::format("memory_budget {} bytes leaves nothing for scenes after request_memory {} and page_cache_floor {}",
+                    total, request_reserve, cache_floor));
   }
   return total - request_reserve - cache_floor;
 }
@@ -29,7 +29,8 @@ MemoryCharge::MemoryCharge(std::shared_ptr<MemoryAccountant> accountant, std::st
     : accountant_(std::move(accountant)), owner_(std::move(owner)), bytes_(bytes) {}
 
 MemoryCharge::MemoryCharge(MemoryCharge&& other) noexcept
-    : accountant_(std::move(other.accountant_)), owner_(std::move(other.owner_)),
+    : accountant_(std::move(other.accountant_)),
+      owner_(std::move(other.owner_)),
       bytes_(std::exchange(other.bytes_, 0)) {}
 
 MemoryCharge& MemoryCharge::operator=(MemoryCharge&& other) noexcept {
@@ -95,7 +96,8 @@ void MemoryAccountant::grow(const std::string& owner, const std::string& what, u
       if (held + more <= limit && charged_ + more <= limit) {
         charged_ += more;
         resize_cache_locked();
-        if (reclaimed) spdlog::info("'{}': room for {:.1f} MiB of {} made by unloading idle scenes", owner, mib(more), what);
+        if (reclaimed)
+          spdlog::info("'{}': room for {:.1f} MiB of {} made by unloading idle scenes", owner, mib(more), what);
         return;
       }
       // Could fit if others gave way: ask the reclaimer, outside the lock
@@ -115,10 +117,9 @@ void MemoryAccountant::grow(const std::string& owner, const std::string& what, u
       ++refusals_;
     }
     const uint64_t others = charged() - held;
-    const std::string needs =
-        held == 0 ? fmt::format("{:.1f} MiB ({} bytes) of {}", mib(more), more, what)
-                  : fmt::format("{:.1f} MiB ({} bytes: {:.1f} MiB held + {:.1f} MiB of {})", mib(held + more),
-                                held + more, mib(held), mib(more), what);
+    const std::string needs = held == 0 ? fmt::format("{:.1f} MiB ({} bytes) of {}", mib(more), more, what)
+                                        : fmt::format("{:.1f} MiB ({} bytes: {:.1f} MiB held + {:.1f} MiB of {})",
+                                                      mib(held + more), held + more, mib(held), mib(more), what);
     throw ResourceExhausted(fmt::format(
         "scene '{}' does not fit in the daemon's memory_budget: it needs {}; the budget of {:.1f} MiB gives "
         "scenes at most {:.1f} MiB (after request_memory {:.1f} MiB and page_cache_floor {:.1f} MiB), and "

@@ -88,8 +88,7 @@ class MemoryAccountant : public std::enable_shared_from_this<MemoryAccountant> {
 
   // `cache` (may be null: nothing to shrink) gets total - request_reserve
   // at once. Throws InvalidArgument for a budget without chargeable bytes.
-  static std::shared_ptr<MemoryAccountant> create(MemoryBudget budget,
-                                                  std::shared_ptr<storage::PageCache> cache);
+  static std::shared_ptr<MemoryAccountant> create(MemoryBudget budget, std::shared_ptr<storage::PageCache> cache);
 
   // Installed once by the scene registry; called without the accountant's
   // lock held (the sessions it unloads release their charges).
@@ -102,11 +101,11 @@ class MemoryAccountant : public std::enable_shared_from_this<MemoryAccountant> {
   MemoryCharge charge(const std::string& owner, const std::string& what, uint64_t bytes);
 
   const MemoryBudget& budget() const { return budget_; }
-  uint64_t charged() const;        // held by charges now
+  uint64_t charged() const;  // held by charges now
   // What one more charge could take now without unloading anything.
   uint64_t available() const;
-  uint64_t cache_budget() const;   // the page cache's share now
-  uint64_t refusals() const;       // charges refused since start
+  uint64_t cache_budget() const;  // the page cache's share now
+  uint64_t refusals() const;      // charges refused since start
 
  private:
   MemoryAccountant(MemoryBudget budget, std::shared_ptr<storage::PageCache> cache);

@@ -39,9 +39,7 @@ uint64_t estimate_ray_structure_bytes(const Scene& scene) {
          scene.instances.size() * kRayBytesPerInstance;
 }
 
-uint64_t estimate_build_bytes(const OpenOptions& options) {
-  return options.tree.sort_memory_bytes + kBuildBatchBytes;
-}
+uint64_t estimate_build_bytes(const OpenOptions& options) { return options.tree.sort_memory_bytes + kBuildBatchBytes; }
 
 uint64_t fit_sort_memory(const OpenOptions& options, uint64_t available) {
   const uint64_t room = available > kBuildBatchBytes ? available - kBuildBatchBytes : 0;

@@ -263,11 +263,12 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
   if (ctx.memory) session->memory.resize(resident_bytes, "ray-tracing structure (measured)");
   // The point where scene + BVH memory is complete (scripts/scale_build.sh
   // reads the daemon's peak RSS here): instancing keeps it to the prototypes.
-  spdlog::info("ray scene of '{}' built: {} triangles ({} prototypes, {} instances), scene geometry {} bytes, "
-               "ray structure {} bytes (peak {} while built)",
-               session->scene->source_path, session->scene->triangle_count(), session->scene->prototypes.size(),
-               session->scene->instances.size(), geometry_bytes, session->rays->memory_bytes(),
-               session->rays->peak_memory_bytes());
+  spdlog::info(
+      "ray scene of '{}' built: {} triangles ({} prototypes, {} instances), scene geometry {} bytes, "
+      "ray structure {} bytes (peak {} while built)",
+      session->scene->source_path, session->scene->triangle_count(), session->scene->prototypes.size(),
+      session->scene->instances.size(), geometry_bytes, session->rays->memory_bytes(),
+      session->rays->peak_memory_bytes());
 
   // 2b. Fog: the rays' medium and the gather's volume points (scene_fog.h),
   // before surfels are shaded through it.

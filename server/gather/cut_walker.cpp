@@ -61,6 +61,21 @@ constexpr float kWideRefineFraction = 1.f / 16.f;
 // refined once it brings this fraction of the HDR threshold.
 constexpr float kHdrStraddleFraction = 1.f / 16.f;
 
+// Fragments whose planes differ by more than this fraction of their
+// distance to the receiver (plus what the node's normal cone allows) lie on
+// different surfaces (microbuffer.h, rule 3). Smaller separates more (the
+// ground 1 cm below a floor seen from 1 m), but makes the test sensitive to
+// where the splats of two surfaces meeting in a corner blur into each other:
+// measured (closed room of 2 cm shells, interior mean / exterior level)
+// 0.020 at 0.01, 0.022 at 0.03 (0.016 at 1e-3 with an earlier version of
+// the rule); at 1e-3 the Cornell room moved by 1e5 (positions rounded to
+// 4 mm) differed by 5% RMS from the room at the origin, 0.4% at 0.01
+// (docs/measurements/2026-11-27-light-leak-surfaces.md).
+constexpr float kPlaneSlack = 0.01f;
+// A two-faced node's faces are within ~11 degrees of its axis
+// (kBipolarMinLambda): its pieces lie within r sin(11 deg) of its plane.
+constexpr float kBipolarPlaneSin = 0.2f;
+
 // A walk's splats are queued and drawn in batches (rasterizer.h): the
 // walk flushes them before it returns; when it throws they are dropped
 // (the receiver is lost, and the next one starts a new microbuffer).
@@ -123,6 +138,10 @@ CutWalker::CutWalker(const tree::TreeSource& tree, const GatherOptions& options,
 void CutWalker::begin_receiver(const Imath::V3f& p, const Imath::V3f& n) {
   p_ = p;
   n_ = n;
+  // Positions far from the origin are rounded to their float steps: plane
+  // offsets measured from the receiver are no more precise than a few.
+  const float largest = std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+  coord_slack_ = 4.f * std::numeric_limits<float>::epsilon() * largest;
   buffer_.begin(n);
 }
 
@@ -286,6 +305,8 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
     shape.omega = std::min(look.area * coverage, disk) / d2;
     shape.squash = Imath::V3f(h.ax, h.ay, h.az);
     shape.ratio = coverage;
+    shape.facing = shape.squash;
+    shape.plane_tolerance = h.radius * h.cone_sin + kPlaneSlack * d + coord_slack_;
     radiance = Imath::C3f(look.r, look.g, look.b);
     if (h.glossy()) add_glossy(e, -dir, coverage, radiance);
   } else if (h.bipolar()) {
@@ -297,6 +318,8 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
     shape.omega = std::min(look.area * coverage, disk) / d2;
     shape.squash = b.axis;
     shape.ratio = std::min(1.f, std::abs(b.axis.dot(dir)));
+    shape.facing = b.axis.dot(dir) < 0.f ? b.axis : -b.axis;
+    shape.plane_tolerance = h.radius * kBipolarPlaneSin + kPlaneSlack * d + coord_slack_;
     if (h.glossy()) add_glossy(e, -dir, coverage, radiance);
   } else {
     // A wide cone with normals facing away from the receiver: the SH's
@@ -396,6 +419,8 @@ void CutWalker::leaf_surfels(const StackEntry& e, const tree::Page& page, const 
       shape.omega = kPi * r2 * shape.ratio / d2;
       shape.squash = s.normal;
       shape.max_radius = s.radius / d;
+      shape.facing = s.normal;
+      shape.plane_tolerance = kPlaneSlack * d + coord_slack_;
       // A near surfel seen at a grazing angle recedes by r sin(phi) on
       // either side of its center: its fragments span that, so that the
       // pieces of a wall seen edge-on chain into one surface instead of
@@ -405,7 +430,8 @@ void CutWalker::leaf_surfels(const StackEntry& e, const tree::Page& page, const 
       raster_.queue(q / d, shape, d, radiance);
       ++counters_.surfels_splatted;
     } else {
-      raster_.raycast(q, s.normal, s.radius * kRaycastRadiusScale, radiance);
+      raster_.raycast(q, s.normal, s.radius * kRaycastRadiusScale, radiance,
+                      kPlaneSlack * std::sqrt(d2) + coord_slack_);
       ++counters_.surfels_raycast;
     }
   }

@@ -141,6 +141,7 @@ class CutWalker {
   float hdr_threshold_ = -1.f;  // luminance x sr; < 0 until computed
   // The current receiver (walk_receiver).
   Imath::V3f p_{0, 0, 0}, n_{0, 0, 1};
+  float coord_slack_ = 0.f;  // plane tolerance from the receiver's float steps (begin_receiver)
 };
 
 // The cut threshold actually used: the option, bounded by the pixel size.

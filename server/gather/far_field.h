@@ -34,6 +34,7 @@
 #pragma once
 
 #include "server/gather/cube_layout.h"
+#include "server/gather/fragment_surface.h"
 
 #include <Imath/ImathColor.h>
 #include <Imath/ImathVec.h>
@@ -59,6 +60,7 @@ struct FarPixel {
   float front_alpha;            // its coverage (unclamped sum)
   float rest_z;                 // where the rest starts (if rest_alpha > 0)
   float rest_alpha;             // 1 - transmittance through the rest
+  FragmentSurface front_surface;  // the front cluster's first known surface, if any
 };
 
 class FarBuffer {
@@ -80,13 +82,20 @@ class FarBuffer {
     add(k, depth, depth, alpha, omega, m, radiance);
   }
   // The same over the depth interval [near, far] (microbuffer.h).
-  void add(uint32_t k, float near, float far, float alpha, float omega, const Imath::V3f& m,
-           const Imath::C3f& radiance) {
+  // `surface`: the one it lies on, if known (microbuffer.h, rule 3: a
+  // surface lying behind another's plane within a cluster counts only over
+  // what those in front leave; the planes are those seen from the
+  // cluster's active receiver).
+  void add(uint32_t k, float near, float far, float alpha, float omega, const Imath::V3f& m, const Imath::C3f& radiance,
+           SurfaceId surface = {}) {
     if (!(alpha > 0.f) || !(omega > 0.f) || !std::isfinite(near) || !std::isfinite(far)) return;
-    Fragment f{near, far, alpha, omega, radiance.x * omega, radiance.y * omega,
-               radiance.z * omega, m.x * omega, m.y * omega, m.z * omega, -1};
+    Fragment f{near,        far,         alpha,       omega, radiance.x * omega, radiance.y * omega, radiance.z * omega,
+               m.x * omega, m.y * omega, m.z * omega, -1,    surface.index};
     push(k, f);
   }
+  // Registers the surface that the fragments added with the returned id
+  // lie on, until the next begin() (Microbuffer::add_surface).
+  SurfaceId add_surface(const FragmentSurface& s) { return planes_.add(s); }
   // Resolves every touched pixel into pixels()/pixel().
   void resolve(float ao_max_distance);
 
@@ -104,8 +113,15 @@ class FarBuffer {
     float r, g, b;     // omega L
     float mx, my, mz;  // omega m
     int32_t next;
+    uint32_t surface;  // in planes_ (0: unknown)
   };
   void push(uint32_t k, const Fragment& f);
+  // Whether f may merge into g (same band): resolve() adds them up anyway.
+  bool merges(const Fragment& g, const Fragment& f, uint32_t k) const;
+  // Scales the fragments sorted_[begin, end) of one cluster of pixel k that
+  // lie behind the plane of a surface in front of them to what that
+  // leaves of the pixel (microbuffer.h, rule 3).
+  void trim_hidden(uint32_t k, size_t begin, size_t end);
 
   const CubeLayout& layout_;
   float grow_;  // 1 + depth band
@@ -116,6 +132,8 @@ class FarBuffer {
   std::vector<Fragment> fragments_;
   std::vector<Fragment> sorted_;
   std::vector<FarPixel> resolved_;
+  std::vector<float> depth_;  // scratch of trim_hidden()
+  SurfaceTable planes_;       // the surfaces of the fragments
 };
 
 }  // namespace pbgi::gather

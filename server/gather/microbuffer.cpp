@@ -21,7 +21,8 @@ Microbuffer::Microbuffer(const CubeLayout& layout, float depth_band)
       weight_(layout.pixel_count(), 0.f),
       cos_(layout.pixel_count(), 0.f),
       stamp_(layout.pixel_count(), 0),
-      head_(layout.pixel_count(), -1) {
+      head_(layout.pixel_count(), -1),
+      hot_(layout.pixel_count(), -1) {
   touched_.reserve(layout.pixel_count());
   fragments_.reserve(4 * layout.pixel_count());
 }
@@ -33,12 +34,38 @@ void Microbuffer::push(uint32_t k, const Fragment& f) {
     head_[k] = -1;
     touched_.push_back(k);
   }
+  // Depth intervals overlapping within the band (then they always end in
+  // the same cluster of resolve()), of one surface or of surfaces that
+  // resolve() adds up.
+  int32_t merge = -1, side = -1;
   for (int32_t i = head_[k]; i >= 0; i = fragments_[i].next) {
-    Fragment& g = fragments_[i];
+    const Fragment& g = fragments_[i];
     if ((g.alpha > 0.f) != (f.alpha > 0.f)) continue;
-    // Depth intervals overlapping within the band (then they always end in
-    // the same cluster of resolve()).
     if (f.far * grow_ < g.near || f.near > g.far * grow_) continue;
+    if (f.surface == g.beside || planes_.same(g.surface, f.surface)) {
+      merge = i;
+      break;
+    }
+    if (side < 0) side = i;
+  }
+  // Else the first of another surface it lies beside (not behind).
+  if (merge < 0 && side >= 0) {
+    const Imath::V3f dir = layout_.direction(k);
+    for (int32_t i = side; i >= 0; i = fragments_[i].next) {
+      const Fragment& g = fragments_[i];
+      if ((g.alpha > 0.f) != (f.alpha > 0.f)) continue;
+      if (f.far * grow_ < g.near || f.near > g.far * grow_) continue;
+      if (side_by_side(g, f, dir)) {
+        merge = i;
+        fragments_[i].beside = f.surface;
+        break;
+      }
+    }
+  }
+  if (merge >= 0) {
+    hot_[k] = merge;
+    Fragment& g = fragments_[merge];
+    if (g.surface == 0) g.surface = f.surface;
     g.near = std::min(g.near, f.near);
     g.far = std::max(g.far, f.far);
     g.alpha += f.alpha;
@@ -52,6 +79,7 @@ void Microbuffer::push(uint32_t k, const Fragment& f) {
   fragments_.push_back(f);
   fragments_.back().next = head_[k];
   head_[k] = int32_t(fragments_.size() - 1);
+  hot_[k] = head_[k];
 }
 
 void Microbuffer::begin(const Imath::V3f& n) {
@@ -61,6 +89,7 @@ void Microbuffer::begin(const Imath::V3f& n) {
   }
   touched_.clear();
   fragments_.clear();
+  planes_.clear();
   normal_ = n;
 
   const uint32_t count = layout_.pixel_count();
@@ -155,18 +184,31 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
   }
   for (const uint32_t k : touched_) {
     sorted_.clear();
-    for (int32_t f = head_[k]; f >= 0; f = fragments_[f].next) sorted_.push_back(fragments_[f]);
+    // Whether the pixel holds fragments of more than one known surface
+    // index: if not, no cluster needs the test of rule 3.
+    uint32_t first_surface = 0;
+    bool mixed = false;
+    for (int32_t f = head_[k]; f >= 0; f = fragments_[f].next) {
+      const Fragment& x = fragments_[f];
+      sorted_.push_back(x);
+      if (x.surface != 0 && x.surface != first_surface) {
+        mixed = mixed || first_surface != 0;
+        first_surface = x.surface;
+      }
+    }
     // The far layers of this pixel join its fragments as two more surfaces
     // (the front one merges with near pieces of the same surface).
     if (far && far->has(k) && weight_[k] > 0.f) {
       const FarPixel& fp = far->pixel(k);
       const FarShare f = far_share(fp.front, normal_, cos_[k], margin[k], weight_[k], omega[k]);
       if (fp.front_alpha > 0.f) {
-        sorted_.push_back({fp.front_near, fp.front_far, fp.front_alpha, f.occ, f.r, f.g, f.b, 0});
+        const uint32_t front = planes_.add(fp.front_surface).index;
+        sorted_.push_back({fp.front_near, fp.front_far, fp.front_alpha, f.occ, f.r, f.g, f.b, 0u, -1, front, 0u});
+        mixed = mixed || (front != 0 && first_surface != 0 && front != first_surface);
       }
       if (fp.rest_alpha > 0.f) {
         const FarShare r = far_share(fp.rest, normal_, cos_[k], margin[k], weight_[k], omega[k]);
-        sorted_.push_back({fp.rest_z, fp.rest_z, fp.rest_alpha, r.occ, r.r, r.g, r.b, 0});
+        sorted_.push_back({fp.rest_z, fp.rest_z, fp.rest_alpha, r.occ, r.r, r.g, r.b, 0u, -1, 0u, 0u});
       }
     }
     // Lists are short (a few surfaces): insertion sort beats std::sort.
@@ -182,9 +224,14 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
     size_t i = 0;
     while (i < sorted_.size() && transmit > kOpaque) {
       const float start = sorted_[i].near;
+      const size_t begin = i;
       float far_z = start, a = 0.f, w = 0.f, cr = 0.f, cg = 0.f, cb = 0.f;
       float hits = 0.f, hw = 0.f, hr = 0.f, hg = 0.f, hb = 0.f;
       uint32_t mask = 0;
+      // Whether the cluster holds more than one surface (then rule 3's
+      // test decides, and these sums are not used).
+      bool one_surface = true;
+      uint32_t surface = 0;  // the cluster's first known surface
       do {
         const Fragment& f = sorted_[i];
         if (f.alpha < 0.f) {
@@ -201,10 +248,19 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
           cg += f.g;
           cb += f.b;
         }
+        if (mixed && f.surface != 0 && f.surface != surface) {
+          if (surface == 0) {
+            surface = f.surface;
+          } else if (one_surface && !planes_.same(surface, f.surface)) {
+            one_surface = false;
+          }
+        }
         far_z = std::max(far_z, f.far);
         ++i;
       } while (i < sorted_.size() && sorted_[i].near <= far_z * grow_);
-      if (hits > 0.f) {
+      if (!one_surface) {
+        resolve_surfaces(k, begin, i, cr, cg, cb, w, a);
+      } else if (hits > 0.f) {
         // The hits' radiance averaged, over the part of the pixel they cover.
         const float cover = float(__builtin_popcount(mask)) * (1.f / kHitSamples);
         const float inv = cover / hits;
@@ -239,6 +295,102 @@ Resolved Microbuffer::resolve(float ao_max_distance, const FarBuffer* far,
   out.ao = std::clamp(1.f - float(occlusion / kPi), 0.f, 1.f);
   out.occluded = Imath::V3f(float(occluded[0]), float(occluded[1]), float(occluded[2]));
   return out;
+}
+
+void Microbuffer::resolve_surfaces(uint32_t k, size_t begin, size_t end, float& r, float& g, float& b, float& weight,
+                                   float& alpha) {
+  const Imath::V3f dir = layout_.direction(k);
+  // Known surfaces first, each at the depth where the pixel's center ray
+  // meets it; fragments of unknown surfaces (wide-cone nodes) then join the
+  // nearest one (they add up, as before surfaces were known).
+  surfaces_.clear();
+  for (int pass = 0; pass < 2; ++pass) {
+    for (size_t j = begin; j < end; ++j) {
+      const Fragment& f = sorted_[j];
+      if ((f.surface != 0) != (pass == 0)) continue;
+      Surface* s = nullptr;
+      if (pass == 0) {
+        for (Surface& t : surfaces_) {
+          if (planes_.same(t.surface, f.surface)) {
+            s = &t;
+            break;
+          }
+        }
+        if (!s) {
+          float far_z = f.far;
+          for (size_t m = j + 1; m < end; ++m) {
+            if (planes_.same(f.surface, sorted_[m].surface)) far_z = std::max(far_z, sorted_[m].far);
+          }
+          surfaces_.push_back({surface_depth(planes_[f.surface], dir, f.near, far_z, grow_), 0.f, 0.f, 0.f, 0.f, 0.f,
+                               0.f, 0.f, 0.f, 0.f, 0.f, 0u, f.surface});
+          s = &surfaces_.back();
+        }
+      } else {
+        s = &surfaces_.front();
+        for (Surface& t : surfaces_)
+          if (t.depth < s->depth) s = &t;
+      }
+      if (f.alpha < 0.f) {
+        s->hits -= f.alpha;
+        s->mask |= f.mask;
+        s->hw += f.weight;
+        s->hr += f.r;
+        s->hg += f.g;
+        s->hb += f.b;
+      } else {
+        s->alpha += f.alpha;
+        s->w += f.weight;
+        s->r += f.r;
+        s->g += f.g;
+        s->b += f.b;
+      }
+    }
+  }
+  // Front to back (a handful of surfaces: insertion sort).
+  for (size_t i = 1; i < surfaces_.size(); ++i) {
+    const Surface x = surfaces_[i];
+    size_t j = i;
+    for (; j > 0 && surfaces_[j - 1].depth > x.depth; --j) surfaces_[j] = surfaces_[j - 1];
+    surfaces_[j] = x;
+  }
+  uint32_t seen = 0;  // samples hit by surfaces in front
+  float covered = 0.f;
+  r = g = b = weight = 0.f;
+  for (size_t i = 0; i < surfaces_.size(); ++i) {
+    const Surface& s = surfaces_[i];
+    float cover = 0.f;
+    if (s.hits > 0.f) {
+      // The hits' radiance averaged, over the part of the pixel they cover
+      // and no surface in front of them does.
+      const uint32_t mask = s.mask & ~seen;
+      seen |= s.mask;
+      cover = float(__builtin_popcount(mask)) * (1.f / kHitSamples);
+      const float inv = cover / s.hits;
+      weight += s.hw * inv;
+      r += s.hr * inv;
+      g += s.hg * inv;
+      b += s.hb * inv;
+    }
+    // Splats count whole (pieces of one surface, or surfaces side by side:
+    // coverage not clamped, rule 3) unless they lie behind the plane of a
+    // surface in front; then only over what is left of the pixel.
+    float scale = 1.f;
+    if (i > 0 && s.alpha > 0.f) {
+      const Imath::V3f x = dir * s.depth;
+      for (size_t j = 0; j < i; ++j) {
+        if (lies_behind(planes_[surfaces_[j].surface], x)) {
+          scale = std::clamp((1.f - covered - cover) / s.alpha, 0.f, 1.f);
+          break;
+        }
+      }
+    }
+    weight += s.w * scale;
+    r += s.r * scale;
+    g += s.g * scale;
+    b += s.b * scale;
+    covered += cover + s.alpha * scale;
+  }
+  alpha = covered;
 }
 
 Imath::V3f Microbuffer::bent_normal(const Resolved& r) const {

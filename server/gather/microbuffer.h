@@ -11,18 +11,32 @@
 //     cluster's farthest depth so far, z <= z_far * (1 + depth_band); a
 //     larger gap starts a new cluster. Pieces of one surface (neighbouring
 //     splats and ray-cast surfels) land at nearby depths and are chained.
-//     To keep lists short, add_*() already merges a fragment into one of
-//     the pixel's fragments of the same kind whose depth interval it is
-//     within the band of; such fragments always end in the same cluster,
-//     so this changes nothing but speed.
-//  3. A cluster's coverage is alpha = (covered samples / 16) + sum of splat
-//     alphas. Ray-cast hits of overlapping disks do not add up: a hit
-//     means a sample point of the pixel sees the surface, and the hits of
-//     a cluster cover the union of their samples. Splat coverage is deliberately not
-//     clamped at 1: a splat has exactly its node's solid angle, so where
-//     neighbouring splats overlap in one pixel they leave a gap in another,
-//     and clamping would turn every overlap into lost energy (a 2-3%
-//     darkening that grows with resolution).
+//  3. Within a cluster, fragments are grouped by surface
+//     (fragment_surface.h): the same normal and plane, known for flat nodes
+//     and surfels, unknown for wide-cone nodes (those join the nearest
+//     surface). A surface's coverage is alpha = (covered samples / 16) +
+//     sum of splat alphas. Ray-cast hits of overlapping disks do not add
+//     up: a hit means a sample point of the pixel sees the surface, and the
+//     hits of a surface cover the union of their samples. Splat coverage of
+//     one surface is deliberately not clamped at 1: a splat has exactly its
+//     node's solid angle, so where neighbouring splats overlap in one pixel
+//     they leave a gap in another, and clamping would turn every overlap
+//     into lost energy (a 2-3% darkening that grows with resolution).
+//     Surfaces are taken front to back by where the pixel's center ray
+//     meets their plane. Surfaces side by side (a floor meeting a wall in a
+//     corner: neither lies behind the other's plane) add up as pieces of
+//     one surface do. A surface lying behind the plane of one in front of
+//     it (the ground just behind a wall's foot, the ground 2 cm below a
+//     floor) counts only over what those in front leave of the pixel: its
+//     hits lose the samples hit in front, its splats are scaled down to
+//     1 - the coverage in front. Before surfaces were told apart, such
+//     ground joined the wall's cluster and added its light: most of the
+//     light seen inside a closed room on a sunlit ground.
+//     To keep lists short, add_*() merges fragments that this rule would
+//     add up anyway (same kind, depth within the band, one surface or
+//     neither behind the other). Fragments name their surface by an index
+//     into the receiver's SurfaceTable (fragment_surface.h): splats of one
+//     surface share an index and merge on an integer comparison.
 //  4. Clusters composite front to back: each passes max(0, 1 - alpha) of
 //     what lies behind it.
 // AO counts only the clusters that start nearer than ao_max_distance (if it
@@ -48,6 +62,7 @@
 #pragma once
 
 #include "server/gather/cube_layout.h"
+#include "server/gather/fragment_surface.h"
 
 #include <Imath/ImathColor.h>
 #include <Imath/ImathVec.h>
@@ -104,14 +119,18 @@ class Microbuffer {
   // along the view: a wall seen at a grazing angle recedes across its
   // splats, and pieces of it whose intervals chain belong to one surface),
   // has the cosine-weighted solid angle `weight` (> 0) and shows `radiance`.
-  void add_coverage(uint32_t k, float near, float far, float alpha, float weight,
-                    const Imath::C3f& radiance) {
+  // `surface`: the one it lies on (add_surface()), if known.
+  void add_coverage(uint32_t k, float near, float far, float alpha, float weight, const Imath::C3f& radiance,
+                    SurfaceId surface = {}) {
     if (!(alpha > 0.f) || !(weight > 0.f)) return;
-    // Fast path: the pixel's latest fragment is a splat of the same surface
-    // (the common case: neighbouring splats of one surface).
+    // Fast path: the pixel's fragment that took the last one (added or
+    // merged) is a splat of the same surface (the common case: neighbouring
+    // splats of one surface), or of one found beside it, by index
+    // (SurfaceTable). push() tries the rest.
     if (stamp_[k] == generation_) {
-      Fragment& g = fragments_[head_[k]];
-      if (g.alpha > 0.f && far * grow_ >= g.near && near <= g.far * grow_) {
+      Fragment& g = fragments_[hot_[k]];
+      if (g.alpha > 0.f && far * grow_ >= g.near && near <= g.far * grow_ &&
+          (surface.index == g.surface || surface.index == g.beside)) {
         g.near = std::min(g.near, near);
         g.far = std::max(g.far, far);
         g.alpha += alpha;
@@ -122,8 +141,12 @@ class Microbuffer {
         return;
       }
     }
-    push(k, {near, far, alpha, weight, radiance.x * weight, radiance.y * weight,
-             radiance.z * weight});
+    push(k, {near, far, alpha, weight, radiance.x * weight, radiance.y * weight, radiance.z * weight, 0u, -1,
+             surface.index, 0u});
+  }
+  void add_coverage(uint32_t k, float near, float far, float alpha, float weight, const Imath::C3f& radiance,
+                    const FragmentSurface& surface) {
+    add_coverage(k, near, far, alpha, weight, radiance, add_surface(surface));
   }
   void add_coverage(uint32_t k, float depth, float alpha, float weight,
                     const Imath::C3f& radiance) {
@@ -141,11 +164,15 @@ class Microbuffer {
     add_hit(k, depth, depth, radiance, mask);
   }
   // The same with the depth interval of the samples' hits.
-  void add_hit(uint32_t k, float near, float far, const Imath::C3f& radiance, uint32_t mask) {
+  void add_hit(uint32_t k, float near, float far, const Imath::C3f& radiance, uint32_t mask, SurfaceId surface = {}) {
     const float w = weight_[k];
     if (!(w > 0.f) || !(mask & kAllSamples)) return;
-    push(k, {near, far, -1.f, w, radiance.x * w, radiance.y * w, radiance.z * w, mask});
+    push(k, {near, far, -1.f, w, radiance.x * w, radiance.y * w, radiance.z * w, mask, -1, surface.index, 0u});
   }
+
+  // Registers the surface (fragment_surface.h) that the fragments added
+  // with the returned id lie on, until the next begin(). Unknown: id 0.
+  SurfaceId add_surface(const FragmentSurface& s) { return planes_.add(s); }
 
   // Resolves visibility (rule above) and convolves with the cosine lobe,
   // with the resolved far content of `far` if given. With `gain` (one
@@ -187,9 +214,28 @@ class Microbuffer {
     float r, g, b;    // radiance times weight
     uint32_t mask = 0;  // hits: the pixel's sample points they cover (union)
     int32_t next = -1;
+    uint32_t surface = 0;  // in planes_ (0: unknown)
+    // The last other surface merged into it as lying beside it (push()):
+    // the next fragment of that surface merges without the planes' test.
+    uint32_t beside = 0;
   };
+  // Whether fragments a and b of two different surfaces in the pixel of
+  // unit direction `dir` (same kind, within the band) may merge: resolve()
+  // adds them up anyway when neither lies behind the other's plane (a
+  // floor and a wall meeting in a corner).
+  bool side_by_side(const Fragment& a, const Fragment& b, const Imath::V3f& dir) const {
+    const FragmentSurface& sa = planes_[a.surface];
+    const FragmentSurface& sb = planes_[b.surface];
+    return !lies_behind(sa, dir * surface_depth(sb, dir, b.near, b.far, grow_)) &&
+           !lies_behind(sb, dir * surface_depth(sa, dir, a.near, a.far, grow_));
+  }
 
   void push(uint32_t k, const Fragment& f);
+  // Resolves one depth cluster of pixel k, sorted_[begin, end), whose
+  // fragments lie on more than one surface (rule 3): its light, cosine
+  // weight and coverage.
+  void resolve_surfaces(uint32_t k, size_t begin, size_t end, float& r, float& g, float& b, float& weight,
+                        float& alpha);
 
   const CubeLayout& layout_;
   float band_;
@@ -202,10 +248,25 @@ class Microbuffer {
   // starting a receiver does not touch every pixel.
   std::vector<uint32_t> stamp_;
   std::vector<int32_t> head_;
+  // The fragment of each pixel that took the last fragment added to it
+  // (valid with the stamp). Where surfaces one behind the other keep two
+  // fragments in a pixel, their splats alternate: the list's head would
+  // then miss the fast path half of the time.
+  std::vector<int32_t> hot_;
   uint32_t generation_ = 0;
   std::vector<uint32_t> touched_;
   std::vector<Fragment> fragments_;
   std::vector<Fragment> sorted_;  // scratch of resolve()
+  SurfaceTable planes_;           // the surfaces of the receiver's fragments
+  // Scratch of resolve_surfaces(): one entry per surface of a cluster.
+  struct Surface {
+    float depth;
+    float alpha, w, r, g, b;     // splats
+    float hits, hw, hr, hg, hb;  // ray-cast hits
+    uint32_t mask;
+    uint32_t surface;  // in planes_
+  };
+  std::vector<Surface> surfaces_;
 };
 
 }  // namespace pbgi::gather

@@ -67,7 +67,12 @@ void Rasterizer::queue(const Imath::V3f& dir, const Shape& shape, float depth,
   b.sy[i] = shape.squash.y;
   b.sz[i] = shape.squash.z;
   const float extent = std::clamp(shape.depth_extent, 0.f, 0.9f * depth);
-  pending_[i] = {depth - extent, depth + extent, radiance, far};
+  // A zero `facing` (unknown surface) gives a zero normal: still unknown.
+  pending_[i] = {depth - extent,
+                 depth + extent,
+                 radiance,
+                 far,
+                 {shape.facing, depth * shape.facing.dot(dir), shape.plane_tolerance}};
 }
 
 void Rasterizer::flush() {
@@ -148,6 +153,7 @@ void Rasterizer::draw(size_t i, const Ellipse& e, const Pending& p) {
   const bool above = cos_center > reach;
   const float rho2 = e.major * e.minor;
   const float target = omega * cos_center * (1.f - 0.25f * rho2);  // (1 + cos rho) / 2
+  const SurfaceId surface = buffer_.add_surface(p.surface);
   // Common case: wholly above the horizon and inside one face (the
   // kernel's masses). The cosine varies by a few percent over a splat;
   // weights are spread in proportion of solid angle, and their total is
@@ -168,7 +174,7 @@ void Rasterizer::draw(size_t i, const Ellipse& e, const Pending& p) {
       for (uint32_t c = 0; c < ni; ++c) {
         const uint32_t k = row + c;
         const float m = b.mu[c][i];
-        buffer_.add_coverage(k, p.z0, p.z1, m * a_v, m * w_v * solid[k], p.radiance);
+        buffer_.add_coverage(k, p.z0, p.z1, m * a_v, m * w_v * solid[k], p.radiance, surface);
       }
     }
     return;
@@ -178,8 +184,8 @@ void Rasterizer::draw(size_t i, const Ellipse& e, const Pending& p) {
   const float scale = omega / covered_;
   const float weight_scale = above && weighted_ > 0.f ? target / weighted_ : scale;
   for (const Candidate& c : candidates_) {
-    buffer_.add_coverage(c.pixel, p.z0, p.z1, c.fraction * scale,
-                         c.fraction * weight_scale * solid[c.pixel] * c.cosine, p.radiance);
+    buffer_.add_coverage(c.pixel, p.z0, p.z1, c.fraction * scale, c.fraction * weight_scale * solid[c.pixel] * c.cosine,
+                         p.radiance, surface);
   }
 }
 
@@ -194,6 +200,7 @@ void Rasterizer::draw_far(size_t i, const Ellipse& e, const Pending& p) {
   // with the cap's exact cosine integral (see far_field.h).
   const float rho2 = e.major * e.minor;
   const Imath::V3f moment = dir * (1.f - 0.25f * rho2);
+  const SurfaceId surface = far.add_surface(p.surface);
   if (b.inside[i]) {
     const float covered = b.covered[i];
     if (!(covered > 0.f)) return;
@@ -208,7 +215,7 @@ void Rasterizer::draw_far(size_t i, const Ellipse& e, const Pending& p) {
       for (uint32_t c = 0; c < ni; ++c) {
         const uint32_t k = row + c;
         const float alpha = b.mu[c][i] * a_v;
-        far.add(k, p.z0, p.z1, alpha, alpha * solid[k], moment, p.radiance);
+        far.add(k, p.z0, p.z1, alpha, alpha * solid[k], moment, p.radiance, surface);
       }
     }
     return;
@@ -217,7 +224,7 @@ void Rasterizer::draw_far(size_t i, const Ellipse& e, const Pending& p) {
   const float scale = omega / covered_;
   for (const Candidate& c : candidates_) {
     const float alpha = c.fraction * scale;
-    far.add(c.pixel, p.z0, p.z1, alpha, alpha * solid[c.pixel], moment, p.radiance);
+    far.add(c.pixel, p.z0, p.z1, alpha, alpha * solid[c.pixel], moment, p.radiance, surface);
   }
 }
 
@@ -351,12 +358,13 @@ void Rasterizer::deposit(int face, float u0, float u1, float v0, float v1, float
 }
 
 uint32_t Rasterizer::raycast(const Imath::V3f& offset, const Imath::V3f& normal, float radius,
-                             const Imath::C3f& radiance) {
+                             const Imath::C3f& radiance, float plane_tolerance) {
   flush();  // queued splats come first, as if drawn when queued
   const float d2 = offset.length2();
   const float r2 = radius * radius;
   const float plane = normal.dot(offset);  // < 0: the receiver is in front
   if (!(plane < 0.f) || !(radius > 0.f)) return 0;
+  const SurfaceId surface = buffer_.add_surface({normal, plane, plane_tolerance});
   const uint32_t n = layout_.resolution();
   const float pw = layout_.pixel_width();
   // Candidate pixels: those whose area (not only center) may meet the
@@ -414,7 +422,7 @@ uint32_t Rasterizer::raycast(const Imath::V3f& offset, const Imath::V3f& normal,
           }
         }
         if (mask) {
-          buffer_.add_hit(k, z0, z1, radiance, mask);
+          buffer_.add_hit(k, z0, z1, radiance, mask, surface);
           ++hits;
         }
       }

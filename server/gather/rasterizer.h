@@ -60,6 +60,11 @@ class Rasterizer {
     // Half the extent of the piece of surface along the view (same units
     // as depth): fragments span [depth - extent, depth + extent].
     float depth_extent = 0.f;
+    // The surface the splat lies on, if known: the unit normal facing the
+    // receiver (zero: unknown) and how far off the plane through the
+    // splat's center pieces of that surface may lie (FragmentSurface).
+    Imath::V3f facing{0, 0, 0};
+    float plane_tolerance = 0.f;
   };
 
   // Splat centered on unit direction `dir`, at distance `depth`, showing
@@ -86,9 +91,10 @@ class Rasterizer {
 
   // Disk of `radius` centered at `offset` (relative to the receiver) with
   // unit `normal`, seen from its front side. Returns the pixels it covers.
-  // Flushes the queued splats first.
-  uint32_t raycast(const Imath::V3f& offset, const Imath::V3f& normal, float radius,
-                   const Imath::C3f& radiance);
+  // Flushes the queued splats first. Its hits lie on the disk's plane,
+  // give or take `plane_tolerance` for pieces of the same surface.
+  uint32_t raycast(const Imath::V3f& offset, const Imath::V3f& normal, float radius, const Imath::C3f& radiance,
+                   float plane_tolerance = 0.f);
 
  private:
   struct Candidate {
@@ -110,6 +116,7 @@ class Rasterizer {
     float z0, z1;  // depth interval of its fragments
     Imath::C3f radiance;
     FarBuffer* far;  // null: the microbuffer
+    FragmentSurface surface;
   };
   // Draws queued splat i of the batch the kernel has run on.
   void draw(size_t i, const Ellipse& e, const Pending& p);

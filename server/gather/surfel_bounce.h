@@ -65,7 +65,8 @@ BounceGatherStats gather_bounce(const tree::TreeSource& tree, std::span<Surfel> 
 // The whole multi-bounce pass in memory: builds the tree of `surfels`
 // (direct lighting only) with `build`, gathers a bounce into them, and
 // repeats options.bounces - 1 times. Returns the surfels with their final
-// radiance, in the tree's order (ready to be fed to a page-set builder).
+// radiance, in the tree's order (ready to be fed to a page-set builder);
+// with one bounce (nothing to gather) the input as given, in its order.
 // `progress(bounce, fraction)` is called from this thread. Throws
 // InvalidArgument for invalid options (bounces outside [1, kMaxBounces])
 // and what gather_bounce() and tree::build_tree() throw.

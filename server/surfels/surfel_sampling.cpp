@@ -46,7 +46,9 @@
 // the geometric mean of its instances' linear scales: coplanarity and
 // overlap survive an invertible affine map). Copies split across ranges --
 // two instances placed on top of each other, or an instance over world
-// geometry -- are not detected: their area is counted twice.
+// geometry -- are found by one more cover, in world space, over the
+// triangles lying where two ranges' bounds meet (cross_range_cover.h); a
+// surfel's point then counts the larger of the two covers.
 //
 // Albedo and emission come from the triangle's material; a textured or
 // vertex-coloured one is evaluated at each surfel's point
@@ -60,6 +62,7 @@
 #include "server/scene/surface_colors.h"
 #include "server/scene/surface_opacity.h"
 #include "server/surfels/coincident_surfaces.h"
+#include "server/surfels/cross_range_cover.h"
 #include "server/surfels/progress_meter.h"
 #include "server/surfels/surfel_material.h"
 #include "server/surfels/surfel_samplers.h"
@@ -185,9 +188,10 @@ std::vector<CoincidentCover> prototype_covers(const Scene& scene, float world_to
 // Step 6 for one range: positions and attributes, chunk by chunk of the
 // range's surfel index, in parallel within a chunk. `cover` is the range's
 // soup's (world space for the world soup, prototype space for instances).
-void emit_range(const Scene& scene, const TriangleRange& range, const std::vector<TrianglePlan>& plan,
-                uint64_t total, const CoincidentCover& cover, const SurfelOptions& options,
-                const SurfelChunkSink& sink, ProgressMeter& meter, std::vector<Surfel>& chunk) {
+void emit_range(const Scene& scene, const TriangleRange& range, const std::vector<TrianglePlan>& plan, uint64_t total,
+                const CoincidentCover& cover, const CrossRangeCover& across, size_t range_index,
+                const SurfelOptions& options, const SurfelChunkSink& sink, ProgressMeter& meter,
+                std::vector<Surfel>& chunk) {
   for (uint64_t g0 = 0; g0 < total; g0 += kChunk) {
     const uint64_t g1 = std::min(total, g0 + kChunk);
     chunk.resize(g1 - g0);
@@ -216,10 +220,13 @@ void emit_range(const Scene& scene, const TriangleRange& range, const std::vecto
         s.position = (1.f - b.x - b.y) * p0 + b.x * p1 + b.y * p2;
         s.normal = twin && (local & 1) ? -n : n;
         float share = p.share;
+        uint32_t copies = 1;
         if (cover.any()) {
           const V3f at = range.instance ? range.soup_point(uint32_t(i), b.x, b.y) : s.position;
-          share /= float(cover.cover(uint32_t(i), at));
+          copies = cover.cover(uint32_t(i), at);
         }
+        if (across.any()) copies = std::max(copies, across.cover(range_index, uint32_t(i), s.position));
+        share /= float(copies);
         // Cut-out or partly transparent surface (surface_opacity.h): the
         // surfel covers only what is there (0: dropped below).
         share *= surface_coverage(scene, id, b.x, b.y);
@@ -289,6 +296,7 @@ void sample_uniform(const Scene& scene, const SurfelOptions& options, const Surf
   const CoincidentCover world_cover =
       soup_cover(scene.triangles, bounds.isEmpty() ? V3f(0.f) : bounds.center(), tolerance);
   const std::vector<CoincidentCover> covers = prototype_covers(scene, tolerance);
+  const CrossRangeCover across(scene, bounds.isEmpty() ? V3f(0.f) : bounds.center(), tolerance);
 
   // 3-4, 6. Range by range: plan, then surfels. Ranges are planned a group
   //         at a time in parallel (a plan's shares are serial, and an
@@ -313,7 +321,7 @@ void sample_uniform(const Scene& scene, const SurfelOptions& options, const Surf
     for (size_t r = r0; r < r1; ++r) {
       const TriangleRange range = triangle_range(scene, r);
       const CoincidentCover& cover = r == 0 ? world_cover : covers[range.instance->prototype];
-      emit_range(scene, range, plans[r - r0], totals[r - r0], cover, options, sink, meter, chunk);
+      emit_range(scene, range, plans[r - r0], totals[r - r0], cover, across, r, options, sink, meter, chunk);
     }
     r0 = r1;
   }

@@ -38,11 +38,11 @@ constexpr uint64_t kSlack = 64 * kMiB;
 
 // An --kind assets scene of `triangles` (distinct per seed) under `dir`.
 fs::path generate_scene(const fs::path& dir, const std::string& name, double triangles, int seed) {
-  const fs::path out = dir / (name + ".usda");
+  fs::path out = dir / (name + ".usda");
   std::ostringstream line;
   line << "'" << PBGI_TEST_PYTHON << "' '" << (kSourceDir / "scripts" / "gen_large_scene.py").string()
-       << "' --kind assets --assets 2 --triangles " << triangles << " --seed " << seed << " --out '"
-       << out.string() << "' > /dev/null";
+       << "' --kind assets --assets 2 --triangles " << triangles << " --seed " << seed << " --out '" << out.string()
+       << "' > /dev/null";
   const std::string command = line.str();
   if (std::system(command.c_str()) != 0) throw std::runtime_error("failed: " + command);
   return out;
@@ -99,8 +99,9 @@ class DaemonMemoryBudget : public ::testing::Test {
     launch.cache_dir = tmp / "cache";
     launch.socket = tmp / "pbgid.sock";
     launch.log_dir = tmp / "log";
-    launch.extra_args = {"--scene-root", (tmp / "scenes").string(), "--scene-root", kCornell.parent_path().string(),
-                         "--log-level", "info", "--memory-budget", budget};
+    launch.extra_args = {
+        "--scene-root", (tmp / "scenes").string(), "--scene-root", kCornell.parent_path().string(), "--log-level",
+        "info",         "--memory-budget",         budget};
     launch.extra_args.insert(launch.extra_args.end(), extra.begin(), extra.end());
     return std::make_unique<DaemonInstance>(launch);
   }
@@ -120,7 +121,7 @@ TEST_F(DaemonMemoryBudget, ASceneThatCannotFitIsRefusedNamingItAndTheDaemonServe
     FAIL() << "a scene larger than the budget was opened\n" << daemon->log();
   } catch (const client::RpcError& e) {
     EXPECT_EQ(e.code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << e.what();
-    const std::string message = e.server_message();
+    const std::string& message = e.server_message();
     EXPECT_NE(message.find(big.string()), std::string::npos) << "names the scene: " << message;
     EXPECT_NE(message.find("needs"), std::string::npos) << message;
     EXPECT_NE(message.find("memory_budget"), std::string::npos) << message;
@@ -163,9 +164,9 @@ TEST_F(DaemonMemoryBudget, TheWholeDaemonStaysWithinBudgetWhileScenesBuild) {
   }
   const uint64_t peak = proc_status_bytes(daemon->pid(), "VmHWM");  // no peak between samples is missed
   const uint64_t bound = idle + budget + kSlack;
-  EXPECT_LE(peak, bound) << "peak RSS " << peak / kMiB << " MiB (sampled max " << sampled / kMiB
-                         << " MiB) over idle " << idle / kMiB << " MiB + budget " << budget / kMiB
-                         << " MiB + slack " << kSlack / kMiB << " MiB\n"
+  EXPECT_LE(peak, bound) << "peak RSS " << peak / kMiB << " MiB (sampled max " << sampled / kMiB << " MiB) over idle "
+                         << idle / kMiB << " MiB + budget " << budget / kMiB << " MiB + slack " << kSlack / kMiB
+                         << " MiB\n"
                          << daemon->log();
   EXPECT_NE(daemon->log().find("unloading idle scene"), std::string::npos) << "idle scenes made room";
 }

@@ -89,17 +89,16 @@ TEST(DaemonOperations, PrometheusEndpointCountsRequestsByRpcAndStatus) {
   const std::string metrics = http_get(daemon.metrics_port(), "/metrics");
   EXPECT_EQ(metrics.rfind("HTTP/1.0 200 OK\r\n", 0), 0u) << metrics;
   EXPECT_NE(metrics.find("text/plain; version=0.0.4"), std::string::npos);
-  for (const char* line :
-       {"pbgi_requests_total{rpc=\"ListScenes\",code=\"OK\"} 2\n",
-        "pbgi_requests_total{rpc=\"OpenScene\",code=\"OK\"} 1\n",
-        "pbgi_requests_total{rpc=\"UnloadScene\",code=\"NOT_FOUND\"} 1\n",
-        "pbgi_request_duration_seconds_bucket{rpc=\"ListScenes\",le=\"+Inf\"} 2\n",
-        "pbgi_request_duration_seconds_count{rpc=\"ListScenes\"} 2\n",
-        "# TYPE pbgi_request_duration_seconds histogram\n", "pbgi_scenes_open 1\n",
-        // The cache gets the 2 GiB budget less the 64 MiB request reserve
-        // (nothing is charged: the fake scene has no memory charge).
-        "pbgi_cache_hits_total 0\n", "pbgi_cache_budget_bytes 2080374784\n",
-        "# TYPE pbgi_cache_read_bytes_total counter\n"}) {
+  for (const char* line : {"pbgi_requests_total{rpc=\"ListScenes\",code=\"OK\"} 2\n",
+                           "pbgi_requests_total{rpc=\"OpenScene\",code=\"OK\"} 1\n",
+                           "pbgi_requests_total{rpc=\"UnloadScene\",code=\"NOT_FOUND\"} 1\n",
+                           "pbgi_request_duration_seconds_bucket{rpc=\"ListScenes\",le=\"+Inf\"} 2\n",
+                           "pbgi_request_duration_seconds_count{rpc=\"ListScenes\"} 2\n",
+                           "# TYPE pbgi_request_duration_seconds histogram\n", "pbgi_scenes_open 1\n",
+                           // The cache gets the 2 GiB budget less the 64 MiB request reserve
+                           // (nothing is charged: the fake scene has no memory charge).
+                           "pbgi_cache_hits_total 0\n", "pbgi_cache_budget_bytes 2080374784\n",
+                           "# TYPE pbgi_cache_read_bytes_total counter\n"}) {
     EXPECT_NE(metrics.find(line), std::string::npos) << "missing: " << line << metrics;
   }
   EXPECT_EQ(metrics.find("pbgi_resident_memory_bytes 0\n"), std::string::npos)

@@ -72,8 +72,8 @@ TEST(MemoryAccountant, RefusesWhatCanNeverFitNamingSceneAndBytes) {
     const std::string what = e.what();
     EXPECT_NE(what.find("/scenes/huge.usda"), std::string::npos) << what;
     EXPECT_NE(what.find(std::to_string(71 * kMiB) + " bytes"), std::string::npos) << what;
-    EXPECT_NE(what.find("100.0 MiB"), std::string::npos) << what;   // the budget
-    EXPECT_NE(what.find("70.0 MiB"), std::string::npos) << what;    // what scenes may get
+    EXPECT_NE(what.find("100.0 MiB"), std::string::npos) << what;  // the budget
+    EXPECT_NE(what.find("70.0 MiB"), std::string::npos) << what;   // what scenes may get
     EXPECT_NE(what.find("memory_budget"), std::string::npos) << what;
   }
   EXPECT_EQ(reclaims, 0) << "nothing is unloaded for a scene that could never fit";
@@ -145,6 +145,7 @@ TEST(MemoryAccountant, ConcurrentChargesNeverPassTheBudget) {
   auto memory = MemoryAccountant::create(budget_of(100), cache);
   std::atomic<int> refused{0};
   std::vector<std::thread> threads;
+  threads.reserve(4);
   for (int t = 0; t < 4; ++t) {
     threads.emplace_back([&] {
       for (int i = 0; i < 2000; ++i) {

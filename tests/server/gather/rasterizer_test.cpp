@@ -81,6 +81,64 @@ TEST(Microbuffer, RayCastHitsDoNotAddUpButHideWhatIsBehind) {
   EXPECT_NEAR(r.irradiance.x, 3.f * mb.weight(k), 1e-5f);
 }
 
+// Issue 20: a wall seen from inside a room, and the lit ground just behind
+// its foot, within the depth band of the wall. Before surfaces were told
+// apart the two joined one cluster and the ground's light added to the
+// wall's (irradiance 1.0 x weight here instead of 0).
+TEST(Microbuffer, SurfaceBehindAnotherWithinTheBandIsHidden) {
+  const CubeLayout& c = CubeLayout::get(8);
+  Microbuffer mb(c, 0.2f);
+  const uint32_t k = center_pixel(c);
+  const V3f d = c.direction(k);
+  // The wall faces the receiver (normal -d) at depth 1; the ground, facing
+  // up across the ray, meets it at depth 1.1 (behind the wall's plane).
+  const FragmentSurface wall{-d, -1.f, 1e-3f};
+  const V3f up = V3f(0, 1, 0) - d * d.y;  // across the ray, facing the receiver side
+  const V3f n_ground = (up.normalized() - d * 0.5f).normalized();
+  const FragmentSurface ground{n_ground, 1.1f * n_ground.dot(d), 1e-3f};
+  for (const bool wall_first : {true, false}) {
+    mb.begin(V3f(0, 0, 1));
+    const auto add_wall = [&] { mb.add_coverage(k, 1.0f, 1.0f, 1.0f, mb.weight(k), C3f(0), wall); };
+    // The ground's splat sits at its node's center, nearer than the wall's.
+    const auto add_ground = [&] { mb.add_coverage(k, 0.95f, 0.95f, 0.8f, 0.8f * mb.weight(k), C3f(1), ground); };
+    if (wall_first) {
+      add_wall();
+      add_ground();
+    } else {
+      add_ground();
+      add_wall();
+    }
+    const Resolved r = mb.resolve(0.f);
+    EXPECT_NEAR(r.irradiance.x, 0.f, 1e-6f) << wall_first;
+    EXPECT_NEAR(r.ao, 1.f - mb.weight(k) / kPi, 1e-6f);
+  }
+  // A wall covering 0.7 of the pixel leaves 0.3 of it to the ground.
+  mb.begin(V3f(0, 0, 1));
+  mb.add_coverage(k, 1.0f, 1.0f, 0.7f, 0.7f * mb.weight(k), C3f(0), wall);
+  mb.add_coverage(k, 0.95f, 0.95f, 0.8f, 0.8f * mb.weight(k), C3f(1), ground);
+  EXPECT_NEAR(mb.resolve(0.f).irradiance.x, 0.3f * mb.weight(k), 1e-5f);
+}
+
+// A floor and a wall meeting in a corner: neither lies behind the other's
+// plane, so their coverages add up as pieces of one surface do (the splats'
+// overlap in one pixel makes up for a gap in the next).
+TEST(Microbuffer, SurfacesSideBySideAddUp) {
+  const CubeLayout& c = CubeLayout::get(8);
+  Microbuffer mb(c, 0.2f);
+  mb.begin(V3f(0, 0, 1));
+  const uint32_t k = center_pixel(c);
+  const V3f d = c.direction(k);
+  // Two planes through the point at depth 1 on the ray, tilted 40 degrees
+  // either way about an axis across it: a concave corner seen from inside.
+  const V3f across = d.cross(V3f(1, 0, 0)).normalized();
+  const float t = 0.7f;  // ~40 degrees
+  const V3f na = (-d * std::cos(t) + across * std::sin(t)).normalized();
+  const V3f nb = (-d * std::cos(t) - across * std::sin(t)).normalized();
+  mb.add_coverage(k, 1.0f, 1.0f, 0.6f, 0.6f * mb.weight(k), C3f(1), {na, na.dot(d), 1e-3f});
+  mb.add_coverage(k, 1.02f, 1.02f, 0.6f, 0.6f * mb.weight(k), C3f(2), {nb, nb.dot(d), 1e-3f});
+  EXPECT_NEAR(mb.resolve(0.f).irradiance.x, 1.8f * mb.weight(k), 1e-5f);
+}
+
 TEST(Microbuffer, FragmentsBelowTheHorizonAreDropped) {
   const CubeLayout& c = CubeLayout::get(8);
   Microbuffer mb(c, 0.2f);

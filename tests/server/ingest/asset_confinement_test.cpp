@@ -69,6 +69,28 @@ def Scope "Looks"
 )";
 }
 
+// A triangle bound to the material M of the MaterialX document `document`
+// (materialx_looks.py reads the document itself).
+std::string mtlx_scene(const std::string& document) {
+  return R"(#usda 1.0
+def Material "Look" (
+    prepend references = @)" +
+         document + R"(@</MaterialX/Materials/M>
+)
+{
+}
+def Mesh "Floor" (
+    prepend apiSchemas = ["MaterialBindingAPI"]
+)
+{
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    rel material:binding = </Look>
+}
+)";
+}
+
 class AssetConfinement : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -208,23 +230,7 @@ def Volume "Fog"
   </surfacematerial>
 </materialx>
 )");
-  expect_refused("no-mtlx-texture.usda", R"(#usda 1.0
-def Material "Look" (
-    prepend references = @./look.mtlx@</MaterialX/Materials/M>
-)
-{
-}
-def Mesh "Floor" (
-    prepend apiSchemas = ["MaterialBindingAPI"]
-)
-{
-    int[] faceVertexCounts = [3]
-    int[] faceVertexIndices = [0, 1, 2]
-    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
-    rel material:binding = </Look>
-}
-)",
-                 Escape::kFile);
+  expect_refused("no-mtlx-texture.usda", mtlx_scene("./look.mtlx"), Escape::kFile);
   // Inside the roots a missing texture is still a warning, not a refusal.
   write(root / "missing-inside.usda", textured_scene("./none.png"));
   const Scene scene = read_usd_scene(root / "missing-inside.usda", confined);
@@ -236,22 +242,7 @@ def Mesh "Floor" (
 // cannot compose .mtlx) is a file the scene resolves like any other.
 TEST_F(AssetConfinement, MaterialXDocumentOutsideIsRefused) {
   write(outside / "secret.mtlx", "<?xml version=\"1.0\"?>\n<materialx version=\"1.38\"/>\n");
-  expect_refused("mtlx.usda", R"(#usda 1.0
-def Material "Look" (
-    prepend references = @../elsewhere/secret.mtlx@</MaterialX/Materials/M>
-)
-{
-}
-def Mesh "Floor" (
-    prepend apiSchemas = ["MaterialBindingAPI"]
-)
-{
-    int[] faceVertexCounts = [3]
-    int[] faceVertexIndices = [0, 1, 2]
-    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
-    rel material:binding = </Look>
-}
-)");
+  expect_refused("mtlx.usda", mtlx_scene("../elsewhere/secret.mtlx"));
 }
 
 // A document inside the roots that XIncludes one outside: refused before
@@ -271,22 +262,7 @@ TEST_F(AssetConfinement, MaterialXIncludeOutsideIsRefused) {
   </surfacematerial>
 </materialx>
 )");
-    expect_refused("mtlx_include.usda", R"(#usda 1.0
-def Material "Look" (
-    prepend references = @./look.mtlx@</MaterialX/Materials/M>
-)
-{
-}
-def Mesh "Floor" (
-    prepend apiSchemas = ["MaterialBindingAPI"]
-)
-{
-    int[] faceVertexCounts = [3]
-    int[] faceVertexIndices = [0, 1, 2]
-    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
-    rel material:binding = </Look>
-}
-)");
+    expect_refused("mtlx_include.usda", mtlx_scene("./look.mtlx"));
   }
 }
 

@@ -283,9 +283,9 @@ TEST(SceneRegistry, EvictsLeastRecentlyUsedScenesOverTheMemoryBudget) {
 TEST(SceneRegistry, MakesRoomByUnloadingIdleScenesOnlyForTheMemoryBudget) {
   constexpr uint64_t kMiB = uint64_t(1) << 20;
   auto memory = MemoryAccountant::create({100 * kMiB, 10 * kMiB, 20 * kMiB}, nullptr);  // 70 MiB for scenes
-  auto registry = std::make_shared<SceneRegistry>(
-      [&](const std::filesystem::path& path, const OpenOptions&, const StageSelection&, const StageProgress&,
-          const std::function<bool()>&) {
+  auto registry =
+      std::make_shared<SceneRegistry>([&](const std::filesystem::path& path, const OpenOptions&, const StageSelection&,
+                                          const StageProgress&, const std::function<bool()>&) {
         auto session = testing::fake_session(path, "id-" + path.stem().string());
         session->memory = memory->charge(path.string(), "scene geometry", 40 * kMiB);
         return session;

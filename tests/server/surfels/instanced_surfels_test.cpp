@@ -136,6 +136,43 @@ TEST(InstancedSurfels, CoincidentCopiesInsideAPrototypeCountOnce) {
   EXPECT_NEAR(second, 8.0, 0.01 * 8.0);   // 2 x 4, once
 }
 
+// Copies split across ranges (issue 20): two instances of a floor tile laid
+// on top of each other and on a world floor, an instance elsewhere, and one
+// 20 cm above (a surface of its own). Before the cross-range cover the
+// world floor's area under the tiles counted three times (6.0 instead of
+// 4.0).
+TEST(InstancedSurfels, CoincidentCopiesAcrossInstancesAndTheWorldCountOnce) {
+  TriangleSoup tile;
+  tile.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  tile.indices = {0, 1, 2, 0, 2, 3};
+  tile.material = {0, 0};
+  tile.mesh = {0, 0};
+  tile.mesh_paths = {"/Proto/tile"};
+  Scene s;
+  s.source_path = "coincident_across_instances";
+  s.materials.resize(1);
+  s.triangles.positions = {{0, 0, 0}, {2, 0, 0}, {2, 2, 0}, {0, 2, 0}};
+  s.triangles.indices = {0, 1, 2, 0, 2, 3};
+  s.triangles.material = {0, 0};
+  s.triangles.mesh = {0, 0};
+  s.triangles.mesh_paths = {"/floor"};
+  s.prototypes.push_back({"/Proto", tile});
+  s.add_instance(0, test::placement(0.f, V3f(1.f), V3f(0.5f, 0.5f, 0)));
+  s.add_instance(0, test::placement(0.f, V3f(1.f), V3f(0.5f, 0.5f, 0)));
+  s.add_instance(0, test::placement(0.f, V3f(1.f), V3f(5, 0, 0)));
+  s.add_instance(0, test::placement(0.f, V3f(1.f), V3f(0.5f, 0.5f, 0.2f)));
+  SurfelOptions o;
+  o.spacing = 0.05f;
+  const std::vector<Surfel> surfels = sample_surfels(s, o);
+  double floor = 0, apart = 0, above = 0;
+  for (const Surfel& x : surfels) {
+    (x.position.x > 4.f ? apart : x.position.z > 0.1f ? above : floor) += x.area();
+  }
+  EXPECT_NEAR(floor, 4.0, 0.01 * 4.0);  // the world floor, the two tiles on it once
+  EXPECT_NEAR(apart, 1.0, 0.01);
+  EXPECT_NEAR(above, 1.0, 0.01);
+}
+
 INSTANTIATE_TEST_SUITE_P(Samplers, InstancedSurfels,
                          ::testing::Values(SurfelSampler::kUniform, SurfelSampler::kPoisson));
 
