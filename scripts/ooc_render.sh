@@ -11,6 +11,11 @@
 # e.g. scripts/ooc_render.sh /work/tmp/city/city.usda /work/tmp/city/cache 0.05 8MiB 64 48 fpbgi
 # BUDGET "0" means unlimited (the daemon's default budget is not used).
 # JOBS (environment, default 4 as `pbgi render`): tile requests in flight.
+# CACHE_ONLY=1 (environment): BUDGET is the page cache's budget alone: the
+# daemon gets it plus the request reserve and the scene's charges
+# (--memory-budget bounds the whole daemon; docs/memory-budget.md), with
+# request_memory 1 MiB and page_cache_floor 0 (a scene is admitted on its
+# estimated charge, several MiB above what it holds once built).
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 SCENE="$(realpath "$1")"
@@ -28,8 +33,17 @@ CACHE="$(realpath "$CACHE")"
 SOCK="$CACHE/ooc-$$.sock"
 LOG="$CACHE/ooc-$$.log"
 [ "$BUDGET" = 0 ] && BUDGET=1TiB
+args=(--memory-budget "$BUDGET")
+if [ "${CACHE_ONLY:-0}" = 1 ] && [ "$BUDGET" != 1TiB ]; then
+  # The scene's charge (geometry and ray structure) as the daemon logged it
+  # when it last opened the scene from this cache directory.
+  charge=$(grep -ho "scene geometry [0-9]* bytes, ray structure [0-9]* bytes" "$CACHE"/*.log 2>/dev/null | tail -1 |
+    awk '{print $3 + $7}')
+  [ -n "$charge" ] || { echo "CACHE_ONLY: no scene charge logged in $CACHE yet (run once unlimited)" >&2; exit 1; }
+  args=(--memory-budget $((BUDGET + 1048576 + charge)) --request-memory 1MiB --page-cache-floor 0)
+fi
 nice -n 10 "$PBGID" --listen "unix:$SOCK" --scene-root "$(dirname "$SCENE")" --cache-dir "$CACHE" \
-  --memory-budget "$BUDGET" 2>"$LOG" &
+  "${args[@]}" 2>"$LOG" &
 daemon=$!
 trap 'kill -TERM "$daemon" 2>/dev/null || true; wait "$daemon" 2>/dev/null || true; rm -f "$SOCK"' EXIT
 for _ in $(seq 100); do [ -S "$SOCK" ] && break; sleep 0.1; done

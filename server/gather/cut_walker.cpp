@@ -101,8 +101,8 @@ inline float luminance(const Imath::C3f& c) {
 
 // Starts loading a node's traversal line and its look (page_views.h).
 inline void prefetch(const PageView& view, uint32_t index) {
-  __builtin_prefetch(&view.nodes[index]);
-  __builtin_prefetch(&view.looks[index]);
+  __builtin_prefetch(view.node_data() + index);
+  __builtin_prefetch(view.looks + index);
 }
 
 }  // namespace
@@ -150,7 +150,7 @@ void CutWalker::push_root() {
   const tree::Page* page = nullptr;
   const PageView* view = nullptr;
   const uint32_t pin = pins_.acquire(root.page, page, view);
-  if (root.index >= view->nodes.size()) {
+  if (root.index >= view->node_count) {
     pins_.release(pin);
     throw CorruptionError("tree root: page " + std::to_string(root.page) + " has no node " +
                           std::to_string(root.index));
@@ -161,7 +161,7 @@ void CutWalker::push_root() {
     // root, pre-order); a root elsewhere is read from its node.
     float dc[4] = {0.f, 0.f, 0.f, 0.f};
     if (root.index == 0) {
-      std::copy(view->node0_dc, view->node0_dc + 4, dc);
+      std::copy(view->cold->node0_dc, view->cold->node0_dc + 4, dc);
     } else {
       const tree::Node* full = view->full_node(root.index);
       if (!full && root.index < page->nodes.size()) full = &page->nodes[root.index];
@@ -244,12 +244,12 @@ void CutWalker::push_children(const StackEntry& parent, const HotNode& h) {
     } else {
       const tree::Page* child_page = nullptr;
       pin = pins_.acquire(ref.page, child_page, child_view);
-      if (ref.index >= child_view->nodes.size()) {
+      if (ref.index >= child_view->node_count) {
         pins_.release(pin);
         throw CorruptionError("tree page " + std::to_string(view.id) + " node " +
                               std::to_string(parent.index) + ": child link to page " +
                               std::to_string(ref.page) + " node " + std::to_string(ref.index) +
-                              " is out of range (" + std::to_string(child_view->nodes.size()) +
+                              " is out of range (" + std::to_string(child_view->node_count) +
                               " nodes)");
       }
     }
@@ -264,16 +264,16 @@ void CutWalker::push_children(const StackEntry& parent, const HotNode& h) {
 }
 
 const HotNode& CutWalker::resolve(StackEntry& e) {
-  const HotNode& h = e.view->nodes[e.index];
+  const HotNode& h = e.view->node_data()[e.index];
   if (!h.proxy()) return h;
   const tree::NodeRef ref = h.children[0];
-  const tree::Page* page = nullptr;
   const PageView* view = nullptr;
-  const uint32_t pin = pins_.acquire(ref.page, page, view);
-  // The child's view header is read next (push_children): its line is
-  // fetched while the node's own line is, instead of after it.
-  __builtin_prefetch(view);
-  if (ref.index >= pins_.page_nodes(pin)) {
+  const uint32_t pin = pins_.acquire(ref.page, view);
+  // The node's address needs no load (PageView::node_data): its line is on
+  // its way while the header's page_nodes is read (node 0, the usual
+  // target, shares the header's pair of lines).
+  __builtin_prefetch(view->node_data() + ref.index);
+  if (ref.index >= view->page_nodes) {
     pins_.release(pin);
     throw CorruptionError("tree page " + std::to_string(e.view->id) + " node " + std::to_string(e.index) +
                           ": linked child page " + std::to_string(ref.page) + " has no node " +
@@ -281,7 +281,7 @@ const HotNode& CutWalker::resolve(StackEntry& e) {
   }
   pins_.release(e.pin);
   e = {view, ref.index, pin};
-  return pins_.nodes(pin)[ref.index];
+  return view->node_data()[ref.index];
 }
 
 bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V3f& v, float d2,
@@ -445,7 +445,7 @@ void CutWalker::walk(const CutOf& cut_of) {
     StackEntry e = stack_.back();
     stack_.pop_back();
     if (!stack_.empty()) prefetch(*stack_.back().view, stack_.back().index);
-    const HotNode& h = e.view->nodes[e.index];
+    const HotNode& h = e.view->node_data()[e.index];
     ++visited;
     const Imath::V3f v(h.cx - p_.x, h.cy - p_.y, h.cz - p_.z);
     const float d2 = v.length2();
@@ -505,7 +505,7 @@ void CutWalker::walk_cluster_stack(const ClusterFrame& c, float eps, bool open_n
     StackEntry e = stack_.back();
     stack_.pop_back();
     if (!stack_.empty()) prefetch(*stack_.back().view, stack_.back().index);
-    const HotNode& h = e.view->nodes[e.index];
+    const HotNode& h = e.view->node_data()[e.index];
     ++visited;
     const Imath::V3f v(h.cx - c.p.x, h.cy - c.p.y, h.cz - c.p.z);
     const float d2 = v.length2();

@@ -3,6 +3,9 @@
 #include "common/errors.h"
 
 #include <algorithm>
+#include <memory>
+#include <new>
+#include <type_traits>
 #include <cmath>
 #include <string>
 
@@ -20,65 +23,25 @@ std::string where(const tree::Page& page, size_t node) {
 
 }  // namespace
 
-PageView::PageView(const tree::Page& page)
-    : id(page.id), page_nodes(uint32_t(page.nodes.size())), glossy(page.glossy), surfel_count(page.surfels.size()) {
-  const size_t n = page.nodes.size();
-  nodes.resize(n + page.links.size());
-  looks.resize(n + page.links.size());
-  for (size_t i = 0; i < n; ++i) {
-    const tree::Node& node = page.nodes[i];
-    HotNode& h = nodes[i];
-    const uint32_t flags = describe(node, i);
-    if (node.is_leaf()) {
-      const uint64_t end = uint64_t(node.first_surfel) + node.surfel_count;
-      if (end > page.surfels.size()) {
-        throw CorruptionError("tree page " + std::to_string(page.id) + " leaf " + std::to_string(i) + ": surfels [" +
-                              std::to_string(node.first_surfel) + ", " + std::to_string(end) + ") outside the page's " +
-                              std::to_string(page.surfels.size()));
-      }
-      if (node.surfel_count > HotNode::kCountMask) {
-        throw CorruptionError(where(page, i) + ": " + std::to_string(node.surfel_count) + " surfels in one leaf");
-      }
-      h.first = node.first_surfel;
-      h.count = flags | HotNode::kLeaf | node.surfel_count;
-    } else {
-      if (node.child_count > tree::Node::kMaxChildren) {
-        throw CorruptionError(where(page, i) + ": child_count " + std::to_string(node.child_count) + " exceeds " +
-                              std::to_string(tree::Node::kMaxChildren));
-      }
-      h.first = 0;
-      h.count = flags | node.child_count;
-      for (uint32_t c = 0; c < node.child_count; ++c) {
-        const tree::NodeRef ref = node.children[c];
-        if (ref.page == page.id && ref.index >= n) {
-          throw CorruptionError(where(page, i) + ": child link to page " + std::to_string(ref.page) + " node " +
-                                std::to_string(ref.index) + " is out of range (" + std::to_string(n) + " nodes)");
-        }
-        h.children[c] = ref;
-      }
-    }
-  }
-  // Proxies: each child in another page becomes a node of this view, seen
-  // through the summary this page stores of it, whose one link is the
-  // child's own page root. The parent's link is turned to the proxy.
-  for (size_t k = 0; k < page.links.size(); ++k) {
-    const tree::PageLink& l = page.links[k];
-    const size_t i = n + k;
-    if (l.parent >= n || l.slot >= page.nodes[l.parent].child_count ||
-        page.nodes[l.parent].children[l.slot] != l.summary.children[0]) {
-      throw CorruptionError(where(page, l.parent) + ": link " + std::to_string(k) +
-                            " does not match the node's child " + std::to_string(l.slot));
-    }
-    HotNode& h = nodes[i];
-    h.count = describe(l.summary, i) | HotNode::kProxy | 1u;
-    h.first = 0;
-    h.children[0] = l.summary.children[0];
-    nodes[l.parent].children[l.slot] = {page.id, uint32_t(i)};
-  }
-  full_nodes = full.data();
-}
+namespace {
 
-uint32_t PageView::describe(const tree::Node& n, size_t i) {
+// What build() derives from a page before it lays the view out in one
+// allocation.
+struct ViewParts {
+  std::vector<HotNode> nodes;
+  std::vector<NodeLook> looks;
+  std::vector<tree::Node> full;
+  std::vector<Bipolar> bipolar;
+  std::vector<uint32_t> bipolar_index;
+  float node0_dc[4] = {0.f, 0.f, 0.f, 0.f};
+
+  // Fills nodes[i] and looks[i] (and the bipolar or full entry) from `n`;
+  // returns the HotNode flags.
+  uint32_t describe(const tree::Node& n, size_t i, const storage::GlossyNodes* glossy, size_t page_nodes);
+};
+
+uint32_t ViewParts::describe(const tree::Node& n, size_t i, const storage::GlossyNodes* glossy,
+                             size_t page_nodes) {
   HotNode& h = nodes[i];
   h.cx = n.center.x;
   h.cy = n.center.y;
@@ -149,6 +112,123 @@ uint32_t PageView::describe(const tree::Node& n, size_t i) {
   return flags;
 }
 
+ViewParts derive_parts(const tree::Page& page) {
+  ViewParts parts;
+  const size_t n = page.nodes.size();
+  parts.nodes.resize(n + page.links.size());
+  parts.looks.resize(n + page.links.size());
+  const storage::GlossyNodes* glossy = page.glossy.get();
+  for (size_t i = 0; i < n; ++i) {
+    const tree::Node& node = page.nodes[i];
+    HotNode& h = parts.nodes[i];
+    const uint32_t flags = parts.describe(node, i, glossy, n);
+    if (node.is_leaf()) {
+      const uint64_t end = uint64_t(node.first_surfel) + node.surfel_count;
+      if (end > page.surfels.size()) {
+        throw CorruptionError("tree page " + std::to_string(page.id) + " leaf " + std::to_string(i) + ": surfels [" +
+                              std::to_string(node.first_surfel) + ", " + std::to_string(end) + ") outside the page's " +
+                              std::to_string(page.surfels.size()));
+      }
+      if (node.surfel_count > HotNode::kCountMask) {
+        throw CorruptionError(where(page, i) + ": " + std::to_string(node.surfel_count) + " surfels in one leaf");
+      }
+      h.first = node.first_surfel;
+      h.count = flags | HotNode::kLeaf | node.surfel_count;
+    } else {
+      if (node.child_count > tree::Node::kMaxChildren) {
+        throw CorruptionError(where(page, i) + ": child_count " + std::to_string(node.child_count) + " exceeds " +
+                              std::to_string(tree::Node::kMaxChildren));
+      }
+      h.first = 0;
+      h.count = flags | node.child_count;
+      for (uint32_t c = 0; c < node.child_count; ++c) {
+        const tree::NodeRef ref = node.children[c];
+        if (ref.page == page.id && ref.index >= n) {
+          throw CorruptionError(where(page, i) + ": child link to page " + std::to_string(ref.page) + " node " +
+                                std::to_string(ref.index) + " is out of range (" + std::to_string(n) + " nodes)");
+        }
+        h.children[c] = ref;
+      }
+    }
+  }
+  // Proxies: each child in another page becomes a node of this view, seen
+  // through the summary this page stores of it, whose one link is the
+  // child's own page root. The parent's link is turned to the proxy.
+  for (size_t k = 0; k < page.links.size(); ++k) {
+    const tree::PageLink& l = page.links[k];
+    const size_t i = n + k;
+    if (l.parent >= n || l.slot >= page.nodes[l.parent].child_count ||
+        page.nodes[l.parent].children[l.slot] != l.summary.children[0]) {
+      throw CorruptionError(where(page, l.parent) + ": link " + std::to_string(k) +
+                            " does not match the node's child " + std::to_string(l.slot));
+    }
+    HotNode& h = parts.nodes[i];
+    h.count = parts.describe(l.summary, i, glossy, n) | HotNode::kProxy | 1u;
+    h.first = 0;
+    h.children[0] = l.summary.children[0];
+    parts.nodes[l.parent].children[l.slot] = {page.id, uint32_t(i)};
+  }
+  return parts;
+}
+
+// Byte offsets of a view's parts in its allocation.
+constexpr size_t kViewAlign = 128;
+size_t round_up(size_t n, size_t a) { return (n + a - 1) / a * a; }
+
+template <class T>
+T* copy_to(std::byte* base, size_t offset, const std::vector<T>& v) {
+  T* out = reinterpret_cast<T*>(base + offset);
+  std::uninitialized_copy(v.begin(), v.end(), out);
+  return out;
+}
+
+}  // namespace
+
+PageView::Ptr PageView::build(const tree::Page& page) {
+  const ViewParts parts = derive_parts(page);
+  static_assert(std::is_trivially_destructible_v<HotNode> && std::is_trivially_destructible_v<NodeLook> &&
+                    std::is_trivially_destructible_v<tree::Node> && std::is_trivially_destructible_v<Bipolar>,
+                "parts are copy-constructed into raw storage and never destroyed");
+  // Header, nodes, looks (64-byte lines), full nodes, bipolar faces and
+  // index, then the cold part.
+  const size_t nodes_at = sizeof(PageView);
+  const size_t looks_at = nodes_at + parts.nodes.size() * sizeof(HotNode);
+  const size_t full_at = round_up(looks_at + parts.looks.size() * sizeof(NodeLook), alignof(tree::Node));
+  const size_t bipolar_at = round_up(full_at + parts.full.size() * sizeof(tree::Node), alignof(Bipolar));
+  const size_t index_at = round_up(bipolar_at + parts.bipolar.size() * sizeof(Bipolar), alignof(uint32_t));
+  const size_t cold_at = round_up(index_at + parts.bipolar_index.size() * sizeof(uint32_t), alignof(Cold));
+  const size_t bytes = round_up(cold_at + sizeof(Cold), kViewAlign);
+
+  auto* base = static_cast<std::byte*>(::operator new(bytes, std::align_val_t(kViewAlign)));
+  auto* view = new (base) PageView();
+  Ptr owned(view);
+  view->id = page.id;
+  view->page_nodes = uint32_t(page.nodes.size());
+  view->node_count = uint32_t(parts.nodes.size());
+  view->bipolar_count = uint32_t(parts.bipolar.size());
+  copy_to(base, nodes_at, parts.nodes);
+  view->looks = copy_to(base, looks_at, parts.looks);
+  view->full_nodes = copy_to(base, full_at, parts.full);
+  view->bipolar = copy_to(base, bipolar_at, parts.bipolar);
+  view->bipolar_index = parts.bipolar_index.empty() ? nullptr : copy_to(base, index_at, parts.bipolar_index);
+  view->glossy = page.glossy.get();
+  Cold* cold = new (base + cold_at) Cold();
+  cold->glossy = page.glossy;
+  cold->surfel_count = page.surfels.size();
+  cold->bytes = bytes;
+  cold->full_count = uint32_t(parts.full.size());
+  std::copy(parts.node0_dc, parts.node0_dc + 4, cold->node0_dc);
+  view->cold = cold;
+  return owned;
+}
+
+void PageView::Free::operator()(PageView* v) const {
+  if (!v) return;
+  if (v->cold) v->cold->~Cold();
+  v->~PageView();
+  ::operator delete(static_cast<void*>(v), std::align_val_t(kViewAlign));
+}
+
 const PageView*& PageViews::slot(uint32_t id) {
   if (id < kDenseIds) {
     if (id >= dense_.size()) dense_.resize(std::max<size_t>(id + 1, 2 * dense_.size()), nullptr);
@@ -159,9 +239,9 @@ const PageView*& PageViews::slot(uint32_t id) {
 
 namespace {
 struct AttachedView final : tree::PageAttachment {
-  explicit AttachedView(const tree::Page& page) : view(page) {}
-  size_t memory_bytes() const override { return sizeof(AttachedView) - sizeof(PageView) + view.memory_bytes(); }
-  PageView view;
+  explicit AttachedView(const tree::Page& page) : view(PageView::build(page)) {}
+  size_t memory_bytes() const override { return sizeof(AttachedView) + view->memory_bytes(); }
+  PageView::Ptr view;
 };
 }  // namespace
 
@@ -176,7 +256,7 @@ const PageView& PageViews::get(const tree::Page& page) {
   // pins: it is never remembered in a slot, which would dangle once the
   // cache evicts the page.
   if (const auto* attached = dynamic_cast<const AttachedView*>(page.attachment.get())) {
-    return attached->view;
+    return *attached->view;
   }
   const PageView*& s = slot(page.id);
   if (s && s->matches(page)) return *s;
@@ -186,7 +266,7 @@ const PageView& PageViews::get(const tree::Page& page) {
   }
   // A stale view of this id stays owned until the next clear(): the
   // caller's stack may still point to it.
-  owned_.push_back(std::make_unique<PageView>(page));
+  owned_.push_back(PageView::build(page));
   bytes_ += owned_.back()->memory_bytes();
   ++built_;
   s = owned_.back().get();
@@ -206,9 +286,9 @@ namespace pbgi {
 
 const gather::PageView& GatherCache::Impl::get(const tree::Page& page) {
   std::lock_guard<std::mutex> lock(mutex);
-  std::unique_ptr<gather::PageView>& v = views[page.id];
+  gather::PageView::Ptr& v = views[page.id];
   if (v && v->matches(page)) return *v;
-  auto built = std::make_unique<gather::PageView>(page);  // may throw: nothing changed
+  gather::PageView::Ptr built = gather::PageView::build(page);  // may throw: nothing changed
   if (v) retired.push_back(std::move(v));
   v = std::move(built);
   bytes += v->memory_bytes();

@@ -34,6 +34,7 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <unordered_map>
 #include <vector>
 
@@ -102,64 +103,85 @@ struct alignas(64) NodeLook {
 };
 static_assert(sizeof(NodeLook) == 64, "one cache line");
 
-// alignas(64): the fields every opened page's first visit reads (id,
-// page_nodes, nodes, looks, full_nodes) share the view's first cache line.
-// With pages of a few levels (formats V4/V5) a walk enters a new view every
-// few nodes, and each extra header line was a cache miss of its own.
+// A page's view is one allocation: its header line (PageView), then its
+// nodes, looks, full nodes and bipolar faces, then the rarely read rest
+// (PageView::Cold). With pages of a few levels (formats V4/V5) a walk
+// enters a new view every few nodes, and each entry waited for the view's
+// header and its first node one after the other when they lived in
+// separate allocations; here the header and node 0 (the page's root, the
+// node a walk enters by) share one 128-byte-aligned pair of lines, which
+// the core fetches together, and the nodes' address needs no load at all
+// (nodes() is the line after the header). The header is 64 bytes; build()
+// allocates it 128-byte aligned.
 struct alignas(64) PageView {
   uint32_t id = 0;
   uint32_t page_nodes = 0;  // nodes of the page; proxies follow them
+  uint32_t node_count = 0;  // page nodes + proxies
+  uint32_t bipolar_count = 0;
+  // Per node; meaningful for narrow ones.
+  const NodeLook* looks = nullptr;
+  // The decoded tree::Node of the nodes whose SH payload a splat reads
+  // (wide cones that are not bipolar): full_nodes[looks[i].full]. The rest
+  // need only the nodes and looks, so a page that carries its view need not
+  // keep its nodes.
+  const tree::Node* full_nodes = nullptr;
+  // Bipolar nodes' faces; bipolar_index[i] (null when the page has none) is
+  // node i's entry.
+  const Bipolar* bipolar = nullptr;
+  const uint32_t* bipolar_index = nullptr;
+  // The page's glossy radiance (owned through cold->glossy), or null.
+  const storage::GlossyNodes* glossy = nullptr;
+  struct Cold;
+  const Cold* cold = nullptr;
+
+  // What only building, checking and accounting read.
+  struct Cold {
+    std::shared_ptr<const storage::GlossyNodes> glossy;
+    size_t surfel_count = 0;
+    size_t bytes = 0;  // the whole allocation
+    uint32_t full_count = 0;
+    // Node 0's DC radiance and coverage (radiance_sh[0], coverage_sh[0]):
+    // a tree root's mean radiance, kept apart so that node 0 needs no full
+    // copy (most pages' node 0 is narrow).
+    float node0_dc[4] = {0.f, 0.f, 0.f, 0.f};
+  };
+
   // The page's nodes (indices below page_nodes), then one proxy per child
   // in another page that the page describes exactly (tree::Page::links):
-  // a walk decides on such a child without loading its page.
-  std::vector<HotNode> nodes;
-  std::vector<NodeLook> looks;  // per node; meaningful for narrow ones
-  // full.data(), in the first line (set once the view is built).
-  const tree::Node* full_nodes = nullptr;
-  // Bipolar nodes' faces; bipolar_index[i] (sized only when the page has
-  // any) is node i's entry.
-  std::vector<Bipolar> bipolar;
-  std::vector<uint32_t> bipolar_index;
-  // The page's glossy radiance (shared with the page), or null.
-  std::shared_ptr<const storage::GlossyNodes> glossy;
-  size_t surfel_count = 0;
-  // Node 0's DC radiance and coverage (radiance_sh[0], coverage_sh[0]):
-  // a tree root's mean radiance, kept apart so that node 0 needs no full
-  // copy (most pages' node 0 is narrow).
-  float node0_dc[4] = {0.f, 0.f, 0.f, 0.f};
-  // The decoded tree::Node of the nodes whose SH payload a splat reads
-  // (wide cones that are not bipolar): full[looks[i].full]. The rest need
-  // only `nodes` and `looks`, so a page that carries its view need not keep
-  // its nodes.
-  std::vector<tree::Node> full;
+  // a walk decides on such a child without loading its page. They start on
+  // the line after the header.
+  const HotNode* node_data() const { return reinterpret_cast<const HotNode*>(this + 1); }
+  std::span<const HotNode> nodes() const { return {node_data(), node_count}; }
 
-  // The tree::Node of view node `i`, for the nodes `full` keeps; else null.
+  // The tree::Node of view node `i`, for the nodes `full_nodes` keeps; else null.
   const tree::Node* full_node(uint32_t i) const {
-    return i < looks.size() && looks[i].full != NodeLook::kNoFull ? full_nodes + looks[i].full : nullptr;
+    return i < node_count && looks[i].full != NodeLook::kNoFull ? full_nodes + looks[i].full : nullptr;
   }
 
-  // Builds the view; throws CorruptionError for a child count above
-  // tree::Node::kMaxChildren, a link to a missing node of the same page or
-  // a leaf's surfel range outside the page.
-  explicit PageView(const tree::Page& page);
-  PageView(const PageView&) = delete;  // full_nodes points into its own `full`
+  // Frees a view made by build().
+  struct Free {
+    void operator()(PageView* v) const;
+  };
+  using Ptr = std::unique_ptr<PageView, Free>;
+
+  // Builds the view of `page`; throws CorruptionError for a child count
+  // above tree::Node::kMaxChildren, a link to a missing node of the same
+  // page or a leaf's surfel range outside the page.
+  static Ptr build(const tree::Page& page);
+
+  PageView(const PageView&) = delete;
   PageView& operator=(const PageView&) = delete;
-  size_t memory_bytes() const {
-    return sizeof(PageView) + nodes.capacity() * sizeof(HotNode) + looks.capacity() * sizeof(NodeLook) +
-           full.capacity() * sizeof(tree::Node) + bipolar.capacity() * sizeof(Bipolar) +
-           bipolar_index.capacity() * sizeof(uint32_t);
-  }
+  size_t memory_bytes() const { return cold->bytes; }
   // Whether `page` could be the page this view was built from.
   bool matches(const tree::Page& page) const {
-    return page.id == id && page.nodes.size() == page_nodes && page.nodes.size() + page.links.size() == nodes.size() &&
-           page.surfels.size() == surfel_count;
+    return page.id == id && page.nodes.size() == page_nodes && page.nodes.size() + page.links.size() == node_count &&
+           page.surfels.size() == cold->surfel_count;
   }
 
  private:
-  // Fills nodes[i] and looks[i] (and the bipolar or full entry) from `n`;
-  // returns the HotNode flags.
-  uint32_t describe(const tree::Node& n, size_t i);
+  PageView() = default;
 };
+static_assert(sizeof(PageView) == 64, "one line; node 0 is the next, in the same 128-byte pair");
 
 // Builds `page`'s view and attaches it to the page, so that every Gatherer
 // reuses it for as long as the page cache keeps the page, and the cache's
@@ -196,7 +218,7 @@ class PageViews {
   GatherCache::Impl* shared_;
   std::vector<const PageView*> dense_;  // ids below kDenseIds
   std::unordered_map<uint32_t, const PageView*> sparse_;
-  std::vector<std::unique_ptr<PageView>> owned_;
+  std::vector<PageView::Ptr> owned_;
   size_t budget_;
   size_t bytes_ = 0;  // of owned_
   size_t built_ = 0;
@@ -212,10 +234,10 @@ namespace pbgi {
 struct GatherCache::Impl {
   const gather::PageView& get(const tree::Page& page);
   mutable std::mutex mutex;
-  std::unordered_map<uint32_t, std::unique_ptr<gather::PageView>> views;
+  std::unordered_map<uint32_t, gather::PageView::Ptr> views;
   // Replaced views (a page id whose content changed): kept alive, since
   // other threads may still point to them.
-  std::vector<std::unique_ptr<gather::PageView>> retired;
+  std::vector<gather::PageView::Ptr> retired;
   size_t bytes = 0;
 };
 
