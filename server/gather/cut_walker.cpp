@@ -25,6 +25,20 @@ constexpr float kPi = 3.14159265358979f;
 // foot (the city street's indirect MSE 1.235e-5; 1.051e-5 at 0.1).
 constexpr float kBehindPlaneMargin = 0.1f;
 
+// A surfel facing the receiver's own normal the other way and centred
+// within this fraction of its radius of the receiver's tangent plane is the
+// back side of the surface the receiver stands on (the twin of a
+// double-sided surface, or a coplanar surface facing the other way). Its
+// disk lies in the tangent plane and subtends no solid angle; but which
+// side of the plane its center falls on is decided by the leaf's 16-bit
+// position quantization (1e-5 of the leaf's size), not by the receiver's
+// ray offset (a few float steps), and when it fell in front the ray-cast
+// disk, at distance ~0, filled the hemisphere with the back side's light:
+// a closed single-shell room showed its sunlit outside at 1.05 of the
+// exterior level.
+constexpr float kInPlaneFraction = 0.01f;
+constexpr float kOppositeNormalCos = 0.99f;
+
 // Surfels of a too-large leaf are tested against pixel centers with their
 // radius scaled by this: area-preserving surfels (radius sqrt(A/pi), as the
 // sampler makes them) leave gaps between evenly spread disks, through which
@@ -397,7 +411,9 @@ void CutWalker::leaf_surfels(const StackEntry& e, const tree::Page& page, const 
     // the wall's foot darkened every sunlit wall's foot. The margin keeps the
     // surfels a receiver stands on (up to its ray offset below its plane),
     // which hide what lies under the surface at grazing angles.
-    if (n_.dot(q) < -kBehindPlaneMargin * s.radius) continue;
+    const float height = n_.dot(q);
+    if (height < -kBehindPlaneMargin * s.radius) continue;
+    if (height < kInPlaneFraction * s.radius && s.normal.dot(n_) < -kOppositeNormalCos) continue;
     const float d2 = q.length2();
     Imath::C3f radiance = s.radiance;
     if (h.glossy()) {

@@ -127,7 +127,8 @@ TEST(Stability, ThinWallDoesNotLeakLight) {
 
 // Against the suite's 1024-spp reference, whose own noise here is 0.166
 // (against 16384 spp): the bound guards against gross errors only; the
-// converged comparison is LightLeak.DISABLED_RoomLitThroughOneWindow*.
+// converged comparison is LightLeak.RoomLitThroughOneWindow* (a stored
+// 65536-spp reference).
 TEST(Stability, SunlitRoomBehindWindow) {
   const double err = indirect_error(sunlit_room(), "/Camera", "sunlit room");
   report("sunlit room: relative RMSE", err, 0.25);

@@ -200,6 +200,36 @@ TEST(Gather, SurfelsCentredBehindTheTangentPlaneAreNotSeen) {
   }
 }
 
+// A double-sided floor: dark surfels facing up and their bright twins
+// facing down at the same places. A receiver on the floor (offset by a few
+// float steps) must not see the twins, which lie in its tangent plane;
+// which side of it their centers fall on is decided by the leaves'
+// position quantization (1e-5 of a leaf's size), here all of them just
+// above. Before, their ray-cast disks at distance ~0 filled the hemisphere
+// with the underside's light (a closed single-shell room on a sunlit
+// ground showed 1.05 of the exterior level inside).
+TEST(Gather, BackSideOfTheFloorUnderTheReceiverIsNotSeen) {
+  std::vector<Surfel> floor, both;
+  test::add_quad(floor, {-2, -2, 0}, {4, 0, 0}, {0, 4, 0}, 80, 80, C3f(0));  // faces +z, dark
+  add_emitter(floor);
+  both = floor;
+  std::vector<Surfel> twins;
+  test::add_quad(twins, {-2, -2, 0}, {0, 4, 0}, {4, 0, 0}, 80, 80, C3f(3));  // faces -z, bright
+  for (Surfel& t : twins) {
+    ASSERT_LT(t.normal.z, -0.99f);
+    t.position.z = 2e-5f;
+    both.push_back(t);
+  }
+  test::SurfelTree floor_tree(std::move(floor)), both_tree(std::move(both));
+  Gatherer without(floor_tree, GatherOptions{}), with(both_tree, GatherOptions{});
+  for (const float x : {0.f, 0.013f, 0.31f, -0.77f}) {
+    const Receiver r{V3f(x, 0.37f * x, 1e-6f), V3f(0, 0, 1)};
+    const float expected = without.gather(r).irradiance.x;
+    ASSERT_GT(expected, 0.5f * kEmitterE);
+    EXPECT_NEAR(with.gather(r).irradiance.x, expected, 1e-3f * expected) << "x " << x;
+  }
+}
+
 TEST(Gather, ReceiverOnAnEmittingFloorDoesNotSeeTheFloor) {
   std::vector<Surfel> s;
   test::add_quad(s, {-2, -2, 0}, {4, 0, 0}, {0, 4, 0}, 80, 80, C3f(3));  // faces +z
