@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -120,6 +121,39 @@ TEST(GatherPageSet, AttachedViewsGiveIdenticalResults) {
   const tree::PagePtr root_page = attached->page(attached->root().page);
   ASSERT_NE(root_page->attachment, nullptr);
   EXPECT_GT(root_page->attachment->memory_bytes(), 0u);
+}
+
+// A page's view is one allocation laid out for entering the page: its
+// header line is 128-byte aligned and node 0 (the page's root, where a
+// walk enters) is the next line, in the same pair, so a walk entering a
+// page waits for one pair instead of the header and then the node
+// (page_views.h); the proxies follow the page's nodes.
+TEST(GatherPageSet, ViewIsOneAllocationWithTheRootBesideItsHeader) {
+  TempDir tmp;
+  tree::BuildOptions o;
+  o.page_size = 4096;
+  storage::build_page_set(scene(0.4f), o, "gather-test", tmp.path() / "set");
+  const storage::PageSetReader reader(tmp.path() / "set", nullptr);
+  size_t proxies = 0;
+  for (uint32_t id = 0; id < reader.manifest().stats.page_count; ++id) {
+    const tree::PagePtr page = reader.page(id);
+    const gather::PageView::Ptr view = gather::PageView::build(*page);
+    const auto at = reinterpret_cast<uintptr_t>(view.get());
+    ASSERT_EQ(at % 128, 0u) << "page " << id;
+    ASSERT_EQ(reinterpret_cast<uintptr_t>(view->node_data()), at + 64) << "page " << id;
+    ASSERT_EQ(view->node_count, page->nodes.size() + page->links.size());
+    EXPECT_TRUE(view->matches(*page));
+    EXPECT_GE(view->memory_bytes(), 64 + view->node_count * (sizeof(gather::HotNode) + sizeof(gather::NodeLook)));
+    for (uint32_t i = 0; i < view->node_count; ++i) {
+      const gather::HotNode& h = view->nodes()[i];
+      const tree::Node& n = i < page->nodes.size() ? page->nodes[i] : page->links[i - page->nodes.size()].summary;
+      EXPECT_EQ(h.cx, n.center.x) << "page " << id << " node " << i;
+      EXPECT_EQ(h.radius, n.radius) << "page " << id << " node " << i;
+      EXPECT_EQ(h.proxy(), i >= page->nodes.size()) << "page " << id << " node " << i;
+      proxies += h.proxy();
+    }
+  }
+  EXPECT_GT(proxies, 0u) << "the set has linked children";
 }
 
 // A page describes each child in another page exactly (tree::Page::links),
