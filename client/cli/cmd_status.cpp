@@ -48,6 +48,15 @@ int run_status(const StatusArgs& args) {
               static_cast<unsigned long long>(c.misses()),
               lookups ? 100.0 * double(c.hits()) / double(lookups) : 0.0,
               static_cast<unsigned long long>(c.evictions()), mib(c.bytes_read()).c_str());
+  if (s.has_memory()) {
+    const v1::MemoryStatus& m = s.memory();
+    std::printf("memory    budget %s: requests %s, scenes %s, reading %s, builds %s, page cache %s "
+                "(floor %s); %llu refused\n",
+                mib(m.budget_bytes()).c_str(), mib(m.request_reserve_bytes()).c_str(),
+                mib(m.scenes_bytes()).c_str(), mib(m.reading_bytes()).c_str(), mib(m.builds_bytes()).c_str(),
+                mib(c.budget_bytes()).c_str(), mib(m.page_cache_floor_bytes()).c_str(),
+                static_cast<unsigned long long>(m.refusals()));
+  }
   const v1::RequestStatus& r = s.requests();
   std::printf("requests  %u running (max %u), %u queued (max %u), %llu done, %llu refused\n",
               r.in_flight(), r.max_in_flight(), r.queued(), r.max_queued(),

@@ -184,6 +184,7 @@ void Daemon::start() {
   if (!options_.auth_token_file.empty()) token = service::read_token_file(options_.auth_token_file);
   runtime.auth = service::BearerAuth(token);
   runtime.cache = cache_;
+  runtime.memory = memory_;
   runtime.version = PBGI_VERSION;
   service::RegistryOptions registry_options;
   registry_options.scene_memory_budget = options_.scene_memory_budget_bytes();

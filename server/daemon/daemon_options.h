@@ -41,17 +41,19 @@ struct DaemonOptions {
   // Page sets are built here (and the default socket lives here).
   std::string cache_dir = "./cache";
   // What the whole daemon may hold in memory, with K/M/G suffixes: the
-  // request reserve (request_memory), every open scene's geometry and
-  // ray-tracing structure and every build's working memory (charged before
-  // they are allocated, then measured), and the page cache, which gets
+  // request reserve (request_memory), every scene's geometry as it is read
+  // (chunk by chunk), every open scene's geometry and ray-tracing
+  // structure and every build's working memory (charged before they are
+  // allocated, then measured), and the page cache, which gets
   // what remains (never less than page_cache_floor) and shrinks as scenes
   // come. A scene that cannot fit even with the idle scenes unloaded and
   // the cache at its floor is refused with RESOURCE_EXHAUSTED naming it
   // and the bytes it needs (server/engine/memory_accountant.h).
-  // Not counted, the overhead (docs/out-of-core.md, "Memory budget"): code
-  // and libraries, allocator slack, gRPC's and TBB's buffers and stacks,
-  // pages gathers still hold after eviction, a scene's geometry while it
-  // is being read; measured under 200 MiB of RSS above the budget.
+  // Not counted, the overhead (docs/memory-budget.md): code and
+  // libraries, allocator slack, gRPC's and TBB's buffers and stacks, pages
+  // gathers still hold after eviction, one stream frame and textures while
+  // a scene is read; measured under 200 MiB of RSS above the budget.
+  // GetStatus.memory and the pbgi_memory_* metrics say who holds what.
   std::string memory_budget = "2GiB";
   // The share of memory_budget kept for the requests in flight (their
   // messages, receivers and results; limits.max_in_flight bounds them).

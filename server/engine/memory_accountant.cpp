@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <utility>
 
 namespace pbgi {
@@ -25,39 +26,52 @@ uint64_t MemoryBudget::chargeable() const {
 
 // ---- MemoryCharge ----
 
-MemoryCharge::MemoryCharge(std::shared_ptr<MemoryAccountant> accountant, std::string owner, uint64_t bytes)
-    : accountant_(std::move(accountant)), owner_(std::move(owner)), bytes_(bytes) {}
+MemoryCharge::MemoryCharge(std::shared_ptr<MemoryAccountant> accountant, std::string owner, ChargeKind kind,
+                           uint64_t bytes)
+    : accountant_(std::move(accountant)), owner_(std::move(owner)) {
+  parts_[size_t(kind)] = bytes;
+}
 
 MemoryCharge::MemoryCharge(MemoryCharge&& other) noexcept
     : accountant_(std::move(other.accountant_)),
       owner_(std::move(other.owner_)),
-      bytes_(std::exchange(other.bytes_, 0)) {}
+      parts_(std::exchange(other.parts_, {})) {}
 
 MemoryCharge& MemoryCharge::operator=(MemoryCharge&& other) noexcept {
   if (this != &other) {
     release();
     accountant_ = std::move(other.accountant_);
     owner_ = std::move(other.owner_);
-    bytes_ = std::exchange(other.bytes_, 0);
+    parts_ = std::exchange(other.parts_, {});
   }
   return *this;
 }
 
 MemoryCharge::~MemoryCharge() { release(); }
 
-void MemoryCharge::resize(uint64_t bytes, const std::string& what) {
+void MemoryCharge::resize(ChargeKind kind, uint64_t bytes, const std::string& what) {
   if (!accountant_) throw Error(fmt::format("resizing an empty memory charge ({})", what));
-  if (bytes > bytes_) {
-    accountant_->grow(owner_, what, bytes_, bytes - bytes_);
+  uint64_t& part = parts_[size_t(kind)];
+  if (bytes > part) {
+    accountant_->grow(owner_, what, this->bytes(), bytes - part, kind);
   } else {
-    accountant_->give_back(bytes_ - bytes);
+    accountant_->give_back(kind, part - bytes);
   }
-  bytes_ = bytes;
+  part = bytes;
+}
+
+void MemoryCharge::reclassify(ChargeKind from, ChargeKind to) noexcept {
+  if (!accountant_ || from == to) return;
+  accountant_->move_kind(from, to, parts_[size_t(from)]);
+  parts_[size_t(to)] += std::exchange(parts_[size_t(from)], 0);
 }
 
 void MemoryCharge::release() noexcept {
-  if (accountant_ && bytes_ > 0) accountant_->give_back(bytes_);
-  bytes_ = 0;
+  if (accountant_) {
+    for (size_t k = 0; k < kChargeKinds; ++k)
+      if (parts_[k] > 0) accountant_->give_back(ChargeKind(k), parts_[k]);
+  }
+  parts_ = {};
 }
 
 // ---- MemoryAccountant ----
@@ -79,12 +93,14 @@ void MemoryAccountant::set_reclaimer(Reclaimer reclaimer) {
   reclaimer_ = std::move(reclaimer);
 }
 
-MemoryCharge MemoryAccountant::charge(const std::string& owner, const std::string& what, uint64_t bytes) {
-  grow(owner, what, 0, bytes);
-  return MemoryCharge(shared_from_this(), owner, bytes);
+MemoryCharge MemoryAccountant::charge(const std::string& owner, const std::string& what, uint64_t bytes,
+                                      ChargeKind kind) {
+  grow(owner, what, 0, bytes, kind);
+  return MemoryCharge(shared_from_this(), owner, kind, bytes);
 }
 
-void MemoryAccountant::grow(const std::string& owner, const std::string& what, uint64_t held, uint64_t more) {
+void MemoryAccountant::grow(const std::string& owner, const std::string& what, uint64_t held, uint64_t more,
+                            ChargeKind kind) {
   const uint64_t limit = budget_.chargeable();
   bool reclaimed = false;
   for (;;) {
@@ -95,6 +111,7 @@ void MemoryAccountant::grow(const std::string& owner, const std::string& what, u
       // Fits beside the other charges (the cache gives way down to its floor).
       if (held + more <= limit && charged_ + more <= limit) {
         charged_ += more;
+        by_kind_[size_t(kind)] += more;
         resize_cache_locked();
         if (reclaimed)
           spdlog::info("'{}': room for {:.1f} MiB of {} made by unloading idle scenes", owner, mib(more), what);
@@ -129,10 +146,20 @@ void MemoryAccountant::grow(const std::string& owner, const std::string& what, u
   }
 }
 
-void MemoryAccountant::give_back(uint64_t bytes) noexcept {
+void MemoryAccountant::give_back(ChargeKind kind, uint64_t bytes) noexcept {
   std::lock_guard lock(mutex_);
   charged_ -= std::min(charged_, bytes);
+  uint64_t& part = by_kind_[size_t(kind)];
+  part -= std::min(part, bytes);
   resize_cache_locked();
+}
+
+void MemoryAccountant::move_kind(ChargeKind from, ChargeKind to, uint64_t bytes) noexcept {
+  std::lock_guard lock(mutex_);
+  uint64_t& source = by_kind_[size_t(from)];
+  const uint64_t moved = std::min(source, bytes);
+  source -= moved;
+  by_kind_[size_t(to)] += moved;
 }
 
 void MemoryAccountant::resize_cache_locked() {
@@ -158,6 +185,16 @@ uint64_t MemoryAccountant::cache_budget() const {
 uint64_t MemoryAccountant::refusals() const {
   std::lock_guard lock(mutex_);
   return refusals_;
+}
+
+MemoryUsage MemoryAccountant::usage() const {
+  std::lock_guard lock(mutex_);
+  MemoryUsage u;
+  u.budget = budget_;
+  u.charged = by_kind_;
+  u.cache_budget = budget_.total - budget_.request_reserve - charged_;
+  u.refusals = refusals_;
+  return u;
 }
 
 }  // namespace pbgi

@@ -18,11 +18,18 @@
 // is refused with ResourceExhausted naming what it was for, the bytes it
 // needs and what the budget can give, before anything is allocated.
 //
-// Not counted (the overhead docs/out-of-core.md states): code and static
+// A scene is charged from its first chunk on: while it is read its
+// geometry grows chunk by chunk, each growth charged before it is allocated
+// (ChargeKind::kRead, server/ingest/scene_read_memory.h); once read, the
+// same charge becomes the scene's (kScene) and a build adds its working
+// memory (kBuild) while it runs. The totals by kind are reported (GetStatus,
+// the Prometheus metrics).
+//
+// Not counted (the overhead docs/memory-budget.md states): code and static
 // data, allocator slack and fragmentation, gRPC's and TBB's own buffers and
 // thread stacks, pages a gather holds after the cache evicted them, the
-// USD reader process (another process) and a scene's geometry while it is
-// read (charged once read).
+// USD reader process (another process), one stream frame and one refined
+// subdivision mesh while a scene is read, textures.
 //
 // Thread-safe. Charges keep the accountant alive (shared_ptr): a session
 // may outlive the daemon's reference to it.
@@ -30,6 +37,7 @@
 
 #include "storage/cache/page_cache.h"
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -47,11 +55,30 @@ struct MemoryBudget {
   uint64_t chargeable() const;
 };
 
+// What charged bytes pay for, totalled apart by the accountant.
+enum class ChargeKind : uint8_t {
+  kScene = 0,  // an open scene: geometry + ray-tracing structure
+  kRead = 1,   // a scene's geometry while it is read (decoded, stored, reloaded)
+  kBuild = 2,  // a page-set build's working memory while it runs
+};
+inline constexpr size_t kChargeKinds = 3;
+
+// The accountant's state at one moment (GetStatus, metrics).
+struct MemoryUsage {
+  MemoryBudget budget;
+  std::array<uint64_t, kChargeKinds> charged{};  // by ChargeKind
+  uint64_t cache_budget = 0;                     // the page cache's share now
+  uint64_t refusals = 0;                         // charges refused since start
+  uint64_t charged_total() const { return charged[0] + charged[1] + charged[2]; }
+};
+
 class MemoryAccountant;
 
 // Bytes charged to the accountant, released on destruction. Move-only.
-// Not thread-safe itself (one owner), but any number of charges may change
-// concurrently.
+// A charge has a part per ChargeKind (a scene's one charge holds its read,
+// then its geometry and ray structure, and its build's memory beside
+// them while the build runs). Not thread-safe itself (one owner), but any
+// number of charges may change concurrently.
 class MemoryCharge {
  public:
   MemoryCharge() = default;
@@ -61,22 +88,28 @@ class MemoryCharge {
   MemoryCharge& operator=(const MemoryCharge&) = delete;
   ~MemoryCharge();
 
-  uint64_t bytes() const { return bytes_; }
-  // Sets the charge to `bytes` (an estimate replaced by a measured size, a
-  // build's working memory added or given back). Growing may unload idle
-  // scenes and shrink the page cache, and throws ResourceExhausted as
-  // MemoryAccountant::charge() does (the charge is then unchanged);
-  // shrinking always succeeds and grows the page cache. `what` names the
-  // growth in the error ("ray-tracing structure (estimated)").
-  void resize(uint64_t bytes, const std::string& what);
+  uint64_t bytes() const { return parts_[0] + parts_[1] + parts_[2]; }
+  uint64_t bytes(ChargeKind kind) const { return parts_[size_t(kind)]; }
+  // Sets the charge's `kind` part to `bytes` (an estimate replaced by a
+  // measured size, a build's working memory added or given back, a scene
+  // being read grown by a chunk). Growing may unload idle scenes and shrink
+  // the page cache, and throws ResourceExhausted as MemoryAccountant::
+  // charge() does (the charge is then unchanged); shrinking always succeeds
+  // and grows the page cache. `what` names the growth in the error
+  // ("ray-tracing structure (estimated)").
+  void resize(ChargeKind kind, uint64_t bytes, const std::string& what);
+  void resize(uint64_t bytes, const std::string& what) { resize(ChargeKind::kScene, bytes, what); }
+  // Moves the `from` part to `to` (a scene read becomes a scene open):
+  // the total, hence the budget, is unchanged.
+  void reclassify(ChargeKind from, ChargeKind to) noexcept;
   void release() noexcept;
 
  private:
   friend class MemoryAccountant;
-  MemoryCharge(std::shared_ptr<MemoryAccountant> accountant, std::string owner, uint64_t bytes);
+  MemoryCharge(std::shared_ptr<MemoryAccountant> accountant, std::string owner, ChargeKind kind, uint64_t bytes);
   std::shared_ptr<MemoryAccountant> accountant_;
   std::string owner_;  // the scene path, for errors and logs
-  uint64_t bytes_ = 0;
+  std::array<uint64_t, kChargeKinds> parts_{};
 };
 
 class MemoryAccountant : public std::enable_shared_from_this<MemoryAccountant> {
@@ -94,11 +127,13 @@ class MemoryAccountant : public std::enable_shared_from_this<MemoryAccountant> {
   // lock held (the sessions it unloads release their charges).
   void set_reclaimer(Reclaimer reclaimer);
 
-  // Charges `bytes` for `owner` (a scene path), `what` naming them in the
-  // error. Throws ResourceExhausted naming owner, what, the bytes needed
-  // and the budget if they cannot fit even with every idle scene unloaded
-  // and the page cache at its floor.
-  MemoryCharge charge(const std::string& owner, const std::string& what, uint64_t bytes);
+  // Charges `bytes` of `kind` for `owner` (a scene path), `what` naming
+  // them in the error. Throws ResourceExhausted naming owner, what, the
+  // bytes needed and the budget if they cannot fit even with every idle
+  // scene unloaded and the page cache at its floor. A charge of 0 bytes
+  // always succeeds (a read about to start).
+  MemoryCharge charge(const std::string& owner, const std::string& what, uint64_t bytes,
+                      ChargeKind kind = ChargeKind::kScene);
 
   const MemoryBudget& budget() const { return budget_; }
   uint64_t charged() const;  // held by charges now
@@ -106,14 +141,16 @@ class MemoryAccountant : public std::enable_shared_from_this<MemoryAccountant> {
   uint64_t available() const;
   uint64_t cache_budget() const;  // the page cache's share now
   uint64_t refusals() const;      // charges refused since start
+  MemoryUsage usage() const;      // all of the above at one moment
 
  private:
   MemoryAccountant(MemoryBudget budget, std::shared_ptr<storage::PageCache> cache);
   friend class MemoryCharge;
-  // Takes `more` bytes for `owner` (whose charge is `held` now); throws as
-  // charge() does.
-  void grow(const std::string& owner, const std::string& what, uint64_t held, uint64_t more);
-  void give_back(uint64_t bytes) noexcept;
+  // Takes `more` bytes of `kind` for `owner` (whose charge is `held` now);
+  // throws as charge() does.
+  void grow(const std::string& owner, const std::string& what, uint64_t held, uint64_t more, ChargeKind kind);
+  void give_back(ChargeKind kind, uint64_t bytes) noexcept;
+  void move_kind(ChargeKind from, ChargeKind to, uint64_t bytes) noexcept;
   // Requires mutex_.
   void resize_cache_locked();
 
@@ -121,7 +158,8 @@ class MemoryAccountant : public std::enable_shared_from_this<MemoryAccountant> {
   const std::shared_ptr<storage::PageCache> cache_;
   mutable std::mutex mutex_;
   Reclaimer reclaimer_;
-  uint64_t charged_ = 0;
+  uint64_t charged_ = 0;                         // sum of by_kind_
+  std::array<uint64_t, kChargeKinds> by_kind_{};
   uint64_t refusals_ = 0;
 };
 

@@ -83,6 +83,10 @@ std::unique_ptr<storage::PageSetReader> build_or_join(const fs::path& dir, const
   return std::make_unique<storage::PageSetReader>(dir, ctx.cache, gather::attach_view);
 }
 
+std::shared_ptr<SceneSession> open_read_scene(std::unique_ptr<Scene> scene, const OpenOptions& options,
+                                              const EngineContext& ctx, const StageProgress& progress,
+                                              const CancelledFn& cancelled, MemoryCharge read);
+
 // Builds the page set of `options` (steps 4-6 of open_scene_model), and
 // the sets it builds on that are missing: the set of direct light, then one
 // per extra bounce. Each is content-addressed, so what exists is reused.
@@ -196,13 +200,22 @@ std::shared_ptr<SceneSession> open_scene(const fs::path& scene_path, const OpenO
     guard.check_cancelled();
     report("read:" + s, f);
   };
+  // Charged as it is read, chunk by chunk, before each growth: a scene
+  // that cannot fit is refused mid-read (the reader stopped, what was read
+  // freed), naming the frame and prim it had reached.
+  MemoryCharge read_charge;
+  SceneReadMemory on_memory;
+  if (ctx.memory) {
+    read_charge = ctx.memory->charge(scene_path.string(), "scene being read", 0, ChargeKind::kRead);
+    on_memory = [&](uint64_t bytes, const std::string& what) { read_charge.resize(ChargeKind::kRead, bytes, what); };
+  }
   bool reused_ingest = false;
   auto scene = std::make_unique<Scene>(
-      ctx.ingested ? read_usd_scene_cached(scene_path, ingest, *ctx.ingested, on_read, &reused_ingest)
-                   : read_usd_scene(scene_path, ingest, on_read));
+      ctx.ingested ? read_usd_scene_cached(scene_path, ingest, *ctx.ingested, on_read, &reused_ingest, on_memory)
+                   : read_usd_scene(scene_path, ingest, on_read, on_memory));
   for (const auto& w : scene->warnings) spdlog::warn("{}: {}", scene_path.string(), w);
   report("read", 1.f);
-  auto session = open_scene_model(std::move(scene), options, ctx, progress, cancelled);
+  auto session = open_read_scene(std::move(scene), options, ctx, progress, cancelled, std::move(read_charge));
   session->info.reused_ingest = reused_ingest;
   session->info.scene_path = scene_path.string();
   session->info.open_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
@@ -214,6 +227,18 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
                                                const EngineContext& ctx,
                                                const StageProgress& progress,
                                                const CancelledFn& cancelled) {
+  MemoryCharge charge;
+  if (ctx.memory) charge = ctx.memory->charge(scene->source_path, "scene", 0, ChargeKind::kScene);
+  return open_read_scene(std::move(scene), options, ctx, progress, cancelled, std::move(charge));
+}
+
+namespace {
+
+// open_scene_model with the charge the read took (ChargeKind::kRead, the
+// geometry as read; empty without ctx.memory), which becomes the session's.
+std::shared_ptr<SceneSession> open_read_scene(std::unique_ptr<Scene> scene, const OpenOptions& options,
+                                              const EngineContext& ctx, const StageProgress& progress,
+                                              const CancelledFn& cancelled, MemoryCharge read) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   auto report = [&](const std::string& stage, float f) {
@@ -224,6 +249,7 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
   options.bounce.validate();
   options.fog.validate();
   auto session = std::make_shared<SceneSession>();
+  session->memory = std::move(read);
   session->scene = std::move(scene);
   Scene& model = *session->scene;
 
@@ -252,11 +278,13 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
   // 2. Ray-tracing structure: needed for surfel shading and primary hits.
   //    Charged to the memory budget first (the geometry as read, the
   //    structure's estimated peak): a scene that cannot fit is refused
-  //    before Embree allocates anything. Then the measured size.
+  //    before Embree allocates anything. Then the measured size. The
+  //    read's charge (the geometry as read) becomes the scene's.
   const uint64_t geometry_bytes = model.geometry_bytes();
   if (ctx.memory) {
-    session->memory = ctx.memory->charge(model.source_path, "scene geometry + ray-tracing structure (estimated)",
-                                         geometry_bytes + estimate_ray_structure_bytes(model));
+    session->memory.reclassify(ChargeKind::kRead, ChargeKind::kScene);
+    session->memory.resize(geometry_bytes + estimate_ray_structure_bytes(model),
+                           "scene geometry + ray-tracing structure (estimated)");
   }
   session->rays = std::make_unique<RayScene>(*session->scene);
   const uint64_t resident_bytes = geometry_bytes + session->rays->memory_bytes();
@@ -291,10 +319,10 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
     OpenOptions build_options = options;
     if (ctx.memory) {
       build_options.tree.sort_memory_bytes = fit_sort_memory(options, ctx.memory->available());
-      session->memory.resize(resident_bytes + estimate_build_bytes(build_options), "page-set build (estimated)");
+      session->memory.resize(ChargeKind::kBuild, estimate_build_bytes(build_options), "page-set build (estimated)");
     }
     session->tree = build_page_sets(*session, build_options, ctx, report, cancelled);
-    if (ctx.memory) session->memory.resize(resident_bytes, "page-set build");
+    if (ctx.memory) session->memory.resize(ChargeKind::kBuild, 0, "page-set build");
   }
 
   session->info.scene_id = key;
@@ -305,5 +333,7 @@ std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
   report("ready", 1.f);
   return session;
 }
+
+}  // namespace
 
 }  // namespace pbgi

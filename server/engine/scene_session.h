@@ -36,8 +36,10 @@ struct SceneSessionInfo {
 };
 
 struct SceneSession {
-  // The session's share of the daemon's memory budget (its geometry and
-  // ray-tracing structure, measured); released when the session goes.
+  // The session's share of the daemon's memory budget: its geometry and
+  // ray-tracing structure, measured (ChargeKind::kScene; taken over from
+  // the read's charge), and a build's working memory while it runs
+  // (kBuild); released when the session goes.
   // Declared first: released after what it counts is freed.
   MemoryCharge memory;
   std::unique_ptr<Scene> scene;
@@ -79,7 +81,8 @@ using StageProgress = std::function<void(const std::string& stage, float fractio
 // Cancelled, its reader process and staging directories removed.
 // Throws SceneError / IoError / CorruptionError with the file at fault,
 // ResourceExhausted past ctx's bounds (the memory budget: naming the scene
-// and the bytes it needs), Cancelled.
+// and the bytes it needs; while the scene is read, charged chunk by chunk,
+// also the frame and prim it had reached), Cancelled.
 std::shared_ptr<SceneSession> open_scene(const std::filesystem::path& scene_path,
                                          const OpenOptions& options, const EngineContext& ctx,
                                          const StageProgress& progress = {},

@@ -30,8 +30,9 @@ namespace fs = std::filesystem;
 // Hashed into every key: a new entry format is a new set of keys, so an
 // older build's entries are never looked up (storage/format/format_version.h
 // lists the versions: 2 added specular inputs, 3 instancing, 4 the checksummed
-// frame with the dependencies inside).
-constexpr uint32_t kStoreFormatVersion = storage::kSceneEntryFormatV4;
+// frame with the dependencies inside, 5 the decoded geometry's counts in the
+// SceneHeader).
+constexpr uint32_t kStoreFormatVersion = storage::kSceneEntryFormatV5;
 constexpr const char* kEntryExtension = ".pbgiscene";
 
 std::string hex_key(const std::string& text) {
@@ -133,30 +134,71 @@ bool all_finite(const std::vector<T>& values, const std::vector<uint32_t>& used)
   return true;
 }
 
-// A soup's triangles as Draco MeshChunks: runs of one mesh and material,
-// at most `max` triangles each, tagged with `prototype_id` (0 = world);
-// returns the triangle count written.
-uint64_t write_meshes(const TriangleSoup& soup, uint32_t prototype_id, const ChunkStoreOptions& options,
-                      FrameWriter& writer) {
+// One chunk of a soup as the store writes it: triangles [begin, end) of
+// one mesh and material, the soup vertices they use (first-use order) and
+// their indices into those.
+struct StoredChunk {
+  size_t begin = 0, end = 0;
+  std::vector<uint32_t> used;
+  std::vector<uint32_t> indices;
+};
+
+// Calls fn(const StoredChunk&) for the chunks of `soup`: runs of one mesh
+// and material, at most `max` triangles each.
+template <typename Fn>
+void for_each_stored_chunk(const TriangleSoup& soup, uint32_t max, Fn&& fn) {
   const size_t triangles = soup.triangle_count();
   std::vector<int64_t> local(soup.positions.size(), -1);
-  uint64_t written = 0;
-  size_t begin = 0;
-  while (begin < triangles) {
-    size_t end = begin + 1;
-    while (end < triangles && end - begin < options.max_triangles_per_chunk && soup.mesh[end] == soup.mesh[begin] &&
-           soup.material[end] == soup.material[begin])
-      ++end;
-    DracoMesh m;
-    std::vector<uint32_t> used;
-    for (size_t i = 3 * begin; i < 3 * end; ++i) {
+  StoredChunk c;
+  while (c.begin < triangles) {
+    c.end = c.begin + 1;
+    while (c.end < triangles && c.end - c.begin < max && soup.mesh[c.end] == soup.mesh[c.begin] &&
+           soup.material[c.end] == soup.material[c.begin])
+      ++c.end;
+    c.used.clear();
+    c.indices.clear();
+    for (size_t i = 3 * c.begin; i < 3 * c.end; ++i) {
       const uint32_t v = soup.indices[i];
       if (local[v] < 0) {
-        local[v] = static_cast<int64_t>(used.size());
-        used.push_back(v);
+        local[v] = static_cast<int64_t>(c.used.size());
+        c.used.push_back(v);
       }
-      m.indices.push_back(static_cast<uint32_t>(local[v]));
+      c.indices.push_back(static_cast<uint32_t>(local[v]));
     }
+    fn(c);
+    for (const uint32_t v : c.used) local[v] = -1;
+    c.begin = c.end;
+  }
+}
+
+// What the stream decoder will hold for `soup` read back from its chunks
+// (each chunk's vertices are its own; uvs and colours go to every vertex
+// once a chunk has them).
+void state_size(const TriangleSoup& soup, uint32_t max, pbgi::v1::SceneSize::Soup* out) {
+  uint64_t vertices = 0;
+  bool uvs = false, colors = false;
+  for_each_stored_chunk(soup, max, [&](const StoredChunk& c) {
+    vertices += c.used.size();
+    uvs = uvs || (!soup.uvs.empty() && all_finite(soup.uvs, c.used));
+    colors = colors || (!soup.colors.empty() && all_finite(soup.colors, c.used));
+  });
+  out->set_vertices(vertices);
+  out->set_triangles(soup.triangle_count());
+  out->set_normals(!soup.normals.empty() && soup.triangle_count() > 0);
+  out->set_uvs(uvs);
+  out->set_colors(colors);
+}
+
+// A soup's triangles as Draco MeshChunks (for_each_stored_chunk), tagged
+// with `prototype_id` (0 = world); returns the triangle count written.
+uint64_t write_meshes(const TriangleSoup& soup, uint32_t prototype_id, const ChunkStoreOptions& options,
+                      FrameWriter& writer) {
+  uint64_t written = 0;
+  for_each_stored_chunk(soup, options.max_triangles_per_chunk, [&](const StoredChunk& c) {
+    const size_t begin = c.begin, end = c.end;
+    const std::vector<uint32_t>& used = c.used;
+    DracoMesh m;
+    m.indices = c.indices;
     for (const uint32_t v : used) {
       m.positions.push_back(soup.positions[v]);
       if (!soup.normals.empty()) m.normals.push_back(soup.normals[v]);
@@ -165,7 +207,6 @@ uint64_t write_meshes(const TriangleSoup& soup, uint32_t prototype_id, const Chu
       for (const uint32_t v : used) m.uvs.push_back(soup.uvs[v]);
     if (!soup.colors.empty() && all_finite(soup.colors, used))
       for (const uint32_t v : used) m.colors.push_back(soup.colors[v]);
-    for (const uint32_t v : used) local[v] = -1;
 
     pbgi::v1::SceneChunk chunk;
     pbgi::v1::MeshChunk* mesh = chunk.mutable_mesh();
@@ -176,8 +217,7 @@ uint64_t write_meshes(const TriangleSoup& soup, uint32_t prototype_id, const Chu
     mesh->set_prototype_id(prototype_id);
     writer.write(chunk);
     written += end - begin;
-    begin = end;
-  }
+  });
   return written;
 }
 
@@ -189,6 +229,12 @@ void write_scene(const Scene& scene, const ChunkStoreOptions& options, SceneEntr
   h->set_content_hash(scene.content_hash);
   h->set_meters_per_unit(scene.meters_per_unit);
   h->set_up_axis(scene.up_axis);
+  // The decoded geometry, so that a reopen is charged and sized up front.
+  pbgi::v1::SceneSize* size = h->mutable_size();
+  state_size(scene.triangles, options.max_triangles_per_chunk, size->mutable_world());
+  for (const Prototype& p : scene.prototypes)
+    state_size(p.triangles, options.max_triangles_per_chunk, size->add_prototypes());
+  size->set_instances(scene.instances.size());
   writer.write(chunk);
 
   for (size_t i = 0; i < scene.materials.size(); ++i) {
@@ -405,7 +451,7 @@ static std::optional<Scene> drop_unreadable(const ChunkStore& store, const std::
 
 std::optional<Scene> ChunkStore::load(const std::string& key,
                                       const std::function<void(const std::string&, float)>& progress,
-                                      const AssetRoots& roots) const {
+                                      const AssetRoots& roots, const SceneReadMemory& memory) const {
   const fs::path path = entry_path(key);
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) return std::nullopt;
@@ -423,7 +469,7 @@ std::optional<Scene> ChunkStore::load(const std::string& key,
     }
     TextureLoadOptions textures;
     textures.roots = roots;
-    scene = read_scene_entry_body(fd, head, path.string(), progress, textures);
+    scene = read_scene_entry_body(fd, head, path.string(), progress, textures, memory);
   } catch (const IoError& e) {
     // The disk, not the entry: leave it for the next open.
     spdlog::warn("chunk store: entry {} cannot be read now ({}): re-ingesting", key, e.what());
@@ -450,25 +496,29 @@ std::optional<Scene> ChunkStore::load(const std::string& key,
 }
 
 Scene read_usd_scene_cached(const fs::path& path, const IngestOptions& options, const ChunkStore& store,
-                            const std::function<void(const std::string&, float)>& progress, bool* from_store) {
+                            const std::function<void(const std::string&, float)>& progress, bool* from_store,
+                            const SceneReadMemory& memory) {
   const std::string key = store.key(usd_content_hash(path, options), options);
-  if (std::optional<Scene> stored = store.load(key, progress, options.asset_roots)) {
+  if (std::optional<Scene> stored = store.load(key, progress, options.asset_roots, memory)) {
     if (from_store) *from_store = true;
     return std::move(*stored);
   }
-  Scene scene = read_usd_scene(path, options, progress);
+  std::optional<Scene> scene = read_usd_scene(path, options, progress, memory);
   if (from_store) *from_store = false;
   try {
-    store.save(key, scene);
+    store.save(key, *scene);
   } catch (const Error& e) {
     spdlog::warn("chunk store: cannot save '{}': {}", path.string(), e.what());
-    return scene;
+    return std::move(*scene);
   }
   // The first open serves the stored (Draco-quantized) scene too, so that
   // what a daemon renders never depends on whether the store had the entry:
   // a restart or a replica reading the entry renders identical pixels.
-  if (std::optional<Scene> stored = store.load(key, {}, options.asset_roots)) return std::move(*stored);
-  return scene;
+  // The scene as read is freed first: one copy is held at a time, not two.
+  scene.reset();
+  if (std::optional<Scene> stored = store.load(key, {}, options.asset_roots, memory)) return std::move(*stored);
+  spdlog::warn("chunk store: the entry of '{}' just saved cannot be loaded back; reading the scene again", path.string());
+  return read_usd_scene(path, options, progress, memory);
 }
 
 }  // namespace pbgi

@@ -6,7 +6,9 @@
 // cameras, volumes, warnings -- written as the same framed SceneChunk
 // stream the USD reader writes (proto/pbgi/v1/scene.proto), except that
 // every MeshChunk carries its arrays Draco-compressed (MeshChunk.draco,
-// server/ingest/draco_mesh.h). Loading decodes it with the ordinary stream
+// server/ingest/draco_mesh.h) and the SceneHeader states the decoded
+// geometry (SceneSize), so that a load is charged to the memory budget and
+// its arrays sized before the first chunk. Loading decodes it with the ordinary stream
 // decoder, then loads textures and OpenVDB grids again (fog grids are not
 // stored; level sets are not meshed again).
 //
@@ -79,12 +81,13 @@ class ChunkStore {
   // or the entry is unreadable: damaged (CorruptionError), of another format
   // version (VersionError) or undecodable -- then it is removed, with a log
   // line naming the file, offset and checksums. A read error (IoError)
-  // leaves the entry in place. Exceptions of `progress` propagate. The
-  // textures and OpenVDB files it names are read again, confined to
-  // `roots` (PermissionDenied as in read_usd_scene).
+  // leaves the entry in place. Exceptions of `progress` and `memory`
+  // (scene_read_memory.h, told what the scene holds before it grows)
+  // propagate. The textures and OpenVDB files it names are read again,
+  // confined to `roots` (PermissionDenied as in read_usd_scene).
   std::optional<Scene> load(const std::string& key,
                             const std::function<void(const std::string&, float)>& progress = {},
-                            const AssetRoots& roots = {}) const;
+                            const AssetRoots& roots = {}, const SceneReadMemory& memory = {}) const;
 
   bool contains(const std::string& key) const;
   void remove(const std::string& key) const;
@@ -100,9 +103,15 @@ class ChunkStore {
 // (so results never depend on whether the entry existed). `from_store`
 // (optional) tells which happened. A failure to save is logged, not
 // thrown: the scene as read is returned.
+//
+// Memory: one copy of the scene at a time. The scene as read is freed
+// before the saved entry is loaded back (an entry that cannot be loaded
+// right after it was written is ingested once more, unsaved); `memory`
+// is told what the copy being read holds, before it grows
+// (scene_read_memory.h), and refuses by throwing.
 Scene read_usd_scene_cached(const std::filesystem::path& path, const IngestOptions& options,
                             const ChunkStore& store,
                             const std::function<void(const std::string&, float)>& progress = {},
-                            bool* from_store = nullptr);
+                            bool* from_store = nullptr, const SceneReadMemory& memory = {});
 
 }  // namespace pbgi

@@ -59,7 +59,7 @@ void SceneEntryWriter::append(const void* data, size_t size) {
 void SceneEntryWriter::finish(const std::string& path) {
   std::vector<uint8_t> head(kSceneEntryHeadBytes + dependencies_.size() + kSceneEntryChecksumBytes);
   store_le<uint32_t>(head.data(), storage::kSceneEntryMagic);
-  store_le<uint32_t>(head.data() + 4, storage::kSceneEntryFormatV4);
+  store_le<uint32_t>(head.data() + 4, storage::kSceneEntryFormatV5);
   store_le<uint64_t>(head.data() + 8, dependencies_.size());
   store_le<uint64_t>(head.data() + 16, body_bytes_);
   store_le<uint64_t>(head.data() + 24, body_checksum_.digest());
@@ -87,7 +87,7 @@ SceneEntryHead read_scene_entry_head(int fd, const std::string& path) {
   if (!storage::is_known_scene_entry_format(head.version))
     throw VersionError(fmt::format("scene entry '{}': format version {} at offset 4 is not one this build reads "
                                    "(it reads {})",
-                                   path, head.version, storage::kSceneEntryFormatV4));
+                                   path, head.version, storage::kSceneEntryFormatV5));
   const uint64_t dependency_bytes = load_le<uint64_t>(fixed + 8);
   head.body_bytes = load_le<uint64_t>(fixed + 16);
   head.body_checksum = load_le<uint64_t>(fixed + 24);
@@ -121,7 +121,8 @@ SceneEntryHead read_scene_entry_head(int fd, const std::string& path) {
 }
 
 Scene read_scene_entry_body(int fd, const SceneEntryHead& head, const std::string& path,
-                            const SceneStreamDecoder::Progress& progress, const TextureLoadOptions& textures) {
+                            const SceneStreamDecoder::Progress& progress, const TextureLoadOptions& textures,
+                            const SceneReadMemory& memory) {
   // 1. The checksum, streamed.
   storage::Checksum64Stream checksum;
   std::vector<char> buffer(size_t(1) << 20);
@@ -140,7 +141,9 @@ Scene read_scene_entry_body(int fd, const SceneEntryHead& head, const std::strin
   // 2. The scene: the body runs to the end of the file (the head said so).
   if (::lseek(fd, static_cast<off_t>(head.body_offset), SEEK_SET) < 0)
     throw IoError(fmt::format("scene entry '{}': seek failed: {}", path, std::strerror(errno)));
-  return SceneStreamDecoder(path, progress, {}, textures).decode(fd);
+  SceneStreamDecoder decoder(path, progress, {}, textures);
+  decoder.set_memory(memory);
+  return decoder.decode(fd);
 }
 
 }  // namespace pbgi

@@ -5,7 +5,8 @@
 //
 // Layout (little-endian; byte spec in storage/format/FORMAT.md):
 //   0      4  magic            'PBGS' (kSceneEntryMagic)
-//   4      4  version          u32, kSceneEntryFormatV4
+//   4      4  version          u32, kSceneEntryFormatV5 (its SceneHeader
+//                              states the decoded geometry: SceneSize)
 //   8      8  dependency_bytes u64 D (<= kMaxSceneEntryDependencyBytes)
 //   16     8  body_bytes       u64 B
 //   24     8  body_checksum    XXH3-64 of the body
@@ -76,10 +77,12 @@ struct SceneEntryHead {
 SceneEntryHead read_scene_entry_head(int fd, const std::string& path);
 
 // Checks the body against head.body_checksum, then decodes it (moving fd's
-// offset). Exceptions of `progress` propagate (that is how callers cancel).
-// Textures are loaded with `textures` (their roots confine them).
+// offset). Exceptions of `progress` propagate (that is how callers cancel),
+// as do those of `memory` (scene_read_memory.h: told what the scene holds
+// before it grows). Textures are loaded with `textures` (their roots
+// confine them).
 Scene read_scene_entry_body(int fd, const SceneEntryHead& head, const std::string& path,
                             const SceneStreamDecoder::Progress& progress = {},
-                            const TextureLoadOptions& textures = {});
+                            const TextureLoadOptions& textures = {}, const SceneReadMemory& memory = {});
 
 }  // namespace pbgi

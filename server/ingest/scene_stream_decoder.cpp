@@ -3,6 +3,7 @@
 #include "common/errors.h"
 #include "pbgi/v1/scene.pb.h"
 #include "server/ingest/coordinate_limit.h"
+#include "server/ingest/soup_growth.h"
 #include "server/ingest/draco_mesh.h"
 #include "server/ingest/subdiv_cage_message.h"
 #include "server/ingest/texture_loader.h"
@@ -191,11 +192,23 @@ struct SoupBuild {
   std::unordered_map<std::string, uint32_t> mesh_index;
 };
 
+// The sizes SceneHeader.size states for one soup.
+SoupSizes stated_sizes(const pbgi::v1::SceneSize::Soup& s) {
+  SoupSizes n;
+  n.vertices = s.vertices();
+  n.normals = s.normals() ? n.vertices : 0;
+  n.uvs = s.uvs() ? n.vertices : 0;
+  n.colors = s.colors() ? n.vertices : 0;
+  n.indices = 3 * s.triangles();
+  n.triangles = s.triangles();
+  return n;
+}
+
 // Builds the Scene from chunks in stream order.
 class SceneAssembler {
  public:
-  SceneAssembler(const std::string& source, const SubdivisionOptions& subdivision)
-      : source_(source), subdivision_(subdivision) {
+  SceneAssembler(const std::string& source, const SubdivisionOptions& subdivision, const SceneReadMemory& memory)
+      : source_(source), subdivision_(subdivision), memory_(memory) {
     scene_.source_path = source;
   }
 
@@ -234,7 +247,11 @@ class SceneAssembler {
     remap_materials(at);
     for (const auto& [prim, d] : dropped_) scene_.warnings.push_back(describe(prim, d, source_));
     for (size_t i = 0; i < builds_.size(); ++i)
-      if (builds_[i].any_normals && builds_[i].any_without_normals) expand_flat_chunks(i);
+      if (builds_[i].any_normals && builds_[i].any_without_normals) expand_flat_chunks(i, at);
+    // Exact, whatever the tracking above missed: the read's last charge is
+    // what the scene holds.
+    held_ = scene_.geometry_bytes();
+    if (memory_) memory_(held_, "scene geometry as read");
     // The triangles of a subdivision surface depend on the refinement
     // options too: two reads with different targets must not share caches.
     if (cage_count_ > 0)
@@ -251,6 +268,35 @@ class SceneAssembler {
   }
 
  private:
+  // ---- Memory (scene_read_memory.h): every growth of the geometry is
+  // charged before it is allocated, and what it holds after.
+
+  void charge(uint64_t bytes, const FramePosition& at, const char* kind, const std::string& prim) {
+    if (!memory_ || bytes == reported_) return;
+    memory_(bytes, fmt::format("scene geometry being read: frame {} at byte offset {}, {} of {}", at.index,
+                               at.offset, kind, prim));
+    reported_ = bytes;
+  }
+
+  // Charges the most the scene holds while soup `target` grows to `n`
+  // (`transient` bytes held meanwhile; growth_peak), then grows it.
+  // Returns the soup's array bytes before, for settle().
+  uint64_t reserve_soup(size_t target, const SoupSizes& n, uint64_t transient, const FramePosition& at,
+                        const char* kind, const std::string& prim) {
+    TriangleSoup& soup = soup_at(target);
+    const uint64_t before = array_bytes(soup);
+    const uint64_t peak = std::max(growth_peak(soup, n, held_ + transient), held_ + transient);
+    if (peak > held_) charge(peak, at, kind, prim);
+    grow_to(soup, n);
+    return before;
+  }
+
+  // The soup `target` changed from `before` array bytes: the scene now holds.
+  void settle(size_t target, uint64_t before, const FramePosition& at, const char* kind, const std::string& prim) {
+    held_ = held_ - before + array_bytes(soup_at(target));
+    charge(held_, at, kind, prim);
+  }
+
   static const char* kind_name(const pbgi::v1::SceneChunk& chunk) {
     using Chunk = pbgi::v1::SceneChunk;
     switch (chunk.body_case()) {
@@ -283,6 +329,37 @@ class SceneAssembler {
     if (!(h.subdiv_cage_area() >= 0.0) || !std::isfinite(h.subdiv_cage_area()))
       fail(at, fmt::format("invalid subdiv_cage_area {}", h.subdiv_cage_area()));
     subdiv_cage_area_ = h.subdiv_cage_area();
+    if (h.has_size()) stated_size(h.size(), at);
+  }
+
+  // SceneHeader.size (the chunk store's entries): the whole geometry is
+  // charged before the first chunk, then the arrays are sized for it, so
+  // that they never grow (nor hold half again their size, and two buffers while one grows). Only
+  // with a memory function: without one nothing vouches for the sizes, and
+  // the arrays grow as chunks come. A size the stream then exceeds is
+  // charged chunk by chunk like any growth.
+  void stated_size(const pbgi::v1::SceneSize& size, const FramePosition& at) {
+    auto check = [&](const pbgi::v1::SceneSize::Soup& s, const std::string& which) {
+      if (s.vertices() > std::numeric_limits<uint32_t>::max() || s.triangles() > std::numeric_limits<uint32_t>::max())
+        fail(at, fmt::format("SceneHeader.size: {} states {} vertices and {} triangles, beyond 2^32", which,
+                             s.vertices(), s.triangles()));
+    };
+    check(size.world(), "the world");
+    for (int p = 0; p < size.prototypes_size(); ++p) check(size.prototypes(p), fmt::format("prototype {}", p));
+    if (size.instances() > std::numeric_limits<uint32_t>::max())
+      fail(at, fmt::format("SceneHeader.size: {} instances, beyond 2^32", size.instances()));
+    if (!memory_) return;
+    uint64_t bytes = soup_bytes(stated_sizes(size.world())) + size.instances() * sizeof(Instance) +
+                     uint64_t(size.prototypes_size()) * sizeof(Prototype);
+    for (const auto& p : size.prototypes()) bytes += soup_bytes(stated_sizes(p));
+    charge(held_ + bytes, at, "SceneHeader stating the geometry", source_);
+    stated_prototypes_.assign(size.prototypes().begin(), size.prototypes().end());
+    const uint64_t before = buffer_bytes(scene_.instances) + buffer_bytes(scene_.prototypes);
+    scene_.instances.reserve(size.instances());
+    scene_.prototypes.reserve(size_t(size.prototypes_size()));
+    held_ = held_ - before + buffer_bytes(scene_.instances) + buffer_bytes(scene_.prototypes);
+    settle(0, reserve_soup(0, stated_sizes(size.world()), 0, at, "SceneHeader stating the geometry", source_), at,
+           "SceneHeader stating the geometry", source_);
   }
 
   void mesh(const pbgi::v1::MeshChunk& chunk, const FramePosition& at) {
@@ -313,15 +390,25 @@ class SceneAssembler {
     const size_t base = soup.positions.size();
     if (base + vertex_count > std::numeric_limits<uint32_t>::max())
       fail(at, fmt::format("mesh {}: the scene exceeds 2^32 vertices", prim));
+    // Unusable normals (not finite, zero, beyond the coordinate limit): the
+    // chunk is shaded flat, as the reader does with such normals.
+    const bool has_normals = !nrm.empty() && usable_normals(nrm);
+    if (!nrm.empty() && !has_normals) dropped_[prim].normals = true;
+
+    // Charged before the soup grows (a refusal leaves it as it was).
+    SoupSizes sizes;
+    sizes.vertices = base + vertex_count;
+    sizes.normals = has_normals || !soup.normals.empty() ? sizes.vertices : 0;
+    sizes.uvs = !m.uvs().empty() || !soup.uvs.empty() ? sizes.vertices : 0;
+    sizes.colors = !m.colors().empty() || !soup.colors.empty() ? sizes.vertices : 0;
+    sizes.indices = soup.indices.size() + idx.size() / sizeof(uint32_t);
+    sizes.triangles = soup.mesh.size() + idx.size() / (3 * sizeof(uint32_t));
+    const uint64_t before = reserve_soup(target, sizes, 0, at, "MeshChunk", prim);
 
     soup.positions.resize(base + vertex_count);
     // V3f is three packed floats (asserted above); its user-declared
     // assignment does not change the layout.
     copy_bytes(soup.positions.data() + base, pos);
-    // Unusable normals (not finite, zero, beyond the coordinate limit): the
-    // chunk is shaded flat, as the reader does with such normals.
-    const bool has_normals = !nrm.empty() && usable_normals(nrm);
-    if (!nrm.empty() && !has_normals) dropped_[prim].normals = true;
     if (has_normals) {
       // Zero-fills the vertices of earlier chunks without normals, if any.
       soup.normals.resize(base + vertex_count);
@@ -355,6 +442,7 @@ class SceneAssembler {
     soup.material.insert(soup.material.end(), triangles, m.material_id());
     build.chunks.push_back({static_cast<uint32_t>(base), static_cast<uint32_t>(soup.positions.size() - base),
                             first_index, soup.indices.size() - first_index, has_normals});
+    settle(target, before, at, "MeshChunk", prim);
     // SceneEnd counts what the writer could count: packed arrays (dropped
     // triangles included), not the triangles inside Draco blobs.
     if (chunk.draco().empty()) streamed_triangles_ += index_count / 3;
@@ -456,8 +544,18 @@ class SceneAssembler {
       fail(at, fmt::format("prototype id {} ({}) defined twice", d.id(), d.prim_path()));
     Prototype p;
     p.prim_path = d.prim_path();
+    const uint64_t before = buffer_bytes(scene_.prototypes);
     scene_.prototypes.push_back(std::move(p));
     builds_.emplace_back();
+    held_ = held_ - before + buffer_bytes(scene_.prototypes) + scene_.prototypes.back().prim_path.capacity();
+    charge(held_, at, "PrototypeDef", d.prim_path());
+    // Its soup sized as the header stated, if it did.
+    const size_t k = scene_.prototypes.size() - 1;
+    if (k < stated_prototypes_.size()) {
+      const size_t target = k + 1;
+      settle(target, reserve_soup(target, stated_sizes(stated_prototypes_[k]), 0, at, "PrototypeDef", d.prim_path()),
+             at, "PrototypeDef", d.prim_path());
+    }
   }
 
   void instances(const pbgi::v1::InstanceBatch& b, const FramePosition& at) {
@@ -470,7 +568,14 @@ class SceneAssembler {
       fail(at, fmt::format("instances {}: {} bytes of transforms, not a multiple of 64", b.prim_path(), bytes.size()));
     // The prototype's triangle count is now part of the numbering.
     if (builds_[it->second + 1].any_normals && builds_[it->second + 1].any_without_normals)
-      expand_flat_chunks(it->second + 1);
+      expand_flat_chunks(it->second + 1, at);
+    // Charged before the instances grow.
+    const size_t placements = scene_.instances.size() + bytes.size() / kMatrixBytes;
+    const uint64_t before = buffer_bytes(scene_.instances);
+    if (const uint64_t more = new_buffer_bytes(scene_.instances, placements); more > 0)
+      charge(held_ + more, at, "InstanceBatch", b.prim_path());
+    grow_to(scene_.instances, placements);
+    held_ = held_ - before + buffer_bytes(scene_.instances);
     SoupBuild& build = builds_[it->second + 1];
     build.sealed = true;
     if (!build.bounds) {
@@ -494,6 +599,7 @@ class SceneAssembler {
         scene_.warnings.push_back(fmt::format("{}: {} (instance skipped)", b.prim_path(), e.what()));
       }
     }
+    charge(held_, at, "InstanceBatch", b.prim_path());
   }
 
   uint32_t mesh_index(size_t target, const std::string& prim, bool double_sided) {
@@ -503,6 +609,7 @@ class SceneAssembler {
     if (inserted) {
       soup.mesh_paths.push_back(prim);
       soup.double_sided.push_back(0);
+      held_ += soup.mesh_paths.back().capacity();  // the vectors are settled by the caller
     }
     if (double_sided) soup.double_sided[it->second] = 1;
     return it->second;
@@ -543,6 +650,16 @@ class SceneAssembler {
     const size_t base = soup.positions.size();
     if (base + refined.positions.size() > std::numeric_limits<uint32_t>::max())
       fail(at, fmt::format("mesh {}: the scene exceeds 2^32 vertices", prim));
+    // Charged before the soup grows, the refinement held meanwhile.
+    SoupSizes sizes;
+    sizes.vertices = sizes.normals = base + refined.positions.size();
+    sizes.uvs = soup.uvs.empty() ? 0 : sizes.vertices;
+    sizes.colors = soup.colors.empty() ? 0 : sizes.vertices;
+    sizes.indices = soup.indices.size() + refined.indices.size();
+    sizes.triangles = soup.mesh.size() + refined.triangle_count();
+    const uint64_t refinement = buffer_bytes(refined.positions) + buffer_bytes(refined.normals) +
+                                buffer_bytes(refined.indices) + buffer_bytes(refined.triangle_faces);
+    const uint64_t before = reserve_soup(target, sizes, refinement, at, "SubdivCage", prim);
     soup.positions.insert(soup.positions.end(), refined.positions.begin(), refined.positions.end());
     // Zero-fills the vertices of earlier chunks without normals, if any.
     soup.normals.resize(base);
@@ -562,6 +679,7 @@ class SceneAssembler {
                                                                  : decoded.face_material_ids[refined.triangle_faces[t]]);
     build.chunks.push_back({static_cast<uint32_t>(base), static_cast<uint32_t>(refined.positions.size()), first_index,
                        refined.indices.size(), true});
+    settle(target, before, at, "SubdivCage", prim);
   }
 
   void material(const pbgi::v1::MaterialDef& d, const FramePosition& at) {
@@ -704,7 +822,7 @@ class SceneAssembler {
   // normal array describes the whole soup exactly.
   // Once per soup; a prototype's at its first InstanceBatch (the vertex
   // count changes, the triangle count does not), the rest at the end.
-  void expand_flat_chunks(size_t target) {
+  void expand_flat_chunks(size_t target, const FramePosition& at) {
     SoupBuild& build = builds_[target];
     if (build.sealed) return;
     TriangleSoup& soup = soup_at(target);
@@ -718,9 +836,22 @@ class SceneAssembler {
       if (have_uvs) uvs.push_back(soup.uvs[v]);
       if (have_colors) colors.push_back(soup.colors[v]);
     };
-    positions.reserve(soup.positions.size());
-    normals.reserve(soup.positions.size());
-    indices.reserve(soup.indices.size());
+    // The new arrays, exactly sized, are charged beside the old ones.
+    size_t vertices = 0, index_count = 0;
+    for (const ChunkRange& c : build.chunks) {
+      vertices += c.has_normals ? c.vertex_count : c.index_count;
+      index_count += c.index_count;
+    }
+    const std::string& prim = soup.mesh_paths.empty() ? source_ : soup.mesh_paths.front();
+    charge(held_ + vertices * (2 * sizeof(V3f) + (have_uvs ? sizeof(V2f) : 0) + (have_colors ? sizeof(C3f) : 0)) +
+               index_count * sizeof(uint32_t),
+           at, "unwelding flat-shaded chunks beside smooth ones, first mesh", prim);
+    const uint64_t before = array_bytes(soup);
+    positions.reserve(vertices);
+    normals.reserve(vertices);
+    indices.reserve(index_count);
+    if (have_uvs) uvs.reserve(vertices);
+    if (have_colors) colors.reserve(vertices);
     for (const ChunkRange& c : build.chunks) {
       const uint32_t base = static_cast<uint32_t>(positions.size());
       if (c.has_normals) {
@@ -754,10 +885,17 @@ class SceneAssembler {
     soup.indices.swap(indices);
     if (have_uvs) soup.uvs.swap(uvs);
     if (have_colors) soup.colors.swap(colors);
+    // The old arrays go when this returns; the charge follows at the next
+    // settle (what the scene holds is never under-charged meanwhile).
+    held_ = held_ - before + array_bytes(soup);
   }
 
   const std::string& source_;
   const SubdivisionOptions& subdivision_;
+  const SceneReadMemory& memory_;
+  uint64_t held_ = 0;      // what the scene's geometry holds (Scene::geometry_bytes())
+  uint64_t reported_ = 0;  // the last value told to memory_
+  std::vector<pbgi::v1::SceneSize::Soup> stated_prototypes_;  // SceneHeader.size's, by PrototypeDef order
   double subdiv_cage_area_ = 0.0;  // SceneHeader's: bounds each cage's refinement error
   Scene scene_;
   uint64_t streamed_triangles_ = 0;
@@ -784,7 +922,7 @@ SceneStreamDecoder::SceneStreamDecoder(std::string source_name, Progress progres
 Scene SceneStreamDecoder::decode(int fd) {
   stats_ = {};
   FdReader reader(fd, source_);
-  SceneAssembler assembler(source_, subdivision_);
+  SceneAssembler assembler(source_, subdivision_, memory_);
   FramePosition at;
   std::string body;
   pbgi::v1::SceneChunk chunk;

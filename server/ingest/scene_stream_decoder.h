@@ -20,6 +20,7 @@
 // Not thread-safe; use one decoder per stream.
 #pragma once
 
+#include "server/ingest/scene_read_memory.h"
 #include "server/ingest/subdivision.h"
 #include "server/ingest/texture_loader.h"
 #include "server/scene/scene.h"
@@ -58,6 +59,10 @@ class SceneStreamDecoder {
   // caller cancels).
   Scene decode(int fd);
 
+  // Tells `memory` what the scene being decoded holds, before it grows
+  // (scene_read_memory.h); its exceptions propagate out of decode().
+  void set_memory(SceneReadMemory memory) { memory_ = std::move(memory); }
+
   // True once the stream hit EOF; false if it was rejected while the writer
   // may still be writing.
   bool reached_eof() const { return eof_; }
@@ -70,6 +75,7 @@ class SceneStreamDecoder {
   Progress progress_;
   SubdivisionOptions subdivision_;
   TextureLoadOptions textures_;
+  SceneReadMemory memory_;
   bool eof_ = false;
   SceneStreamStats stats_;
 };

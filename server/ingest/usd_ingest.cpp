@@ -113,7 +113,8 @@ constexpr int kReaderBadSelection = 6;
 // Runs the USD reader on `path` and decodes its stream; with `hash_only`
 // the reader stops after the header (the content hash).
 Scene run_usd_reader(const std::filesystem::path& path, const IngestOptions& options,
-                     const std::function<void(const std::string&, float)>& progress, bool hash_only) {
+                     const std::function<void(const std::string&, float)>& progress, bool hash_only,
+                     const SceneReadMemory& memory = {}) {
   // 1. Resolve options (empty = the build's defaults).
   const std::string python = options.python.empty() ? std::string(PBGI_PYTHON) : options.python;
   const std::filesystem::path script = options.reader_script.empty()
@@ -158,6 +159,7 @@ Scene run_usd_reader(const std::filesystem::path& path, const IngestOptions& opt
 
   // 3. Decode its stream; on a rejected stream stop the reader.
   SceneStreamDecoder decoder(path.string(), progress, subdivision, texture_options(options));
+  decoder.set_memory(memory);
   std::optional<Scene> scene;
   std::string stream_error;
   try {
@@ -165,7 +167,8 @@ Scene run_usd_reader(const std::filesystem::path& path, const IngestOptions& opt
   } catch (const SceneError& e) {
     stream_error = e.what();
   } catch (...) {
-    // Cancelled by the progress callback, or out of memory: stop the reader.
+    // Cancelled by the progress callback, refused by the memory budget (the
+    // memory function), or out of memory: stop the reader.
     reader.close_stdout();
     reader.wait(std::chrono::milliseconds(0));
     throw;
@@ -219,16 +222,23 @@ std::string scene_file_digest(const std::filesystem::path& path) {
 }  // namespace
 
 Scene read_usd_scene(const std::filesystem::path& path, const IngestOptions& options,
-                     const std::function<void(const std::string&, float)>& progress) {
+                     const std::function<void(const std::string&, float)>& progress, const SceneReadMemory& memory) {
   options.asset_roots.check(path, fmt::format("scene '{}'", path.string()));
   const std::string extension = lowercase_extension(path);
-  if (extension == ".vdb") return read_vdb_scene(path, volume_options(options));
-  if (extension == ".drc") return read_draco_scene(path);
-  Scene scene = run_usd_reader(path, options, progress, /*hash_only=*/false);
+  // Files read in-process are told once read (their size is known only
+  // then); the USD reader's stream chunk by chunk, before it grows.
+  const auto told = [&](Scene scene, const char* what) {
+    if (memory) memory(scene.geometry_bytes(), fmt::format("scene geometry ({})", what));
+    return scene;
+  };
+  if (extension == ".vdb") return told(read_vdb_scene(path, volume_options(options)), "OpenVDB level sets meshed");
+  if (extension == ".drc") return told(read_draco_scene(path), "Draco mesh decoded");
+  Scene scene = run_usd_reader(path, options, progress, /*hash_only=*/false, memory);
   if (!scene.volumes.empty()) {
     if (progress) progress("volumes", 0.f);
     load_scene_volumes(scene, volume_options(options));
     validate_scene(scene);
+    return told(std::move(scene), "with its OpenVDB level sets meshed");
   }
   return scene;
 }

@@ -3,6 +3,7 @@
 // SceneChunk stream (proto/pbgi/v1/scene.proto) it writes to a pipe.
 #pragma once
 
+#include "server/ingest/scene_read_memory.h"
 #include "server/ingest/subdivision.h"
 #include "server/ingest/texture_loader.h"
 #include "server/scene/asset_roots.h"
@@ -77,7 +78,9 @@ SubdivisionOptions subdivision_options(const IngestOptions& options);
 
 // Throws SceneError naming the file (and prim) if the scene cannot be read,
 // IoError if the reader process cannot be started, PermissionDenied if it
-// uses a file outside options.asset_roots.
+// uses a file outside options.asset_roots. `memory` (optional) is told what
+// the scene being read holds before it grows (scene_read_memory.h); what it
+// throws stops the read and propagates.
 //
 // Besides USD (.usd/.usda/.usdc/.usdz, read by the reader process), the
 // path may name an OpenVDB file (.vdb: server/volumes/scene_volumes.h) or a
@@ -85,7 +88,8 @@ SubdivisionOptions subdivision_options(const IngestOptions& options);
 // grids named by UsdVol.Volume prims are loaded after the stream (level sets
 // meshed into the triangles, fog grids in Scene::volumes).
 Scene read_usd_scene(const std::filesystem::path& path, const IngestOptions& options,
-                     const std::function<void(const std::string&, float)>& progress = {});
+                     const std::function<void(const std::string&, float)>& progress = {},
+                     const SceneReadMemory& memory = {});
 
 // The content hash read_usd_scene would put in Scene::content_hash before
 // the daemon's own suffixes (refinement, volumes): for USD the hash of every

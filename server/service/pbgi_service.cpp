@@ -284,6 +284,17 @@ v1::GetStatusResponse PbgiService::status() const {
     s->set_fraction(o.fraction);
   }
   out.set_scene_memory_budget_bytes(registry_->memory_budget());
+  if (runtime_.memory) {
+    const MemoryUsage u = runtime_.memory->usage();
+    v1::MemoryStatus* m = out.mutable_memory();
+    m->set_budget_bytes(u.budget.total);
+    m->set_request_reserve_bytes(u.budget.request_reserve);
+    m->set_page_cache_floor_bytes(u.budget.cache_floor);
+    m->set_scenes_bytes(u.charged[size_t(ChargeKind::kScene)]);
+    m->set_reading_bytes(u.charged[size_t(ChargeKind::kRead)]);
+    m->set_builds_bytes(u.charged[size_t(ChargeKind::kBuild)]);
+    m->set_refusals(u.refusals);
+  }
   return out;
 }
 

@@ -22,6 +22,7 @@
 
 #include "pbgi/v1/pbgi.grpc.pb.h"
 #include "common/options/option_table.h"
+#include "server/engine/memory_accountant.h"
 #include "server/service/admission.h"
 #include "server/service/bearer_auth.h"
 #include "server/service/options_codec.h"
@@ -75,6 +76,7 @@ struct ServiceOptions {
 struct ServiceRuntime {
   BearerAuth auth{};                                 // default: no token required
   std::shared_ptr<const storage::PageCache> cache;   // for GetStatus (may be null)
+  std::shared_ptr<const MemoryAccountant> memory;    // for GetStatus (may be null)
   std::string version;
 };
 

@@ -80,6 +80,22 @@ std::string prometheus_text(const v1::GetStatusResponse& status,
   w.sample("cache_budget_bytes", double(c.budget_bytes()));
   w.family("resident_memory_bytes", "gauge", "Resident set size of pbgid.");
   w.sample("resident_memory_bytes", double(status.rss_bytes()));
+  if (status.has_memory()) {
+    const v1::MemoryStatus& m = status.memory();
+    w.family("memory_budget_bytes", "gauge", "The daemon's memory budget (--memory-budget).");
+    w.sample("memory_budget_bytes", double(m.budget_bytes()));
+    w.family("memory_request_reserve_bytes", "gauge", "The budget's share kept for requests in flight.");
+    w.sample("memory_request_reserve_bytes", double(m.request_reserve_bytes()));
+    w.family("memory_page_cache_floor_bytes", "gauge", "The page cache is never shrunk below it.");
+    w.sample("memory_page_cache_floor_bytes", double(m.page_cache_floor_bytes()));
+    w.family("memory_charged_bytes", "gauge",
+             "Bytes charged to the budget: open scenes, scenes being read, page-set builds.");
+    w.sample("memory_charged_bytes", double(m.scenes_bytes()), "kind=\"scenes\"");
+    w.sample("memory_charged_bytes", double(m.reading_bytes()), "kind=\"reading\"");
+    w.sample("memory_charged_bytes", double(m.builds_bytes()), "kind=\"builds\"");
+    w.family("memory_refusals_total", "counter", "Charges refused with RESOURCE_EXHAUSTED (scenes that did not fit).");
+    w.sample("memory_refusals_total", double(m.refusals()));
+  }
 
   w.family("scenes_open", "gauge", "Scenes open.");
   w.sample("scenes_open", status.scenes_size());

@@ -16,6 +16,11 @@ namespace pbgi::service {
 //   cache_hits_total, cache_misses_total, cache_evictions_total,
 //   cache_read_bytes_total              counters
 //   cache_bytes, cache_budget_bytes, resident_memory_bytes   gauges
+//   memory_budget_bytes, memory_request_reserve_bytes,
+//   memory_page_cache_floor_bytes                            gauges
+//   memory_charged_bytes{kind="scenes"|"reading"|"builds"}   gauge
+//   memory_refusals_total                                    counter
+//     (the memory_ families only when status has a MemoryStatus)
 //   scenes_open, scene_memory_bytes{scene_id}                gauges
 //   scene_build_progress{scene_path,stage}                   gauge (0..1)
 //   uptime_seconds                                           gauge

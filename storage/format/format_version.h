@@ -103,11 +103,16 @@ inline constexpr uint32_t kPageSetFormatVersion = 4;
 //       .deps sidecar, nothing checksummed. Their keys differ (the version
 //       is hashed into them), so they are never looked up; a file of that
 //       kind under a current key fails the magic.
-//   V4: 32-byte head (magic, version, dependency and body sizes, body
-//       checksum), the dependency lines, the head's XXH3-64, then the
+//   V4 (refused): 32-byte head (magic, version, dependency and body sizes,
+//       body checksum), the dependency lines, the head's XXH3-64, then the
 //       SceneChunk stream whose XXH3-64 the head holds.
+//   V5: V4's frame; the body's SceneHeader carries SceneSize (the decoded
+//       geometry's counts), so that a reopened scene is charged to the
+//       memory budget and its arrays sized before its first chunk. V4
+//       entries are keyed apart (never looked up) and refused by version.
 inline constexpr uint32_t kSceneEntryFormatV4 = 4;
-constexpr bool is_known_scene_entry_format(uint32_t v) { return v == kSceneEntryFormatV4; }
+inline constexpr uint32_t kSceneEntryFormatV5 = 5;
+constexpr bool is_known_scene_entry_format(uint32_t v) { return v == kSceneEntryFormatV5; }
 
 // V1-V3 pages are no longer read: their page sets were built by
 // kPageSetFormatVersion 3 or older and are rebuilt (the build key changed),

@@ -699,6 +699,20 @@ TEST_F(Integration, StatusAndUnload) {
   uint64_t charged = 0;
   for (const v1::SceneStatus& s : status.scenes()) charged += s.memory_bytes();
   EXPECT_EQ(status.cache().budget_bytes(), (2ull << 30) - (64ull << 20) - charged);
+  // The budget and who holds it; open scenes hold what they are charged.
+  ASSERT_TRUE(status.has_memory());
+  EXPECT_EQ(status.memory().budget_bytes(), 2ull << 30);
+  EXPECT_EQ(status.memory().request_reserve_bytes(), 64ull << 20);
+  EXPECT_EQ(status.memory().scenes_bytes(), charged);
+  EXPECT_EQ(status.memory().reading_bytes(), 0u) << "no scene is being read";
+  EXPECT_EQ(status.memory().builds_bytes(), 0u) << "no build runs";
+  {
+    std::string text;
+    ASSERT_EQ(run_cli({"status", "--server", daemon->address()}, daemon->dir(), &text), 0) << text;
+    EXPECT_NE(text.find("memory    budget 2048.0 MiB: requests 64.0 MiB, scenes "), std::string::npos) << text;
+    EXPECT_NE(text.find(", reading 0.0 MiB, builds 0.0 MiB, page cache "), std::string::npos) << text;
+    EXPECT_NE(text.find("(floor 32.0 MiB); 0 refused"), std::string::npos) << text;
+  }
   EXPECT_GT(status.rss_bytes(), 10u << 20);
   EXPECT_EQ(status.requests().max_in_flight(), 2u);
   EXPECT_FALSE(status.version().empty());

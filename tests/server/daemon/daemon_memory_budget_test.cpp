@@ -8,7 +8,10 @@
 //     overhead (the idle process and allocator slack, memory_budget's
 //     comment in server/daemon/daemon_options.h): idle scenes are unloaded
 //     to make room. Without the accountant every scene stays and the
-//     daemon grows past it.
+//     daemon grows past it;
+//   - a scene whose geometry alone cannot fit is refused while it is read
+//     (charged chunk by chunk), before the daemon's memory passes the
+//     budget plus that overhead, and GetStatus counts the refusal.
 #include "client/lib/pbgi_client.h"
 #include "tests/support/daemon_process.h"
 
@@ -31,18 +34,17 @@ const fs::path kSourceDir = PBGI_TEST_SOURCE_DIR;
 const fs::path kPbgid = fs::path(PBGI_TEST_BINARY_DIR) / "bin" / "pbgid";
 const fs::path kCornell = kSourceDir / "scenes" / "cornell.usda";
 constexpr uint64_t kMiB = uint64_t(1) << 20;
-// Allocator slack and a scene's transient memory while it is read (decoded,
-// stored and reloaded: up to ~3x its geometry, ~35 MiB for the scenes
-// here): what the budget does not count beyond the idle process.
+// Allocator slack, one stream frame, textures: what the budget does not
+// count beyond the idle process (docs/memory-budget.md).
 constexpr uint64_t kSlack = 64 * kMiB;
 
 // An --kind assets scene of `triangles` (distinct per seed) under `dir`.
-fs::path generate_scene(const fs::path& dir, const std::string& name, double triangles, int seed) {
+fs::path generate_scene(const fs::path& dir, const std::string& name, double triangles, int seed, int assets = 2) {
   fs::path out = dir / (name + ".usda");
   std::ostringstream line;
   line << "'" << PBGI_TEST_PYTHON << "' '" << (kSourceDir / "scripts" / "gen_large_scene.py").string()
-       << "' --kind assets --assets 2 --triangles " << triangles << " --seed " << seed << " --out '" << out.string()
-       << "' > /dev/null";
+       << "' --kind assets --assets " << assets << " --triangles " << triangles << " --seed " << seed << " --out '"
+       << out.string() << "' > /dev/null";
   const std::string command = line.str();
   if (std::system(command.c_str()) != 0) throw std::runtime_error("failed: " + command);
   return out;
@@ -169,6 +171,65 @@ TEST_F(DaemonMemoryBudget, TheWholeDaemonStaysWithinBudgetWhileScenesBuild) {
                          << " MiB\n"
                          << daemon->log();
   EXPECT_NE(daemon->log().find("unloading idle scene"), std::string::npos) << "idle scenes made room";
+}
+
+
+TEST_F(DaemonMemoryBudget, ASceneWhoseGeometryCannotFitIsRefusedWhileItIsRead) {
+  // 4M triangles: ~99 MiB of geometry (positions, indices, mesh and
+  // material ids), where 128 MiB less 16 + 16 MiB gives scenes 96 MiB.
+  // Charged as it is read, it is refused part-way; read whole first, the
+  // daemon held it twice over (read, stored, reloaded: ~250 MiB) before
+  // refusing it, past the bound below.
+  const fs::path big = generate_scene(tmp / "scenes", "huge", 4e6, 7, 8);
+  const uint64_t budget = 128 * kMiB;
+  auto daemon = start("128MiB", {"--request-memory", "16MiB", "--page-cache-floor", "16MiB"});
+  const uint64_t idle = proc_status_bytes(daemon->pid(), "VmRSS");
+  ASSERT_GT(idle, 0u);
+  client::PbgiClient client(daemon->address());
+  uint64_t sampled = 0;
+  {
+    RssSampler sampler(daemon->pid());
+    try {
+      client.open_scene(big.string(), coarse_build());
+      FAIL() << "a scene larger than the budget was opened\n" << daemon->log();
+    } catch (const client::RpcError& e) {
+      EXPECT_EQ(e.code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << e.what();
+      const std::string& message = e.server_message();
+      EXPECT_NE(message.find(big.string()), std::string::npos) << "names the scene: " << message;
+      EXPECT_NE(message.find("scene geometry being read"), std::string::npos) << "refused while read: " << message;
+      EXPECT_NE(message.find("MeshChunk of /World/Assets/A"), std::string::npos) << "names the prim: " << message;
+      EXPECT_NE(message.find("128.0 MiB"), std::string::npos) << "states the budget: " << message;
+    }
+    sampled = sampler.max();
+  }
+  const uint64_t peak = proc_status_bytes(daemon->pid(), "VmHWM");
+  const uint64_t bound = idle + budget + kSlack;
+  EXPECT_LE(peak, bound) << "peak RSS " << peak / kMiB << " MiB (sampled max " << sampled / kMiB
+                         << " MiB) over idle " << idle / kMiB << " MiB + budget " << budget / kMiB
+                         << " MiB + slack " << kSlack / kMiB << " MiB\n"
+                         << daemon->log();
+
+  // The refusal is counted; nothing of the read stays charged.
+  const v1::GetStatusResponse status = client.status();
+  ASSERT_TRUE(status.has_memory());
+  EXPECT_EQ(status.memory().budget_bytes(), budget);
+  EXPECT_GE(status.memory().refusals(), 1u);
+  EXPECT_EQ(status.memory().reading_bytes(), 0u);
+  EXPECT_EQ(status.memory().scenes_bytes(), 0u);
+  EXPECT_EQ(status.memory().builds_bytes(), 0u);
+
+  // Still serving: a scene that fits opens and gathers.
+  ASSERT_TRUE(daemon->running());
+  v1::BuildOptions small;
+  small.set_target_surfels(20000);
+  small.set_light_samples(4);
+  const v1::SceneInfo cornell = client.open_scene(kCornell.string(), small);
+  v1::GatherOptions gather;
+  gather.set_light_samples(4);
+  const auto out = client.gather(cornell.scene_id(), {{0, 1, 0}}, {{0, 1, 0}}, gather);
+  ASSERT_EQ(out.irradiance.size(), 1u);
+  EXPECT_TRUE(std::isfinite(out.irradiance[0].x));
+  EXPECT_GT(client.status().memory().scenes_bytes(), 0u) << "the open scene is charged";
 }
 
 }  // namespace

@@ -98,7 +98,14 @@ TEST(DaemonOperations, PrometheusEndpointCountsRequestsByRpcAndStatus) {
                            // The cache gets the 2 GiB budget less the 64 MiB request reserve
                            // (nothing is charged: the fake scene has no memory charge).
                            "pbgi_cache_hits_total 0\n", "pbgi_cache_budget_bytes 2080374784\n",
-                           "# TYPE pbgi_cache_read_bytes_total counter\n"}) {
+                           "# TYPE pbgi_cache_read_bytes_total counter\n",
+                           // The whole budget and who holds it (docs/memory-budget.md).
+                           "pbgi_memory_budget_bytes 2147483648\n", "pbgi_memory_request_reserve_bytes 67108864\n",
+                           "pbgi_memory_page_cache_floor_bytes 33554432\n",
+                           "pbgi_memory_charged_bytes{kind=\"scenes\"} 0\n",
+                           "pbgi_memory_charged_bytes{kind=\"reading\"} 0\n",
+                           "pbgi_memory_charged_bytes{kind=\"builds\"} 0\n", "# TYPE pbgi_memory_refusals_total counter\n",
+                           "pbgi_memory_refusals_total 0\n"}) {
     EXPECT_NE(metrics.find(line), std::string::npos) << "missing: " << line << metrics;
   }
   EXPECT_EQ(metrics.find("pbgi_resident_memory_bytes 0\n"), std::string::npos)

@@ -164,5 +164,45 @@ TEST(MemoryAccountant, ConcurrentChargesNeverPassTheBudget) {
   EXPECT_EQ(cache->budget(), 90 * kMiB);
 }
 
+
+TEST(MemoryAccountant, AChargeKeepsItsPartsByKindAndTheTotalsFollow) {
+  auto cache = std::make_shared<storage::PageCache>(0);
+  auto memory = MemoryAccountant::create(budget_of(100), cache);
+  {
+    // A scene read chunk by chunk, then open, then built.
+    MemoryCharge c = memory->charge("/s/a.usda", "scene being read", 0, ChargeKind::kRead);
+    for (uint64_t mib = 5; mib <= 20; mib += 5) c.resize(ChargeKind::kRead, mib * kMiB, "chunk");
+    EXPECT_EQ(memory->usage().charged[size_t(ChargeKind::kRead)], 20 * kMiB);
+    EXPECT_EQ(cache->budget(), 70 * kMiB);
+    c.reclassify(ChargeKind::kRead, ChargeKind::kScene);
+    EXPECT_EQ(c.bytes(ChargeKind::kRead), 0u);
+    EXPECT_EQ(c.bytes(ChargeKind::kScene), 20 * kMiB);
+    EXPECT_EQ(memory->charged(), 20 * kMiB) << "reclassifying moves bytes, it charges none";
+    c.resize(ChargeKind::kBuild, 15 * kMiB, "page-set build");
+    const MemoryUsage u = memory->usage();
+    EXPECT_EQ(u.charged[size_t(ChargeKind::kScene)], 20 * kMiB);
+    EXPECT_EQ(u.charged[size_t(ChargeKind::kRead)], 0u);
+    EXPECT_EQ(u.charged[size_t(ChargeKind::kBuild)], 15 * kMiB);
+    EXPECT_EQ(u.charged_total(), 35 * kMiB);
+    EXPECT_EQ(u.cache_budget, 55 * kMiB);
+    EXPECT_EQ(c.bytes(), 35 * kMiB);
+    // A growth of one part is refused against the whole charge: 36 MiB more
+    // would make 71 of the 70 scenes may hold.
+    try {
+      c.resize(ChargeKind::kBuild, 51 * kMiB, "page-set build");
+      FAIL() << "charged past the budget";
+    } catch (const ResourceExhausted& e) {
+      EXPECT_NE(std::string(e.what()).find("35.0 MiB held"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(c.bytes(ChargeKind::kBuild), 15 * kMiB) << "a refused growth leaves the charge as it was";
+    EXPECT_EQ(memory->usage().refusals, 1u);
+    c.resize(ChargeKind::kBuild, 0, "page-set build");
+    EXPECT_EQ(memory->usage().charged[size_t(ChargeKind::kBuild)], 0u);
+  }
+  const MemoryUsage after = memory->usage();
+  EXPECT_EQ(after.charged_total(), 0u) << "every part released with the charge";
+  EXPECT_EQ(after.cache_budget, 90 * kMiB);
+}
+
 }  // namespace
 }  // namespace pbgi

@@ -564,10 +564,81 @@ TEST(ChunkStore, OtherLayoutsAndVersionsAreRefusedAndRemoved) {
   store.save(key, flips_scene());
   std::string entry = file_bytes(store.entry_path(key));
   ASSERT_EQ(entry.substr(0, 4), "PBGS");
-  entry[4] = 5;  // format version 5 (little-endian u32 at offset 4)
-  std::ofstream(store.entry_path(key), std::ios::binary | std::ios::trunc) << entry;
-  EXPECT_FALSE(store.load(key).has_value());
-  EXPECT_FALSE(store.contains(key));
+  // Format 4 (no SceneSize) and an unknown 6 (little-endian u32 at offset 4).
+  for (const char version : {4, 6}) {
+    store.save(key, flips_scene());
+    std::string entry = file_bytes(store.entry_path(key));
+    ASSERT_EQ(entry.substr(0, 4), "PBGS");
+    ASSERT_EQ(entry[4], 5) << "entries are written in format 5";
+    entry[4] = version;
+    std::ofstream(store.entry_path(key), std::ios::binary | std::ios::trunc) << entry;
+    EXPECT_FALSE(store.load(key).has_value()) << "version " << int(version);
+    EXPECT_FALSE(store.contains(key));
+  }
+}
+
+// Format 5: the entry's SceneHeader states the decoded geometry, so a
+// reopen is charged whole before its first chunk (a scene that cannot fit
+// is refused before anything is decoded) and its arrays are sized once,
+// exactly, instead of growing to up to twice their size.
+TEST(ChunkStore, AReopenIsChargedUpFrontAndItsArraysSizedExactly) {
+  ChunkStoreOptions store_options;
+  store_options.directory = temp_dir() / "stated";
+  const ChunkStore store(store_options);
+  const std::string key = store.key("stated", IngestOptions{});
+  Scene scene = flips_scene();
+  // A mesh of many chunks beside the small ones.
+  TriangleSoup& t = scene.triangles;
+  for (int i = 0; i < 3000; ++i) {
+    const uint32_t base = uint32_t(t.positions.size());
+    const float x = float(i % 60), y = float(i / 60);
+    for (const V3f& p : {V3f(x, y, 2), V3f(x + 1, y, 2), V3f(x, y + 1, 2)}) {
+      t.positions.push_back(p);
+      t.normals.push_back(V3f(0, 0, 1));
+      t.uvs.push_back(V2f(x / 60, y / 60));
+    }
+    t.indices.insert(t.indices.end(), {base, base + 1, base + 2});
+    t.material.push_back(0);
+    t.mesh.push_back(0);
+  }
+  store_options.max_triangles_per_chunk = 500;
+  const ChunkStore small_chunks(store_options);
+  small_chunks.save(key, scene);
+
+  std::vector<uint64_t> told;
+  const std::optional<Scene> loaded =
+      small_chunks.load(key, {}, {}, [&](uint64_t bytes, const std::string&) { told.push_back(bytes); });
+  ASSERT_TRUE(loaded.has_value());
+  ASSERT_EQ(loaded->triangles.triangle_count(), scene.triangles.triangle_count());
+  ASSERT_FALSE(told.empty());
+  EXPECT_GE(told.front(), loaded->geometry_bytes() - 64 * 1024) << "charged up front (mesh path strings apart)";
+  EXPECT_EQ(told.back(), loaded->geometry_bytes());
+  const TriangleSoup& w = loaded->triangles;
+  EXPECT_EQ(w.positions.capacity(), w.positions.size());
+  EXPECT_EQ(w.normals.capacity(), w.normals.size());
+  EXPECT_EQ(w.uvs.capacity(), w.uvs.size());
+  EXPECT_EQ(w.indices.capacity(), w.indices.size());
+  EXPECT_EQ(w.mesh.capacity(), w.mesh.size());
+  EXPECT_EQ(w.material.capacity(), w.material.size());
+  const TriangleSoup& p = loaded->prototypes.at(0).triangles;
+  EXPECT_EQ(p.positions.capacity(), p.positions.size());
+  EXPECT_EQ(p.indices.capacity(), p.indices.size());
+  EXPECT_EQ(loaded->instances.capacity(), loaded->instances.size());
+
+  // Refused at the header: nothing decoded, the whole size named.
+  size_t calls = 0;
+  try {
+    small_chunks.load(key, {}, {}, [&](uint64_t bytes, const std::string& what) {
+      ++calls;
+      if (bytes > 1024) throw ResourceExhausted(what);
+    });
+    FAIL() << "loaded past the limit";
+  } catch (const ResourceExhausted& e) {
+    EXPECT_NE(std::string(e.what()).find("frame 0"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("SceneHeader stating the geometry"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(calls, 1u) << "the first thing told is the whole geometry";
+  EXPECT_TRUE(small_chunks.contains(key)) << "a refusal is not damage: the entry stays";
 }
 
 // The flip the issue measured in pixels (a material colour), through the

@@ -6,12 +6,14 @@
 #include "common/errors.h"
 #include "pbgi/v1/scene.pb.h"
 #include "server/ingest/scene_stream_decoder.h"
+#include "server/ingest/soup_growth.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <thread>
@@ -422,6 +424,131 @@ TEST(SceneStreamDecoder, InstancesPlacedBeyondTheLimitAreSkipped) {
                           }),
             1)
       << ::testing::PrintToString(s.warnings);
+}
+
+
+// ---- Memory (scene_read_memory.h): the geometry is told as it grows.
+
+// A grid mesh of `n` x `n` quads as one chunk, optionally with normals and uvs.
+SceneChunk grid_chunk(const std::string& prim, int n, bool normals, bool uvs, uint32_t prototype = 0) {
+  std::vector<float> p, nn, st;
+  std::vector<uint32_t> idx;
+  for (int y = 0; y <= n; ++y)
+    for (int x = 0; x <= n; ++x) {
+      p.insert(p.end(), {float(x), float(y), 0.f});
+      nn.insert(nn.end(), {0.f, 0.f, 1.f});
+      st.insert(st.end(), {float(x) / float(n), float(y) / float(n)});
+    }
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const uint32_t a = uint32_t(y * (n + 1) + x), b = a + 1, c = a + uint32_t(n + 1), d = c + 1;
+      idx.insert(idx.end(), {a, b, d, a, d, c});
+    }
+  SceneChunk c;
+  auto* m = c.mutable_mesh();
+  m->set_prim_path(prim);
+  m->set_positions(bytes(p));
+  if (normals) m->set_normals(bytes(nn));
+  if (uvs) m->set_uvs(bytes(st));
+  m->set_indices(bytes(idx));
+  m->set_prototype_id(prototype);
+  return c;
+}
+
+// World meshes with and without normals and uvs, a prototype and its
+// instances: every kind of growth the decoder has.
+std::string growing_stream(int meshes) {
+  std::string data = frame(header_chunk()) + frame(material_chunk(0, .5f, .5f, .5f));
+  uint64_t chunks = 2, triangles = 0;
+  for (int i = 0; i < meshes; ++i) {
+    data += frame(grid_chunk("/Mesh" + std::to_string(i), 20, i % 3 != 0, i % 4 == 1));
+    ++chunks;
+    triangles += 800;
+  }
+  data += frame(prototype_chunk(3, "/Proto")) + frame(grid_chunk("/Proto/Grid", 10, true, false, 3));
+  std::vector<float> xs;
+  for (int i = 0; i < 500; ++i) xs.push_back(float(i));
+  data += frame(instances_chunk(3, translations(xs)));
+  return data + frame(end_chunk(chunks + 3, triangles + 200));
+}
+
+// From a file (not a pipe: a refused read leaves the rest unread).
+Scene decode_with_memory(const std::string& data, const SceneReadMemory& memory) {
+  std::FILE* file = std::tmpfile();
+  EXPECT_NE(file, nullptr);
+  struct Closer {
+    std::FILE* f;
+    ~Closer() { std::fclose(f); }
+  } closer{file};
+  EXPECT_EQ(std::fwrite(data.data(), 1, data.size(), file), data.size());
+  std::fflush(file);
+  EXPECT_EQ(lseek(fileno(file), 0, SEEK_SET), 0);
+  SceneStreamDecoder decoder("test-stream");
+  decoder.set_memory(memory);
+  return decoder.decode(fileno(file));
+}
+
+TEST(SceneReadMemory, AGrowthPeaksAtOneNewBufferBesideTheRest) {
+  TriangleSoup soup;
+  soup.positions.reserve(100);  // 1200 bytes
+  soup.indices.reserve(300);    // 1200 bytes
+  SoupSizes n;
+  n.vertices = 101;  // grows by half: 150 positions, 1800 bytes
+  n.indices = 300;   // fits
+  const uint64_t now = array_bytes(soup);
+  EXPECT_EQ(now, 2400u);
+  EXPECT_EQ(growth_peak(soup, n, now), 2400u + 1800u) << "the old positions beside the new";
+  n.indices = 301;  // grows too, after positions: 450 indices, 1800 bytes
+  EXPECT_EQ(growth_peak(soup, n, now), 1800u + 1200u + 1800u) << "new positions, old and new indices";
+  grow_to(soup, n);
+  EXPECT_EQ(soup.positions.capacity(), 150u);
+  EXPECT_EQ(soup.indices.capacity(), 450u);
+  EXPECT_EQ(growth_peak(soup, n, array_bytes(soup)), 0u) << "nothing grows";
+}
+
+TEST(SceneReadMemory, TheGeometryIsToldChunkByChunkAndLastAsTheSceneHoldsIt) {
+  std::vector<uint64_t> told;
+  const Scene scene = decode_with_memory(growing_stream(40), [&](uint64_t bytes, const std::string&) {
+    told.push_back(bytes);
+  });
+  ASSERT_EQ(scene.triangles.triangle_count(), 40u * 800u);
+  ASSERT_EQ(scene.instances.size(), 500u);
+  ASSERT_FALSE(told.empty());
+  EXPECT_EQ(told.back(), scene.geometry_bytes()) << "the last value is what the scene holds";
+  // Told as it grows, not once at the end: the values before the last
+  // climb through the read.
+  size_t rises = 0;
+  for (size_t i = 1; i < told.size(); ++i) rises += told[i] > told[i - 1];
+  EXPECT_GE(rises, 10u);
+  // Before each growth the new buffers are told beside the old ones: the
+  // largest value is at least what the scene ends with.
+  EXPECT_GE(*std::max_element(told.begin(), told.end()), scene.geometry_bytes());
+}
+
+TEST(SceneReadMemory, AGrowthThatIsRefusedStopsTheReadNamingFrameAndPrim) {
+  // The scene needs several times this: the refusal comes mid-stream.
+  uint64_t full = 0;
+  decode_with_memory(growing_stream(40), [&](uint64_t bytes, const std::string&) { full = std::max(full, bytes); });
+  const uint64_t limit = full / 4;
+  uint64_t held = 0;
+  try {
+    decode_with_memory(growing_stream(40), [&](uint64_t bytes, const std::string& what) {
+      if (bytes > limit) throw ResourceExhausted("refused: " + what);
+      held = bytes;
+    });
+    FAIL() << "a read past the limit was not stopped";
+  } catch (const ResourceExhausted& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("scene geometry being read: frame "), std::string::npos) << what;
+    EXPECT_NE(what.find("MeshChunk of /Mesh"), std::string::npos) << "names the prim: " << what;
+    EXPECT_NE(what.find("byte offset"), std::string::npos) << what;
+  }
+  EXPECT_LE(held, limit);
+  EXPECT_GT(held, 0u) << "refused after some chunks fitted, not at the first";
+  // Given what the whole read needs at its largest, the same stream reads.
+  EXPECT_NO_THROW(decode_with_memory(growing_stream(40), [&](uint64_t bytes, const std::string&) {
+    if (bytes > full) throw ResourceExhausted("refused");
+  }));
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include "server/service/pbgi_service.h"
 
 #include "common/errors.h"
+#include "server/service/prometheus_text.h"
 #include "tests/server/service/fake_sessions.h"
 #include "tests/server/service/temp_dir.h"
 
@@ -505,6 +506,55 @@ TEST_F(PbgiServiceTest, GatherReturnsBentNormalsWhenAsked) {
     EXPECT_NEAR(b.length(), 1.f, 1e-4f) << "receiver " << i;
     EXPECT_GT(b.z, 0.f) << "receiver " << i;  // in the receiver's hemisphere
   }
+}
+
+// GetStatus reports the daemon's memory budget and who holds it: the
+// accountant's charges by kind, the reserve, the floor and the refusals.
+TEST(PbgiServiceStatus, ReportsTheMemoryBudgetAndItsChargesByKind) {
+  constexpr uint64_t kMiB = uint64_t(1) << 20;
+  auto cache = std::make_shared<storage::PageCache>(0);
+  auto memory = MemoryAccountant::create({100 * kMiB, 10 * kMiB, 20 * kMiB}, cache);
+  auto registry = std::make_shared<SceneRegistry>(
+      [](const fs::path& path, const OpenOptions&, const StageSelection&, const StageProgress&,
+         const std::function<bool()>&) { return testing::fake_session(path.string(), "id"); });
+  ServiceRuntime runtime;
+  runtime.cache = cache;
+  runtime.memory = memory;
+  const PbgiService service(ServiceOptions{}, SceneRoots({}), registry, runtime);
+
+  MemoryCharge open = memory->charge("/s/open.usda", "geometry", 30 * kMiB);
+  MemoryCharge read = memory->charge("/s/read.usda", "scene being read", 5 * kMiB, ChargeKind::kRead);
+  open.resize(ChargeKind::kBuild, 7 * kMiB, "page-set build");
+  EXPECT_THROW(memory->charge("/s/huge.usda", "geometry", 71 * kMiB), ResourceExhausted);
+
+  const v1::GetStatusResponse status = service.status();
+  ASSERT_TRUE(status.has_memory());
+  const v1::MemoryStatus& m = status.memory();
+  EXPECT_EQ(m.budget_bytes(), 100 * kMiB);
+  EXPECT_EQ(m.request_reserve_bytes(), 10 * kMiB);
+  EXPECT_EQ(m.page_cache_floor_bytes(), 20 * kMiB);
+  EXPECT_EQ(m.scenes_bytes(), 30 * kMiB);
+  EXPECT_EQ(m.reading_bytes(), 5 * kMiB);
+  EXPECT_EQ(m.builds_bytes(), 7 * kMiB);
+  EXPECT_EQ(m.refusals(), 1u);
+  EXPECT_EQ(status.cache().budget_bytes(), (100 - 10 - 30 - 5 - 7) * kMiB) << "the page cache gets the rest";
+
+  // The metrics say the same.
+  const std::string text = prometheus_text(status, {});
+  for (const std::string& line :
+       {"pbgi_memory_budget_bytes " + std::to_string(100 * kMiB) + "\n",
+        "pbgi_memory_charged_bytes{kind=\"scenes\"} " + std::to_string(30 * kMiB) + "\n",
+        "pbgi_memory_charged_bytes{kind=\"reading\"} " + std::to_string(5 * kMiB) + "\n",
+        "pbgi_memory_charged_bytes{kind=\"builds\"} " + std::to_string(7 * kMiB) + "\n",
+        std::string("pbgi_memory_refusals_total 1\n")}) {
+    EXPECT_NE(text.find(line), std::string::npos) << "missing: " << line << text;
+  }
+
+  // A read that becomes an open scene moves its bytes, the total unchanged.
+  read.reclassify(ChargeKind::kRead, ChargeKind::kScene);
+  EXPECT_EQ(service.status().memory().reading_bytes(), 0u);
+  EXPECT_EQ(service.status().memory().scenes_bytes(), 35 * kMiB);
+  EXPECT_EQ(service.status().cache().budget_bytes(), 48 * kMiB);
 }
 
 TEST_F(PbgiServiceTest, UnloadSceneAndStatus) {
