@@ -115,8 +115,8 @@ inline float luminance(const Imath::C3f& c) {
 
 // Starts loading a node's traversal line and its look (page_views.h).
 inline void prefetch(const PageView& view, uint32_t index) {
-  __builtin_prefetch(&view.nodes[index]);
-  __builtin_prefetch(&view.looks[index]);
+  __builtin_prefetch(view.node_data() + index);
+  __builtin_prefetch(view.looks + index);
 }
 
 }  // namespace
@@ -164,18 +164,32 @@ void CutWalker::push_root() {
   const tree::Page* page = nullptr;
   const PageView* view = nullptr;
   const uint32_t pin = pins_.acquire(root.page, page, view);
-  if (root.index >= view->nodes.size()) {
+  if (root.index >= view->node_count) {
     pins_.release(pin);
     throw CorruptionError("tree root: page " + std::to_string(root.page) + " has no node " +
                           std::to_string(root.index));
   }
   if (hdr_threshold_ < 0.f) {
     // The scene's mean radiance: the root's area-weighted mean (DC ratio).
-    const tree::Node& n = page->nodes[root.index];
-    const float c0 = n.coverage_sh[0];
-    const float mean = c0 > 0.f ? luminance(Imath::C3f(n.radiance_sh.r[0], n.radiance_sh.g[0],
-                                                       n.radiance_sh.b[0])) / c0
-                                : 0.f;
+    // The view keeps node 0's DC terms (a page's node 0 is its treelet's
+    // root, pre-order); a root elsewhere is read from its node.
+    float dc[4] = {0.f, 0.f, 0.f, 0.f};
+    if (root.index == 0) {
+      std::copy(view->cold->node0_dc, view->cold->node0_dc + 4, dc);
+    } else {
+      const tree::Node* full = view->full_node(root.index);
+      if (!full && root.index < page->nodes.size()) full = &page->nodes[root.index];
+      if (!full) {
+        pins_.release(pin);
+        throw CorruptionError("tree root: page " + std::to_string(root.page) + " node " + std::to_string(root.index) +
+                              " has no payload");
+      }
+      dc[0] = full->radiance_sh.r[0];
+      dc[1] = full->radiance_sh.g[0];
+      dc[2] = full->radiance_sh.b[0];
+      dc[3] = full->coverage_sh[0];
+    }
+    const float mean = dc[3] > 0.f ? luminance(Imath::C3f(dc[0], dc[1], dc[2])) / dc[3] : 0.f;
     hdr_threshold_ = options_.hdr_refine > 0.f && mean > 0.f && std::isfinite(mean)
                          ? options_.hdr_refine * kPi * mean
                          : std::numeric_limits<float>::infinity();
@@ -244,12 +258,12 @@ void CutWalker::push_children(const StackEntry& parent, const HotNode& h) {
     } else {
       const tree::Page* child_page = nullptr;
       pin = pins_.acquire(ref.page, child_page, child_view);
-      if (ref.index >= child_view->nodes.size()) {
+      if (ref.index >= child_view->node_count) {
         pins_.release(pin);
         throw CorruptionError("tree page " + std::to_string(view.id) + " node " +
                               std::to_string(parent.index) + ": child link to page " +
                               std::to_string(ref.page) + " node " + std::to_string(ref.index) +
-                              " is out of range (" + std::to_string(child_view->nodes.size()) +
+                              " is out of range (" + std::to_string(child_view->node_count) +
                               " nodes)");
       }
     }
@@ -261,6 +275,27 @@ void CutWalker::push_children(const StackEntry& parent, const HotNode& h) {
     throw CorruptionError("tree page " + std::to_string(view.id) + ": traversal stack exceeds " +
                           std::to_string(kMaxStack) + " entries (cyclic child links?)");
   }
+}
+
+const HotNode& CutWalker::resolve(StackEntry& e) {
+  const HotNode& h = e.view->node_data()[e.index];
+  if (!h.proxy()) return h;
+  const tree::NodeRef ref = h.children[0];
+  const PageView* view = nullptr;
+  const uint32_t pin = pins_.acquire(ref.page, view);
+  // The node's address needs no load (PageView::node_data): its line is on
+  // its way while the header's page_nodes is read (node 0, the usual
+  // target, shares the header's pair of lines).
+  __builtin_prefetch(view->node_data() + ref.index);
+  if (ref.index >= view->page_nodes) {
+    pins_.release(pin);
+    throw CorruptionError("tree page " + std::to_string(e.view->id) + " node " + std::to_string(e.index) +
+                          ": linked child page " + std::to_string(ref.page) + " has no node " +
+                          std::to_string(ref.index));
+  }
+  pins_.release(e.pin);
+  e = {view, ref.index, pin};
+  return view->node_data()[ref.index];
 }
 
 bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V3f& v, float d2,
@@ -318,7 +353,12 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
     const bool small = disk < kWideRefineFraction * cut_ * d2;
     if (!small && (!(h.cone_cos > 0.f) || (cos_phi < 0.f && cos_far < -kStraddleCos))) return false;
     straddles = cos_far < 0.f;
-    const tree::Node& node = pins_.page(e.pin).nodes[e.index];
+    const tree::Node* full = e.view->full_node(e.index);  // kept for every wide, non-bipolar node
+    if (!full) {
+      throw CorruptionError("tree page " + std::to_string(e.view->id) + " node " + std::to_string(e.index) +
+                            ": wide node without its payload");
+    }
+    const tree::Node& node = *full;
     Appearance look;
     if (!node_appearance(node, -dir, look)) return true;
     shape.omega = std::min(node.area * look.coverage, disk) / d2;
@@ -418,10 +458,10 @@ void CutWalker::walk(const CutOf& cut_of) {
   const DiscardQueuedOnThrow discard{raster_};
   uint64_t visited = 0;
   while (!stack_.empty()) {
-    const StackEntry e = stack_.back();
+    StackEntry e = stack_.back();
     stack_.pop_back();
     if (!stack_.empty()) prefetch(*stack_.back().view, stack_.back().index);
-    const HotNode& h = e.view->nodes[e.index];
+    const HotNode& h = e.view->node_data()[e.index];
     ++visited;
     const Imath::V3f v(h.cx - p_.x, h.cy - p_.y, h.cz - p_.z);
     const float d2 = v.length2();
@@ -435,10 +475,11 @@ void CutWalker::walk(const CutOf& cut_of) {
           done = splat_node(e, h, v, d2, nullptr);
         }
         if (!done) {
-          if (!h.leaf()) {
-            push_children(e, h);
+          const HotNode& open = resolve(e);  // loads a proxy's page
+          if (!open.leaf()) {
+            push_children(e, open);
           } else {
-            leaf_surfels(e, pins_.page(e.pin), h);
+            leaf_surfels(e, pins_.page(e.pin), open);
           }
         }
       }
@@ -477,10 +518,10 @@ void CutWalker::walk_cluster_stack(const ClusterFrame& c, float eps, bool open_n
   const float omega_max = cut_;
   uint64_t visited = 0;
   while (!stack_.empty()) {
-    const StackEntry e = stack_.back();
+    StackEntry e = stack_.back();
     stack_.pop_back();
     if (!stack_.empty()) prefetch(*stack_.back().view, stack_.back().index);
-    const HotNode& h = e.view->nodes[e.index];
+    const HotNode& h = e.view->node_data()[e.index];
     ++visited;
     const Imath::V3f v(h.cx - c.p.x, h.cy - c.p.y, h.cz - c.p.z);
     const float d2 = v.length2();
@@ -498,9 +539,12 @@ void CutWalker::walk_cluster_stack(const ClusterFrame& c, float eps, bool open_n
       // be shared instead of each member drawing them.
       const float farthest = std::sqrt(d2) + c.radius;
       if (open_near && !h.leaf() && kPi * h.radius * h.radius > omega_max * farthest * farthest) {
-        push_children(e, h);
-        pins_.release(e.pin);
-        continue;
+        const HotNode& open = resolve(e);  // loads a proxy's page
+        if (!open.leaf()) {
+          push_children(e, open);
+          pins_.release(e.pin);
+          continue;
+        }
       }
       near.push_back(e);
       continue;
@@ -511,11 +555,12 @@ void CutWalker::walk_cluster_stack(const ClusterFrame& c, float eps, bool open_n
       pins_.release(e.pin);
       continue;
     }
-    if (h.leaf()) {
+    const HotNode& open = resolve(e);  // loads a proxy's page
+    if (open.leaf()) {
       near.push_back(e);  // surfels one by one: per receiver
       continue;
     }
-    push_children(e, h);
+    push_children(e, open);
     pins_.release(e.pin);
   }
   raster_.flush();

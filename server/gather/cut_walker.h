@@ -107,6 +107,11 @@ class CutWalker {
   bool culled_for_cluster(const HotNode& h, const Imath::V3f& v, float d2,
                           const ClusterFrame& c) const;
   void push_children(const StackEntry& parent, const HotNode& h);
+  // The node to open for `e`: its own, or for a proxy (HotNode::kProxy)
+  // the child it stands for, whose page is pinned (the proxy's pin
+  // reference moves to it, `e` is updated). Throws what PagePins::acquire
+  // throws, CorruptionError for a link to a missing node.
+  const HotNode& resolve(StackEntry& e);
   // walk_cluster() on whatever the stack holds; `open_near`: near nodes
   // every member would refine are opened rather than handed back.
   void walk_cluster_stack(const ClusterFrame& c, float epsilon, bool open_near, FarBuffer& far,

@@ -11,7 +11,9 @@
 //     content and convolved with the member's cosine lobe; a glossy member
 //     also with its GGX lobe (the coarse pixels, far content included),
 //     and its refined pixels are gathered on their own (glossy_gather.h).
-// The cluster's pages stay pinned while its members are gathered.
+// The batch's pages stay pinned from one cluster to the next (up to a
+// bound, factorized_gather.cpp), so that neighbouring clusters fetch the
+// pages they share once.
 //
 // Thread-safety: none; one per Gatherer.
 #pragma once

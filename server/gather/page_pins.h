@@ -30,16 +30,20 @@ namespace pbgi::gather {
 class PagePins {
  public:
   PagePins(const tree::TreeSource& tree, PageViews& views)
-      : tree_(tree), views_(views), index_(64, kNone) {}
+      : tree_(tree), views_(views), index_(64, Bucket{}) {}
 
   // Adds a reference to page `id`, fetching it if it is not pinned. Returns
-  // the slot to pass to release(); `page` receives the page and `view` its
-  // traversal view. Throws what the TreeSource throws, CorruptionError if
+  // the slot to pass to release(); `view` receives the page's traversal
+  // view. A pinned page costs one line of the index (its id, slot and
+  // view) and a write to its slot: opening a linked child in a page pinned
+  // already (every few nodes, with pages of a few levels) waits for one
+  // line, then for the view's header and node 0, which share a pair
+  // (page_views.h). Throws what the TreeSource throws, CorruptionError if
   // it returns no or another page, or if the view finds broken links.
-  uint32_t acquire(uint32_t id, const tree::Page*& page, const PageView*& view) {
-    const uint32_t s = slot_of(id);
-    Slot& slot = slots_[s];
-    if (!slot.page) {
+  uint32_t acquire(uint32_t id, const PageView*& view) {
+    Bucket& b = bucket_of(id);
+    Slot& slot = slots_[b.slot];
+    if (!b.view) {
       tree::PagePtr p = tree_.page(id);
       ++fetches_;
       if (!p)
@@ -50,11 +54,18 @@ class PagePins {
       }
       slot.view = &views_.get(*p);
       slot.page = std::move(p);
+      b.view = slot.view;
       ++pinned_;
     }
     ++slot.refs;
-    page = slot.page.get();
-    view = slot.view;
+    slot.touched = epoch_;
+    view = b.view;
+    return b.slot;
+  }
+  // The same, with the page.
+  uint32_t acquire(uint32_t id, const tree::Page*& page, const PageView*& view) {
+    const uint32_t s = acquire(id, view);
+    page = slots_[s].page.get();
     return s;
   }
 
@@ -71,6 +82,7 @@ class PagePins {
     Slot& slot = slots_[s];
     if (--slot.refs == 0 && !hold_) {
       slot.page.reset();
+      index_[slot.bucket].view = nullptr;
       --pinned_;
     }
   }
@@ -78,9 +90,39 @@ class PagePins {
   // Unpins everything and forgets all slots (between receivers, and after
   // an exception left references behind).
   void clear() {
-    for (const Slot& slot : slots_) index_[slot.bucket] = kNone;
+    for (const Slot& slot : slots_) index_[slot.bucket] = Bucket{};
     slots_.clear();
     pinned_ = 0;
+    ++epoch_;
+  }
+
+  // Between the runs of a batch that holds its pages (no references left):
+  // unpins the pages not acquired since the previous keep_recent() or
+  // clear(), keeps the others pinned (a run's pages are mostly the next
+  // run's), unless they are more than `max_kept`: then clears. So a batch
+  // holds at most the pages of two runs, and fetches again only what the
+  // previous run did not use (a 2M-surfel city with pages of a few levels:
+  // each FPBGI cluster touched ~5000 pages, more than the batch's bound,
+  // and fetched them all again from the page cache).
+  void keep_recent(size_t max_kept) {
+    size_t kept = 0;
+    for (const Slot& slot : slots_) kept += slot.page && slot.touched == epoch_;
+    if (kept > max_kept) {
+      clear();
+      return;
+    }
+    std::vector<Slot> old;
+    old.swap(slots_);
+    std::fill(index_.begin(), index_.end(), Bucket{});
+    pinned_ = 0;
+    for (Slot& slot : old) {
+      if (!slot.page || slot.touched != epoch_) continue;
+      slot.refs = 0;
+      slots_.push_back(std::move(slot));
+      place(uint32_t(slots_.size() - 1));
+      ++pinned_;
+    }
+    ++epoch_;
   }
 
   // While holding, pages stay pinned until clear() even without references:
@@ -98,51 +140,65 @@ class PagePins {
 
  private:
   static constexpr uint32_t kNone = ~0u;
+  // An entry of the open-addressing index: what acquire() reads of a
+  // pinned page, in one 16-byte cell.
+  struct Bucket {
+    uint32_t id = 0;
+    uint32_t slot = kNone;          // kNone: empty
+    const PageView* view = nullptr;  // null while the slot's page is not pinned
+  };
   struct Slot {
     uint32_t id = 0;
     uint32_t refs = 0;
-    uint32_t bucket = 0;  // its position in index_
-    tree::PagePtr page;   // null when released
+    uint32_t bucket = 0;   // its position in index_
+    uint32_t touched = 0;  // epoch_ of its last acquire()
+    tree::PagePtr page;    // null when released
     const PageView* view = nullptr;
   };
   static size_t hash(uint32_t id) { return size_t(id) * 0x9E3779B1u; }
 
-  // The slot of page `id`, created (released, no references) if new.
-  uint32_t slot_of(uint32_t id) {
+  // The bucket of page `id`, with a new slot (released, no references) if
+  // the page has none.
+  Bucket& bucket_of(uint32_t id) {
     size_t mask = index_.size() - 1;
     size_t b = hash(id) & mask;
-    for (; index_[b] != kNone; b = (b + 1) & mask) {
-      if (slots_[index_[b]].id == id) return index_[b];
+    for (; index_[b].slot != kNone; b = (b + 1) & mask) {
+      if (index_[b].id == id) return index_[b];
     }
     if (2 * (slots_.size() + 1) > index_.size()) {
       rehash(2 * index_.size());
       mask = index_.size() - 1;
       b = hash(id) & mask;
-      while (index_[b] != kNone) b = (b + 1) & mask;
+      while (index_[b].slot != kNone) b = (b + 1) & mask;
     }
     const uint32_t s = uint32_t(slots_.size());
-    slots_.push_back({id, 0, uint32_t(b), nullptr, nullptr});
-    index_[b] = s;
-    return s;
+    slots_.push_back({id, 0, uint32_t(b), epoch_, nullptr, nullptr});
+    index_[b] = {id, s, nullptr};
+    return index_[b];
+  }
+
+  // Enters slot `s` in the index.
+  void place(uint32_t s) {
+    Slot& slot = slots_[s];
+    const size_t mask = index_.size() - 1;
+    size_t b = hash(slot.id) & mask;
+    while (index_[b].slot != kNone) b = (b + 1) & mask;
+    index_[b] = {slot.id, s, slot.page ? slot.view : nullptr};
+    slot.bucket = uint32_t(b);
   }
 
   void rehash(size_t size) {
-    index_.assign(size, kNone);
-    const size_t mask = size - 1;
-    for (uint32_t s = 0; s < slots_.size(); ++s) {
-      size_t b = hash(slots_[s].id) & mask;
-      while (index_[b] != kNone) b = (b + 1) & mask;
-      index_[b] = s;
-      slots_[s].bucket = uint32_t(b);
-    }
+    index_.assign(size, Bucket{});
+    for (uint32_t s = 0; s < slots_.size(); ++s) place(s);
   }
 
   const tree::TreeSource& tree_;
   PageViews& views_;
   std::vector<Slot> slots_;
-  std::vector<uint32_t> index_;
+  std::vector<Bucket> index_;
   size_t pinned_ = 0;
   uint64_t fetches_ = 0;
+  uint32_t epoch_ = 0;  // advanced by clear() and keep_recent()
   bool hold_ = false;
 };
 

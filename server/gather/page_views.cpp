@@ -3,6 +3,9 @@
 #include "common/errors.h"
 
 #include <algorithm>
+#include <memory>
+#include <new>
+#include <type_traits>
 #include <cmath>
 #include <string>
 
@@ -20,102 +23,210 @@ std::string where(const tree::Page& page, size_t node) {
 
 }  // namespace
 
-PageView::PageView(const tree::Page& page)
-    : id(page.id), glossy(page.glossy), surfel_count(page.surfels.size()) {
-  nodes.resize(page.nodes.size());
-  looks.resize(page.nodes.size());
-  for (size_t i = 0; i < page.nodes.size(); ++i) {
-    const tree::Node& n = page.nodes[i];
-    HotNode& h = nodes[i];
-    h.cx = n.center.x;
-    h.cy = n.center.y;
-    h.cz = n.center.z;
-    h.radius = n.radius;
-    h.ax = n.cone_axis.x;
-    h.ay = n.cone_axis.y;
-    h.az = n.cone_axis.z;
-    const bool cone = n.cone_cos > -1.f;  // also false for NaN
-    h.cone_cos = cone ? std::min(n.cone_cos, 1.f) : -2.f;
-    h.cone_sin = cone ? std::sqrt(std::max(0.f, 1.f - h.cone_cos * h.cone_cos)) : 1.f;
-    // angle(axis, n) + beta < kCoplanarAngle  <=>  dot(axis, n) > cos(kCoplanarAngle - beta)
-    //   = cos(kCoplanarAngle) cos(beta) + sin(kCoplanarAngle) sin(beta).
-    const float cos_c = std::cos(kCoplanarAngle), sin_c = std::sin(kCoplanarAngle);
-    h.coplanar_cos = cone && h.cone_cos > cos_c ? cos_c * h.cone_cos + sin_c * h.cone_sin : 2.f;
+namespace {
 
-    uint32_t flags = 0;
-    NodeLook& look = looks[i];
-    look = NodeLook{0.f, 0.f, 0.f, n.area, 0.f, 0.f, 0.f, 0.f, FanCone{}};
-    if (n.cone_cos >= kNarrowConeCos) {
-      // The flat model of node_appearance(): DC ratio and the cone's fan.
-      flags |= HotNode::kNarrow;
-      const float c0 = n.coverage_sh[0];
-      if (c0 > 0.f) {
-        const float inv = 1.f / c0;
-        const Imath::C3f L(std::max(0.f, n.radiance_sh.r[0] * inv),
-                           std::max(0.f, n.radiance_sh.g[0] * inv),
-                           std::max(0.f, n.radiance_sh.b[0] * inv));
-        if (std::isfinite(L.x) && std::isfinite(L.y) && std::isfinite(L.z)) {
-          look.r = L.x;
-          look.g = L.y;
-          look.b = L.z;
-          look.fan = fan_cone(n.cone_cos);
-          const Imath::V3f m = mean_normal(n);
-          look.mx = m.x;
-          look.my = m.y;
-          look.mz = m.z;
-        } else {
-          look.area = 0.f;  // shows nothing
-        }
+// What build() derives from a page before it lays the view out in one
+// allocation.
+struct ViewParts {
+  std::vector<HotNode> nodes;
+  std::vector<NodeLook> looks;
+  std::vector<tree::Node> full;
+  std::vector<Bipolar> bipolar;
+  std::vector<uint32_t> bipolar_index;
+  float node0_dc[4] = {0.f, 0.f, 0.f, 0.f};
+
+  // Fills nodes[i] and looks[i] (and the bipolar or full entry) from `n`;
+  // returns the HotNode flags.
+  uint32_t describe(const tree::Node& n, size_t i, const storage::GlossyNodes* glossy, size_t page_nodes);
+};
+
+uint32_t ViewParts::describe(const tree::Node& n, size_t i, const storage::GlossyNodes* glossy,
+                             size_t page_nodes) {
+  HotNode& h = nodes[i];
+  h.cx = n.center.x;
+  h.cy = n.center.y;
+  h.cz = n.center.z;
+  h.radius = n.radius;
+  h.ax = n.cone_axis.x;
+  h.ay = n.cone_axis.y;
+  h.az = n.cone_axis.z;
+  const bool cone = n.cone_cos > -1.f;  // also false for NaN
+  h.cone_cos = cone ? std::min(n.cone_cos, 1.f) : -2.f;
+  h.cone_sin = cone ? std::sqrt(std::max(0.f, 1.f - h.cone_cos * h.cone_cos)) : 1.f;
+  // angle(axis, n) + beta < kCoplanarAngle  <=>  dot(axis, n) > cos(kCoplanarAngle - beta)
+  //   = cos(kCoplanarAngle) cos(beta) + sin(kCoplanarAngle) sin(beta).
+  const float cos_c = std::cos(kCoplanarAngle), sin_c = std::sin(kCoplanarAngle);
+  h.coplanar_cos = cone && h.cone_cos > cos_c ? cos_c * h.cone_cos + sin_c * h.cone_sin : 2.f;
+
+  uint32_t flags = 0;
+  NodeLook& look = looks[i];
+  look = NodeLook{};  // zeros; no full entry
+  look.area = n.area;
+  if (n.cone_cos >= kNarrowConeCos) {
+    // The flat model of node_appearance(): DC ratio and the cone's fan.
+    flags |= HotNode::kNarrow;
+    const float c0 = n.coverage_sh[0];
+    if (c0 > 0.f) {
+      const float inv = 1.f / c0;
+      const Imath::C3f L(std::max(0.f, n.radiance_sh.r[0] * inv), std::max(0.f, n.radiance_sh.g[0] * inv),
+                         std::max(0.f, n.radiance_sh.b[0] * inv));
+      if (std::isfinite(L.x) && std::isfinite(L.y) && std::isfinite(L.z)) {
+        look.r = L.x;
+        look.g = L.y;
+        look.b = L.z;
+        look.fan = fan_cone(n.cone_cos);
+        const Imath::V3f m = mean_normal(n);
+        look.mx = m.x;
+        look.my = m.y;
+        look.mz = m.z;
       } else {
-        look.area = 0.f;
+        look.area = 0.f;  // shows nothing
       }
     } else {
-      Bipolar b;
-      if (fit_bipolar(n, b)) {
-        flags |= HotNode::kBipolar;
-        if (bipolar_index.empty()) bipolar_index.assign(page.nodes.size(), 0);
-        bipolar_index[i] = uint32_t(bipolar.size());
-        bipolar.push_back(b);
-      }
+      look.area = 0.f;
     }
-    if (glossy && glossy->glossy(static_cast<uint32_t>(i))) flags |= HotNode::kGlossy;
-    // Nothing to see: no area, or NaN/negative/infinite bounds.
-    if (!(n.area > 0.f) || !(n.radius >= 0.f) || !std::isfinite(n.radius) || !finite(n.center)) {
-      flags |= HotNode::kInvisible;
+  } else {
+    Bipolar b;
+    if (fit_bipolar(n, b)) {
+      flags |= HotNode::kBipolar;
+      if (bipolar_index.empty()) bipolar_index.assign(nodes.size(), 0);
+      bipolar_index[i] = uint32_t(bipolar.size());
+      bipolar.push_back(b);
     }
-    if (n.is_leaf()) {
-      const uint64_t end = uint64_t(n.first_surfel) + n.surfel_count;
+  }
+  if (glossy && i < page_nodes && glossy->glossy(static_cast<uint32_t>(i))) flags |= HotNode::kGlossy;
+  if (i == 0) {
+    node0_dc[0] = n.radiance_sh.r[0];
+    node0_dc[1] = n.radiance_sh.g[0];
+    node0_dc[2] = n.radiance_sh.b[0];
+    node0_dc[3] = n.coverage_sh[0];
+  }
+  if (!(flags & (HotNode::kNarrow | HotNode::kBipolar))) {
+    look.full = uint32_t(full.size());
+    full.push_back(n);
+  }
+  // Nothing to see: no area, or NaN/negative/infinite bounds.
+  if (!(n.area > 0.f) || !(n.radius >= 0.f) || !std::isfinite(n.radius) || !finite(n.center)) {
+    flags |= HotNode::kInvisible;
+  }
+  return flags;
+}
+
+ViewParts derive_parts(const tree::Page& page) {
+  ViewParts parts;
+  const size_t n = page.nodes.size();
+  parts.nodes.resize(n + page.links.size());
+  parts.looks.resize(n + page.links.size());
+  const storage::GlossyNodes* glossy = page.glossy.get();
+  for (size_t i = 0; i < n; ++i) {
+    const tree::Node& node = page.nodes[i];
+    HotNode& h = parts.nodes[i];
+    const uint32_t flags = parts.describe(node, i, glossy, n);
+    if (node.is_leaf()) {
+      const uint64_t end = uint64_t(node.first_surfel) + node.surfel_count;
       if (end > page.surfels.size()) {
-        throw CorruptionError("tree page " + std::to_string(page.id) + " leaf " +
-                              std::to_string(i) + ": surfels [" + std::to_string(n.first_surfel) +
-                              ", " + std::to_string(end) + ") outside the page's " +
+        throw CorruptionError("tree page " + std::to_string(page.id) + " leaf " + std::to_string(i) + ": surfels [" +
+                              std::to_string(node.first_surfel) + ", " + std::to_string(end) + ") outside the page's " +
                               std::to_string(page.surfels.size()));
       }
-      if (n.surfel_count > HotNode::kCountMask) {
-        throw CorruptionError(where(page, i) + ": " + std::to_string(n.surfel_count) +
-                              " surfels in one leaf");
+      if (node.surfel_count > HotNode::kCountMask) {
+        throw CorruptionError(where(page, i) + ": " + std::to_string(node.surfel_count) + " surfels in one leaf");
       }
-      h.first = n.first_surfel;
-      h.count = flags | HotNode::kLeaf | n.surfel_count;
+      h.first = node.first_surfel;
+      h.count = flags | HotNode::kLeaf | node.surfel_count;
     } else {
-      if (n.child_count > tree::Node::kMaxChildren) {
-        throw CorruptionError(where(page, i) + ": child_count " + std::to_string(n.child_count) +
-                              " exceeds " + std::to_string(tree::Node::kMaxChildren));
+      if (node.child_count > tree::Node::kMaxChildren) {
+        throw CorruptionError(where(page, i) + ": child_count " + std::to_string(node.child_count) + " exceeds " +
+                              std::to_string(tree::Node::kMaxChildren));
       }
       h.first = 0;
-      h.count = flags | n.child_count;
-      for (uint32_t c = 0; c < n.child_count; ++c) {
-        const tree::NodeRef ref = n.children[c];
-        if (ref.page == page.id && ref.index >= page.nodes.size()) {
-          throw CorruptionError(where(page, i) + ": child link to page " +
-                                std::to_string(ref.page) + " node " + std::to_string(ref.index) +
-                                " is out of range (" + std::to_string(page.nodes.size()) +
-                                " nodes)");
+      h.count = flags | node.child_count;
+      for (uint32_t c = 0; c < node.child_count; ++c) {
+        const tree::NodeRef ref = node.children[c];
+        if (ref.page == page.id && ref.index >= n) {
+          throw CorruptionError(where(page, i) + ": child link to page " + std::to_string(ref.page) + " node " +
+                                std::to_string(ref.index) + " is out of range (" + std::to_string(n) + " nodes)");
         }
         h.children[c] = ref;
       }
     }
   }
+  // Proxies: each child in another page becomes a node of this view, seen
+  // through the summary this page stores of it, whose one link is the
+  // child's own page root. The parent's link is turned to the proxy.
+  for (size_t k = 0; k < page.links.size(); ++k) {
+    const tree::PageLink& l = page.links[k];
+    const size_t i = n + k;
+    if (l.parent >= n || l.slot >= page.nodes[l.parent].child_count ||
+        page.nodes[l.parent].children[l.slot] != l.summary.children[0]) {
+      throw CorruptionError(where(page, l.parent) + ": link " + std::to_string(k) +
+                            " does not match the node's child " + std::to_string(l.slot));
+    }
+    HotNode& h = parts.nodes[i];
+    h.count = parts.describe(l.summary, i, glossy, n) | HotNode::kProxy | 1u;
+    h.first = 0;
+    h.children[0] = l.summary.children[0];
+    parts.nodes[l.parent].children[l.slot] = {page.id, uint32_t(i)};
+  }
+  return parts;
+}
+
+// Byte offsets of a view's parts in its allocation.
+constexpr size_t kViewAlign = 128;
+size_t round_up(size_t n, size_t a) { return (n + a - 1) / a * a; }
+
+template <class T>
+T* copy_to(std::byte* base, size_t offset, const std::vector<T>& v) {
+  T* out = reinterpret_cast<T*>(base + offset);
+  std::uninitialized_copy(v.begin(), v.end(), out);
+  return out;
+}
+
+}  // namespace
+
+PageView::Ptr PageView::build(const tree::Page& page) {
+  const ViewParts parts = derive_parts(page);
+  static_assert(std::is_trivially_destructible_v<HotNode> && std::is_trivially_destructible_v<NodeLook> &&
+                    std::is_trivially_destructible_v<tree::Node> && std::is_trivially_destructible_v<Bipolar>,
+                "parts are copy-constructed into raw storage and never destroyed");
+  // Header, nodes, looks (64-byte lines), full nodes, bipolar faces and
+  // index, then the cold part.
+  const size_t nodes_at = sizeof(PageView);
+  const size_t looks_at = nodes_at + parts.nodes.size() * sizeof(HotNode);
+  const size_t full_at = round_up(looks_at + parts.looks.size() * sizeof(NodeLook), alignof(tree::Node));
+  const size_t bipolar_at = round_up(full_at + parts.full.size() * sizeof(tree::Node), alignof(Bipolar));
+  const size_t index_at = round_up(bipolar_at + parts.bipolar.size() * sizeof(Bipolar), alignof(uint32_t));
+  const size_t cold_at = round_up(index_at + parts.bipolar_index.size() * sizeof(uint32_t), alignof(Cold));
+  const size_t bytes = round_up(cold_at + sizeof(Cold), kViewAlign);
+
+  auto* base = static_cast<std::byte*>(::operator new(bytes, std::align_val_t(kViewAlign)));
+  auto* view = new (base) PageView();
+  Ptr owned(view);
+  view->id = page.id;
+  view->page_nodes = uint32_t(page.nodes.size());
+  view->node_count = uint32_t(parts.nodes.size());
+  view->bipolar_count = uint32_t(parts.bipolar.size());
+  copy_to(base, nodes_at, parts.nodes);
+  view->looks = copy_to(base, looks_at, parts.looks);
+  view->full_nodes = copy_to(base, full_at, parts.full);
+  view->bipolar = copy_to(base, bipolar_at, parts.bipolar);
+  view->bipolar_index = parts.bipolar_index.empty() ? nullptr : copy_to(base, index_at, parts.bipolar_index);
+  view->glossy = page.glossy.get();
+  Cold* cold = new (base + cold_at) Cold();
+  cold->glossy = page.glossy;
+  cold->surfel_count = page.surfels.size();
+  cold->bytes = bytes;
+  cold->full_count = uint32_t(parts.full.size());
+  std::copy(parts.node0_dc, parts.node0_dc + 4, cold->node0_dc);
+  view->cold = cold;
+  return owned;
+}
+
+void PageView::Free::operator()(PageView* v) const {
+  if (!v) return;
+  if (v->cold) v->cold->~Cold();
+  v->~PageView();
+  ::operator delete(static_cast<void*>(v), std::align_val_t(kViewAlign));
 }
 
 const PageView*& PageViews::slot(uint32_t id) {
@@ -128,20 +239,24 @@ const PageView*& PageViews::slot(uint32_t id) {
 
 namespace {
 struct AttachedView final : tree::PageAttachment {
-  explicit AttachedView(const tree::Page& page) : view(page) {}
-  size_t memory_bytes() const override { return sizeof(AttachedView) - sizeof(PageView) + view.memory_bytes(); }
-  PageView view;
+  explicit AttachedView(const tree::Page& page) : view(PageView::build(page)) {}
+  size_t memory_bytes() const override { return sizeof(AttachedView) + view->memory_bytes(); }
+  PageView::Ptr view;
 };
 }  // namespace
 
-void attach_view(tree::Page& page) { page.attachment = std::make_shared<AttachedView>(page); }
+void attach_view(tree::Page& page) {
+  page.attachment = std::make_shared<AttachedView>(page);
+  page.nodes = {};
+  page.links = {};
+}
 
 const PageView& PageViews::get(const tree::Page& page) {
   // An attached view lives exactly as long as its page, which the caller
   // pins: it is never remembered in a slot, which would dangle once the
   // cache evicts the page.
   if (const auto* attached = dynamic_cast<const AttachedView*>(page.attachment.get())) {
-    return attached->view;
+    return *attached->view;
   }
   const PageView*& s = slot(page.id);
   if (s && s->matches(page)) return *s;
@@ -151,7 +266,7 @@ const PageView& PageViews::get(const tree::Page& page) {
   }
   // A stale view of this id stays owned until the next clear(): the
   // caller's stack may still point to it.
-  owned_.push_back(std::make_unique<PageView>(page));
+  owned_.push_back(PageView::build(page));
   bytes_ += owned_.back()->memory_bytes();
   ++built_;
   s = owned_.back().get();
@@ -171,9 +286,9 @@ namespace pbgi {
 
 const gather::PageView& GatherCache::Impl::get(const tree::Page& page) {
   std::lock_guard<std::mutex> lock(mutex);
-  std::unique_ptr<gather::PageView>& v = views[page.id];
+  gather::PageView::Ptr& v = views[page.id];
   if (v && v->matches(page)) return *v;
-  auto built = std::make_unique<gather::PageView>(page);  // may throw: nothing changed
+  gather::PageView::Ptr built = gather::PageView::build(page);  // may throw: nothing changed
   if (v) retired.push_back(std::move(v));
   v = std::move(built);
   bytes += v->memory_bytes();

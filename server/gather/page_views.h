@@ -34,6 +34,7 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <unordered_map>
 #include <vector>
 
@@ -58,7 +59,12 @@ struct alignas(64) HotNode {
   // In `count`: the node may show glossy senders' radiance
   // (PageView::glossy, storage/codecs/glossy_pages.h) besides its SH's.
   static constexpr uint32_t kGlossy = 1u << 27;
-  static constexpr uint32_t kCountMask = kGlossy - 1;
+  // In `count`: a proxy, the view's copy of a child in another page (the
+  // summary its parent's page stores, equal to that page's root); its one
+  // link (children[0]) is the child itself. Seen, culled or
+  // splatted as it is; opening it needs the child's page (PagePins).
+  static constexpr uint32_t kProxy = 1u << 26;
+  static constexpr uint32_t kCountMask = kProxy - 1;
 
   float cx, cy, cz, radius;  // bounding sphere
   float ax, ay, az;          // normal cone axis (unit)
@@ -76,6 +82,7 @@ struct alignas(64) HotNode {
   bool invisible() const { return count & kInvisible; }
   bool bipolar() const { return count & kBipolar; }
   bool glossy() const { return count & kGlossy; }
+  bool proxy() const { return count & kProxy; }
   uint32_t size() const { return count & kCountMask; }
 };
 static_assert(sizeof(HotNode) == 64, "one cache line");
@@ -87,43 +94,103 @@ struct alignas(64) NodeLook {
   float r, g, b;  // >= 0; all 0 when the payload shows nothing
   float area;
   float mx, my, mz;  // area-weighted mean normal (node_appearance.h)
-  float pad_ = 0.f;
+  // A wide, non-bipolar node's entry in PageView::full, else kNoFull: kept
+  // in the look, whose line the walk prefetches with the node's, so that a
+  // wide splat reaches its tree::Node without another array's cache miss.
+  uint32_t full = kNoFull;
   FanCone fan;
+  static constexpr uint32_t kNoFull = ~0u;
 };
 static_assert(sizeof(NodeLook) == 64, "one cache line");
 
-struct PageView {
+// A page's view is one allocation: its header line (PageView), then its
+// nodes, looks, full nodes and bipolar faces, then the rarely read rest
+// (PageView::Cold). With pages of a few levels (formats V4/V5) a walk
+// enters a new view every few nodes, and each entry waited for the view's
+// header and its first node one after the other when they lived in
+// separate allocations; here the header and node 0 (the page's root, the
+// node a walk enters by) share one 128-byte-aligned pair of lines, which
+// the core fetches together, and the nodes' address needs no load at all
+// (nodes() is the line after the header). The header is 64 bytes; build()
+// allocates it 128-byte aligned.
+struct alignas(64) PageView {
   uint32_t id = 0;
-  std::vector<HotNode> nodes;
-  std::vector<NodeLook> looks;  // per node; meaningful for narrow ones
-  // Bipolar nodes' faces; bipolar_index[i] (sized only when the page has
-  // any) is node i's entry.
-  std::vector<Bipolar> bipolar;
-  std::vector<uint32_t> bipolar_index;
-  // The page's glossy radiance (shared with the page), or null.
-  std::shared_ptr<const storage::GlossyNodes> glossy;
-  size_t surfel_count = 0;
+  uint32_t page_nodes = 0;  // nodes of the page; proxies follow them
+  uint32_t node_count = 0;  // page nodes + proxies
+  uint32_t bipolar_count = 0;
+  // Per node; meaningful for narrow ones.
+  const NodeLook* looks = nullptr;
+  // The decoded tree::Node of the nodes whose SH payload a splat reads
+  // (wide cones that are not bipolar): full_nodes[looks[i].full]. The rest
+  // need only the nodes and looks, so a page that carries its view need not
+  // keep its nodes.
+  const tree::Node* full_nodes = nullptr;
+  // Bipolar nodes' faces; bipolar_index[i] (null when the page has none) is
+  // node i's entry.
+  const Bipolar* bipolar = nullptr;
+  const uint32_t* bipolar_index = nullptr;
+  // The page's glossy radiance (owned through cold->glossy), or null.
+  const storage::GlossyNodes* glossy = nullptr;
+  struct Cold;
+  const Cold* cold = nullptr;
 
-  // Builds the view; throws CorruptionError for a child count above
-  // tree::Node::kMaxChildren, a link to a missing node of the same page or
-  // a leaf's surfel range outside the page.
-  explicit PageView(const tree::Page& page);
-  size_t memory_bytes() const {
-    return sizeof(PageView) + nodes.capacity() * sizeof(HotNode) +
-           looks.capacity() * sizeof(NodeLook) +
-           bipolar.capacity() * sizeof(Bipolar) + bipolar_index.capacity() * sizeof(uint32_t);
+  // What only building, checking and accounting read.
+  struct Cold {
+    std::shared_ptr<const storage::GlossyNodes> glossy;
+    size_t surfel_count = 0;
+    size_t bytes = 0;  // the whole allocation
+    uint32_t full_count = 0;
+    // Node 0's DC radiance and coverage (radiance_sh[0], coverage_sh[0]):
+    // a tree root's mean radiance, kept apart so that node 0 needs no full
+    // copy (most pages' node 0 is narrow).
+    float node0_dc[4] = {0.f, 0.f, 0.f, 0.f};
+  };
+
+  // The page's nodes (indices below page_nodes), then one proxy per child
+  // in another page that the page describes exactly (tree::Page::links):
+  // a walk decides on such a child without loading its page. They start on
+  // the line after the header.
+  const HotNode* node_data() const { return reinterpret_cast<const HotNode*>(this + 1); }
+  std::span<const HotNode> nodes() const { return {node_data(), node_count}; }
+
+  // The tree::Node of view node `i`, for the nodes `full_nodes` keeps; else null.
+  const tree::Node* full_node(uint32_t i) const {
+    return i < node_count && looks[i].full != NodeLook::kNoFull ? full_nodes + looks[i].full : nullptr;
   }
+
+  // Frees a view made by build().
+  struct Free {
+    void operator()(PageView* v) const;
+  };
+  using Ptr = std::unique_ptr<PageView, Free>;
+
+  // Builds the view of `page`; throws CorruptionError for a child count
+  // above tree::Node::kMaxChildren, a link to a missing node of the same
+  // page or a leaf's surfel range outside the page.
+  static Ptr build(const tree::Page& page);
+
+  PageView(const PageView&) = delete;
+  PageView& operator=(const PageView&) = delete;
+  size_t memory_bytes() const { return cold->bytes; }
   // Whether `page` could be the page this view was built from.
   bool matches(const tree::Page& page) const {
-    return page.id == id && page.nodes.size() == nodes.size() &&
-           page.surfels.size() == surfel_count;
+    return page.id == id && page.nodes.size() == page_nodes && page.nodes.size() + page.links.size() == node_count &&
+           page.surfels.size() == cold->surfel_count;
   }
+
+ private:
+  PageView() = default;
 };
+static_assert(sizeof(PageView) == 64, "one line; node 0 is the next, in the same 128-byte pair");
 
 // Builds `page`'s view and attaches it to the page, so that every Gatherer
 // reuses it for as long as the page cache keeps the page, and the cache's
-// budget pays for it. Install it as the PageSetReader's page decorator
-// (storage/pages/page_set.h). Throws as PageView's constructor.
+// budget pays for it. The view holds what a gather reads of the page's
+// nodes and links, so the page drops them (Page::nodes and Page::links
+// come back empty; its surfels stay): a page in the cache costs its view
+// and surfels, not two copies of its nodes. Install it as the
+// PageSetReader's page decorator (storage/pages/page_set.h) of readers
+// whose pages only gathers read. Throws as PageView's constructor.
 void attach_view(tree::Page& page);
 
 // Views by page id: the one attached to the page (attach_view) or else built
@@ -151,7 +218,7 @@ class PageViews {
   GatherCache::Impl* shared_;
   std::vector<const PageView*> dense_;  // ids below kDenseIds
   std::unordered_map<uint32_t, const PageView*> sparse_;
-  std::vector<std::unique_ptr<PageView>> owned_;
+  std::vector<PageView::Ptr> owned_;
   size_t budget_;
   size_t bytes_ = 0;  // of owned_
   size_t built_ = 0;
@@ -167,10 +234,10 @@ namespace pbgi {
 struct GatherCache::Impl {
   const gather::PageView& get(const tree::Page& page);
   mutable std::mutex mutex;
-  std::unordered_map<uint32_t, std::unique_ptr<gather::PageView>> views;
+  std::unordered_map<uint32_t, gather::PageView::Ptr> views;
   // Replaced views (a page id whose content changed): kept alive, since
   // other threads may still point to them.
-  std::vector<std::unique_ptr<gather::PageView>> retired;
+  std::vector<gather::PageView::Ptr> retired;
   size_t bytes = 0;
 };
 

@@ -38,6 +38,15 @@ struct Entry {
 // page of a long scan went through, at a few dozen bytes each.
 constexpr size_t kMinGhosts = 1024;
 constexpr size_t kGhostsPerHeldPage = 8;
+// Departed pages remembered (pages evicted while in use): each keeps the
+// control block of its shared_ptr (sizeof(tree::Page)) alive, so their
+// number is bounded by the pages held.
+constexpr size_t kMinDeparted = 256;
+
+struct Departed {
+  Key key;
+  std::weak_ptr<const tree::Page> page;
+};
 
 }  // namespace
 
@@ -48,6 +57,11 @@ struct PageCache::Impl {
   std::list<Key> hot;    // pages loaded again, front = most recently used (LRU)
   std::list<Key> ghosts; // keys evicted from `fresh`, front = newest
   std::unordered_map<Key, std::list<Key>::iterator, KeyHash> ghost_index;
+  // Pages evicted while someone still held them (a gather's pins), front =
+  // newest: a miss of such a page takes it back if it is still alive,
+  // instead of loading and decoding a second copy of it.
+  std::list<Departed> departed;
+  std::unordered_map<Key, std::list<Departed>::iterator, KeyHash> departed_index;
   uint64_t fresh_bytes = 0;
   std::unordered_map<Key, Entry, KeyHash> held;
   std::unordered_map<Key, std::shared_future<tree::PagePtr>, KeyHash> loading;
@@ -67,6 +81,32 @@ struct PageCache::Impl {
     }
   }
 
+  // Requires mu.
+  void remember_departed(const Key& key, const tree::PagePtr& page) {
+    if (auto d = departed_index.find(key); d != departed_index.end()) {
+      departed.erase(d->second);
+      departed_index.erase(d);
+    }
+    departed.push_front({key, page});
+    departed_index[key] = departed.begin();
+    const size_t cap = std::max(kMinDeparted, held.size());
+    while (departed.size() > cap) {
+      departed_index.erase(departed.back().key);
+      departed.pop_back();
+    }
+  }
+
+  // Requires mu. The page `key` if it departed and is still alive
+  // (forgotten either way), else null.
+  tree::PagePtr take_departed(const Key& key) {
+    auto d = departed_index.find(key);
+    if (d == departed_index.end()) return nullptr;
+    tree::PagePtr page = d->second->page.lock();
+    departed.erase(d->second);
+    departed_index.erase(d);
+    return page;
+  }
+
   // Requires mu. Drops one page: from the new pages while they hold more
   // than a quarter of the budget (or nothing is hot), else the least
   // recently used hot page.
@@ -77,6 +117,8 @@ struct PageCache::Impl {
     list.pop_back();
     auto it = held.find(victim);
     counters.bytes_held -= it->second.bytes;
+    // Still used (the cache's reference is not the only one): remembered.
+    if (it->second.page.use_count() > 1) remember_departed(victim, it->second.page);
     if (from_fresh) {
       fresh_bytes -= it->second.bytes;
       remember_ghost(victim);
@@ -120,6 +162,17 @@ tree::PagePtr PageCache::get(uint64_t owner, uint32_t page_id,
       auto pending = it->second;
       lock.unlock();
       return pending.get();
+    }
+    // Evicted while in use and still alive: taken back, no load (a hit).
+    // Such a page is in the working set of the gathers in flight: hot.
+    if (tree::PagePtr back = impl_->take_departed(key)) {
+      ++impl_->counters.hits;
+      if (auto g = impl_->ghost_index.find(key); g != impl_->ghost_index.end()) {
+        impl_->ghosts.erase(g->second);
+        impl_->ghost_index.erase(g);
+      }
+      impl_->hold(key, back, true);
+      return back;
     }
     ++impl_->counters.misses;
     if (auto g = impl_->ghost_index.find(key); g != impl_->ghost_index.end()) {
@@ -188,6 +241,14 @@ void PageCache::forget(uint64_t owner) {
         impl_->fresh.erase(it->second.pos);
       }
       it = impl_->held.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  for (auto it = impl_->departed.begin(); it != impl_->departed.end();) {
+    if (it->key.owner == owner) {
+      impl_->departed_index.erase(it->key);
+      it = impl_->departed.erase(it);
     } else {
       ++it;
     }

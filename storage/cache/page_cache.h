@@ -17,8 +17,13 @@
 // page call `load` once: the other callers wait for that load and share its
 // result (or its exception).
 //
+// A page evicted while still in use (a gather holds it pinned) is
+// remembered by a weak reference: a later miss of it takes that page back
+// (held again, as hot) instead of loading and decoding a second copy, so
+// concurrent gathers whose pinned pages exceed the budget share them.
+//
 // Counters: hits (served without calling load, including waiting on another
-// caller's load), misses (calls of load), evictions (pages dropped to stay
+// caller's load and taking back a page evicted while in use), misses (calls of load), evictions (pages dropped to stay
 // within the budget; forget() does not count), bytes_read (as reported by
 // loaders through note_bytes_read), bytes_held (current holdings).
 #pragma once

@@ -22,20 +22,39 @@ inline constexpr uint32_t kSceneEntryMagic = fourcc("PBGS");  // <cache>/ingeste
 // Page layout versions.
 //   V1 (retired, refused): 32-byte header, topology array (64 B/node),
 //       payload array (codec), surfel array (64 B/surfel, float32), trailer.
-//   V2: 32-byte header, shape bytes (1 B/node), leaf frames, link records,
-//       payload array (codec, page-boundary nodes only), quantized surfel
-//       records (24 B/surfel), 8-byte XXH3-64 trailer. Bounds, cones, areas
-//       and payloads of the nodes inside a page are derived when it loads.
-//   V3: the V2 layout; header flag kPageFlagNodePayloads says the payload
-//       array holds every node's payload (pre-order) instead of the linked
-//       children's, so loads copy payloads instead of deriving them. Written
-//       only by builds that store node payloads (payload_codec float32-sh,
-//       kmeans-sh); derived-payload builds still write V2.
+//   V2 (retired, refused): 32-byte header, shape bytes (1 B/node), leaf
+//       frames, link records, payload array (codec, page-boundary nodes
+//       only), quantized surfel records (24 B/surfel), 8-byte XXH3-64
+//       trailer. Bounds, cones, areas and payloads of the nodes inside a
+//       page are derived when it loads. Treelets as large as a page allows
+//       (~1000 nodes, ~10 levels), 4 KiB-aligned.
+//   V3 (retired, refused): the V2 layout; header flag kPageFlagNodePayloads
+//       says the payload array holds every node's payload (pre-order).
+//   V4: the V2 byte layout over cut-shaped treelets: a page holds at most
+//       kPageLevels levels of the tree (and page_size bytes), pages are
+//       packed without alignment. A gather's cut then leaves a page after
+//       a few levels instead of deriving a thousand nodes it never reads,
+//       and decides on a linked child from its link record (exact summary
+//       and payload) without loading the child's page. Derived payloads.
+//   V5: V4 with the V3 payload array (kPageFlagNodePayloads: every node's
+//       payload stored); written by builds that store node payloads
+//       (payload_codec float32-sh, kmeans-sh).
 inline constexpr uint32_t kPageFormatV1 = 1;
 inline constexpr uint32_t kPageFormatV2 = 2;
 inline constexpr uint32_t kPageFormatV3 = 3;
-inline constexpr uint32_t kPageFormatCurrent = kPageFormatV2;  // derived payloads
-inline constexpr uint32_t kPageFormatNodePayloads = kPageFormatV3;
+inline constexpr uint32_t kPageFormatV4 = 4;
+inline constexpr uint32_t kPageFormatV5 = 5;
+inline constexpr uint32_t kPageFormatCurrent = kPageFormatV4;  // derived payloads
+inline constexpr uint32_t kPageFormatNodePayloads = kPageFormatV5;
+
+// Most levels of the tree one V4/V5 page holds (root to deepest leaf of its
+// treelet, counted in nodes). Readers check it. Measured on a 2.5M-surfel
+// city (docs/out-of-core.md, 4 to 12 levels): the fewer levels, the less of
+// each loaded page a cut leaves unused, so a tile's working set of decoded
+// pages shrinks (10.7 MiB at 4 levels, 18.3 at 6, 405 for the V2 layout),
+// at the cost of more link records on disk (48 bytes per surfel at 4, 37 at
+// 6, 32 for V2).
+inline constexpr uint32_t kPageLevels = 4;
 
 // Page header flags. kPageFlagNodePayloads: V3 pages, always. kPageFlagGlossy
 // (V2 or V3 pages of a V3 manifest that declares glossy radiance): the page
@@ -76,7 +95,8 @@ inline constexpr uint32_t kManifestFormatLatest = kManifestFormatV4;   // the ne
 //   2: V2 pages, trees over Morton order (storage/tree/streaming_tree_builder.h).
 //   3: glossy senders: surfels of glossy materials carry a specular lobe
 //      and pages may carry glossy radiance (V3 manifest, kPageFlagGlossy).
-inline constexpr uint32_t kPageSetFormatVersion = 3;
+//   4: V4/V5 pages: treelets of at most kPageLevels levels, unaligned.
+inline constexpr uint32_t kPageSetFormatVersion = 4;
 
 // Ingested-scene entry versions (server/ingest/scene_entry.h).
 //   1-3 (refused): no frame -- the bare SceneChunk stream, dependencies in a
@@ -94,9 +114,13 @@ inline constexpr uint32_t kSceneEntryFormatV4 = 4;
 inline constexpr uint32_t kSceneEntryFormatV5 = 5;
 constexpr bool is_known_scene_entry_format(uint32_t v) { return v == kSceneEntryFormatV5; }
 
-// V1 pages are no longer read: their page sets are rebuilt (the build key
-// changed with kPageSetFormatVersion), so a V1 page is a VersionError.
-constexpr bool is_known_page_format(uint32_t v) { return v == kPageFormatV2 || v == kPageFormatV3; }
+// V1-V3 pages are no longer read: their page sets were built by
+// kPageSetFormatVersion 3 or older and are rebuilt (the build key changed),
+// so such a page or manifest is a VersionError.
+constexpr bool is_known_page_format(uint32_t v) { return v == kPageFormatV4 || v == kPageFormatV5; }
+constexpr bool is_retired_page_format(uint32_t v) { return v >= kPageFormatV1 && v <= kPageFormatV3; }
+// Whether pages of format `v` store every node's payload.
+constexpr bool page_format_stores_node_payloads(uint32_t v) { return v == kPageFormatV5; }
 constexpr bool is_known_manifest_format(uint32_t v) {
   return v >= kManifestFormatV1 && v <= kManifestFormatV4;
 }

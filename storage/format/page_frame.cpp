@@ -52,6 +52,15 @@ std::string hex32(uint32_t v) {
 }
 }  // namespace
 
+std::string unsupported_page_format(uint32_t version) {
+  const std::string reads = " (reads " + known_versions(is_known_page_format) + ")";
+  if (is_retired_page_format(version)) {
+    return "page format version " + std::to_string(version) +
+           " is retired (treelets not shaped for cuts): rebuild the page set" + reads;
+  }
+  return "page format version " + std::to_string(version) + " is not supported by this build" + reads;
+}
+
 PageHeader open_page(std::span<const uint8_t> page, const PageLocation& where,
                      uint32_t expected_version) {
   const std::string at = where.describe() + " (" + std::to_string(page.size()) + " bytes)";
@@ -73,8 +82,7 @@ PageHeader open_page(std::span<const uint8_t> page, const PageLocation& where,
                           hex32(h.magic));
   }
   if (!is_known_page_format(h.format_version)) {
-    throw VersionError(at + ": page format version " + std::to_string(h.format_version) +
-                       " is not supported by this build (reads " + known_versions(is_known_page_format) + ")");
+    throw VersionError(at + ": " + unsupported_page_format(h.format_version));
   }
   if (h.format_version != expected_version) {
     throw CorruptionError(at + ": page format version " + std::to_string(h.format_version) +

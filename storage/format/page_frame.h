@@ -48,6 +48,10 @@ PageHeader read_page_header(const uint8_t* in);
 // Computes the checksum of page[0, size - 8) and stores it in the trailer.
 void seal_page(std::span<uint8_t> page);
 
+// Why page format `version` is not read (for a VersionError after the
+// file/page context): retired formats ask for a rebuild.
+std::string unsupported_page_format(uint32_t version);
+
 // Verifies a page read from `where`: size, checksum, magic, format version
 // (must be `expected_version`, the one the manifest declares), page id and
 // page_bytes. Returns its header. The checksum is checked first so that any

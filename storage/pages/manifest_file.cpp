@@ -63,9 +63,7 @@ Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path)
   Manifest m;
   m.page_format = r.get<uint32_t>("page_format");
   if (!is_known_page_format(m.page_format)) {
-    throw VersionError(path + ": page format version " + std::to_string(m.page_format) +
-                       " is not supported by this build (reads " +
-                       std::to_string(kPageFormatCurrent) + ")");
+    throw VersionError(path + ": " + unsupported_page_format(m.page_format));
   }
   m.codec = r.get<uint32_t>("codec");
   if (!is_known_payload_codec(m.codec)) {
@@ -85,7 +83,7 @@ Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path)
     const auto state = r.get_bytes(state_bytes, "codec_state");
     m.codec_state.assign(state.begin(), state.end());
   }
-  const uint32_t want_format = m.node_payloads ? kPageFormatNodePayloads : kPageFormatV2;
+  const uint32_t want_format = m.node_payloads ? kPageFormatNodePayloads : kPageFormatCurrent;
   if (m.page_format != want_format) {
     throw corrupt("page format " + std::to_string(m.page_format) + " with " +
                   (m.node_payloads ? "stored" : "derived") + " node payloads (expected " +

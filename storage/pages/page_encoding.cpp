@@ -71,11 +71,11 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
     throw corrupt("payload codec " + std::to_string(h.codec) + " differs from the manifest's " +
                   std::to_string(codec.id()));
   }
-  // kPageFlagNodePayloads is set exactly in V3 pages, kPageFlagHalfLeaves
+  // kPageFlagNodePayloads is set exactly in V5 pages, kPageFlagHalfLeaves
   // exactly when the manifest's leaf format is half (a page flagged
   // otherwise is refused); kPageFlagGlossy only where the manifest declares
   // glossy radiance (format_version.h).
-  const uint32_t want_flags = (h.format_version == kPageFormatV3 ? kPageFlagNodePayloads : 0u) |
+  const uint32_t want_flags = (page_format_stores_node_payloads(h.format_version) ? kPageFlagNodePayloads : 0u) |
                               (leaf_format == LeafFormat::kHalf ? kPageFlagHalfLeaves : 0u);
   const size_t record_bytes = surfel_record_bytes(leaf_format);
   const bool glossy = glossy_allowed && (h.flags & kPageFlagGlossy) != 0;
@@ -139,8 +139,13 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   view.surfel_records = bytes.subspan(surfels_at, uint64_t(h.surfel_count) * record_bytes);
   view.leaf_format = leaf_format;
   view.payloads = stored;
+  view.max_levels = kPageLevels;
   auto page = std::make_shared<tree::Page>();
   tree::expand_treelet(view, h.page_id, at, *page);
+  // Link records carry a linked child's exact summary only when its
+  // payload is stored with it (derived payloads) and no glossy radiance is
+  // shown that the record lacks: otherwise a reader must load the child.
+  if (node_payloads || glossy) page->links = {};
   if (glossy) {
     std::vector<float> link_areas(links);
     for (uint64_t i = 0; i < links; ++i) link_areas[i] = link[i].summary.area;

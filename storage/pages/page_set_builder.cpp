@@ -31,12 +31,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// Pages start at multiples of this in pages.pbgp (zero padding between).
-// Readers take offsets from the page table, not from this.
-const uint64_t kPageAlignment = [] {
-  const char* e = std::getenv("PBGI_PAGE_ALIGN");  // EXPERIMENT
-  return e ? uint64_t(std::atoi(e)) : uint64_t(4096);
-}();
 // Pages are written through a buffer of about this size.
 constexpr size_t kWriteBufferBytes = size_t(4) << 20;
 constexpr size_t kMaxBuildKeyBytes = 4096;
@@ -44,15 +38,16 @@ constexpr size_t kMaxBuildKeyBytes = 4096;
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-// Encodes each treelet as the next page of pages.pbgp, aligned, through a
-// write buffer; keeps the page table.
+// Encodes each treelet as the next page of pages.pbgp, right after the
+// previous one (V4 pages are small: aligning them would cost more padding
+// than page bytes), through a write buffer; keeps the page table.
 class PageWriter final : public tree::TreeletSink {
  public:
   // `glossy`: glossy senders' radiance is coded into the pages (null: none).
   PageWriter(const fs::path& path, std::shared_ptr<const PayloadCodec> codec, GlossyPageEncoder* glossy,
              StagingUsage& usage)
       : file_(File::create_new(path)), codec_(std::move(codec)), glossy_(glossy), usage_(usage) {
-    buffer_.reserve(kWriteBufferBytes + 2 * kPageAlignment);
+    buffer_.reserve(2 * kWriteBufferBytes);
   }
 
   uint32_t write(const tree::Treelet& t) override {
@@ -61,11 +56,9 @@ class PageWriter final : public tree::TreeletSink {
       throw InvalidArgument("tree needs more than 2^32 pages; raise tree.page_size");
     }
     encode_page(t, id, *codec_, encoded_, glossy_section(t, id));
-    const uint64_t aligned = (offset_ + kPageAlignment - 1) / kPageAlignment * kPageAlignment;
-    buffer_.resize(buffer_.size() + (aligned - offset_), 0);
     buffer_.insert(buffer_.end(), encoded_.begin(), encoded_.end());
-    table_.push_back({aligned, static_cast<uint32_t>(encoded_.size())});
-    offset_ = aligned + encoded_.size();
+    table_.push_back({offset_, static_cast<uint32_t>(encoded_.size())});
+    offset_ += encoded_.size();
     if (buffer_.size() >= kWriteBufferBytes) flush();
     return id;
   }

@@ -56,11 +56,27 @@ struct PageAttachment {
   virtual size_t memory_bytes() const = 0;
 };
 
+// A child that lives in another page, as the parent's page describes it:
+// which node's which child slot it is and its exact summary (bounds, cone,
+// area and payload: what the child's own page derives for its root). A
+// reader can decide on such a child (cull it, splat it) without loading its
+// page; it needs the page only to open the child.
+struct PageLink {
+  uint32_t parent = 0;  // index of the parent node in this page
+  uint32_t slot = 0;    // which child of the parent
+  Node summary;         // children[0] = {the child's page, 0}
+};
+
 // One decoded page: a subtree (treelet) of nodes and the surfels of its leaves.
 struct Page {
   uint32_t id = 0;
   std::vector<Node> nodes;
   std::vector<Surfel> surfels;
+  // The children in other pages with summaries equal to their pages'
+  // roots, when the page stores them exactly (derived-payload pages without
+  // glossy radiance: storage/pages/page_encoding.h); empty otherwise, and
+  // then a reader must load a linked child's page to see it.
+  std::vector<PageLink> links;
   // Set by the page's loader before the page is shared (PageDecorator in
   // storage/pages/page_set.h), never after: readers need no lock.
   std::shared_ptr<const PageAttachment> attachment;
@@ -71,7 +87,7 @@ struct Page {
 
   size_t memory_bytes() const {
     return sizeof(Page) + nodes.capacity() * sizeof(Node) + surfels.capacity() * sizeof(Surfel) +
-           (attachment ? attachment->memory_bytes() : 0) + glossy_bytes;
+           links.capacity() * sizeof(PageLink) + (attachment ? attachment->memory_bytes() : 0) + glossy_bytes;
   }
 };
 

@@ -1,6 +1,7 @@
 #include "storage/tree/streaming_tree_builder.h"
 
 #include "common/errors.h"
+#include "storage/format/format_version.h"
 #include "storage/tree/leaf_quantizer.h"
 #include "storage/tree/node_summary.h"
 #include "storage/tree/page_records.h"
@@ -56,10 +57,8 @@ struct StreamingTreeBuilder::Impl {
   const BuildOptions options;
   const uint64_t page_bytes;     // 0 = unbounded
   const uint64_t link_bytes;     // a link record and its payload
-  const uint32_t max_levels = [] {
-    const char* e = std::getenv("PBGI_PAGE_LEVELS");  // EXPERIMENT
-    return e ? uint32_t(std::atoi(e)) : 1000u;
-  }();
+  // Levels a page's treelet may span (storage/format/format_version.h).
+  const uint32_t max_levels = storage::kPageLevels;
   TreeletSink& sink;
   const NodePayloadSizer* sizer;  // null: derived payloads
 

@@ -43,6 +43,8 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
   out.id = page_id;
   out.nodes.assign(n, Node{});
   out.surfels.resize(surfels);
+  out.links.clear();
+  out.links.reserve(t.links.size());
 
   // 1. Structure: parse the shapes in pre-order with an explicit stack (a
   //    damaged page must not be able to recurse deeply).
@@ -57,6 +59,10 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
   size_t next = 0, leaf = 0, link = 0;
   uint64_t first_surfel = 0;
   auto open = [&](uint32_t i) {
+    if (t.max_levels != 0 && stack.size() >= t.max_levels) {
+      throw corrupt("node " + std::to_string(i) + " lies " + std::to_string(stack.size() + 1) +
+                    " levels deep in the page, more than the format's " + std::to_string(t.max_levels));
+    }
     if (!decode_shape(t.shapes[i], shape[i])) {
       throw corrupt("node " + std::to_string(i) + " has an invalid shape byte " +
                     std::to_string(t.shapes[i]));
@@ -98,6 +104,14 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
                       ", not written before this one");
       }
       node.children[top.slot] = {target, 0};
+      PageLink& l = out.links.emplace_back();
+      l.parent = top.node;
+      l.slot = top.slot;
+      l.summary = t.links[link].summary;
+      l.summary.child_count = 0;
+      l.summary.first_surfel = l.summary.surfel_count = 0;
+      l.summary.children[0] = {target, 0};
+      l.summary.children[1] = {};
       link_of[top.node][top.slot] = static_cast<uint32_t>(link++);
     } else {
       if (next >= n) throw corrupt("node " + std::to_string(top.node) + " has a child past the " + std::to_string(n) + " nodes");

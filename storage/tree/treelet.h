@@ -36,6 +36,9 @@ struct TreeletView {
   // pre-order, whose radiance_sh and coverage_sh are taken instead of
   // derived. Empty: payloads are derived from the surfels and links.
   std::span<const Node> payloads;
+  // Most levels the treelet may span (storage::kPageLevels for V4/V5
+  // pages); 0: unbounded.
+  uint32_t max_levels = 0;
 };
 
 // An owning treelet, as the builder hands it to a page writer.
@@ -53,7 +56,7 @@ struct Treelet {
   // page writer turns them into the page's wavelet radiance); else empty.
   std::vector<SurfelGloss> gloss;
 
-  TreeletView view() const { return {shapes, leaf_records, links, surfel_records, leaf_format, {}}; }
+  TreeletView view() const { return {shapes, leaf_records, links, surfel_records, leaf_format, {}, 0}; }
   size_t node_count() const { return shapes.size(); }
   size_t surfel_count() const;
   void clear();

@@ -69,13 +69,23 @@ void pages(const fs::path& dir) {
   const fs::path tmp = fs::temp_directory_path() / ("pbgi-corpus-" + std::to_string(::getpid()));
   fs::remove_all(tmp);
   fs::create_directories(tmp);
-  // Both leaf formats; the half one's files are suffixed "_half".
-  for (const auto format : {pbgi::storage::LeafFormat::kRelative, pbgi::storage::LeafFormat::kHalf}) {
+  // Both leaf formats (the half one's files suffixed "_half") and both page
+  // formats: V4 (derived payloads) and V5 (every node's payload stored,
+  // float32-sh; suffixed "_v5").
+  struct Variant {
+    pbgi::storage::LeafFormat leaf;
+    pbgi::tree::PayloadCodecOption codec;
+    const char* suffix;
+  };
+  for (const Variant& v : {Variant{pbgi::storage::LeafFormat::kRelative, pbgi::tree::PayloadCodecOption::kDerived, ""},
+                           Variant{pbgi::storage::LeafFormat::kHalf, pbgi::tree::PayloadCodecOption::kDerived, "_half"},
+                           Variant{pbgi::storage::LeafFormat::kRelative, pbgi::tree::PayloadCodecOption::kFloatSh, "_v5"}}) {
     pbgi::tree::BuildOptions options;
     options.leaf_size = 4;
     options.page_size = 4096;
-    options.leaf_format = format;
-    const std::string suffix = format == pbgi::storage::LeafFormat::kHalf ? "_half" : "";
+    options.leaf_format = v.leaf;
+    options.payload_codec = v.codec;
+    const std::string suffix = v.suffix;
     const fs::path set = tmp / ("set" + suffix);
     const pbgi::storage::Manifest m = pbgi::storage::build_page_set(surfels, options, "corpus", set);
     std::ifstream in(set / pbgi::storage::kPagesFileName, std::ios::binary);

@@ -9,7 +9,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -120,6 +123,120 @@ TEST(GatherPageSet, AttachedViewsGiveIdenticalResults) {
   EXPECT_GT(root_page->attachment->memory_bytes(), 0u);
 }
 
+// A page's view is one allocation laid out for entering the page: its
+// header line is 128-byte aligned and node 0 (the page's root, where a
+// walk enters) is the next line, in the same pair, so a walk entering a
+// page waits for one pair instead of the header and then the node
+// (page_views.h); the proxies follow the page's nodes.
+TEST(GatherPageSet, ViewIsOneAllocationWithTheRootBesideItsHeader) {
+  TempDir tmp;
+  tree::BuildOptions o;
+  o.page_size = 4096;
+  storage::build_page_set(scene(0.4f), o, "gather-test", tmp.path() / "set");
+  const storage::PageSetReader reader(tmp.path() / "set", nullptr);
+  size_t proxies = 0;
+  for (uint32_t id = 0; id < reader.manifest().stats.page_count; ++id) {
+    const tree::PagePtr page = reader.page(id);
+    const gather::PageView::Ptr view = gather::PageView::build(*page);
+    const auto at = reinterpret_cast<uintptr_t>(view.get());
+    ASSERT_EQ(at % 128, 0u) << "page " << id;
+    ASSERT_EQ(reinterpret_cast<uintptr_t>(view->node_data()), at + 64) << "page " << id;
+    ASSERT_EQ(view->node_count, page->nodes.size() + page->links.size());
+    EXPECT_TRUE(view->matches(*page));
+    EXPECT_GE(view->memory_bytes(), 64 + view->node_count * (sizeof(gather::HotNode) + sizeof(gather::NodeLook)));
+    for (uint32_t i = 0; i < view->node_count; ++i) {
+      const gather::HotNode& h = view->nodes()[i];
+      const tree::Node& n = i < page->nodes.size() ? page->nodes[i] : page->links[i - page->nodes.size()].summary;
+      EXPECT_EQ(h.cx, n.center.x) << "page " << id << " node " << i;
+      EXPECT_EQ(h.radius, n.radius) << "page " << id << " node " << i;
+      EXPECT_EQ(h.proxy(), i >= page->nodes.size()) << "page " << id << " node " << i;
+      proxies += h.proxy();
+    }
+  }
+  EXPECT_GT(proxies, 0u) << "the set has linked children";
+}
+
+// A page describes each child in another page exactly (tree::Page::links),
+// so the walk decides on such a child from its proxy and loads the child's
+// page only to open it: the same results and node visits as a walk that
+// loads every linked page it meets, from fewer pages.
+TEST(GatherPageSet, ProxiesOfLinkedChildrenChangeOnlyThePagesLoaded) {
+  TempDir tmp;
+  const std::vector<Surfel> surfels = scene(0.4f);
+  tree::BuildOptions o;
+  o.page_size = 4096;
+  storage::build_page_set(surfels, o, "gather-test", tmp.path() / "set");
+  auto no_proxies = [](tree::Page& p) {
+    p.links.clear();
+    gather::attach_view(p);
+  };
+  storage::PageSetReader with(tmp.path() / "set", nullptr, gather::attach_view);
+  storage::PageSetReader without(tmp.path() / "set", nullptr, no_proxies);
+  {
+    const storage::PageSetReader plain(tmp.path() / "set", nullptr);
+    ASSERT_FALSE(plain.page(plain.root().page)->links.empty()) << "the root page links to other pages";
+  }
+  for (const GatherMethod method : {GatherMethod::kPbgi, GatherMethod::kFpbgi}) {
+    GatherOptions options;
+    options.method = method;
+    Gatherer a(with, options), b(without, options);
+    std::vector<Receiver> receivers;
+    for (int i = 0; i < 16; ++i) {
+      // Below the emitter, some far off to the side: cuts stop at every depth.
+      receivers.push_back(
+          {V3f(0.3f * float(i) - 2.f, 0.1f * float(i % 4), 0), V3f(0.05f * float(i % 3), 0, 1).normalized()});
+    }
+    std::vector<GatherResult> ra(receivers.size()), rb(receivers.size());
+    a.gather_tile(receivers, ra);
+    b.gather_tile(receivers, rb);
+    for (size_t i = 0; i < receivers.size(); ++i) {
+      EXPECT_EQ(ra[i].irradiance, rb[i].irradiance) << "receiver " << i;
+      EXPECT_EQ(ra[i].ao, rb[i].ao) << "receiver " << i;
+    }
+    EXPECT_EQ(a.counters().nodes_visited, b.counters().nodes_visited);
+    EXPECT_LT(a.counters().pages_fetched, b.counters().pages_fetched);
+    std::printf("method %d: %llu pages fetched with proxies, %llu without\n", int(method),
+                (unsigned long long)a.counters().pages_fetched, (unsigned long long)b.counters().pages_fetched);
+  }
+}
+
+// Every page the build writes holds at most kPageLevels levels of the tree
+// (the reader checks it on every load), and links carry their child's root.
+TEST(GatherPageSet, PagesSpanAtMostThePageLevelsAndLinksMatchTheirChildren) {
+  TempDir tmp;
+  tree::BuildOptions o;
+  o.page_size = 65536;  // large enough that the level bound, not the size, cuts pages
+  storage::build_page_set(scene(0.4f), o, "gather-test", tmp.path() / "set");
+  storage::PageSetReader reader(tmp.path() / "set", nullptr);
+  size_t links = 0;
+  for (uint32_t id = 0; id < reader.manifest().stats.page_count; ++id) {
+    const tree::PagePtr page = reader.page(id);
+    // Depth of every node in its page: parents come before children.
+    std::vector<uint32_t> depth(page->nodes.size(), 1);
+    for (size_t i = 0; i < page->nodes.size(); ++i) {
+      EXPECT_LE(depth[i], storage::kPageLevels) << "page " << id << " node " << i;
+      const tree::Node& n = page->nodes[i];
+      for (uint32_t c = 0; c < n.child_count; ++c) {
+        if (n.children[c].page == id) depth[n.children[c].index] = depth[i] + 1;
+      }
+    }
+    for (const tree::PageLink& l : page->links) {
+      const tree::PagePtr child_page = reader.page(l.summary.children[0].page);
+      const tree::Node& child = child_page->nodes[0];
+      EXPECT_EQ(l.summary.center, child.center);
+      EXPECT_EQ(l.summary.radius, child.radius);
+      EXPECT_EQ(l.summary.cone_cos, child.cone_cos);
+      EXPECT_EQ(l.summary.area, child.area);
+      for (int k = 0; k < 9; ++k) {
+        EXPECT_EQ(l.summary.coverage_sh[k], child.coverage_sh[k]);
+        EXPECT_EQ(l.summary.radiance_sh.r[k], child.radiance_sh.r[k]);
+      }
+      ++links;
+    }
+  }
+  EXPECT_EQ(links + 1, reader.manifest().stats.page_count) << "every page but the root's is linked once";
+}
+
 // A budget changes speed only: one page set read through caches of no
 // room, of about 1/8 of its decoded pages and of everything, by two
 // threads gathering at once (so pages are evicted while the other thread
@@ -148,13 +265,22 @@ TEST(GatherPageSet, ResultsIdenticalWhateverTheBudget) {
     storage::PageSetReader reader(tmp.path() / "set", cache, gather::attach_view);
     std::vector<GatherResult> out(receivers.size());
     std::vector<std::thread> threads;
+    std::atomic<int> running{2};
     for (size_t t = 0; t < 2; ++t) {
       threads.emplace_back([&, t] {
         Gatherer g(reader, GatherOptions{});
         for (size_t i = t; i < receivers.size(); i += 2) out[i] = g.gather(receivers[i]);
+        --running;
       });
     }
+    // The budget holds all along, not only once the gathers are done.
+    uint64_t most_held = 0;
+    while (running > 0) {
+      most_held = std::max(most_held, cache->counters().bytes_held);
+      std::this_thread::yield();
+    }
     for (auto& t : threads) t.join();
+    EXPECT_LE(most_held, budget);
     *counters = cache->counters();
     return out;
   };

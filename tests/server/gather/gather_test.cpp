@@ -361,6 +361,32 @@ TEST(Gather, PagesArePinnedOnlyDuringAReceiver) {
   EXPECT_GT(c.nodes_rasterized, 0u);
 }
 
+// Factorized PBGI: a batch's clusters keep their pages pinned from one to
+// the next, so a batch fetches each page at most once (before, every
+// cluster fetched the pages it shared with the previous ones again: the
+// root page alone once per cluster). Nothing stays pinned afterwards.
+TEST(Gather, FactorizedBatchFetchesEachPageOnce) {
+  std::vector<Surfel> s;
+  add_emitter(s);
+  test::add_disk(s, {0, 0, 0.5f}, {0, 0, -1}, 0.3f, 2000, C3f(0.3f));
+  test::SurfelTreeOptions to;
+  to.nodes_per_page = 16;
+  test::SurfelTree tree(std::move(s), to);
+  std::vector<Receiver> rs;
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 16; ++x) rs.push_back({V3f(0.04f * float(x - 8), 0.04f * float(y - 8), 0), V3f(0, 0, 1)});
+  GatherOptions o;
+  o.method = GatherMethod::kFpbgi;
+  o.clusters = 64;  // 16 clusters of 16
+  Gatherer g(tree, o);
+  std::vector<GatherResult> out(rs.size());
+  g.gather_tile(rs, out);
+  EXPECT_EQ(tree.pages_in_use(), 0u);
+  EXPECT_EQ(g.counters().pages_fetched, tree.fetches());
+  EXPECT_LE(tree.fetches(), tree.page_count());
+  EXPECT_GT(out[0].irradiance.x, 0.f);
+}
+
 TEST(Gather, ResultDoesNotDependOnPageLayout) {
   std::vector<Surfel> s;
   add_emitter(s);

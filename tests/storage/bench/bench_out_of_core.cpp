@@ -26,6 +26,7 @@
 #include <sys/resource.h>
 #include <time.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -34,8 +35,10 @@
 #include <filesystem>
 #include <optional>
 #include <random>
+#include <span>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 namespace pbgi {
@@ -51,6 +54,13 @@ double thread_cpu_seconds() {
   timespec ts{};
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
   return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
+// CPU seconds of the whole process (every gathering thread).
+double process_cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
 double peak_rss_gib() {
@@ -89,6 +99,13 @@ struct Args {
   // size against everything cached).
   bool skip_decoded_budget = false;
   fs::path page_set;  // serve this set instead of building the synthetic city
+  // The small budget as a fraction of the page set's size on disk (1/8
+  // unless given; the slowdown-against-budget sweep).
+  double budget_fraction = 0;
+  // The gather method; receivers are gathered a tile (64) at a time
+  // through Gatherer::gather_tile, as the daemon's batches are (PBGI:
+  // the tile's pages stay pinned; FPBGI: clustered over the tile).
+  GatherMethod method = GatherMethod::kPbgi;
 };
 
 Args parse(int argc, char** argv) {
@@ -113,11 +130,21 @@ Args parse(int argc, char** argv) {
     else if (k == "--keep") a.keep = true;
     else if (k == "--skip-decoded-budget") a.skip_decoded_budget = true;
     else if (k == "--page-set") a.page_set = val();
-    else {
+    else if (k == "--budget-fraction") a.budget_fraction = std::strtod(val().c_str(), nullptr);
+    else if (k == "--method") {
+      const std::string m = val();
+      if (m != "pbgi" && m != "fpbgi") {
+        std::fprintf(stderr, "--method: pbgi or fpbgi, not %s\n", m.c_str());
+        std::exit(2);
+      }
+      a.method = m == "fpbgi" ? GatherMethod::kFpbgi : GatherMethod::kPbgi;
+    } else {
       std::fprintf(stderr,
                    "usage: bench_out_of_core [--surfels N] [--dir DIR] [--sort-memory SIZE] [--leaf-size N]\n"
                    "       [--page-size BYTES] [--receivers N] [--threads N] [--reuse] [--keep]\n"
-                   "       bench_out_of_core --page-set DIR [--receivers N] [--threads N] [--skip-decoded-budget]\n");
+                   "       bench_out_of_core --page-set DIR [--receivers N] [--threads N] [--skip-decoded-budget]\n"
+                   "       [--budget-fraction F]  (the small budget: F x the page set's size on disk; 1/8)\n"
+                   "       [--method pbgi|fpbgi]\n");
       std::exit(2);
     }
   }
@@ -139,23 +166,35 @@ std::vector<Receiver> make_receivers(const test::SyntheticCity& city, uint32_t c
   return out;
 }
 
-// Receivers on the surfels of an existing page set: random pages, a random
-// surfel of each, and a tile-like 8 x 8 group in its tangent plane
-// (1 mm above it), as a shading tile around that point would ask.
+// Receivers on the surfels of an existing page set: random surfels, each
+// with a tile-like 8 x 8 group in its tangent plane (1 mm above it), as a
+// shading tile around that point would ask. The surfels are drawn from all
+// of the set's surfels in position order, so two page sets of the same
+// surfels (different page layouts) get the same receivers.
 std::vector<Receiver> make_receivers(const storage::PageSetReader& set, uint32_t count) {
+  struct Point {
+    Imath::V3f p, n;
+    float r;
+  };
+  std::vector<Point> all;
+  all.reserve(set.manifest().stats.surfel_count);
+  for (uint32_t id = 0; id < set.manifest().stats.page_count; ++id) {
+    const tree::PagePtr page = set.page(id);  // alive while its surfels are read
+    for (const Surfel& s : page->surfels) all.push_back({s.position, s.normal, s.radius});
+  }
+  std::sort(all.begin(), all.end(), [](const Point& a, const Point& b) {
+    return std::tie(a.p.x, a.p.y, a.p.z, a.n.x, a.n.y, a.n.z) < std::tie(b.p.x, b.p.y, b.p.z, b.n.x, b.n.y, b.n.z);
+  });
   std::mt19937 rng(17);
-  const uint32_t pages = set.manifest().stats.page_count;
   std::vector<Receiver> out;
-  while (out.size() < count) {
-    const tree::PagePtr page = set.page(std::uniform_int_distribution<uint32_t>(0, pages - 1)(rng));
-    if (page->surfels.empty()) continue;
-    const Surfel& s = page->surfels[std::uniform_int_distribution<size_t>(0, page->surfels.size() - 1)(rng)];
-    const Imath::V3f n = s.normal.normalized();
+  while (out.size() < count && !all.empty()) {
+    const Point& s = all[std::uniform_int_distribution<size_t>(0, all.size() - 1)(rng)];
+    const Imath::V3f n = s.n.normalized();
     const Imath::V3f t = (std::abs(n.x) < 0.9f ? Imath::V3f(1, 0, 0) : Imath::V3f(0, 1, 0)).cross(n).normalized();
     const Imath::V3f b = n.cross(t);
-    const float step = std::max(s.radius, 1e-3f);
+    const float step = std::max(s.r, 1e-3f);
     for (int k = 0; k < 64 && out.size() < count; ++k) {
-      out.push_back({s.position + 1e-3f * n + step * (float(k % 8) * t + float(k / 8) * b), n});
+      out.push_back({s.p + 1e-3f * n + step * (float(k % 8) * t + float(k / 8) * b), n});
     }
   }
   return out;
@@ -163,6 +202,7 @@ std::vector<Receiver> make_receivers(const storage::PageSetReader& set, uint32_t
 
 struct GatherRun {
   double receivers_per_s = 0;
+  double cpu_seconds = 0;             // of the timed pass, all threads
   std::vector<GatherResult> results;  // of the timed pass, per receiver
   storage::CacheCounters cache;
   double pages_per_receiver = 0;
@@ -171,7 +211,8 @@ struct GatherRun {
 
 // Two passes over the receivers with `threads` gatherers; the second pass
 // is timed (steady state of the cache). Counters are of the timed pass.
-GatherRun gather(const fs::path& set, uint64_t budget, const std::vector<Receiver>& rs, uint32_t threads) {
+GatherRun gather(const fs::path& set, uint64_t budget, const std::vector<Receiver>& rs, uint32_t threads,
+                 GatherMethod method) {
   auto cache = std::make_shared<storage::PageCache>(budget);
   storage::PageSetReader reader(set, cache, gather::attach_view);
   GatherRun out;
@@ -181,13 +222,18 @@ GatherRun gather(const fs::path& set, uint64_t budget, const std::vector<Receive
     std::atomic<size_t> next{0};
     std::atomic<uint64_t> pages{0}, nodes{0};
     const auto t0 = Clock::now();
+    const double cpu0 = process_cpu_seconds();
     std::vector<std::thread> pool;
     for (uint32_t t = 0; t < threads; ++t) {
       pool.emplace_back([&] {
-        Gatherer g(reader, GatherOptions{});
-        constexpr size_t kChunk = 64;  // one tile at a time
+        GatherOptions options;
+        options.method = method;
+        Gatherer g(reader, options);
+        constexpr size_t kChunk = 64;  // one tile at a time, as the daemon's batches
         for (size_t at = next.fetch_add(kChunk); at < rs.size(); at = next.fetch_add(kChunk)) {
-          for (size_t i = at; i < std::min(rs.size(), at + kChunk); ++i) out.results[i] = g.gather(rs[i]);
+          const size_t n = std::min(rs.size(), at + kChunk) - at;
+          g.gather_tile(std::span<const Receiver>(rs).subspan(at, n),
+                        std::span<GatherResult>(out.results).subspan(at, n));
         }
         pages += g.counters().pages_fetched;
         nodes += g.counters().nodes_visited;
@@ -195,6 +241,7 @@ GatherRun gather(const fs::path& set, uint64_t budget, const std::vector<Receive
     }
     for (auto& t : pool) t.join();
     const double s = seconds_since(t0);
+    out.cpu_seconds = process_cpu_seconds() - cpu0;
     const storage::CacheCounters after = cache->counters();
     out.receivers_per_s = double(rs.size()) / s;
     out.cache = {after.hits - before.hits, after.misses - before.misses, after.evictions - before.evictions,
@@ -286,18 +333,20 @@ int run(const Args& a) {
   const std::vector<Receiver> rs = city ? make_receivers(*city, a.receivers) : make_receivers(probe, a.receivers);
   auto print_run = [](const char* name, uint64_t budget, const GatherRun& r) {
     const double lookups = double(r.cache.hits + r.cache.misses);
-    std::printf("gather %-7s budget %8.1f MiB: %8.1f receivers/s, %.0f nodes and %.1f pages/receiver, hit rate %.3f, "
-                "%.1f MiB read, %.1f MiB held\n",
-                name, budget == ~uint64_t(0) ? -1.0 : double(budget) / (1 << 20), r.receivers_per_s,
-                r.nodes_per_receiver, r.pages_per_receiver, lookups > 0 ? double(r.cache.hits) / lookups : 0.0,
-                double(r.cache.bytes_read) / (1 << 20), double(r.cache.bytes_held) / (1 << 20));
+    std::printf(
+        "gather %-7s budget %8.1f MiB: %8.1f receivers/s, %.3f CPU s, %.0f nodes and %.1f pages/receiver, "
+        "hit rate %.3f, %.1f MiB read, %.1f MiB held\n",
+        name, budget == ~uint64_t(0) ? -1.0 : double(budget) / (1 << 20), r.receivers_per_s, r.cpu_seconds,
+        r.nodes_per_receiver, r.pages_per_receiver, lookups > 0 ? double(r.cache.hits) / lookups : 0.0,
+        double(r.cache.bytes_read) / (1 << 20), double(r.cache.bytes_held) / (1 << 20));
   };
-  const uint64_t eighth = m.stats.file_bytes / 8;
-  const GatherRun small = gather(set, eighth, rs, a.threads);
+  const uint64_t eighth =
+      a.budget_fraction > 0 ? uint64_t(double(m.stats.file_bytes) * a.budget_fraction) : m.stats.file_bytes / 8;
+  const GatherRun small = gather(set, eighth, rs, a.threads, a.method);
   print_run("1/8", eighth, small);  // as each budget ends: a 100M run is long
   const uint64_t eighth_decoded = decoded / 8;
-  const GatherRun medium = a.skip_decoded_budget ? GatherRun{} : gather(set, eighth_decoded, rs, a.threads);
-  const GatherRun full = gather(set, ~uint64_t(0), rs, a.threads);
+  const GatherRun medium = a.skip_decoded_budget ? GatherRun{} : gather(set, eighth_decoded, rs, a.threads, a.method);
+  const GatherRun full = gather(set, ~uint64_t(0), rs, a.threads, a.method);
   if (!a.skip_decoded_budget) print_run("1/8dec", eighth_decoded, medium);
   print_run("all", ~uint64_t(0), full);
   size_t differ = 0;
@@ -312,15 +361,16 @@ int run(const Args& a) {
   }
   std::printf("budgets        %zu of %zu receivers differ between the smaller caches and the unlimited one\n", differ, rs.size());
   std::printf("peak RSS       %.2f GiB at the end (the unlimited cache included)\n", peak_rss_gib());
-  std::printf("{\"surfels\": %llu, \"bytes_per_surfel\": %.3f, \"file_bytes\": %llu, \"build_seconds\": %.2f, "
-              "\"tree_surfels_per_s\": %.4g, \"build_peak_rss_gib\": %.3f, \"runs\": %u, \"merges\": %u, "
-              "\"receivers\": %u, \"threads\": %u, \"receivers_per_s_eighth\": %.2f, "
-              "\"receivers_per_s_eighth_decoded\": %.2f, \"receivers_per_s_all\": %.2f, "
-              "\"results_differ\": %zu}\n",
-              (unsigned long long)m.stats.surfel_count, bytes_per_surfel, (unsigned long long)m.stats.file_bytes,
-              build_seconds, built ? double(report.surfels) / (report.add_seconds + report.finish_seconds) : 0.0,
-              build_rss, report.runs, report.merges, a.receivers, a.threads, small.receivers_per_s,
-              medium.receivers_per_s, full.receivers_per_s, differ);
+  std::printf(
+      "{\"surfels\": %llu, \"bytes_per_surfel\": %.3f, \"file_bytes\": %llu, \"build_seconds\": %.2f, "
+      "\"tree_surfels_per_s\": %.4g, \"build_peak_rss_gib\": %.3f, \"runs\": %u, \"merges\": %u, "
+      "\"receivers\": %u, \"threads\": %u, \"receivers_per_s_eighth\": %.2f, "
+      "\"receivers_per_s_eighth_decoded\": %.2f, \"receivers_per_s_all\": %.2f, "
+      "\"cpu_s_eighth\": %.3f, \"cpu_s_all\": %.3f, \"results_differ\": %zu}\n",
+      (unsigned long long)m.stats.surfel_count, bytes_per_surfel, (unsigned long long)m.stats.file_bytes, build_seconds,
+      built ? double(report.surfels) / (report.add_seconds + report.finish_seconds) : 0.0, build_rss, report.runs,
+      report.merges, a.receivers, a.threads, small.receivers_per_s, medium.receivers_per_s, full.receivers_per_s,
+      small.cpu_seconds, full.cpu_seconds, differ);
   if (city && !a.keep && !a.reuse) fs::remove_all(set);
   return differ == 0 ? 0 : 1;
 }

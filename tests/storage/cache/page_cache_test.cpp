@@ -56,6 +56,56 @@ TEST(PageCache, HoldsWithinBudgetAndEvictsOldestNewPageFirst) {
   EXPECT_EQ(c.bytes_held, 3 * kPageBytes);
 }
 
+// A page evicted while a gather still holds it (pinned) is taken back by
+// the next miss of it: no second load, the same page, counted as a hit
+// and held again. A page evicted while unused is loaded again.
+TEST(PageCache, PageEvictedWhileInUseIsTakenBackNotLoaded) {
+  PageCache cache(kPageBytes + kPageBytes / 2);  // room for 1 page
+  int loads = 0;
+  auto get = [&](uint32_t id) {
+    return cache.get(1, id, [&] {
+      ++loads;
+      return make_page(id, 10);
+    });
+  };
+  const tree::PagePtr pinned = get(0);
+  get(1);  // evicts 0, which `pinned` still holds
+  EXPECT_EQ(cache.counters().evictions, 1u);
+  const tree::PagePtr again = get(0);  // evicts 1, unused: not remembered
+  EXPECT_EQ(again.get(), pinned.get());
+  EXPECT_EQ(loads, 2);
+  EXPECT_EQ(cache.counters().hits, 1u);
+  EXPECT_EQ(cache.counters().bytes_held, kPageBytes);
+  get(0);  // held again
+  EXPECT_EQ(cache.counters().hits, 2u);
+  get(1);  // evicted while unused: loaded again
+  EXPECT_EQ(loads, 3);
+  EXPECT_LE(cache.counters().bytes_held, cache.budget());
+}
+
+// A departed page that died meanwhile is loaded again; forget() drops the
+// owner's departed pages too.
+TEST(PageCache, DepartedPageThatDiedIsLoadedAgain) {
+  PageCache cache(kPageBytes + kPageBytes / 2);
+  int loads = 0;
+  auto get = [&](uint64_t owner, uint32_t id) {
+    return cache.get(owner, id, [&] {
+      ++loads;
+      return make_page(id, 10);
+    });
+  };
+  tree::PagePtr pinned = get(1, 0);
+  get(1, 1);       // evicts 0 while in use
+  pinned.reset();  // then it dies
+  get(1, 0);
+  EXPECT_EQ(loads, 3);
+  pinned = get(2, 5);
+  get(2, 6);  // evicts (2, 5) while in use
+  cache.forget(2);
+  get(2, 5);  // forgotten: loaded, not taken back
+  EXPECT_EQ(loads, 6);
+}
+
 TEST(PageCache, SmallerBudgetEvictsDownToItLargerHoldsMore) {
   PageCache cache(4 * kPageBytes);
   auto get = [&](uint32_t id) { return cache.get(1, id, [&] { return make_page(id, 10); }); };

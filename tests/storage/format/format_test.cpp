@@ -167,8 +167,8 @@ std::vector<uint32_t> versions_accepted(bool (*is_known)(uint32_t)) {
   return out;
 }
 
-// The message named only the current version ("reads 2") although V3 pages
-// and V1-V4 manifests are read too.
+// The message named only the current version although two page formats
+// and V1-V4 manifests are read.
 TEST(PageFrame, VersionErrorNamesEveryVersionRead) {
   const auto page = sample_page(3, 99);
   try {
@@ -188,6 +188,25 @@ TEST(ManifestFrame, VersionErrorNamesEveryVersionRead) {
   } catch (const VersionError& e) {
     EXPECT_EQ(versions_named(e.what()), versions_accepted(is_known_manifest_format)) << e.what();
     EXPECT_GE(versions_accepted(is_known_manifest_format).size(), 2u);
+  }
+}
+
+// Pages of the formats before cut-shaped treelets (V2, V3) are refused as
+// a version, not read: the message asks for a rebuild (the daemon's build
+// keys changed with kPageSetFormatVersion, so it rebuilds on its own).
+TEST(PageFrame, RetiredVersionIsVersionErrorAskingForARebuild) {
+  for (const uint16_t v : {uint16_t(kPageFormatV2), uint16_t(kPageFormatV3)}) {
+    const auto page = sample_page(3, v);
+    try {
+      open_page(page, {"/x/pages.pbgp", 3, 0}, kPageFormatCurrent);
+      FAIL() << "page format " << v << " accepted";
+    } catch (const VersionError& e) {
+      const std::string m = e.what();
+      EXPECT_TRUE(contains(m, "/x/pages.pbgp")) << m;
+      EXPECT_TRUE(contains(m, "page format version " + std::to_string(v))) << m;
+      EXPECT_TRUE(contains(m, "rebuild")) << m;
+      EXPECT_EQ(versions_named(m), versions_accepted(is_known_page_format)) << m;
+    }
   }
 }
 

@@ -2,6 +2,8 @@
 // the in-memory build, independence from batch sizes and sort memory.
 #include "common/errors.h"
 #include "storage/cache/page_cache.h"
+#include "storage/codecs/payload_codec.h"
+#include "storage/pages/page_encoding.h"
 #include "storage/pages/page_set.h"
 #include "storage/pages/surfel_sorter.h"
 #include "storage/tree/memory_tree.h"
@@ -176,6 +178,50 @@ TEST(StreamingTreeBuilder, RefusesUnsortedCodesAndEmptyStreams) {
   EXPECT_THROW(b.add(s, 9), InvalidArgument);
   tree::StreamingTreeBuilder empty({}, 65536, 144, sink);
   EXPECT_THROW(empty.finish(), InvalidArgument);
+}
+
+// Pages hold at most kPageLevels levels of the tree: the builder cuts them
+// so, and a reader refuses a page whose treelet is deeper (here the whole
+// tree of 3000 surfels as one treelet) as corruption naming the page.
+TEST(StreamingTreeBuilder, PagesSpanAtMostThePageLevels) {
+  struct Keep final : tree::TreeletSink {
+    uint32_t write(const tree::Treelet& t) override {
+      treelets.push_back(t);
+      return uint32_t(treelets.size() - 1);
+    }
+    std::vector<tree::Treelet> treelets;
+  };
+  const std::vector<Surfel> surfels = test::random_surfels(3000, 7);
+  auto build = [&](uint64_t page_bytes, Keep& sink) {
+    tree::StreamingTreeBuilder b({}, page_bytes, 144, sink);
+    std::vector<std::pair<uint64_t, size_t>> order;
+    const tree::MortonFrame frame(tree::surfel_bounds(surfels));
+    for (size_t i = 0; i < surfels.size(); ++i) order.push_back({frame.code(surfels[i].position), i});
+    std::sort(order.begin(), order.end());
+    for (const auto& [code, i] : order) b.add(surfels[i], code);
+    return b.finish();
+  };
+  const auto codec = make_payload_codec(0);
+  Keep paged;
+  const tree::StreamingTreeStats stats = build(65536, paged);
+  EXPECT_GT(stats.page_count, 20u);
+  EXPECT_GT(stats.max_depth, 2 * kPageLevels);
+  std::vector<uint8_t> bytes;
+  for (uint32_t id = 0; id < paged.treelets.size(); ++id) {
+    encode_page(paged.treelets[id], id, *codec, bytes);
+    EXPECT_NO_THROW(decode_page(bytes, {"p", id, 0}, kPageFormatCurrent, *codec, stats.page_count));
+  }
+  Keep whole;
+  build(0, whole);  // one unbounded treelet
+  ASSERT_EQ(whole.treelets.size(), 1u);
+  encode_page(whole.treelets[0], 0, *codec, bytes);
+  try {
+    decode_page(bytes, {"/x/pages.pbgp", 0, 0}, kPageFormatCurrent, *codec, 1);
+    FAIL() << "a treelet deeper than the page levels was accepted";
+  } catch (const CorruptionError& e) {
+    EXPECT_NE(std::string(e.what()).find("levels deep"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("page 0"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

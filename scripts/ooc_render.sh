@@ -1,0 +1,71 @@
+#!/usr/bin/env bash
+# Daemon-level out-of-core render: starts pbgid with a page cache budget,
+# renders SCENE once (cold: builds or opens the page set, fills the cache)
+# and again (warm), and reports the warm render's wall time, the daemon's
+# CPU seconds during it (utime + stime from /proc) and the daemon's status
+# (page cache counters). The page set lives in CACHE_DIR and is shared by
+# every budget (the build key does not depend on the budget).
+#
+#   scripts/ooc_render.sh SCENE.usda CACHE_DIR SPACING BUDGET [WIDTH HEIGHT [METHOD]]
+#
+# e.g. scripts/ooc_render.sh /work/tmp/city/city.usda /work/tmp/city/cache 0.05 8MiB 64 48 fpbgi
+# BUDGET "0" means unlimited (the daemon's default budget is not used).
+# JOBS (environment, default 4 as `pbgi render`): tile requests in flight.
+# CACHE_ONLY=1 (environment): BUDGET is the page cache's budget alone: the
+# daemon gets it plus the request reserve and the scene's charges
+# (--memory-budget bounds the whole daemon; docs/memory-budget.md), with
+# request_memory 1 MiB and page_cache_floor 0 (a scene is admitted on its
+# estimated charge, several MiB above what it holds once built).
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+SCENE="$(realpath "$1")"
+CACHE="$2"
+SPACING="$3"
+BUDGET="$4"
+WIDTH="${5:-64}"
+HEIGHT="${6:-48}"
+METHOD="${7:-fpbgi}"
+PBGID="${PBGID:-$ROOT/build/bin/pbgid}"
+PBGI="${PBGI:-$ROOT/build/bin/pbgi}"
+
+mkdir -p "$CACHE"
+CACHE="$(realpath "$CACHE")"
+SOCK="$CACHE/ooc-$$.sock"
+LOG="$CACHE/ooc-$$.log"
+[ "$BUDGET" = 0 ] && BUDGET=1TiB
+args=(--memory-budget "$BUDGET")
+if [ "${CACHE_ONLY:-0}" = 1 ] && [ "$BUDGET" != 1TiB ]; then
+  # The scene's charge (geometry and ray structure) as the daemon logged it
+  # when it last opened the scene from this cache directory.
+  charge=$(grep -ho "scene geometry [0-9]* bytes, ray structure [0-9]* bytes" "$CACHE"/*.log 2>/dev/null | tail -1 |
+    awk '{print $3 + $7}')
+  [ -n "$charge" ] || { echo "CACHE_ONLY: no scene charge logged in $CACHE yet (run once unlimited)" >&2; exit 1; }
+  args=(--memory-budget $((BUDGET + 1048576 + charge)) --request-memory 1MiB --page-cache-floor 0)
+fi
+nice -n 10 "$PBGID" --listen "unix:$SOCK" --scene-root "$(dirname "$SCENE")" --cache-dir "$CACHE" \
+  "${args[@]}" 2>"$LOG" &
+daemon=$!
+trap 'kill -TERM "$daemon" 2>/dev/null || true; wait "$daemon" 2>/dev/null || true; rm -f "$SOCK"' EXIT
+for _ in $(seq 100); do [ -S "$SOCK" ] && break; sleep 0.1; done
+
+cpu_ticks() { awk '{print $14 + $15}' "/proc/$daemon/stat"; }
+render() {
+  "$PBGI" render --server "unix:$SOCK" "$SCENE" --camera /World/Camera --surfel-spacing "$SPACING" \
+    --width "$WIDTH" --height "$HEIGHT" --method "$METHOD" --jobs "${JOBS:-4}" -q -o "$CACHE/ooc-$1.exr" >/dev/null
+}
+render cold
+# The cache counters after the cold render (warm = final - these).
+"$PBGI" status --server "unix:$SOCK" | grep -i "^cache" | sed 's/^/after cold: /' || true
+# WARM (environment, default 1): warm renders, each reported on its own
+# line (take the median).
+hz=$(getconf CLK_TCK)
+for n in $(seq "${WARM:-1}"); do
+  ticks0=$(cpu_ticks)
+  start=$(date +%s.%N)
+  render warm
+  end=$(date +%s.%N)
+  ticks1=$(cpu_ticks)
+  awk -v s="$start" -v e="$end" -v t0="$ticks0" -v t1="$ticks1" -v hz="$hz" -v b="$BUDGET" -v w="$WIDTH" -v h="$HEIGHT" -v n="$n" \
+    'BEGIN { printf "warm render %d budget %s, %dx%d: %.1f s wall, %.2f s daemon CPU\n", n, b, w, h, e - s, (t1 - t0) / hz }'
+done
+"$PBGI" status --server "unix:$SOCK" | grep -i "cache\|page\|hit\|miss\|read\|held\|budget" || true
