@@ -59,11 +59,25 @@ void Gatherer::set_volume_points(std::shared_ptr<const VolumePoints> fog) {
   impl_->fog = fog && !fog->empty() ? std::move(fog) : nullptr;
 }
 
+namespace {
+
+// GatherCounters::non_finite: a result with a NaN or infinity becomes
+// "nothing seen"; true if it did.
+bool replace_non_finite(GatherResult& r) {
+  const auto finite = [](const auto& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); };
+  if (finite(r.irradiance) && std::isfinite(r.ao) && finite(r.glossy) && finite(r.bent_normal)) return false;
+  r = GatherResult{};
+  return true;
+}
+
+}  // namespace
+
 GatherResult Gatherer::gather(const Receiver& receiver) {
   // Pages stay pinned until the receiver is done.
   const gather::ClearPinsOnExit unpin{impl_->walker.pins()};
-  const GatherResult out = gather_pinned(gather::checked_receiver(receiver));
+  GatherResult out = gather_pinned(gather::checked_receiver(receiver));
   counters_.pages_fetched += impl_->walker.pins().take_fetches();
+  counters_.non_finite += replace_non_finite(out);
   return out;
 }
 
@@ -127,6 +141,7 @@ void Gatherer::gather_tile(std::span<const Receiver> receivers, std::span<Gather
       }
     }
     counters_.pages_fetched += w.pins().take_fetches();
+    for (GatherResult& r : results) counters_.non_finite += replace_non_finite(r);
     return;
   }
   // Factorized: all receivers checked first, then clustered.
@@ -139,6 +154,7 @@ void Gatherer::gather_tile(std::span<const Receiver> receivers, std::span<Gather
                                       [](const Receiver& r) { return r.glossy.active(); });
   impl_->factorized->gather(batch, results, counters_, any_glossy ? &impl_->glossy() : nullptr,
                             impl_->fog.get());
+  for (GatherResult& r : results) counters_.non_finite += replace_non_finite(r);
 }
 
 }  // namespace pbgi

@@ -58,11 +58,18 @@ struct GatherCounters {
   // top of nodes_visited (docs/gather.md, "Glossy receivers").
   uint64_t glossy_receivers = 0;
   uint64_t glossy_nodes_visited = 0;
+  // Receivers whose result had a NaN or infinity (a defect of the gather,
+  // never expected): the service logs them and reports them in
+  // GatherStats; the values were replaced by "nothing seen" (no light,
+  // AO 1) so that one bad receiver cannot spread through interpolation and
+  // filtering into a tile.
+  uint64_t non_finite = 0;
   void add(const GatherCounters& o) {
     receivers += o.receivers; nodes_visited += o.nodes_visited;
     nodes_rasterized += o.nodes_rasterized; surfels_raycast += o.surfels_raycast;
     surfels_splatted += o.surfels_splatted; pages_fetched += o.pages_fetched;
     glossy_receivers += o.glossy_receivers; glossy_nodes_visited += o.glossy_nodes_visited;
+    non_finite += o.non_finite;
   }
 };
 

@@ -38,7 +38,15 @@ std::string describe(const v1::Tile& t) {
   return fmt::format("tile [{},{})x[{},{})", t.x0(), t.x1(), t.y0(), t.y1());
 }
 
-void set_stats(const GatherCounters& counters, double seconds, v1::GatherStats* stats) {
+// `what`: the request, for the warning about non-finite gathers.
+void set_stats(const GatherCounters& counters, double seconds, v1::GatherStats* stats, const std::string& what) {
+  if (counters.non_finite > 0) {
+    spdlog::warn(
+        "{}: {} of {} gathers gave a NaN or infinite result, counted as seeing nothing (a defect: "
+        "please report it with the scene)",
+        what, counters.non_finite, counters.receivers);
+  }
+  stats->set_non_finite_receivers(counters.non_finite);
   stats->set_receivers(counters.receivers);
   stats->set_nodes_visited(counters.nodes_visited);
   stats->set_nodes_rasterized(counters.nodes_rasterized);
@@ -350,7 +358,7 @@ grpc::Status PbgiService::Gather(grpc::ServerContext* context, const v1::GatherR
     // Glossy radiance towards each receiver's view (0 for diffuse ones).
     if (!request->specular_color().empty()) response->set_glossy(pack_triples(batch.results, &GatherResult::glossy));
     if (options.bent_normal) response->set_bent_normals(pack_triples(batch.results, &GatherResult::bent_normal));
-    set_stats(batch.counters, batch.seconds, response->mutable_stats());
+    set_stats(batch.counters, batch.seconds, response->mutable_stats(), what);
     response->mutable_stats()->set_requested_receivers(receivers.size());
     return grpc::Status::OK;
   });
@@ -418,7 +426,8 @@ void PbgiService::render_one(grpc::ServerContext* context, const TileJob& job,
   response->set_indirect(pack_aov(aovs.indirect, 3 * pixels, "indirect"));
   response->set_albedo(pack_aov(aovs.albedo, 3 * pixels, "albedo"));
   response->set_ao(pack_aov(aovs.ao, pixels, "ao"));
-  set_stats(counters, seconds, response->mutable_stats());
+  set_stats(counters, seconds, response->mutable_stats(),
+            fmt::format("RenderTile scene '{}' {}", job.session->info.scene_id, describe(tile)));
   response->mutable_stats()->set_camera_samples(aovs.camera_samples);
   response->mutable_stats()->set_pixels(pixels);
 }

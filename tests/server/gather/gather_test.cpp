@@ -230,6 +230,30 @@ TEST(Gather, BackSideOfTheFloorUnderTheReceiverIsNotSeen) {
   }
 }
 
+// A NaN that reaches a result (here from a surfel's radiance; the gather
+// itself once made them, far_field_test.cpp) is counted and replaced, not
+// handed on into a tile, where interpolation spreads it.
+TEST(Gather, ANonFiniteResultIsCountedAndReplaced) {
+  std::vector<Surfel> s;
+  test::add_quad(s, {-2, -2, 1}, {0, 4, 0}, {4, 0, 0}, 20, 20, C3f(std::nanf("")));  // faces -z, above
+  test::SurfelTree tree(std::move(s));
+  for (const GatherMethod method : {GatherMethod::kPbgi, GatherMethod::kFpbgi}) {
+    GatherOptions o;
+    o.method = method;
+    Gatherer g(tree, o);
+    const GatherResult one = g.gather(kUp);
+    std::vector<Receiver> tile(4, kUp);
+    std::vector<GatherResult> results(tile.size());
+    g.gather_tile(tile, results);
+    for (const GatherResult& r : results) {
+      EXPECT_EQ(r.irradiance, C3f(0)) << int(method);
+      EXPECT_EQ(r.ao, 1.f);
+    }
+    EXPECT_EQ(one.irradiance, C3f(0));
+    EXPECT_EQ(g.counters().non_finite, 5u) << int(method);
+  }
+}
+
 TEST(Gather, ReceiverOnAnEmittingFloorDoesNotSeeTheFloor) {
   std::vector<Surfel> s;
   test::add_quad(s, {-2, -2, 0}, {4, 0, 0}, {0, 4, 0}, 80, 80, C3f(3));  // faces +z
