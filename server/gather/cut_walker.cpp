@@ -314,7 +314,7 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
     const NodeLook& look = e.view->looks[e.index];
     if (!(look.area > 0.f)) return true;
     const float coverage = narrow_coverage(-dir, Imath::V3f(h.ax, h.ay, h.az),
-                                           Imath::V3f(look.mx, look.my, look.mz), look.fan);
+                                           Imath::V3f(look.mx, look.my, look.mz), fan_cone(h.cone_cos));
     if (!(coverage > 0.f)) return true;  // shows nothing from here
     shape.omega = std::min(look.area * coverage, disk) / d2;
     shape.squash = Imath::V3f(h.ax, h.ay, h.az);
@@ -396,10 +396,11 @@ void CutWalker::add_glossy(const StackEntry& e, const Imath::V3f& w, float cover
   radiance += Imath::C3f(std::max(0.f, g.x) * inv, std::max(0.f, g.y) * inv, std::max(0.f, g.z) * inv);
 }
 
-void CutWalker::leaf_surfels(const StackEntry& e, const tree::Page& page, const HotNode& h) {
+void CutWalker::leaf_surfels(const StackEntry& e, const HotNode& h) {
   const uint32_t end = h.first + h.size();  // checked against the page by the view
+  const LeafSurfel* surfels = e.view->surfels();
   for (uint32_t i = h.first; i < end; ++i) {
-    const Surfel& s = page.surfels[i];
+    const LeafSurfel& s = surfels[i];
     if (!(s.radius > 0.f)) continue;
     const Imath::V3f q = s.position - p_;
     const float facing = s.normal.dot(q);  // < 0: the receiver sees the front
@@ -422,8 +423,8 @@ void CutWalker::leaf_surfels(const StackEntry& e, const tree::Page& page, const 
       const Imath::V3f w = -q / std::sqrt(d2);
       float projected = 0.f, area = 0.f;
       for (uint32_t k = h.first; k < end; ++k) {
-        projected += page.surfels[k].area() * std::max(0.f, page.surfels[k].normal.dot(w));
-        area += page.surfels[k].area();
+        projected += surfels[k].area() * std::max(0.f, surfels[k].normal.dot(w));
+        area += surfels[k].area();
       }
       if (area > 0.f) add_glossy(e, w, projected / area, radiance);
     }
@@ -479,7 +480,7 @@ void CutWalker::walk(const CutOf& cut_of) {
           if (!open.leaf()) {
             push_children(e, open);
           } else {
-            leaf_surfels(e, pins_.page(e.pin), open);
+            leaf_surfels(e, open);
           }
         }
       }

@@ -74,7 +74,6 @@ uint32_t ViewParts::describe(const tree::Node& n, size_t i, const storage::Gloss
         look.r = L.x;
         look.g = L.y;
         look.b = L.z;
-        look.fan = fan_cone(n.cone_cos);
         const Imath::V3f m = mean_normal(n);
         look.mx = m.x;
         look.my = m.y;
@@ -187,13 +186,16 @@ T* copy_to(std::byte* base, size_t offset, const std::vector<T>& v) {
 PageView::Ptr PageView::build(const tree::Page& page) {
   const ViewParts parts = derive_parts(page);
   static_assert(std::is_trivially_destructible_v<HotNode> && std::is_trivially_destructible_v<NodeLook> &&
-                    std::is_trivially_destructible_v<tree::Node> && std::is_trivially_destructible_v<Bipolar>,
+                    std::is_trivially_destructible_v<tree::Node> && std::is_trivially_destructible_v<Bipolar> &&
+                    std::is_trivially_destructible_v<LeafSurfel>,
                 "parts are copy-constructed into raw storage and never destroyed");
-  // Header, nodes, looks (64-byte lines), full nodes, bipolar faces and
-  // index, then the cold part.
+  // Header, nodes (64-byte lines), looks (half lines), leaf surfels, full
+  // nodes, bipolar faces and index, then the cold part.
   const size_t nodes_at = sizeof(PageView);
   const size_t looks_at = nodes_at + parts.nodes.size() * sizeof(HotNode);
-  const size_t full_at = round_up(looks_at + parts.looks.size() * sizeof(NodeLook), alignof(tree::Node));
+  const size_t surfels_at = looks_at + parts.looks.size() * sizeof(NodeLook);
+  static_assert(alignof(LeafSurfel) <= alignof(NodeLook), "surfels() follows the looks unpadded");
+  const size_t full_at = round_up(surfels_at + page.surfels.size() * sizeof(LeafSurfel), alignof(tree::Node));
   const size_t bipolar_at = round_up(full_at + parts.full.size() * sizeof(tree::Node), alignof(Bipolar));
   const size_t index_at = round_up(bipolar_at + parts.bipolar.size() * sizeof(Bipolar), alignof(uint32_t));
   const size_t cold_at = round_up(index_at + parts.bipolar_index.size() * sizeof(uint32_t), alignof(Cold));
@@ -208,6 +210,8 @@ PageView::Ptr PageView::build(const tree::Page& page) {
   view->bipolar_count = uint32_t(parts.bipolar.size());
   copy_to(base, nodes_at, parts.nodes);
   view->looks = copy_to(base, looks_at, parts.looks);
+  auto* surfels = reinterpret_cast<LeafSurfel*>(base + surfels_at);
+  for (const Surfel& s : page.surfels) *surfels++ = {s.position, s.radius, s.normal, s.radiance};
   view->full_nodes = copy_to(base, full_at, parts.full);
   view->bipolar = copy_to(base, bipolar_at, parts.bipolar);
   view->bipolar_index = parts.bipolar_index.empty() ? nullptr : copy_to(base, index_at, parts.bipolar_index);
@@ -247,8 +251,11 @@ struct AttachedView final : tree::PageAttachment {
 
 void attach_view(tree::Page& page) {
   page.attachment = std::make_shared<AttachedView>(page);
-  page.nodes = {};
-  page.links = {};
+  // Freed, not only emptied: `page.nodes = {}` assigns an empty list and
+  // keeps the capacity (and the cache's charge) of every decoded node.
+  std::vector<tree::Node>().swap(page.nodes);
+  std::vector<tree::PageLink>().swap(page.links);
+  std::vector<Surfel>().swap(page.surfels);
 }
 
 const PageView& PageViews::get(const tree::Page& page) {

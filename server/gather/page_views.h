@@ -88,9 +88,12 @@ struct alignas(64) HotNode {
 static_assert(sizeof(HotNode) == 64, "one cache line");
 
 // What a narrow-cone node shows (node_appearance.h), read only when it is
-// splatted: its area-weighted mean radiance, area and cone constants. Wide
-// and bipolar nodes use only its area.
-struct alignas(64) NodeLook {
+// splatted: its area-weighted mean radiance, area and mean normal. Wide
+// and bipolar nodes use only its area. Half a line: the cone's fan
+// (FanCone) is not kept but derived from HotNode::cone_cos when the node is
+// splatted (fan_cone(), one square root), which halves the looks of a
+// cached page (docs/out-of-core.md).
+struct alignas(32) NodeLook {
   float r, g, b;  // >= 0; all 0 when the payload shows nothing
   float area;
   float mx, my, mz;  // area-weighted mean normal (node_appearance.h)
@@ -98,13 +101,27 @@ struct alignas(64) NodeLook {
   // in the look, whose line the walk prefetches with the node's, so that a
   // wide splat reaches its tree::Node without another array's cache miss.
   uint32_t full = kNoFull;
-  FanCone fan;
   static constexpr uint32_t kNoFull = ~0u;
 };
-static_assert(sizeof(NodeLook) == 64, "one cache line");
+static_assert(sizeof(NodeLook) == 32, "half a cache line: two looks never straddle one");
+
+// What the walk reads of a leaf's surfel (CutWalker::leaf_surfels): the
+// decoded position, radius, normal and radiance of a tree Surfel, exactly,
+// without its albedo, emission and gloss, which a gather never reads
+// (40 bytes instead of 80). A page that carries its view keeps its
+// surfels only here.
+struct LeafSurfel {
+  Imath::V3f position;
+  float radius = 0.f;
+  Imath::V3f normal;
+  Imath::C3f radiance;
+  // As Surfel::area(), to the bit.
+  float area() const { return 3.14159265358979f * radius * radius; }
+};
+static_assert(sizeof(LeafSurfel) == 40);
 
 // A page's view is one allocation: its header line (PageView), then its
-// nodes, looks, full nodes and bipolar faces, then the rarely read rest
+// nodes, looks, leaf surfels, full nodes and bipolar faces, then the rarely read rest
 // (PageView::Cold). With pages of a few levels (formats V4/V5) a walk
 // enters a new view every few nodes, and each entry waited for the view's
 // header and its first node one after the other when they lived in
@@ -153,6 +170,9 @@ struct alignas(64) PageView {
   const HotNode* node_data() const { return reinterpret_cast<const HotNode*>(this + 1); }
   std::span<const HotNode> nodes() const { return {node_data(), node_count}; }
 
+  // The page's leaf surfels (Page::surfels, in their order), after the looks.
+  const LeafSurfel* surfels() const { return reinterpret_cast<const LeafSurfel*>(looks + node_count); }
+
   // The tree::Node of view node `i`, for the nodes `full_nodes` keeps; else null.
   const tree::Node* full_node(uint32_t i) const {
     return i < node_count && looks[i].full != NodeLook::kNoFull ? full_nodes + looks[i].full : nullptr;
@@ -186,9 +206,9 @@ static_assert(sizeof(PageView) == 64, "one line; node 0 is the next, in the same
 // Builds `page`'s view and attaches it to the page, so that every Gatherer
 // reuses it for as long as the page cache keeps the page, and the cache's
 // budget pays for it. The view holds what a gather reads of the page's
-// nodes and links, so the page drops them (Page::nodes and Page::links
-// come back empty; its surfels stay): a page in the cache costs its view
-// and surfels, not two copies of its nodes. Install it as the
+// nodes, links and surfels, so the page drops them (Page::nodes,
+// Page::links and Page::surfels come back empty, their memory freed): a
+// page in the cache costs its view, not two copies of its content. Install it as the
 // PageSetReader's page decorator (storage/pages/page_set.h) of readers
 // whose pages only gathers read. Throws as PageView's constructor.
 void attach_view(tree::Page& page);
