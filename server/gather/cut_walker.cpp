@@ -177,8 +177,9 @@ void CutWalker::push_root() {
     if (root.index == 0) {
       std::copy(view->cold->node0_dc, view->cold->node0_dc + 4, dc);
     } else {
-      const tree::Node* full = view->full_node(root.index);
-      if (!full && root.index < page->nodes.size()) full = &page->nodes[root.index];
+      const WideNode* full = view->full_node(root.index);
+      WideNode own;
+      if (!full && root.index < page->nodes.size()) full = &(own = wide_node(page->nodes[root.index]));
       if (!full) {
         pins_.release(pin);
         throw CorruptionError("tree root: page " + std::to_string(root.page) + " node " + std::to_string(root.index) +
@@ -353,12 +354,12 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
     const bool small = disk < kWideRefineFraction * cut_ * d2;
     if (!small && (!(h.cone_cos > 0.f) || (cos_phi < 0.f && cos_far < -kStraddleCos))) return false;
     straddles = cos_far < 0.f;
-    const tree::Node* full = e.view->full_node(e.index);  // kept for every wide, non-bipolar node
+    const WideNode* full = e.view->full_node(e.index);  // kept for every wide, non-bipolar node
     if (!full) {
       throw CorruptionError("tree page " + std::to_string(e.view->id) + " node " + std::to_string(e.index) +
                             ": wide node without its payload");
     }
-    const tree::Node& node = *full;
+    const WideNode& node = *full;
     Appearance look;
     if (!node_appearance(node, -dir, look)) return true;
     shape.omega = std::min(node.area * look.coverage, disk) / d2;

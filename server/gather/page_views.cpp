@@ -7,6 +7,7 @@
 #include <new>
 #include <type_traits>
 #include <cmath>
+#include <cstdlib>
 #include <string>
 
 namespace pbgi::gather {
@@ -30,7 +31,7 @@ namespace {
 struct ViewParts {
   std::vector<HotNode> nodes;
   std::vector<NodeLook> looks;
-  std::vector<tree::Node> full;
+  std::vector<WideNode> full;
   std::vector<Bipolar> bipolar;
   std::vector<uint32_t> bipolar_index;
   float node0_dc[4] = {0.f, 0.f, 0.f, 0.f};
@@ -102,7 +103,7 @@ uint32_t ViewParts::describe(const tree::Node& n, size_t i, const storage::Gloss
   }
   if (!(flags & (HotNode::kNarrow | HotNode::kBipolar))) {
     look.full = uint32_t(full.size());
-    full.push_back(n);
+    full.push_back(wide_node(n));
   }
   // Nothing to see: no area, or NaN/negative/infinite bounds.
   if (!(n.area > 0.f) || !(n.radius >= 0.f) || !std::isfinite(n.radius) || !finite(n.center)) {
@@ -186,7 +187,7 @@ T* copy_to(std::byte* base, size_t offset, const std::vector<T>& v) {
 PageView::Ptr PageView::build(const tree::Page& page) {
   const ViewParts parts = derive_parts(page);
   static_assert(std::is_trivially_destructible_v<HotNode> && std::is_trivially_destructible_v<NodeLook> &&
-                    std::is_trivially_destructible_v<tree::Node> && std::is_trivially_destructible_v<Bipolar> &&
+                    std::is_trivially_destructible_v<WideNode> && std::is_trivially_destructible_v<Bipolar> &&
                     std::is_trivially_destructible_v<LeafSurfel>,
                 "parts are copy-constructed into raw storage and never destroyed");
   // Header, nodes (64-byte lines), looks (half lines), leaf surfels, full
@@ -195,13 +196,19 @@ PageView::Ptr PageView::build(const tree::Page& page) {
   const size_t looks_at = nodes_at + parts.nodes.size() * sizeof(HotNode);
   const size_t surfels_at = looks_at + parts.looks.size() * sizeof(NodeLook);
   static_assert(alignof(LeafSurfel) <= alignof(NodeLook), "surfels() follows the looks unpadded");
-  const size_t full_at = round_up(surfels_at + page.surfels.size() * sizeof(LeafSurfel), alignof(tree::Node));
-  const size_t bipolar_at = round_up(full_at + parts.full.size() * sizeof(tree::Node), alignof(Bipolar));
+  const size_t full_at = round_up(surfels_at + page.surfels.size() * sizeof(LeafSurfel), alignof(WideNode));
+  const size_t bipolar_at = round_up(full_at + parts.full.size() * sizeof(WideNode), alignof(Bipolar));
   const size_t index_at = round_up(bipolar_at + parts.bipolar.size() * sizeof(Bipolar), alignof(uint32_t));
   const size_t cold_at = round_up(index_at + parts.bipolar_index.size() * sizeof(uint32_t), alignof(Cold));
-  const size_t bytes = round_up(cold_at + sizeof(Cold), kViewAlign);
+  // posix_memalign, not aligned operator new: libstdc++'s rounds the size
+  // up to the alignment (C11 aligned_alloc's rule), 64 bytes a view on
+  // average; posix_memalign returns what precedes the aligned start to the
+  // heap and takes only the block the size needs.
+  const size_t bytes = round_up(cold_at + sizeof(Cold), 16);
 
-  auto* base = static_cast<std::byte*>(::operator new(bytes, std::align_val_t(kViewAlign)));
+  void* memory = nullptr;
+  if (posix_memalign(&memory, kViewAlign, bytes) != 0) throw std::bad_alloc();
+  auto* base = static_cast<std::byte*>(memory);
   auto* view = new (base) PageView();
   Ptr owned(view);
   view->id = page.id;
@@ -219,7 +226,7 @@ PageView::Ptr PageView::build(const tree::Page& page) {
   Cold* cold = new (base + cold_at) Cold();
   cold->glossy = page.glossy;
   cold->surfel_count = page.surfels.size();
-  cold->bytes = bytes;
+  cold->bytes = tree::heap_block_bytes(bytes);
   cold->full_count = uint32_t(parts.full.size());
   std::copy(parts.node0_dc, parts.node0_dc + 4, cold->node0_dc);
   view->cold = cold;
@@ -230,7 +237,7 @@ void PageView::Free::operator()(PageView* v) const {
   if (!v) return;
   if (v->cold) v->cold->~Cold();
   v->~PageView();
-  ::operator delete(static_cast<void*>(v), std::align_val_t(kViewAlign));
+  std::free(static_cast<void*>(v));
 }
 
 const PageView*& PageViews::slot(uint32_t id) {
@@ -244,7 +251,10 @@ const PageView*& PageViews::slot(uint32_t id) {
 namespace {
 struct AttachedView final : tree::PageAttachment {
   explicit AttachedView(const tree::Page& page) : view(PageView::build(page)) {}
-  size_t memory_bytes() const override { return sizeof(AttachedView) + view->memory_bytes(); }
+  // Its make_shared block, then the view's.
+  size_t memory_bytes() const override {
+    return tree::heap_block_bytes(tree::Page::kSharedControlBytes + sizeof(AttachedView)) + view->memory_bytes();
+  }
   PageView::Ptr view;
 };
 }  // namespace

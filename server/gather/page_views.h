@@ -2,8 +2,8 @@
 // loop reads per node (bounding sphere, normal cone, precomputed cone
 // sine and coplanarity bound, child links) in one 64-byte cache line, and
 // in an array of its own what a narrow-cone node shows when it is splatted
-// (NodeLook, one line), apart from the 208-byte decoded tree::Node whose
-// SH payload only wide-cone splats read. Building a view costs about one
+// (NodeLook, half a line), apart from the cone and SH payload that only
+// wide-cone splats read (WideNode). Building a view costs about one
 // pass over the page's nodes; views are cached and reused by every
 // receiver, so the cull and cut tests of the ~3500 nodes a receiver visits
 // touch one line each and compute no square roots for cones.
@@ -99,7 +99,7 @@ struct alignas(32) NodeLook {
   float mx, my, mz;  // area-weighted mean normal (node_appearance.h)
   // A wide, non-bipolar node's entry in PageView::full, else kNoFull: kept
   // in the look, whose line the walk prefetches with the node's, so that a
-  // wide splat reaches its tree::Node without another array's cache miss.
+  // wide splat reaches its WideNode without another array's cache miss.
   uint32_t full = kNoFull;
   static constexpr uint32_t kNoFull = ~0u;
 };
@@ -120,6 +120,18 @@ struct LeafSurfel {
 };
 static_assert(sizeof(LeafSurfel) == 40);
 
+// What a wide splat reads of its node (node_appearance.h): the cone, area
+// and SH payload of a tree::Node, without its bounds and links, which the
+// HotNode holds (164 bytes instead of 208).
+struct WideNode {
+  Imath::V3f cone_axis;
+  float cone_cos = -1.f;
+  float area = 0.f;
+  sh::ShRgb radiance_sh;
+  sh::Sh9 coverage_sh{};
+};
+inline WideNode wide_node(const tree::Node& n) { return {n.cone_axis, n.cone_cos, n.area, n.radiance_sh, n.coverage_sh}; }
+
 // A page's view is one allocation: its header line (PageView), then its
 // nodes, looks, leaf surfels, full nodes and bipolar faces, then the rarely read rest
 // (PageView::Cold). With pages of a few levels (formats V4/V5) a walk
@@ -137,11 +149,11 @@ struct alignas(64) PageView {
   uint32_t bipolar_count = 0;
   // Per node; meaningful for narrow ones.
   const NodeLook* looks = nullptr;
-  // The decoded tree::Node of the nodes whose SH payload a splat reads
-  // (wide cones that are not bipolar): full_nodes[looks[i].full]. The rest
-  // need only the nodes and looks, so a page that carries its view need not
+  // The cone and payload of the nodes whose SH payload a splat reads (wide
+  // cones that are not bipolar): full_nodes[looks[i].full]. The rest need
+  // only the nodes and looks, so a page that carries its view need not
   // keep its nodes.
-  const tree::Node* full_nodes = nullptr;
+  const WideNode* full_nodes = nullptr;
   // Bipolar nodes' faces; bipolar_index[i] (null when the page has none) is
   // node i's entry.
   const Bipolar* bipolar = nullptr;
@@ -155,7 +167,7 @@ struct alignas(64) PageView {
   struct Cold {
     std::shared_ptr<const storage::GlossyNodes> glossy;
     size_t surfel_count = 0;
-    size_t bytes = 0;  // the whole allocation
+    size_t bytes = 0;  // the whole allocation's heap block (tree::heap_block_bytes)
     uint32_t full_count = 0;
     // Node 0's DC radiance and coverage (radiance_sh[0], coverage_sh[0]):
     // a tree root's mean radiance, kept apart so that node 0 needs no full
@@ -173,8 +185,8 @@ struct alignas(64) PageView {
   // The page's leaf surfels (Page::surfels, in their order), after the looks.
   const LeafSurfel* surfels() const { return reinterpret_cast<const LeafSurfel*>(looks + node_count); }
 
-  // The tree::Node of view node `i`, for the nodes `full_nodes` keeps; else null.
-  const tree::Node* full_node(uint32_t i) const {
+  // The WideNode of view node `i`, for the nodes `full_nodes` keeps; else null.
+  const WideNode* full_node(uint32_t i) const {
     return i < node_count && looks[i].full != NodeLook::kNoFull ? full_nodes + looks[i].full : nullptr;
   }
 

@@ -217,7 +217,7 @@ void print_decoded_parts(const storage::PageSetReader& reader) {
     const gather::PageView& v = views.get(*page);
     charged += double(page->memory_bytes());
     disk += double(reader.manifest().pages[id].bytes);
-    page_struct += sizeof(tree::Page);
+    page_struct += double(tree::heap_block_bytes(tree::Page::kSharedControlBytes + sizeof(tree::Page)));
     page_vectors += double(page->nodes.capacity() * sizeof(tree::Node) + page->surfels.capacity() * sizeof(Surfel) +
                            page->links.capacity() * sizeof(tree::PageLink));
     attachment += double(page->attachment ? page->attachment->memory_bytes() : 0);
@@ -225,7 +225,7 @@ void print_decoded_parts(const storage::PageSetReader& reader) {
     hot += double(v.node_count * sizeof(gather::HotNode));
     looks += double(v.node_count * sizeof(gather::NodeLook));
     leaf_surfels += double(v.cold->surfel_count * sizeof(gather::LeafSurfel));
-    full += double(v.cold->full_count * sizeof(tree::Node));
+    full += double(v.cold->full_count * sizeof(gather::WideNode));
     bipolar += double(v.bipolar_count * sizeof(gather::Bipolar));
     surfels += double(v.cold->surfel_count);
     nodes += double(v.page_nodes);
@@ -233,12 +233,13 @@ void print_decoded_parts(const storage::PageSetReader& reader) {
     full_count += double(v.cold->full_count);
   }
   const double n = std::max(1.0, double(pages));
+  charged += double(storage::PageCache::entry_bytes()) * n;  // as a cache holding every page charges
   std::printf("decoded/page   %.0f B charged against %.0f B on disk (%.2fx); %.2f nodes, %.2f proxies, %.2f full "
               "nodes, %.2f surfels a page\n",
               charged / n, disk / n, charged / disk, nodes / n, proxies / n, full_count / n, surfels / n);
-  std::printf("decoded parts  Page struct %.0f, Page vectors %.0f, attachment %.0f (view %.0f: header+cold+pad %.0f, "
+  std::printf("decoded parts  cache entry %.0f, Page block %.0f, Page vectors %.0f, attachment %.0f (view %.0f: header+cold+pad %.0f, "
               "HotNode %.0f, NodeLook %.0f, LeafSurfel %.0f, full nodes %.0f, bipolar %.0f); bytes a page\n",
-              page_struct / n, page_vectors / n, attachment / n, view / n,
+              double(storage::PageCache::entry_bytes()), page_struct / n, page_vectors / n, attachment / n, view / n,
               (view - hot - looks - leaf_surfels - full - bipolar) / n, hot / n, looks / n, leaf_surfels / n, full / n,
               bipolar / n);
 }
