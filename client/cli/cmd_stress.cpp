@@ -3,15 +3,17 @@
 // errors by status code, optionally samples the daemon's RSS into a CSV.
 // Exit status: 0 = no error (and RSS within --max-rss), 1 = errors during
 // the load or RSS over the limit, 2 = the run could not start.
+#include "client/cli/build_flags.h"
 #include "client/cli/command.h"
+#include "client/cli/gather_flags.h"
 #include "client/stress/rss_sampler.h"
 #include "client/stress/stress_report.h"
 #include "client/stress/stress_runner.h"
+#include "common/byte_size.h"
 #include "common/errors.h"
 
 #include <fmt/format.h>
 
-#include <cctype>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
@@ -36,8 +38,10 @@ struct StressArgs {
   double deadline = 60;        // seconds per RenderTile
   int attempts = 1;
   uint64_t seed = 1;
-  uint64_t target_surfels = 0;
-  uint32_t build_light_samples = 0, light_samples = 0, pixel_samples = 0, mb_res = 0;
+  // OpenScene's build and RenderTile's gather options: the flags of
+  // `pbgi render` (build_flags.h, gather_flags.h).
+  BuildArgs build;
+  GatherArgs gather;
 };
 
 // "30", "30s", "1.5m", "2h" -> seconds.
@@ -72,27 +76,6 @@ std::pair<uint32_t, uint32_t> parse_image(const std::string& text) {
   return {w, h};
 }
 
-// "512M", "1GiB", "2048" (bytes) -> bytes.
-uint64_t parse_bytes(const std::string& text) {
-  size_t used = 0;
-  double v = 0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    throw InvalidArgument(fmt::format("--max-rss '{}' is not a size (e.g. 1GiB)", text));
-  }
-  std::string unit = text.substr(used);
-  if (unit.size() > 1 && (unit.back() == 'B' || unit.back() == 'b')) unit.pop_back();
-  if (!unit.empty() && unit.back() == 'i') unit.pop_back();
-  double scale = 0;
-  if (unit.empty()) scale = 1;
-  else if (unit == "K" || unit == "k") scale = 1024.0;
-  else if (unit == "M") scale = 1024.0 * 1024;
-  else if (unit == "G") scale = 1024.0 * 1024 * 1024;
-  if (scale == 0 || !(v > 0)) throw InvalidArgument(fmt::format("--max-rss '{}' is not a size", text));
-  return static_cast<uint64_t>(v * scale);
-}
-
 int run(const StressArgs& a) {
   stress::StressOptions options;
   options.servers = a.servers;
@@ -105,12 +88,9 @@ int run(const StressArgs& a) {
   options.call_deadline = std::chrono::milliseconds(static_cast<int64_t>(a.deadline * 1000));
   options.max_attempts = a.attempts;
   options.seed = a.seed;
-  if (a.target_surfels) options.build.set_target_surfels(a.target_surfels);
-  if (a.build_light_samples) options.build.set_light_samples(a.build_light_samples);
-  if (a.light_samples) options.gather.set_light_samples(a.light_samples);
-  if (a.pixel_samples) options.gather.set_pixel_samples(a.pixel_samples);
-  if (a.mb_res) options.gather.set_microbuffer_resolution(a.mb_res);
-  const uint64_t max_rss = a.max_rss.empty() ? 0 : parse_bytes(a.max_rss);
+  options.build = a.build.to_proto(options.width, options.height);
+  options.gather = a.gather.to_proto();
+  const uint64_t max_rss = a.max_rss.empty() ? 0 : parse_byte_size(a.max_rss, "--max-rss");
   if (a.daemon_pid <= 0 && (max_rss || !a.rss_csv.empty())) {
     throw InvalidArgument("--max-rss and --rss-csv need --daemon-pid");
   }
@@ -173,11 +153,8 @@ const CommandRegistrar registrar("stress", [](CLI::App& app, int* exit_code) {
   cmd->add_option("--attempts", args->attempts, "Attempts per call on UNAVAILABLE (1 = no retry)")
       ->check(CLI::Range(1, 100));
   cmd->add_option("--seed", args->seed, "Seed of the random tile choice");
-  cmd->add_option("--target-surfels", args->target_surfels, "OpenScene: surfels to aim for");
-  cmd->add_option("--build-light-samples", args->build_light_samples, "OpenScene: shadow rays per surfel");
-  cmd->add_option("--light-samples", args->light_samples, "RenderTile: direct light samples");
-  cmd->add_option("--pixel-samples", args->pixel_samples, "RenderTile: camera samples per pixel");
-  cmd->add_option("--mb-res", args->mb_res, "RenderTile: microbuffer resolution");
+  args->gather.add_to(cmd);
+  args->build.add_to(cmd);
   cmd->callback([args, exit_code] {
     try {
       *exit_code = run(*args);

@@ -1,8 +1,8 @@
 #include "server/daemon/daemon_options.h"
 
+#include "common/byte_size.h"
 #include "common/errors.h"
 #include "pbgi_build_config.h"
-#include "server/daemon/byte_size.h"
 #include "server/daemon/daemon_settings.h"
 #include "server/daemon/listen_address.h"
 #include "server/daemon/toml_options.h"

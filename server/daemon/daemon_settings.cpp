@@ -1,7 +1,7 @@
 #include "server/daemon/daemon_settings.h"
 
+#include "common/byte_size.h"
 #include "common/errors.h"
-#include "server/daemon/byte_size.h"
 
 #include <fmt/format.h>
 

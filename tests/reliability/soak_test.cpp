@@ -52,5 +52,20 @@ TEST(Soak, ShortSoakHasNoErrorAndBoundedRss) {
   EXPECT_EQ(d->terminate(), 0) << d->log();
 }
 
+// A load test must be able to ask for what a render asks for (the surfel
+// spacing, FPBGI, a payload codec...): `pbgi stress` takes `pbgi render`'s
+// build and gather flags, from the same tables, not a hand-picked few.
+TEST(Soak, StressTakesTheRenderCommandsBuildAndGatherFlags) {
+  const CommandResult render = run_command(kPbgi.string() + " render --help");
+  const CommandResult stress = run_command(kPbgi.string() + " stress --help");
+  ASSERT_EQ(render.status, 0) << render.out;
+  ASSERT_EQ(stress.status, 0) << stress.out;
+  for (const char* flag : {"--surfel-spacing", "--target-surfels", "--payload", "--bounces", "--method", "--epsilon",
+                           "--mb-res", "--max-solid-angle", "--light-samples"}) {
+    ASSERT_NE(render.out.find(flag), std::string::npos) << flag << " is not a render flag";
+    EXPECT_NE(stress.out.find(flag), std::string::npos) << "pbgi stress has no " << flag;
+  }
+}
+
 }  // namespace
 }  // namespace pbgi::testing

@@ -1,4 +1,4 @@
-#include "server/daemon/byte_size.h"
+#include "common/byte_size.h"
 
 #include "common/errors.h"
 
@@ -8,7 +8,7 @@
 #include <charconv>
 #include <cmath>
 
-namespace pbgi::daemon {
+namespace pbgi {
 namespace {
 
 std::string_view trim(std::string_view s) {
@@ -86,4 +86,4 @@ std::string format_byte_size(uint64_t bytes) {
   return fmt::format("{}B", bytes);
 }
 
-}  // namespace pbgi::daemon
+}  // namespace pbgi

@@ -1,10 +1,10 @@
-#include "server/daemon/byte_size.h"
+#include "common/byte_size.h"
 
 #include "common/errors.h"
 
 #include <gtest/gtest.h>
 
-namespace pbgi::daemon {
+namespace pbgi {
 namespace {
 
 TEST(ByteSize, ParsesSuffixes) {
@@ -41,4 +41,4 @@ TEST(ByteSize, FormatRoundTrips) {
 }
 
 }  // namespace
-}  // namespace pbgi::daemon
+}  // namespace pbgi

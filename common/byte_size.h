@@ -5,7 +5,7 @@
 #include <string>
 #include <string_view>
 
-namespace pbgi::daemon {
+namespace pbgi {
 
 // Parses a byte count with an optional K/M/G/T suffix (case-insensitive,
 // optionally followed by "i" and/or "B"; all are powers of 1024, as memory
@@ -17,4 +17,4 @@ uint64_t parse_byte_size(std::string_view text, std::string_view what = "size");
 // The shortest exact text for `bytes` ("2GiB", "1536MiB", "1000B").
 std::string format_byte_size(uint64_t bytes);
 
-}  // namespace pbgi::daemon
+}  // namespace pbgi
