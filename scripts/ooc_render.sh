@@ -56,6 +56,19 @@ render() {
 render cold
 # The cache counters after the cold render (warm = final - these).
 "$PBGI" status --server "unix:$SOCK" | grep -i "^cache" | sed 's/^/after cold: /' || true
+# STRESS=DURATION (environment, e.g. 60s): instead of warm renders, `pbgi
+# stress` with CLIENTS (default 8) clients for DURATION, random TILE x TILE
+# tiles (default 16) of the WIDTH x HEIGHT image, the render's spacing and
+# method; its JSON report (throughput, latency percentiles, errors, the
+# daemon's peak RSS) is
+# printed, then the cache counters.
+if [ -n "${STRESS:-}" ]; then
+  "$PBGI" stress --server "unix:$SOCK" --scene "$SCENE" --camera /World/Camera --surfel-spacing "$SPACING" \
+    --method "$METHOD" --clients "${CLIENTS:-8}" --duration "$STRESS" --image "${WIDTH}x${HEIGHT}" \
+    --tile "${TILE:-16}" --daemon-pid "$daemon" --json -q || true
+  "$PBGI" status --server "unix:$SOCK" | grep -i "cache\|page\|hit\|miss\|read\|held\|budget" || true
+  exit 0
+fi
 # WARM (environment, default 1): warm renders, each reported on its own
 # line (take the median).
 hz=$(getconf CLK_TCK)

@@ -18,7 +18,7 @@ DEB_PACKAGES=(
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
   libgtest-dev libgmock-dev libbenchmark-dev
   libspdlog-dev libfmt-dev libcli11-dev libtomlplusplus-dev libxxhash-dev libpng-dev
-  libopenimageio-dev libhwy-dev
+  libopenimageio-dev libhwy-dev libjemalloc-dev
   python3 python3-venv openimageio-tools ccache
   clang-14 libclang-rt-14-dev llvm-14
   clang-format-14 clang-tidy-14

@@ -195,7 +195,10 @@ void FarBuffer::resolve(float ao_max_distance) {
         mz += f.mz;
         far = std::max(far, f.far);
         ++i;
-      } while (i < sorted_.size() && sorted_[i].near <= far * grow_);
+        // Exactly the cluster found above: trim_hidden() reordered it by
+        // where the ray meets its surfaces, and re-testing the near depths
+        // in that order could stop early and trim the rest a second time.
+      } while (i < end);
       FarLayer& layer = front ? p.front : p.rest;
       layer.r += transmit * r;
       layer.g += transmit * g;

@@ -304,7 +304,9 @@ bool SceneRegistry::unload_idle(uint64_t bytes) {
   unloaded.clear();
   // The heap they freed goes back to the system: glibc keeps freed chunks
   // in its arenas (the worker threads' too), where the next scene may not
-  // fit them, and the budget would pay for them twice.
+  // fit them, and the budget would pay for them twice. (pbgid itself links
+  // jemalloc, which returns them on its own; this is for builds without
+  // it, e.g. under sanitizers.)
   if (any) ::malloc_trim(0);
   return any;
 }

@@ -9,6 +9,9 @@
 //     comment in server/daemon/daemon_options.h): idle scenes are unloaded
 //     to make room. Without the accountant every scene stays and the
 //     daemon grows past it;
+//   - the same under eight clients gathering concurrently from a page set
+//     whose decoded pages are larger than the page cache (allocator churn:
+//     server/daemon/jemalloc_conf.cpp);
 //   - a scene whose geometry alone cannot fit is refused while it is read
 //     (charged chunk by chunk), before the daemon's memory passes the
 //     budget plus that overhead, and GetStatus counts the refusal.
@@ -20,6 +23,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
+#include <exception>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -184,6 +188,68 @@ TEST_F(DaemonMemoryBudget, TheWholeDaemonStaysWithinBudgetWhileScenesBuild) {
                          << " MiB\n"
                          << daemon->log();
   EXPECT_NE(daemon->log().find("unloading idle scene"), std::string::npos) << "idle scenes made room";
+}
+
+TEST_F(DaemonMemoryBudget, TheWholeDaemonStaysWithinBudgetUnderConcurrentGathers) {
+  // A Cornell box of ~300k surfels: its decoded pages (~110 MiB) are much
+  // larger than the 40 MiB page cache a 48 MiB budget leaves, so eight
+  // concurrent clients make the gathering threads decode and the cache
+  // free pages all the time. The page set is built first by a daemon with
+  // room for the build (as a build job would), then served by one with
+  // the small budget.
+  v1::BuildOptions build;
+  build.set_target_surfels(300000);
+  build.set_light_samples(4);
+  {
+    auto builder = start("1GiB");
+    client::PbgiClient(builder->address()).open_scene(kCornell.string(), build);
+    EXPECT_EQ(builder->terminate(), 0) << builder->log();
+  }
+  const uint64_t budget = 48 * kMiB;
+  auto daemon = start("48MiB", {"--request-memory", "8MiB", "--page-cache-floor", "4MiB"});
+  const uint64_t idle = proc_status_bytes(daemon->pid(), "VmRSS");
+  ASSERT_GT(idle, 0u);
+  const std::string scene_id = client::PbgiClient(daemon->address()).open_scene(kCornell.string(), build).scene_id();
+
+  constexpr int kClients = 8;
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(12);
+  std::atomic<int> tiles{0}, errors{0};
+  std::vector<std::thread> clients;
+  clients.reserve(kClients);
+  for (int c = 0; c < kClients; ++c) {
+    clients.emplace_back([&, c] {
+      client::PbgiClient client(daemon->address());
+      v1::RenderTileRequest tile;
+      tile.set_scene_id(scene_id);
+      tile.set_camera("/Camera");
+      tile.set_image_width(64);
+      tile.set_image_height(64);
+      tile.mutable_options()->set_light_samples(4);
+      for (int i = c; std::chrono::steady_clock::now() < until; i += kClients) {
+        const uint32_t x = 16 * (i % 4), y = 16 * ((i / 4) % 4);
+        tile.mutable_tile()->set_x0(x);
+        tile.mutable_tile()->set_y0(y);
+        tile.mutable_tile()->set_x1(x + 16);
+        tile.mutable_tile()->set_y1(y + 16);
+        try {
+          client.render_tile(tile);
+          ++tiles;
+        } catch (const std::exception&) {
+          ++errors;
+        }
+      }
+    });
+  }
+  for (std::thread& t : clients) t.join();
+  EXPECT_EQ(errors.load(), 0) << daemon->log();
+  EXPECT_GT(tiles.load(), kClients) << "too little load to mean anything";
+  const v1::GetStatusResponse status = client::PbgiClient(daemon->address()).status();
+  EXPECT_GT(status.cache().evictions(), 1000u) << "the cache was not under pressure";
+  const uint64_t peak = proc_status_bytes(daemon->pid(), "VmHWM");
+  const uint64_t bound = idle + budget + kSlack;
+  EXPECT_LE(peak, bound) << "peak RSS " << peak / kMiB << " MiB over idle " << idle / kMiB << " MiB + budget "
+                         << budget / kMiB << " MiB + slack " << kSlack / kMiB << " MiB\n"
+                         << daemon->log();
 }
 
 TEST_F(DaemonMemoryBudget, ASceneWhoseGeometryCannotFitIsRefusedWhileItIsRead) {
