@@ -202,8 +202,11 @@ PageView::Ptr PageView::build(const tree::Page& page) {
   const size_t cold_at = round_up(index_at + parts.bipolar_index.size() * sizeof(uint32_t), alignof(Cold));
   // posix_memalign, not aligned operator new: libstdc++'s rounds the size
   // up to the alignment (C11 aligned_alloc's rule), 64 bytes a view on
-  // average; posix_memalign returns what precedes the aligned start to the
-  // heap and takes only the block the size needs.
+  // average; glibc's posix_memalign returns what precedes the aligned
+  // start to the heap and takes only the block the size needs. (jemalloc,
+  // which pbgid links, rounds an aligned block to a size class that is a
+  // multiple of the alignment either way: the charge is then up to 112
+  // bytes short.)
   const size_t bytes = round_up(cold_at + sizeof(Cold), 16);
 
   void* memory = nullptr;
