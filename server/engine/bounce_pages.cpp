@@ -39,6 +39,11 @@ storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
   radiance.reserve(batch.capacity());
 
   // The gather phase is most of the work: it gets [0, 0.9] of the progress.
+  // The receivers' full surfels (albedo, emission) from a reader of the
+  // same set without the gather's views: a page that carries its view
+  // keeps only what gathers read (gather::attach_view). Not cached: each
+  // page is read once.
+  const storage::PageSetReader receivers(direct.directory(), nullptr);
   const uint32_t pages = direct.manifest().stats.page_count;
   BounceGatherStats gathered;
   auto flush = [&](uint32_t pages_done) {
@@ -54,7 +59,7 @@ storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
     if (progress) progress(0.9f * float(pages_done) / float(pages));
   };
   for (uint32_t id = 0; id < pages; ++id) {
-    const tree::PagePtr page = direct.page(id);
+    const tree::PagePtr page = receivers.page(id);
     for (const Surfel& s : page->surfels) {
       batch.push_back(s);
       radiance.push_back(s.radiance);

@@ -177,8 +177,9 @@ void CutWalker::push_root() {
     if (root.index == 0) {
       std::copy(view->cold->node0_dc, view->cold->node0_dc + 4, dc);
     } else {
-      const tree::Node* full = view->full_node(root.index);
-      if (!full && root.index < page->nodes.size()) full = &page->nodes[root.index];
+      const WideNode* full = view->full_node(root.index);
+      WideNode own;
+      if (!full && root.index < page->nodes.size()) full = &(own = wide_node(page->nodes[root.index]));
       if (!full) {
         pins_.release(pin);
         throw CorruptionError("tree root: page " + std::to_string(root.page) + " node " + std::to_string(root.index) +
@@ -314,7 +315,7 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
     const NodeLook& look = e.view->looks[e.index];
     if (!(look.area > 0.f)) return true;
     const float coverage = narrow_coverage(-dir, Imath::V3f(h.ax, h.ay, h.az),
-                                           Imath::V3f(look.mx, look.my, look.mz), look.fan);
+                                           Imath::V3f(look.mx, look.my, look.mz), fan_cone(h.cone_cos));
     if (!(coverage > 0.f)) return true;  // shows nothing from here
     shape.omega = std::min(look.area * coverage, disk) / d2;
     shape.squash = Imath::V3f(h.ax, h.ay, h.az);
@@ -353,12 +354,12 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
     const bool small = disk < kWideRefineFraction * cut_ * d2;
     if (!small && (!(h.cone_cos > 0.f) || (cos_phi < 0.f && cos_far < -kStraddleCos))) return false;
     straddles = cos_far < 0.f;
-    const tree::Node* full = e.view->full_node(e.index);  // kept for every wide, non-bipolar node
+    const WideNode* full = e.view->full_node(e.index);  // kept for every wide, non-bipolar node
     if (!full) {
       throw CorruptionError("tree page " + std::to_string(e.view->id) + " node " + std::to_string(e.index) +
                             ": wide node without its payload");
     }
-    const tree::Node& node = *full;
+    const WideNode& node = *full;
     Appearance look;
     if (!node_appearance(node, -dir, look)) return true;
     shape.omega = std::min(node.area * look.coverage, disk) / d2;
@@ -396,10 +397,11 @@ void CutWalker::add_glossy(const StackEntry& e, const Imath::V3f& w, float cover
   radiance += Imath::C3f(std::max(0.f, g.x) * inv, std::max(0.f, g.y) * inv, std::max(0.f, g.z) * inv);
 }
 
-void CutWalker::leaf_surfels(const StackEntry& e, const tree::Page& page, const HotNode& h) {
+void CutWalker::leaf_surfels(const StackEntry& e, const HotNode& h) {
   const uint32_t end = h.first + h.size();  // checked against the page by the view
+  const LeafSurfel* surfels = e.view->surfels();
   for (uint32_t i = h.first; i < end; ++i) {
-    const Surfel& s = page.surfels[i];
+    const LeafSurfel& s = surfels[i];
     if (!(s.radius > 0.f)) continue;
     const Imath::V3f q = s.position - p_;
     const float facing = s.normal.dot(q);  // < 0: the receiver sees the front
@@ -422,8 +424,8 @@ void CutWalker::leaf_surfels(const StackEntry& e, const tree::Page& page, const 
       const Imath::V3f w = -q / std::sqrt(d2);
       float projected = 0.f, area = 0.f;
       for (uint32_t k = h.first; k < end; ++k) {
-        projected += page.surfels[k].area() * std::max(0.f, page.surfels[k].normal.dot(w));
-        area += page.surfels[k].area();
+        projected += surfels[k].area() * std::max(0.f, surfels[k].normal.dot(w));
+        area += surfels[k].area();
       }
       if (area > 0.f) add_glossy(e, w, projected / area, radiance);
     }
@@ -479,7 +481,7 @@ void CutWalker::walk(const CutOf& cut_of) {
           if (!open.leaf()) {
             push_children(e, open);
           } else {
-            leaf_surfels(e, pins_.page(e.pin), open);
+            leaf_surfels(e, open);
           }
         }
       }

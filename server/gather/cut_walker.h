@@ -121,7 +121,8 @@ class CutWalker {
   // HDR-aware cut wants it refined.
   bool splat_node(const StackEntry& e, const HotNode& h, const Imath::V3f& v, float d2,
                   FarBuffer* far);
-  void leaf_surfels(const StackEntry& e, const tree::Page& page, const HotNode& h);
+  // The surfels of leaf `h` (PageView::surfels()), one by one.
+  void leaf_surfels(const StackEntry& e, const HotNode& h);
   // Adds what glossy node e shows towards unit w (node to receiver) to
   // `radiance`, for a node that shows the projected-area fraction `coverage`.
   static void add_glossy(const StackEntry& e, const Imath::V3f& w, float coverage, Imath::C3f& radiance);

@@ -88,7 +88,10 @@ inline float fan_coverage(float cos_phi, float cos_beta) {
 // mean . w, whatever the spread of its normals (the fan model's
 // sin(beta)/beta is right only for normals spread along one arc; a
 // curved cap's pieces were 1% too bright with it).
-inline Imath::V3f mean_normal(const tree::Node& node) {
+// `Node`: tree::Node or any record with its cone and payload fields
+// (gather::WideNode, page_views.h).
+template <class Node>
+inline Imath::V3f mean_normal(const Node& node) {
   constexpr float kBand1 = 2.f * 3.14159265358979f / 3.f * 0.488602512f;
   const sh::Sh9& c = node.coverage_sh;
   const float c0 = c[0] / (3.14159265358979f * 0.282094792f);  // sum of weights (1)
@@ -215,7 +218,9 @@ inline bool bipolar_appearance(const Bipolar& b, const Imath::V3f& w, float& cov
 
 // `w`: unit direction from the node towards the receiver. Returns false
 // when the node shows nothing in that direction.
-inline bool node_appearance(const tree::Node& node, const Imath::V3f& w, Appearance& out) {
+// `Node` as for mean_normal().
+template <class Node>
+inline bool node_appearance(const Node& node, const Imath::V3f& w, Appearance& out) {
   if (node.cone_cos >= kNarrowConeCos) {
     const float c0 = node.coverage_sh[0];
     if (!(c0 > 0.f)) return false;

@@ -7,6 +7,7 @@
 #include <new>
 #include <type_traits>
 #include <cmath>
+#include <cstdlib>
 #include <string>
 
 namespace pbgi::gather {
@@ -30,7 +31,7 @@ namespace {
 struct ViewParts {
   std::vector<HotNode> nodes;
   std::vector<NodeLook> looks;
-  std::vector<tree::Node> full;
+  std::vector<WideNode> full;
   std::vector<Bipolar> bipolar;
   std::vector<uint32_t> bipolar_index;
   float node0_dc[4] = {0.f, 0.f, 0.f, 0.f};
@@ -74,7 +75,6 @@ uint32_t ViewParts::describe(const tree::Node& n, size_t i, const storage::Gloss
         look.r = L.x;
         look.g = L.y;
         look.b = L.z;
-        look.fan = fan_cone(n.cone_cos);
         const Imath::V3f m = mean_normal(n);
         look.mx = m.x;
         look.my = m.y;
@@ -103,7 +103,7 @@ uint32_t ViewParts::describe(const tree::Node& n, size_t i, const storage::Gloss
   }
   if (!(flags & (HotNode::kNarrow | HotNode::kBipolar))) {
     look.full = uint32_t(full.size());
-    full.push_back(n);
+    full.push_back(wide_node(n));
   }
   // Nothing to see: no area, or NaN/negative/infinite bounds.
   if (!(n.area > 0.f) || !(n.radius >= 0.f) || !std::isfinite(n.radius) || !finite(n.center)) {
@@ -187,19 +187,31 @@ T* copy_to(std::byte* base, size_t offset, const std::vector<T>& v) {
 PageView::Ptr PageView::build(const tree::Page& page) {
   const ViewParts parts = derive_parts(page);
   static_assert(std::is_trivially_destructible_v<HotNode> && std::is_trivially_destructible_v<NodeLook> &&
-                    std::is_trivially_destructible_v<tree::Node> && std::is_trivially_destructible_v<Bipolar>,
+                    std::is_trivially_destructible_v<WideNode> && std::is_trivially_destructible_v<Bipolar> &&
+                    std::is_trivially_destructible_v<LeafSurfel>,
                 "parts are copy-constructed into raw storage and never destroyed");
-  // Header, nodes, looks (64-byte lines), full nodes, bipolar faces and
-  // index, then the cold part.
+  // Header, nodes (64-byte lines), looks (half lines), leaf surfels, full
+  // nodes, bipolar faces and index, then the cold part.
   const size_t nodes_at = sizeof(PageView);
   const size_t looks_at = nodes_at + parts.nodes.size() * sizeof(HotNode);
-  const size_t full_at = round_up(looks_at + parts.looks.size() * sizeof(NodeLook), alignof(tree::Node));
-  const size_t bipolar_at = round_up(full_at + parts.full.size() * sizeof(tree::Node), alignof(Bipolar));
+  const size_t surfels_at = looks_at + parts.looks.size() * sizeof(NodeLook);
+  static_assert(alignof(LeafSurfel) <= alignof(NodeLook), "surfels() follows the looks unpadded");
+  const size_t full_at = round_up(surfels_at + page.surfels.size() * sizeof(LeafSurfel), alignof(WideNode));
+  const size_t bipolar_at = round_up(full_at + parts.full.size() * sizeof(WideNode), alignof(Bipolar));
   const size_t index_at = round_up(bipolar_at + parts.bipolar.size() * sizeof(Bipolar), alignof(uint32_t));
   const size_t cold_at = round_up(index_at + parts.bipolar_index.size() * sizeof(uint32_t), alignof(Cold));
-  const size_t bytes = round_up(cold_at + sizeof(Cold), kViewAlign);
+  // posix_memalign, not aligned operator new: libstdc++'s rounds the size
+  // up to the alignment (C11 aligned_alloc's rule), 64 bytes a view on
+  // average; glibc's posix_memalign returns what precedes the aligned
+  // start to the heap and takes only the block the size needs. (jemalloc,
+  // which pbgid links, rounds an aligned block to a size class that is a
+  // multiple of the alignment either way: the charge is then up to 112
+  // bytes short.)
+  const size_t bytes = round_up(cold_at + sizeof(Cold), 16);
 
-  auto* base = static_cast<std::byte*>(::operator new(bytes, std::align_val_t(kViewAlign)));
+  void* memory = nullptr;
+  if (posix_memalign(&memory, kViewAlign, bytes) != 0) throw std::bad_alloc();
+  auto* base = static_cast<std::byte*>(memory);
   auto* view = new (base) PageView();
   Ptr owned(view);
   view->id = page.id;
@@ -208,6 +220,8 @@ PageView::Ptr PageView::build(const tree::Page& page) {
   view->bipolar_count = uint32_t(parts.bipolar.size());
   copy_to(base, nodes_at, parts.nodes);
   view->looks = copy_to(base, looks_at, parts.looks);
+  auto* surfels = reinterpret_cast<LeafSurfel*>(base + surfels_at);
+  for (const Surfel& s : page.surfels) *surfels++ = {s.position, s.radius, s.normal, s.radiance};
   view->full_nodes = copy_to(base, full_at, parts.full);
   view->bipolar = copy_to(base, bipolar_at, parts.bipolar);
   view->bipolar_index = parts.bipolar_index.empty() ? nullptr : copy_to(base, index_at, parts.bipolar_index);
@@ -215,7 +229,7 @@ PageView::Ptr PageView::build(const tree::Page& page) {
   Cold* cold = new (base + cold_at) Cold();
   cold->glossy = page.glossy;
   cold->surfel_count = page.surfels.size();
-  cold->bytes = bytes;
+  cold->bytes = tree::heap_block_bytes(bytes);
   cold->full_count = uint32_t(parts.full.size());
   std::copy(parts.node0_dc, parts.node0_dc + 4, cold->node0_dc);
   view->cold = cold;
@@ -226,7 +240,7 @@ void PageView::Free::operator()(PageView* v) const {
   if (!v) return;
   if (v->cold) v->cold->~Cold();
   v->~PageView();
-  ::operator delete(static_cast<void*>(v), std::align_val_t(kViewAlign));
+  std::free(static_cast<void*>(v));
 }
 
 const PageView*& PageViews::slot(uint32_t id) {
@@ -240,15 +254,21 @@ const PageView*& PageViews::slot(uint32_t id) {
 namespace {
 struct AttachedView final : tree::PageAttachment {
   explicit AttachedView(const tree::Page& page) : view(PageView::build(page)) {}
-  size_t memory_bytes() const override { return sizeof(AttachedView) + view->memory_bytes(); }
+  // Its make_shared block, then the view's.
+  size_t memory_bytes() const override {
+    return tree::heap_block_bytes(tree::Page::kSharedControlBytes + sizeof(AttachedView)) + view->memory_bytes();
+  }
   PageView::Ptr view;
 };
 }  // namespace
 
 void attach_view(tree::Page& page) {
   page.attachment = std::make_shared<AttachedView>(page);
-  page.nodes = {};
-  page.links = {};
+  // Freed, not only emptied: `page.nodes = {}` assigns an empty list and
+  // keeps the capacity (and the cache's charge) of every decoded node.
+  std::vector<tree::Node>().swap(page.nodes);
+  std::vector<tree::PageLink>().swap(page.links);
+  std::vector<Surfel>().swap(page.surfels);
 }
 
 const PageView& PageViews::get(const tree::Page& page) {

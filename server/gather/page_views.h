@@ -2,8 +2,8 @@
 // loop reads per node (bounding sphere, normal cone, precomputed cone
 // sine and coplanarity bound, child links) in one 64-byte cache line, and
 // in an array of its own what a narrow-cone node shows when it is splatted
-// (NodeLook, one line), apart from the 208-byte decoded tree::Node whose
-// SH payload only wide-cone splats read. Building a view costs about one
+// (NodeLook, half a line), apart from the cone and SH payload that only
+// wide-cone splats read (WideNode). Building a view costs about one
 // pass over the page's nodes; views are cached and reused by every
 // receiver, so the cull and cut tests of the ~3500 nodes a receiver visits
 // touch one line each and compute no square roots for cones.
@@ -88,23 +88,52 @@ struct alignas(64) HotNode {
 static_assert(sizeof(HotNode) == 64, "one cache line");
 
 // What a narrow-cone node shows (node_appearance.h), read only when it is
-// splatted: its area-weighted mean radiance, area and cone constants. Wide
-// and bipolar nodes use only its area.
-struct alignas(64) NodeLook {
+// splatted: its area-weighted mean radiance, area and mean normal. Wide
+// and bipolar nodes use only its area. Half a line: the cone's fan
+// (FanCone) is not kept but derived from HotNode::cone_cos when the node is
+// splatted (fan_cone(), one square root), which halves the looks of a
+// cached page (docs/out-of-core.md).
+struct alignas(32) NodeLook {
   float r, g, b;  // >= 0; all 0 when the payload shows nothing
   float area;
   float mx, my, mz;  // area-weighted mean normal (node_appearance.h)
   // A wide, non-bipolar node's entry in PageView::full, else kNoFull: kept
   // in the look, whose line the walk prefetches with the node's, so that a
-  // wide splat reaches its tree::Node without another array's cache miss.
+  // wide splat reaches its WideNode without another array's cache miss.
   uint32_t full = kNoFull;
-  FanCone fan;
   static constexpr uint32_t kNoFull = ~0u;
 };
-static_assert(sizeof(NodeLook) == 64, "one cache line");
+static_assert(sizeof(NodeLook) == 32, "half a cache line: two looks never straddle one");
+
+// What the walk reads of a leaf's surfel (CutWalker::leaf_surfels): the
+// decoded position, radius, normal and radiance of a tree Surfel, exactly,
+// without its albedo, emission and gloss, which a gather never reads
+// (40 bytes instead of 80). A page that carries its view keeps its
+// surfels only here.
+struct LeafSurfel {
+  Imath::V3f position;
+  float radius = 0.f;
+  Imath::V3f normal;
+  Imath::C3f radiance;
+  // As Surfel::area(), to the bit.
+  float area() const { return 3.14159265358979f * radius * radius; }
+};
+static_assert(sizeof(LeafSurfel) == 40);
+
+// What a wide splat reads of its node (node_appearance.h): the cone, area
+// and SH payload of a tree::Node, without its bounds and links, which the
+// HotNode holds (164 bytes instead of 208).
+struct WideNode {
+  Imath::V3f cone_axis;
+  float cone_cos = -1.f;
+  float area = 0.f;
+  sh::ShRgb radiance_sh;
+  sh::Sh9 coverage_sh{};
+};
+inline WideNode wide_node(const tree::Node& n) { return {n.cone_axis, n.cone_cos, n.area, n.radiance_sh, n.coverage_sh}; }
 
 // A page's view is one allocation: its header line (PageView), then its
-// nodes, looks, full nodes and bipolar faces, then the rarely read rest
+// nodes, looks, leaf surfels, full nodes and bipolar faces, then the rarely read rest
 // (PageView::Cold). With pages of a few levels (formats V4/V5) a walk
 // enters a new view every few nodes, and each entry waited for the view's
 // header and its first node one after the other when they lived in
@@ -120,11 +149,11 @@ struct alignas(64) PageView {
   uint32_t bipolar_count = 0;
   // Per node; meaningful for narrow ones.
   const NodeLook* looks = nullptr;
-  // The decoded tree::Node of the nodes whose SH payload a splat reads
-  // (wide cones that are not bipolar): full_nodes[looks[i].full]. The rest
-  // need only the nodes and looks, so a page that carries its view need not
+  // The cone and payload of the nodes whose SH payload a splat reads (wide
+  // cones that are not bipolar): full_nodes[looks[i].full]. The rest need
+  // only the nodes and looks, so a page that carries its view need not
   // keep its nodes.
-  const tree::Node* full_nodes = nullptr;
+  const WideNode* full_nodes = nullptr;
   // Bipolar nodes' faces; bipolar_index[i] (null when the page has none) is
   // node i's entry.
   const Bipolar* bipolar = nullptr;
@@ -138,7 +167,7 @@ struct alignas(64) PageView {
   struct Cold {
     std::shared_ptr<const storage::GlossyNodes> glossy;
     size_t surfel_count = 0;
-    size_t bytes = 0;  // the whole allocation
+    size_t bytes = 0;  // the whole allocation's heap block (tree::heap_block_bytes)
     uint32_t full_count = 0;
     // Node 0's DC radiance and coverage (radiance_sh[0], coverage_sh[0]):
     // a tree root's mean radiance, kept apart so that node 0 needs no full
@@ -153,8 +182,11 @@ struct alignas(64) PageView {
   const HotNode* node_data() const { return reinterpret_cast<const HotNode*>(this + 1); }
   std::span<const HotNode> nodes() const { return {node_data(), node_count}; }
 
-  // The tree::Node of view node `i`, for the nodes `full_nodes` keeps; else null.
-  const tree::Node* full_node(uint32_t i) const {
+  // The page's leaf surfels (Page::surfels, in their order), after the looks.
+  const LeafSurfel* surfels() const { return reinterpret_cast<const LeafSurfel*>(looks + node_count); }
+
+  // The WideNode of view node `i`, for the nodes `full_nodes` keeps; else null.
+  const WideNode* full_node(uint32_t i) const {
     return i < node_count && looks[i].full != NodeLook::kNoFull ? full_nodes + looks[i].full : nullptr;
   }
 
@@ -186,9 +218,9 @@ static_assert(sizeof(PageView) == 64, "one line; node 0 is the next, in the same
 // Builds `page`'s view and attaches it to the page, so that every Gatherer
 // reuses it for as long as the page cache keeps the page, and the cache's
 // budget pays for it. The view holds what a gather reads of the page's
-// nodes and links, so the page drops them (Page::nodes and Page::links
-// come back empty; its surfels stay): a page in the cache costs its view
-// and surfels, not two copies of its nodes. Install it as the
+// nodes, links and surfels, so the page drops them (Page::nodes,
+// Page::links and Page::surfels come back empty, their memory freed): a
+// page in the cache costs its view, not two copies of its content. Install it as the
 // PageSetReader's page decorator (storage/pages/page_set.h) of readers
 // whose pages only gathers read. Throws as PageView's constructor.
 void attach_view(tree::Page& page);

@@ -11,7 +11,8 @@
 // tree) survive the stream of pages each gather needs once, where a plain
 // LRU under a working set larger than the budget keeps nothing useful.
 // One mutex; the critical section is hash lookups and list splices, never
-// I/O or decoding. The bytes of a page are Page::memory_bytes(); the cache
+// I/O or decoding. The bytes of a page are Page::memory_bytes() plus what
+// holding it costs the cache (entry_bytes(): its hash and list nodes); the cache
 // never holds more than budget() bytes (a page larger than the budget is
 // returned but not held; budget 0 holds nothing). Concurrent misses of one
 // page call `load` once: the other callers wait for that load and share its
@@ -55,6 +56,8 @@ class PageCache {
   void note_bytes_read(uint64_t n);
   CacheCounters counters() const;
   uint64_t budget() const;
+  // The cache's own bytes per page held, charged with the page's.
+  static uint64_t entry_bytes();
   // Changes the budget; a smaller one evicts (as the policy above would)
   // until the holdings fit it. The daemon's memory accountant moves it as
   // scenes come and go (server/engine/memory_accountant.h).

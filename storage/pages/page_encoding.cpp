@@ -145,7 +145,7 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   // Link records carry a linked child's exact summary only when its
   // payload is stored with it (derived payloads) and no glossy radiance is
   // shown that the record lacks: otherwise a reader must load the child.
-  if (node_payloads || glossy) page->links = {};
+  if (node_payloads || glossy) std::vector<tree::PageLink>().swap(page->links);  // freed, not only emptied
   if (glossy) {
     std::vector<float> link_areas(links);
     for (uint64_t i = 0; i < links; ++i) link_areas[i] = link[i].summary.area;

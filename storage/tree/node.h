@@ -47,6 +47,15 @@ struct Node {
   bool is_leaf() const { return child_count == 0; }
 };
 
+// What a heap block of `n` requested bytes occupies (glibc's malloc: an
+// 8-byte size header, 16-byte granularity, 32 bytes at least): memory
+// charges count blocks, not the bytes asked for. For the small blocks of
+// a cut-shaped page (~10 nodes) the difference is a tenth of its charge.
+constexpr size_t heap_block_bytes(size_t n) {
+  const size_t block = (n + 8 + 15) / 16 * 16;
+  return block < 32 ? 32 : block;
+}
+
 // What a reader of pages derives from one page once and keeps with it (the
 // gather's compact node views). It lives and dies with its page, so the
 // page cache charges its bytes together with the page's and one budget
@@ -85,10 +94,17 @@ struct Page {
   std::shared_ptr<const storage::GlossyNodes> glossy;
   size_t glossy_bytes = 0;
 
+  // Heap blocks included: the page's own (with the control block of the
+  // std::make_shared that every loader uses), its arrays' and its
+  // attachment's.
   size_t memory_bytes() const {
-    return sizeof(Page) + nodes.capacity() * sizeof(Node) + surfels.capacity() * sizeof(Surfel) +
-           links.capacity() * sizeof(PageLink) + (attachment ? attachment->memory_bytes() : 0) + glossy_bytes;
+    auto array = [](size_t bytes) { return bytes ? heap_block_bytes(bytes) : 0; };
+    return heap_block_bytes(kSharedControlBytes + sizeof(Page)) + array(nodes.capacity() * sizeof(Node)) +
+           array(surfels.capacity() * sizeof(Surfel)) + array(links.capacity() * sizeof(PageLink)) +
+           (attachment ? attachment->memory_bytes() : 0) + glossy_bytes;
   }
+  // std::make_shared's control block (use and weak counts, vtable).
+  static constexpr size_t kSharedControlBytes = 16;
 };
 
 using PagePtr = std::shared_ptr<const Page>;

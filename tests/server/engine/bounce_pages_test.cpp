@@ -40,12 +40,15 @@ std::unique_ptr<Scene> furnace() {
 }
 
 // Mean outgoing radiance (green) over every surfel of the session's tree,
-// read page by page as a gather would.
+// read page by page.
 double mean_radiance(const SceneSession& s) {
   double sum = 0;
   uint64_t n = 0;
+  // Full surfels: the session's reader keeps in its pages only what
+  // gathers read of them (gather::attach_view).
+  const storage::PageSetReader pages(s.tree->directory(), nullptr);
   for (uint32_t id = 0; id < s.tree->manifest().stats.page_count; ++id) {
-    for (const Surfel& surfel : s.tree->page(id)->surfels) {
+    for (const Surfel& surfel : pages.page(id)->surfels) {
       sum += surfel.radiance.y;
       ++n;
     }

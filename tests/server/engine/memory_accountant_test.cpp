@@ -50,7 +50,7 @@ TEST(MemoryAccountant, TheCacheGetsWhatTheReserveAndChargesLeave) {
 }
 
 TEST(MemoryAccountant, AChargeShrinksTheCacheEvictingPages) {
-  const uint64_t page = make_page(0, 1000)->memory_bytes();
+  const uint64_t page = make_page(0, 1000)->memory_bytes() + storage::PageCache::entry_bytes();  // as held
   auto cache = std::make_shared<storage::PageCache>(0);
   auto memory = MemoryAccountant::create({100 * page, 0, 10 * page}, cache);
   for (uint32_t id = 0; id < 80; ++id) cache->get(1, id, [&] { return make_page(id, 1000); });

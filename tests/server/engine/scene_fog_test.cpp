@@ -75,8 +75,11 @@ TEST_F(EngineFog, SurfelsUnderTheSlabAreShadedThroughIt) {
   // Mean radiance of floor surfels under the slab and away from it.
   double under = 0, clear = 0;
   uint64_t n_under = 0, n_clear = 0;
+  // Full surfels: the session's reader keeps in its pages only what
+  // gathers read of them (gather::attach_view).
+  const storage::PageSetReader pages(s->tree->directory(), nullptr);
   for (uint32_t id = 0; id < s->tree->manifest().stats.page_count; ++id) {
-    for (const Surfel& surfel : s->tree->page(id)->surfels) {
+    for (const Surfel& surfel : pages.page(id)->surfels) {
       const V3f& p = surfel.position;
       if (std::fabs(p.x) < 1.5f && std::fabs(p.z) < 1.5f) {
         under += surfel.radiance.y;

@@ -98,6 +98,8 @@ struct Args {
   // --skip-decoded-budget measures only what issue 4 asks (1/8 of the disk
   // size against everything cached).
   bool skip_decoded_budget = false;
+  // --decode-only: stop after the decoded size and its breakdown by part.
+  bool decode_only = false;
   fs::path page_set;  // serve this set instead of building the synthetic city
   // The small budget as a fraction of the page set's size on disk (1/8
   // unless given; the slowdown-against-budget sweep).
@@ -129,6 +131,7 @@ Args parse(int argc, char** argv) {
     else if (k == "--reuse") a.reuse = true;
     else if (k == "--keep") a.keep = true;
     else if (k == "--skip-decoded-budget") a.skip_decoded_budget = true;
+    else if (k == "--decode-only") a.decode_only = true;
     else if (k == "--page-set") a.page_set = val();
     else if (k == "--budget-fraction") a.budget_fraction = std::strtod(val().c_str(), nullptr);
     else if (k == "--method") {
@@ -143,6 +146,7 @@ Args parse(int argc, char** argv) {
                    "usage: bench_out_of_core [--surfels N] [--dir DIR] [--sort-memory SIZE] [--leaf-size N]\n"
                    "       [--page-size BYTES] [--receivers N] [--threads N] [--reuse] [--keep]\n"
                    "       bench_out_of_core --page-set DIR [--receivers N] [--threads N] [--skip-decoded-budget]\n"
+                   "       [--decode-only]  (stop after the decoded size and where its bytes go)\n"
                    "       [--budget-fraction F]  (the small budget: F x the page set's size on disk; 1/8)\n"
                    "       [--method pbgi|fpbgi]\n");
       std::exit(2);
@@ -198,6 +202,46 @@ std::vector<Receiver> make_receivers(const storage::PageSetReader& set, uint32_t
     }
   }
   return out;
+}
+
+// Where a cached page's charged bytes go (Page::memory_bytes(), what the
+// page cache counts), per page on average and against its bytes on disk.
+void print_decoded_parts(const storage::PageSetReader& reader) {
+  const uint32_t pages = reader.manifest().stats.page_count;
+  double charged = 0, disk = 0, page_struct = 0, page_vectors = 0, attachment = 0, view = 0;
+  double hot = 0, looks = 0, leaf_surfels = 0, full = 0, bipolar = 0, surfels = 0, nodes = 0, proxies = 0;
+  double full_count = 0;
+  gather::PageViews views;
+  for (uint32_t id = 0; id < pages; ++id) {
+    const tree::PagePtr page = reader.page(id);
+    const gather::PageView& v = views.get(*page);
+    charged += double(page->memory_bytes());
+    disk += double(reader.manifest().pages[id].bytes);
+    page_struct += double(tree::heap_block_bytes(tree::Page::kSharedControlBytes + sizeof(tree::Page)));
+    page_vectors += double(page->nodes.capacity() * sizeof(tree::Node) + page->surfels.capacity() * sizeof(Surfel) +
+                           page->links.capacity() * sizeof(tree::PageLink));
+    attachment += double(page->attachment ? page->attachment->memory_bytes() : 0);
+    view += double(v.memory_bytes());
+    hot += double(v.node_count * sizeof(gather::HotNode));
+    looks += double(v.node_count * sizeof(gather::NodeLook));
+    leaf_surfels += double(v.cold->surfel_count * sizeof(gather::LeafSurfel));
+    full += double(v.cold->full_count * sizeof(gather::WideNode));
+    bipolar += double(v.bipolar_count * sizeof(gather::Bipolar));
+    surfels += double(v.cold->surfel_count);
+    nodes += double(v.page_nodes);
+    proxies += double(v.node_count - v.page_nodes);
+    full_count += double(v.cold->full_count);
+  }
+  const double n = std::max(1.0, double(pages));
+  charged += double(storage::PageCache::entry_bytes()) * n;  // as a cache holding every page charges
+  std::printf("decoded/page   %.0f B charged against %.0f B on disk (%.2fx); %.2f nodes, %.2f proxies, %.2f full "
+              "nodes, %.2f surfels a page\n",
+              charged / n, disk / n, charged / disk, nodes / n, proxies / n, full_count / n, surfels / n);
+  std::printf("decoded parts  cache entry %.0f, Page block %.0f, Page vectors %.0f, attachment %.0f (view %.0f: header+cold+pad %.0f, "
+              "HotNode %.0f, NodeLook %.0f, LeafSurfel %.0f, full nodes %.0f, bipolar %.0f); bytes a page\n",
+              double(storage::PageCache::entry_bytes()), page_struct / n, page_vectors / n, attachment / n, view / n,
+              (view - hot - looks - leaf_surfels - full - bipolar) / n, hot / n, looks / n, leaf_surfels / n, full / n,
+              bipolar / n);
 }
 
 struct GatherRun {
@@ -327,6 +371,8 @@ int run(const Args& a) {
                 m.stats.page_count / s, double(m.stats.file_bytes) / (1 << 20) / s, double(decoded) / (1 << 30),
                 double(decoded) / double(m.stats.file_bytes));
   }
+  print_decoded_parts(probe);
+  if (a.decode_only) return 0;
 
   // 3. Gathers: a cache of 1/8 of the page set's size on disk, of 1/8 of
   //    its decoded size (what the budget counts), then of everything.

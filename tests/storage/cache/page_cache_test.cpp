@@ -26,7 +26,8 @@ tree::PagePtr make_page(uint32_t id, size_t nodes) {
   return p;
 }
 
-const uint64_t kPageBytes = make_page(0, 10)->memory_bytes();
+// What the cache charges for holding such a page: its bytes and the cache's own.
+const uint64_t kPageBytes = make_page(0, 10)->memory_bytes() + PageCache::entry_bytes();
 
 TEST(PageCache, HoldsWithinBudgetAndEvictsOldestNewPageFirst) {
   PageCache cache(3 * kPageBytes + kPageBytes / 2);  // room for 3 pages
@@ -157,7 +158,7 @@ TEST(PageCache, OwnersAreSeparateAndForgettable) {
   EXPECT_EQ(pb->nodes.size(), 20u);  // not a's page 0
   EXPECT_EQ(cache.counters().misses, 2u);
   cache.forget(a);
-  EXPECT_EQ(cache.counters().bytes_held, pb->memory_bytes());
+  EXPECT_EQ(cache.counters().bytes_held, pb->memory_bytes() + PageCache::entry_bytes());
   int loads = 0;
   cache.get(a, 0, [&] { ++loads; return make_page(0, 10); });
   EXPECT_EQ(loads, 1);
@@ -234,7 +235,7 @@ class CacheOverPageSet : public ::testing::Test {
     // several times their size on disk).
     PageSetReader probe(tmp_.path() / "set", nullptr);
     for (uint32_t p = 0; p < probe.manifest().stats.page_count; ++p)
-      one_page_ = std::max<uint64_t>(one_page_, probe.page(p)->memory_bytes());
+      one_page_ = std::max<uint64_t>(one_page_, probe.page(p)->memory_bytes() + PageCache::entry_bytes());
   }
   uint64_t one_page_ = 0;
   test::TempDir tmp_;
