@@ -191,8 +191,8 @@ TEST_F(DaemonMemoryBudget, TheWholeDaemonStaysWithinBudgetWhileScenesBuild) {
 }
 
 TEST_F(DaemonMemoryBudget, TheWholeDaemonStaysWithinBudgetUnderConcurrentGathers) {
-  // A Cornell box of ~300k surfels: its decoded pages (~110 MiB) are much
-  // larger than the 40 MiB page cache a 48 MiB budget leaves, so eight
+  // A Cornell box of ~300k surfels: its decoded pages (~28 MiB) are more
+  // than the ~15 MiB page cache a 20 MiB budget leaves, so eight
   // concurrent clients make the gathering threads decode and the cache
   // free pages all the time. The page set is built first by a daemon with
   // room for the build (as a build job would), then served by one with
@@ -205,8 +205,8 @@ TEST_F(DaemonMemoryBudget, TheWholeDaemonStaysWithinBudgetUnderConcurrentGathers
     client::PbgiClient(builder->address()).open_scene(kCornell.string(), build);
     EXPECT_EQ(builder->terminate(), 0) << builder->log();
   }
-  const uint64_t budget = 48 * kMiB;
-  auto daemon = start("48MiB", {"--request-memory", "8MiB", "--page-cache-floor", "4MiB"});
+  const uint64_t budget = 20 * kMiB;
+  auto daemon = start("20MiB", {"--request-memory", "4MiB", "--page-cache-floor", "4MiB"});
   const uint64_t idle = proc_status_bytes(daemon->pid(), "VmRSS");
   ASSERT_GT(idle, 0u);
   const std::string scene_id = client::PbgiClient(daemon->address()).open_scene(kCornell.string(), build).scene_id();
