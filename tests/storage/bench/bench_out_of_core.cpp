@@ -174,7 +174,8 @@ std::vector<Receiver> make_receivers(const test::SyntheticCity& city, uint32_t c
 // with a tile-like 8 x 8 group in its tangent plane (1 mm above it), as a
 // shading tile around that point would ask. The surfels are drawn from all
 // of the set's surfels in position order, so two page sets of the same
-// surfels (different page layouts) get the same receivers.
+// surfels (different page layouts) get the same receivers. `set` must be
+// read without the gather's views, which drop the pages' surfels.
 std::vector<Receiver> make_receivers(const storage::PageSetReader& set, uint32_t count) {
   struct Point {
     Imath::V3f p, n;
@@ -376,7 +377,10 @@ int run(const Args& a) {
 
   // 3. Gathers: a cache of 1/8 of the page set's size on disk, of 1/8 of
   //    its decoded size (what the budget counts), then of everything.
-  const std::vector<Receiver> rs = city ? make_receivers(*city, a.receivers) : make_receivers(probe, a.receivers);
+  // The set's surfels through a reader without the gather's views (a page
+  // with its view attached keeps only what gathers read, not its surfels).
+  const std::vector<Receiver> rs =
+      city ? make_receivers(*city, a.receivers) : make_receivers(storage::PageSetReader(set, nullptr), a.receivers);
   auto print_run = [](const char* name, uint64_t budget, const GatherRun& r) {
     const double lookups = double(r.cache.hits + r.cache.misses);
     std::printf(
