@@ -79,7 +79,10 @@ TEST_F(EngineFog, SurfelsUnderTheSlabAreShadedThroughIt) {
   // gathers read of them (gather::attach_view).
   const storage::PageSetReader pages(s->tree->directory(), nullptr);
   for (uint32_t id = 0; id < s->tree->manifest().stats.page_count; ++id) {
-    for (const Surfel& surfel : pages.page(id)->surfels) {
+    // Held: nothing caches this reader's pages, and a range-for does not
+    // keep a temporary's page alive while its surfels are read.
+    const tree::PagePtr page = pages.page(id);
+    for (const Surfel& surfel : page->surfels) {
       const V3f& p = surfel.position;
       if (std::fabs(p.x) < 1.5f && std::fabs(p.z) < 1.5f) {
         under += surfel.radiance.y;
