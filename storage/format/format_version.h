@@ -39,13 +39,20 @@ inline constexpr uint32_t kSceneEntryMagic = fourcc("PBGS");  // <cache>/ingeste
 //   V5: V4 with the V3 payload array (kPageFlagNodePayloads: every node's
 //       payload stored); written by builds that store node payloads
 //       (payload_codec float32-sh, kmeans-sh).
+//   V6: V4 with compact surfel records (leaf format relative: 18 bytes
+//       instead of 24, emission out of line in an emission section after
+//       the surfel records, storage/tree/page_records.h). Derived payloads.
+//   V7: V5 (every node's payload stored) with V6's compact records.
 inline constexpr uint32_t kPageFormatV1 = 1;
 inline constexpr uint32_t kPageFormatV2 = 2;
 inline constexpr uint32_t kPageFormatV3 = 3;
 inline constexpr uint32_t kPageFormatV4 = 4;
 inline constexpr uint32_t kPageFormatV5 = 5;
-inline constexpr uint32_t kPageFormatCurrent = kPageFormatV4;  // derived payloads
-inline constexpr uint32_t kPageFormatNodePayloads = kPageFormatV5;
+inline constexpr uint32_t kPageFormatV6 = 6;
+inline constexpr uint32_t kPageFormatV7 = 7;
+// What this build writes: derived payloads, and every node's payload stored.
+inline constexpr uint32_t kPageFormatCurrent = kPageFormatV6;  // derived payloads
+inline constexpr uint32_t kPageFormatNodePayloads = kPageFormatV7;
 
 // Most levels of the tree one V4/V5 page holds (root to deepest leaf of its
 // treelet, counted in nodes). Readers check it. Measured on a 2.5M-surfel
@@ -96,7 +103,8 @@ inline constexpr uint32_t kManifestFormatLatest = kManifestFormatV4;   // the ne
 //   3: glossy senders: surfels of glossy materials carry a specular lobe
 //      and pages may carry glossy radiance (V3 manifest, kPageFlagGlossy).
 //   4: V4/V5 pages: treelets of at most kPageLevels levels, unaligned.
-inline constexpr uint32_t kPageSetFormatVersion = 4;
+//   5: V6/V7 pages: compact (18-byte) surfel records, emission section.
+inline constexpr uint32_t kPageSetFormatVersion = 5;
 
 // Ingested-scene entry versions (server/ingest/scene_entry.h).
 //   1-3 (refused): no frame -- the bare SceneChunk stream, dependencies in a
@@ -117,10 +125,16 @@ constexpr bool is_known_scene_entry_format(uint32_t v) { return v == kSceneEntry
 // V1-V3 pages are no longer read: their page sets were built by
 // kPageSetFormatVersion 3 or older and are rebuilt (the build key changed),
 // so such a page or manifest is a VersionError.
-constexpr bool is_known_page_format(uint32_t v) { return v == kPageFormatV4 || v == kPageFormatV5; }
+// V4/V5 pages (kPageSetFormatVersion 4) are still read: their build keys
+// no longer match, so a daemon rebuilds them, but a page set opened by
+// path (pbgi inspect, benchmarks) reads as before.
+constexpr bool is_known_page_format(uint32_t v) { return v >= kPageFormatV4 && v <= kPageFormatV7; }
 constexpr bool is_retired_page_format(uint32_t v) { return v >= kPageFormatV1 && v <= kPageFormatV3; }
 // Whether pages of format `v` store every node's payload.
-constexpr bool page_format_stores_node_payloads(uint32_t v) { return v == kPageFormatV5; }
+constexpr bool page_format_stores_node_payloads(uint32_t v) { return v == kPageFormatV5 || v == kPageFormatV7; }
+// Whether pages of format `v` hold compact surfel records (leaf format
+// relative) and an emission section.
+constexpr bool page_format_has_compact_records(uint32_t v) { return v == kPageFormatV6 || v == kPageFormatV7; }
 constexpr bool is_known_manifest_format(uint32_t v) {
   return v >= kManifestFormatV1 && v <= kManifestFormatV4;
 }

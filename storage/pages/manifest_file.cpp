@@ -83,11 +83,11 @@ Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path)
     const auto state = r.get_bytes(state_bytes, "codec_state");
     m.codec_state.assign(state.begin(), state.end());
   }
-  const uint32_t want_format = m.node_payloads ? kPageFormatNodePayloads : kPageFormatCurrent;
-  if (m.page_format != want_format) {
+  // Stored payloads: V5 or V7 pages; derived: V4 or V6.
+  if (page_format_stores_node_payloads(m.page_format) != m.node_payloads) {
     throw corrupt("page format " + std::to_string(m.page_format) + " with " +
                   (m.node_payloads ? "stored" : "derived") + " node payloads (expected " +
-                  std::to_string(want_format) + ")");
+                  (m.node_payloads ? "5 or 7" : "4 or 6") + ")");
   }
   if (codec_needs_state(m.codec) != !m.codec_state.empty()) {
     throw corrupt("payload codec " + std::to_string(m.codec) + " with " + std::to_string(m.codec_state.size()) +

@@ -43,13 +43,18 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
   }
   const size_t payload_bytes = out.size() - payload_at;
   out.insert(out.end(), t.surfel_records.begin(), t.surfel_records.end());
+  out.insert(out.end(), t.emission.begin(), t.emission.end());
   out.insert(out.end(), glossy.begin(), glossy.end());
   out.resize(out.size() + kPageTrailerBytes);
 
   PageHeader h;
-  h.format_version = static_cast<uint16_t>(node_payloads ? kPageFormatNodePayloads : kPageFormatCurrent);
+  // Treelets of 24-byte relative records (only tests make them now) are
+  // V4/V5 pages; this build writes every other treelet as V6/V7.
+  const bool legacy = t.records == SurfelRecords::kRelative;
+  h.format_version = static_cast<uint16_t>(legacy ? (node_payloads ? kPageFormatV5 : kPageFormatV4)
+                                                  : (node_payloads ? kPageFormatNodePayloads : kPageFormatCurrent));
   h.flags = (node_payloads ? kPageFlagNodePayloads : 0u) | (glossy.empty() ? 0u : kPageFlagGlossy) |
-            (t.leaf_format == LeafFormat::kHalf ? kPageFlagHalfLeaves : 0u);
+            (t.records == SurfelRecords::kHalf ? kPageFlagHalfLeaves : 0u);
   h.codec = static_cast<uint16_t>(codec.id());
   h.page_id = page_id;
   h.node_count = static_cast<uint32_t>(n);
@@ -77,7 +82,8 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   // glossy radiance (format_version.h).
   const uint32_t want_flags = (page_format_stores_node_payloads(h.format_version) ? kPageFlagNodePayloads : 0u) |
                               (leaf_format == LeafFormat::kHalf ? kPageFlagHalfLeaves : 0u);
-  const size_t record_bytes = surfel_record_bytes(leaf_format);
+  const SurfelRecords records = surfel_records_of(leaf_format, page_format_has_compact_records(h.format_version));
+  const size_t record_bytes = surfel_record_bytes(records);
   const bool glossy = glossy_allowed && (h.flags & kPageFlagGlossy) != 0;
   if ((h.flags & ~(glossy ? kPageFlagGlossy : 0u)) != want_flags) {
     throw corrupt("header flags are " + std::to_string(h.flags) + ", page format " +
@@ -101,13 +107,23 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   const uint64_t links_at = leaves_at + leaves * kLeafRecordBytes;
   const uint64_t payload_at = links_at + links * kLinkRecordBytes;
   const uint64_t surfels_at = payload_at + h.payload_bytes;
-  const uint64_t glossy_at = surfels_at + uint64_t(h.surfel_count) * record_bytes;
+  const uint64_t emission_at = surfels_at + uint64_t(h.surfel_count) * record_bytes;
+  // Compact records: one emission entry per record that emits (counted
+  // once the records are known to lie inside the page).
+  uint64_t emitting = 0;
+  if (emission_out_of_line(records) && emission_at + kPageTrailerBytes <= bytes.size()) {
+    for (uint64_t k = 0; k < h.surfel_count; ++k) {
+      emitting += surfel_record_emits(records, bytes.data() + surfels_at + k * record_bytes) ? 1 : 0;
+    }
+  }
+  const uint64_t glossy_at = emission_at + emitting * kEmissionEntryBytes;
   const uint64_t need = glossy_at + kPageTrailerBytes;
   // A glossy section fills what lies between the surfels and the trailer.
   if (glossy ? need >= bytes.size() : need != bytes.size()) {
     throw corrupt("header and shapes (" + std::to_string(h.node_count) + " nodes, " + std::to_string(leaves) +
                   " leaves, " + std::to_string(links) + " links, " + std::to_string(h.payload_bytes) +
-                  " payload bytes, " + std::to_string(h.surfel_count) + " surfels) need " +
+                  " payload bytes, " + std::to_string(h.surfel_count) + " surfels, " + std::to_string(emitting) +
+                  " emitting) need " +
                   std::to_string(need) + " bytes, page has " + std::to_string(bytes.size()));
   }
 
@@ -137,7 +153,8 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   view.leaf_records = bytes.subspan(leaves_at, leaves * kLeafRecordBytes);
   view.links = link;
   view.surfel_records = bytes.subspan(surfels_at, uint64_t(h.surfel_count) * record_bytes);
-  view.leaf_format = leaf_format;
+  view.records = records;
+  view.emission = bytes.subspan(emission_at, emitting * kEmissionEntryBytes);
   view.payloads = stored;
   view.max_levels = kPageLevels;
   auto page = std::make_shared<tree::Page>();

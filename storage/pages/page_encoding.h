@@ -1,6 +1,6 @@
-// A treelet <-> the bytes of one V2 page (layout in FORMAT.md):
+// A treelet <-> the bytes of one V4-V7 page (layout in FORMAT.md):
 //   header | shapes | pad | leaf records | link records | payload array |
-//   surfel records | trailer
+//   surfel records | emission entries (V6/V7) | glossy section | trailer
 // The payload array holds, through the page set's codec, the payloads of
 // the linked children (the roots of other pages) in link order: what the
 // nodes of this page need to derive their own payloads (V2). A treelet that
@@ -29,8 +29,9 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
 // `where`, deriving every node's summary. Links must point to pages with a
 // smaller id (written before). A glossy section is accepted only when
 // `glossy_allowed` (the manifest declares glossy radiance) and decoded into
-// Page::glossy. Surfel records are read in `leaf_format` (the manifest's);
-// a page whose kPageFlagHalfLeaves disagrees is refused. Throws
+// Page::glossy. Surfel records are read in the layout of `leaf_format`
+// (the manifest's) and the page's format (compact in V6/V7); a page whose
+// kPageFlagHalfLeaves disagrees is refused. Throws
 // CorruptionError naming the page, VersionError for an unknown page format.
 std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const PageLocation& where,
                           uint32_t expected_version, const PayloadCodec& codec,

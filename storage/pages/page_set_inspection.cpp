@@ -17,7 +17,8 @@ PageSetInspection inspect_page_set(const PageSetReader& reader, bool walk) {
   r.node_payloads = m.node_payloads;
   r.topology_bytes_per_node = kShapeBytes;
   r.payload_bytes_per_node = m.node_payloads ? codec->bytes_per_node() : 0;
-  r.surfel_record_bytes = surfel_record_bytes(m.options.leaf_format);
+  r.surfel_record_bytes =
+      surfel_record_bytes(surfel_records_of(m.options.leaf_format, page_format_has_compact_records(m.page_format)));
   r.leaf_record_bytes = kLeafRecordBytes;
   r.link_record_bytes = kLinkRecordBytes;
   r.link_payload_bytes = m.node_payloads ? 0 : codec->bytes_per_node();

@@ -31,11 +31,36 @@ inline constexpr options::EnumName<LeafFormat> kLeafFormatNames[] = {{LeafFormat
                                                                      {LeafFormat::kHalf, "half"}};
 constexpr std::span<const options::EnumName<LeafFormat>> enum_names(LeafFormat) { return kLeafFormatNames; }
 
+// The byte layout of a page's surfel records, which the leaf format and
+// the page format together decide (storage/tree/page_records.h):
+//   relative  leaf format relative in V4/V5 pages: 24 bytes (read only);
+//   compact   leaf format relative in V6/V7 pages: 18 bytes, emission out
+//             of line (the page's emission section);
+//   half      leaf format half in any page: 38 bytes.
+enum class SurfelRecords : uint8_t { kRelative = 0, kCompact = 1, kHalf = 2 };
+
 inline constexpr size_t kRelativeSurfelRecordBytes = 24;
+inline constexpr size_t kCompactSurfelRecordBytes = 18;
 inline constexpr size_t kHalfSurfelRecordBytes = 38;
-constexpr size_t surfel_record_bytes(LeafFormat f) {
-  return f == LeafFormat::kHalf ? kHalfSurfelRecordBytes : kRelativeSurfelRecordBytes;
+constexpr size_t surfel_record_bytes(SurfelRecords r) {
+  return r == SurfelRecords::kHalf    ? kHalfSurfelRecordBytes
+         : r == SurfelRecords::kCompact ? kCompactSurfelRecordBytes
+                                        : kRelativeSurfelRecordBytes;
 }
+// The records of leaf format `f` in pages with (V6/V7) or without (V4/V5)
+// compact records.
+constexpr SurfelRecords surfel_records_of(LeafFormat f, bool compact_pages) {
+  if (f == LeafFormat::kHalf) return SurfelRecords::kHalf;
+  return compact_pages ? SurfelRecords::kCompact : SurfelRecords::kRelative;
+}
+// The records this build writes for leaf format `f` (V6/V7 pages).
+constexpr SurfelRecords written_surfel_records(LeafFormat f) { return surfel_records_of(f, true); }
+// Bytes per surfel this build writes for leaf format `f`.
+constexpr size_t surfel_record_bytes(LeafFormat f) { return surfel_record_bytes(written_surfel_records(f)); }
+// Whether a record of `r` keeps its emission out of line: in the page's
+// emission section (4 bytes per emitting surfel), flagged in the record.
+constexpr bool emission_out_of_line(SurfelRecords r) { return r == SurfelRecords::kCompact; }
+inline constexpr size_t kEmissionEntryBytes = 4;
 // As written in config files, CLI flags, requests and `pbgi inspect`.
 // parse_leaf_format throws InvalidArgument naming the accepted values.
 LeafFormat parse_leaf_format(const std::string& name);

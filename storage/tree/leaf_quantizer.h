@@ -1,4 +1,4 @@
-// Turns the surfels of a leaf into surfel records of a leaf format, relative
+// Turns the surfels of a leaf into surfel records of a page's layout, relative
 // to the leaf's frame (storage/tree/page_records.h), and back.
 //
 // The frame is the bounding sphere of the surfel disks, widened until every
@@ -14,13 +14,16 @@
 
 #include <cstdint>
 #include <span>
+#include <vector>
 
 namespace pbgi::tree {
 
 // Encodes `surfels` (non-empty, finite, unit normals, radius >= 0) into
-// `records` (surfels.size() * surfel_record_bytes(format) bytes) and writes
-// what a reader will decode into `decoded` (same size). Returns the frame.
-storage::LeafFrame quantize_leaf(storage::LeafFormat format, std::span<const Surfel> surfels,
-                                 uint8_t* records, std::span<Surfel> decoded);
+// `records` (surfels.size() * surfel_record_bytes(layout) bytes) and writes
+// what a reader will decode into `decoded` (same size). Records that keep
+// the emission out of line (compact) append the emitting surfels' entries,
+// in surfel order, to `emission`. Returns the frame.
+storage::LeafFrame quantize_leaf(storage::SurfelRecords layout, std::span<const Surfel> surfels,
+                                 uint8_t* records, std::span<Surfel> decoded, std::vector<uint8_t>& emission);
 
 }  // namespace pbgi::tree

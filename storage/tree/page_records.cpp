@@ -112,6 +112,44 @@ void decode_relative(const uint8_t* in, const LeafFrame& f, Surfel& s) {
   s.radiance = decode_rgb9e5(load_le<uint32_t>(in + 20));
 }
 
+// Compact: bytes 0-9 are one 80-bit little-endian field (u64 at 0, u16 at
+// 8): x, y, z 14-bit offset-binary snorm at bits 0, 14, 28; octahedral
+// normal 2 x 12 bits at 42 (u) and 54 (v); radius 13-bit unorm at 66;
+// "emits" at 79. Then albedo (10) and radiance (14), RGB9E5.
+constexpr int kCompactPositionBits = 14;
+constexpr int kCompactNormalBits = 12;
+constexpr int kCompactRadiusBits = 13;
+
+void encode_compact(const Surfel& s, const LeafFrame& f, uint8_t* out) {
+  const float inv = f.radius > 0.f ? 1.f / f.radius : 0.f;
+  const Imath::V3f d = (s.position - f.center) * inv;
+  const uint64_t oct = encode_octahedral_bits(s.normal, kCompactNormalBits);  // 24 bits
+  const uint64_t lo = uint64_t(encode_snorm_bits(d.x, kCompactPositionBits)) |
+                      uint64_t(encode_snorm_bits(d.y, kCompactPositionBits)) << 14 |
+                      uint64_t(encode_snorm_bits(d.z, kCompactPositionBits)) << 28 | oct << 42;
+  const uint32_t hi = uint32_t(oct >> 22) | encode_unorm_bits(s.radius * inv, kCompactRadiusBits) << 2 |
+                      (encode_rgb9e5(s.emission) != 0 ? 1u << 15 : 0u);
+  store_le<uint64_t>(out, lo);
+  store_le<uint16_t>(out + 8, uint16_t(hi));
+  store_le<uint32_t>(out + 10, encode_rgb9e5(s.albedo));
+  store_le<uint32_t>(out + 14, encode_rgb9e5(s.radiance));
+}
+
+void decode_compact(const uint8_t* in, const LeafFrame& f, Surfel& s) {
+  const uint64_t lo = load_le<uint64_t>(in);
+  const uint32_t hi = load_le<uint16_t>(in + 8);
+  constexpr uint64_t kPos = (1u << kCompactPositionBits) - 1u;
+  const float R = f.radius;
+  s.position.x = f.center.x + R * decode_snorm_bits(uint32_t(lo & kPos), kCompactPositionBits);
+  s.position.y = f.center.y + R * decode_snorm_bits(uint32_t((lo >> 14) & kPos), kCompactPositionBits);
+  s.position.z = f.center.z + R * decode_snorm_bits(uint32_t((lo >> 28) & kPos), kCompactPositionBits);
+  const uint32_t oct = uint32_t(lo >> 42) | (hi & 3u) << 22;
+  s.normal = decode_octahedral_bits(oct, kCompactNormalBits);
+  s.radius = R * decode_unorm_bits((hi >> 2) & ((1u << kCompactRadiusBits) - 1u), kCompactRadiusBits);
+  s.albedo = decode_rgb9e5(load_le<uint32_t>(in + 10));
+  s.emission = Imath::C3f(0.f, 0.f, 0.f);  // from the emission section, if the record emits
+  s.radiance = decode_rgb9e5(load_le<uint32_t>(in + 14));
+}
 
 // Half floats. NaN never reaches here (surfel_checks refuses it); values
 // past half's range clamp to its largest finite value rather than turn
@@ -167,20 +205,28 @@ void decode_half(const uint8_t* in, const LeafFrame& f, Surfel& s) {
 }
 }  // namespace
 
-void encode_surfel_record(LeafFormat format, const Surfel& s, const LeafFrame& f, uint8_t* out) {
-  if (format == LeafFormat::kHalf) {
-    encode_half(s, f, out);
-  } else {
-    encode_relative(s, f, out);
+void encode_surfel_record(SurfelRecords records, const Surfel& s, const LeafFrame& f, uint8_t* out) {
+  switch (records) {
+    case SurfelRecords::kHalf: return encode_half(s, f, out);
+    case SurfelRecords::kCompact: return encode_compact(s, f, out);
+    case SurfelRecords::kRelative: return encode_relative(s, f, out);
   }
 }
 
-void decode_surfel_record(LeafFormat format, const uint8_t* in, const LeafFrame& f, Surfel& s) {
-  if (format == LeafFormat::kHalf) {
-    decode_half(in, f, s);
-  } else {
-    decode_relative(in, f, s);
+void decode_surfel_record(SurfelRecords records, const uint8_t* in, const LeafFrame& f, Surfel& s) {
+  switch (records) {
+    case SurfelRecords::kHalf: return decode_half(in, f, s);
+    case SurfelRecords::kCompact: return decode_compact(in, f, s);
+    case SurfelRecords::kRelative: return decode_relative(in, f, s);
   }
 }
+
+bool surfel_record_emits(SurfelRecords records, const uint8_t* in) {
+  return records == SurfelRecords::kCompact && (in[9] & 0x80u) != 0;
+}
+
+void write_emission_entry(const Surfel& s, uint8_t* out) { store_le<uint32_t>(out, encode_rgb9e5(s.emission)); }
+
+Imath::C3f read_emission_entry(const uint8_t* in) { return decode_rgb9e5(load_le<uint32_t>(in)); }
 
 }  // namespace pbgi::storage

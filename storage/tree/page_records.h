@@ -1,4 +1,4 @@
-// Records inside a V2 page (FORMAT.md gives the byte offsets):
+// Records inside a V4-V7 page (FORMAT.md gives the byte offsets):
 //
 //  * shape byte, one per node in pre-order: child count and which children
 //    live in another page. The shapes alone determine the treelet.
@@ -8,20 +8,29 @@
 //    the bounds, cone and area of its root (its payload follows in the
 //    page's payload array), so that the ancestors' bounds and payloads can
 //    be derived without loading the other page.
-//  * surfel record, in the page set's leaf format (LeafFormat below):
-//    relative (24 bytes): position and radius relative to the leaf's
-//      frame, octahedral normal, RGB9E5 colours;
+//  * surfel record, in the page's record layout (SurfelRecords,
+//    leaf_format.h):
+//    compact (18 bytes, V6/V7 pages, leaf format relative): position and
+//      radius relative to the leaf's frame and a 12-bit octahedral normal
+//      packed in 80 bits, RGB9E5 albedo and radiance; a flag says the
+//      surfel emits, its RGB9E5 emission is in the page's emission
+//      section (emission is zero on almost every surfel);
+//    relative (24 bytes, V4/V5 pages, read only): position and radius
+//      relative to the frame, 16-bit octahedral normal, RGB9E5 colours;
 //    half (38 bytes): float32 position, half-float normal, radius (as a
 //      fraction of the frame radius) and colours.
 //
 // Precision of a decoded surfel, with R the radius of its leaf's frame.
-// Relative: each position coordinate within R / 65534 (plus float
-// rounding), radius within R / 131070, normal within kOctahedralMaxAngle
-// radians, each colour channel within max(r, g, b) / 512 (packed_values.h).
+// Compact: each position coordinate within R / 16382 (plus float
+// rounding), radius within R / 16382, normal within kOctahedral12MaxAngle
+// radians, each colour channel within max(r, g, b) / 512 (packed_values.h;
+// emission exactly as RGB9E5 codes it, out of line or not).
+// Relative: each position coordinate within R / 65534, radius within
+// R / 131070, normal within kOctahedralMaxAngle radians, colours as compact.
 // Half: position exact, radius within R / 4096, normal within 1e-3 rad,
 // each colour channel within 2^-11 of itself (relative) above half's
-// smallest normal 6.1e-5, and absolute 6e-8 below. Both clamp colours to
-// [0, 65408] (relative) / [0, 65504] (half).
+// smallest normal 6.1e-5, and absolute 6e-8 below. All clamp colours to
+// [0, 65408] (compact, relative) / [0, 65504] (half).
 #pragma once
 
 #include "storage/tree/leaf_format.h"
@@ -75,11 +84,21 @@ void write_link_record(uint32_t page, const tree::Node& n, uint8_t* out);
 void read_link_record(const uint8_t* in, uint32_t& page, tree::Node& n);
 
 // ---- surfel record ----
-// Encodes `s` relative to `f` in `format` (surfel_record_bytes(format)
+// Encodes `s` relative to `f` in `records` (surfel_record_bytes(records)
 // bytes); `s` must lie in the frame (its disk inside the sphere) for the
-// stated precision to hold.
-void encode_surfel_record(LeafFormat format, const Surfel& s, const LeafFrame& f, uint8_t* out);
-void decode_surfel_record(LeafFormat format, const uint8_t* in, const LeafFrame& f, Surfel& s);
+// stated precision to hold. Compact records leave the emission out: the
+// record only says whether the surfel emits (surfel_record_emits), and
+// its emission entry (write_emission_entry) goes to the page's emission
+// section; decode_surfel_record then sets the emission to zero and the
+// caller reads the entry (read_emission_entry).
+void encode_surfel_record(SurfelRecords records, const Surfel& s, const LeafFrame& f, uint8_t* out);
+void decode_surfel_record(SurfelRecords records, const uint8_t* in, const LeafFrame& f, Surfel& s);
+// Whether the record at `in` has an emission entry (compact records with
+// a non-zero RGB9E5 emission; never for other layouts).
+bool surfel_record_emits(SurfelRecords records, const uint8_t* in);
+// The kEmissionEntryBytes of an emitting surfel's entry: RGB9E5 emission.
+void write_emission_entry(const Surfel& s, uint8_t* out);
+Imath::C3f read_emission_entry(const uint8_t* in);
 
 // Bytes around the records of every page: header, trailer and the padding
 // that aligns the leaf records to 4 bytes.
@@ -88,8 +107,11 @@ inline constexpr size_t kPageOverheadBytes = 32 /*header*/ + 8 /*trailer*/ + 3 /
 // The smallest legal page size for `leaf_size` surfels per leaf in
 // `format`: a page must hold one full leaf, and one internal node whose
 // two children both live elsewhere.
+// Compact records count an emission entry for every surfel (the worst case).
 constexpr size_t min_page_bytes(uint32_t leaf_size, LeafFormat format = LeafFormat::kRelative) {
-  const size_t leaf = kShapeBytes + kLeafRecordBytes + size_t(leaf_size) * surfel_record_bytes(format);
+  const SurfelRecords records = written_surfel_records(format);
+  const size_t per_surfel = surfel_record_bytes(records) + (emission_out_of_line(records) ? kEmissionEntryBytes : 0);
+  const size_t leaf = kShapeBytes + kLeafRecordBytes + size_t(leaf_size) * per_surfel;
   const size_t fork = kShapeBytes + 2 * (kLinkRecordBytes + kMaxPayloadBytesPerNode);
   return kPageOverheadBytes + (leaf > fork ? leaf : fork);
 }

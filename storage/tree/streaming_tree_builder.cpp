@@ -38,6 +38,7 @@ struct Pending {
   std::vector<Surfel> raw;      // candidate surfels (capacity kept across reuse)
   storage::LeafFrame frame;     // closed leaf
   std::vector<uint8_t> records; // closed leaf: its surfel records
+  std::vector<uint8_t> emission;  // closed leaf, compact records: its emitting surfels' entries
   std::vector<SurfelGloss> gloss;  // closed leaf with a glossy surfel: each surfel's lobe
 
   bool written() const { return page != kNone; }
@@ -79,13 +80,15 @@ struct StreamingTreeBuilder::Impl {
   std::vector<Surfel> decoded;
   Treelet treelet;
   std::vector<uint32_t> visited;
-  size_t record_bytes = 0;  // of options.leaf_format
+  storage::SurfelRecords records = storage::SurfelRecords::kCompact;  // of options.leaf_format
+  size_t record_bytes = 0;
 
   Impl(const BuildOptions& o, uint64_t pb, uint64_t lpb, TreeletSink& s, const NodePayloadSizer* z)
       : options(o), page_bytes(pb), link_bytes(kLinkRecordBytes + lpb), sink(s), sizer(z) {
     options.validate();
-    record_bytes = storage::surfel_record_bytes(options.leaf_format);
-    treelet.leaf_format = options.leaf_format;
+    records = storage::written_surfel_records(options.leaf_format);
+    record_bytes = storage::surfel_record_bytes(records);
+    treelet.records = records;
     if (page_bytes != 0 && page_bytes < storage::min_page_bytes(options.leaf_size, options.leaf_format)) {
       throw InvalidArgument("page of " + std::to_string(page_bytes) + " bytes cannot hold a leaf of " +
                             std::to_string(options.leaf_size) + " surfels");
@@ -122,6 +125,7 @@ struct StreamingTreeBuilder::Impl {
     p.candidate = false;
     p.raw.clear();
     p.records.clear();
+    p.emission.clear();
     p.gloss.clear();
     free_nodes.push_back(i);
   }
@@ -133,6 +137,9 @@ struct StreamingTreeBuilder::Impl {
     p.code_bits = sizer->bits(p.node);
     p.payload_bits += p.code_bits;
   }
+
+  // Memory a closed leaf holds until its page is written.
+  static uint64_t leaf_bytes(const Pending& q) { return q.records.size() + q.emission.size(); }
 
   // Bytes of a pending treelet once written (its payload array included).
   static uint64_t disk_bytes(const Pending& q) { return q.bytes + (q.payload_bits + 7) / 8; }
@@ -157,7 +164,8 @@ struct StreamingTreeBuilder::Impl {
     const size_t n = p.raw.size();
     p.records.resize(n * record_bytes);
     decoded.resize(n);
-    p.frame = quantize_leaf(options.leaf_format, p.raw, p.records.data(), decoded);
+    p.emission.clear();
+    p.frame = quantize_leaf(records, p.raw, p.records.data(), decoded, p.emission);
     for (const Surfel& s : p.raw) {
       if (!s.gloss.glossy()) continue;
       p.gloss.resize(n);
@@ -165,13 +173,13 @@ struct StreamingTreeBuilder::Impl {
       break;
     }
     summarize_leaf(decoded, p.frame, p.node);
-    p.bytes = kShapeBytes + kLeafRecordBytes + n * record_bytes;
+    p.bytes = kShapeBytes + kLeafRecordBytes + n * record_bytes + p.emission.size();
     p.payload_bits = 0;
     size_payload(p);
     p.height = 0;
     p.levels = 1;
     p.candidate = false;
-    note_pending(int64_t(p.records.size()) - int64_t(n * sizeof(Surfel)));
+    note_pending(int64_t(p.records.size() + p.emission.size()) - int64_t(n * sizeof(Surfel)));
     p.raw.clear();
     ++stats.leaf_count;
     ++stats.node_count;
@@ -257,6 +265,7 @@ struct StreamingTreeBuilder::Impl {
         storage::write_leaf_record(p.frame, p.node.surfel_count, treelet.leaf_records.data() + at);
         const size_t before = treelet.surfel_records.size() / record_bytes;
         treelet.surfel_records.insert(treelet.surfel_records.end(), p.records.begin(), p.records.end());
+        treelet.emission.insert(treelet.emission.end(), p.emission.begin(), p.emission.end());
         if (!p.gloss.empty()) {
           // Lobes are listed per surfel of the page once one leaf has any.
           treelet.gloss.resize(before);
@@ -293,11 +302,11 @@ struct StreamingTreeBuilder::Impl {
     // Free what the page now holds; the root becomes a stub.
     int64_t freed = 0;
     for (uint32_t i : visited) {
-      if (!arena[i].written()) freed += int64_t(arena[i].node.child_count == 0 ? arena[i].records.size() : kShapeBytes);
+      if (!arena[i].written()) freed += int64_t(arena[i].node.child_count == 0 ? leaf_bytes(arena[i]) : kShapeBytes);
       release(i);
     }
     Pending& r = arena[root];
-    freed += int64_t(r.node.child_count == 0 ? r.records.size() : kShapeBytes);
+    freed += int64_t(r.node.child_count == 0 ? leaf_bytes(r) : kShapeBytes);
     note_pending(-freed);
     r.page = id;
     r.bytes = link_bytes;
@@ -305,6 +314,7 @@ struct StreamingTreeBuilder::Impl {
     r.levels = 0;
     r.child[0] = r.child[1] = kNone;
     r.records.clear();
+    r.emission.clear();
     r.gloss.clear();
     return id;
   }

@@ -9,7 +9,7 @@
 namespace pbgi::tree {
 
 size_t Treelet::surfel_count() const {
-  return surfel_records.size() / storage::surfel_record_bytes(leaf_format);
+  return surfel_records.size() / storage::surfel_record_bytes(records);
 }
 
 namespace {
@@ -24,6 +24,7 @@ void Treelet::clear() {
   leaf_records.clear();
   links.clear();
   surfel_records.clear();
+  emission.clear();
   nodes.clear();
   gloss.clear();
 }
@@ -33,7 +34,7 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
   auto corrupt = [&](const std::string& msg) { return CorruptionError(what + ": " + msg); };
   const size_t n = t.shapes.size();
   const size_t leaves = t.leaf_records.size() / kLeafRecordBytes;
-  const size_t record_bytes = surfel_record_bytes(t.leaf_format);
+  const size_t record_bytes = surfel_record_bytes(t.records);
   const size_t surfels = t.surfel_records.size() / record_bytes;
   if (n == 0) throw corrupt("page has no nodes");
   const bool stored = !t.payloads.empty();
@@ -126,7 +127,20 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
                   ", " + std::to_string(surfels));
   }
 
-  // 2. Summaries, children first (reverse pre-order), exactly as the build
+  // 2. Emission entries, in surfel order, of the records that emit (none
+  //    for layouts that keep emission in the record). Set after the
+  //    records are decoded (step 3), which zero it.
+  size_t emitting = 0;
+  for (size_t k = 0; k < surfels; ++k) {
+    emitting += surfel_record_emits(t.records, t.surfel_records.data() + k * record_bytes) ? 1 : 0;
+  }
+  if (emitting * kEmissionEntryBytes != t.emission.size()) {
+    throw corrupt(std::to_string(emitting) + " surfel records emit, the page has " +
+                  std::to_string(t.emission.size()) + " bytes of emission entries (" +
+                  std::to_string(kEmissionEntryBytes) + " each)");
+  }
+
+  // 3. Summaries, children first (reverse pre-order), exactly as the build
   //    computed them.
   for (size_t i = n; i-- > 0;) {
     Node& node = out.nodes[i];
@@ -136,7 +150,7 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
       Surfel* s = out.surfels.data() + node.first_surfel;
       const uint8_t* rec = t.surfel_records.data() + size_t(node.first_surfel) * record_bytes;
       for (uint32_t k = 0; k < node.surfel_count; ++k) {
-        decode_surfel_record(t.leaf_format, rec + k * record_bytes, f, s[k]);
+        decode_surfel_record(t.records, rec + k * record_bytes, f, s[k]);
       }
       const uint32_t first = node.first_surfel;
       summarize_leaf({s, node.surfel_count}, f, node, !stored);
@@ -153,6 +167,11 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
     if (stored) copy_payload(t.payloads[i], node);
     node.children[0] = links[0];
     node.children[1] = links[1];
+  }
+  for (size_t k = 0, e = 0; e < emitting; ++k) {
+    if (!surfel_record_emits(t.records, t.surfel_records.data() + k * record_bytes)) continue;
+    out.surfels[k].emission = read_emission_entry(t.emission.data() + e * kEmissionEntryBytes);
+    ++e;
   }
 }
 

@@ -1,7 +1,8 @@
-// A treelet as a V2 page stores it (storage/format/FORMAT.md): the shapes
+// A treelet as a V4-V7 page stores it (storage/format/FORMAT.md): the shapes
 // of its nodes in pre-order, the frames of its leaves, the links to
-// children in other pages (with those children's summaries), and the
-// quantized surfel records. Nothing else: bounds, cones, areas and payloads
+// children in other pages (with those children's summaries), the
+// quantized surfel records and (compact records) the emission entries of
+// the surfels that emit. Nothing else: bounds, cones, areas and payloads
 // of the nodes inside are derived by expand_treelet(), with the same
 // functions the build used, so they are bit-identical to the build's.
 //
@@ -30,8 +31,11 @@ struct TreeletView {
   std::span<const uint8_t> shapes;          // storage::kShapeBytes per node
   std::span<const uint8_t> leaf_records;    // storage::kLeafRecordBytes per leaf
   std::span<const TreeletLink> links;       // in the order the parse meets them
-  std::span<const uint8_t> surfel_records;  // surfel_record_bytes(leaf_format) per surfel
-  storage::LeafFormat leaf_format = storage::LeafFormat::kRelative;
+  std::span<const uint8_t> surfel_records;  // surfel_record_bytes(records) per surfel
+  storage::SurfelRecords records = storage::SurfelRecords::kCompact;
+  // Compact records: kEmissionEntryBytes per record that emits, in surfel
+  // order (empty otherwise).
+  std::span<const uint8_t> emission;
   // Pages that store every node's payload: one decoded node per node, in
   // pre-order, whose radiance_sh and coverage_sh are taken instead of
   // derived. Empty: payloads are derived from the surfels and links.
@@ -47,7 +51,8 @@ struct Treelet {
   std::vector<uint8_t> leaf_records;
   std::vector<TreeletLink> links;
   std::vector<uint8_t> surfel_records;
-  storage::LeafFormat leaf_format = storage::LeafFormat::kRelative;
+  storage::SurfelRecords records = storage::SurfelRecords::kCompact;
+  std::vector<uint8_t> emission;  // the emitting surfels' entries (compact records)
   // Builds that store every node's payload (NodePayloadSizer): each node's
   // summary with its exact payload, in pre-order, for the page's codec.
   // Empty otherwise.
@@ -56,7 +61,7 @@ struct Treelet {
   // page writer turns them into the page's wavelet radiance); else empty.
   std::vector<SurfelGloss> gloss;
 
-  TreeletView view() const { return {shapes, leaf_records, links, surfel_records, leaf_format, {}, 0}; }
+  TreeletView view() const { return {shapes, leaf_records, links, surfel_records, records, emission, {}, 0}; }
   size_t node_count() const { return shapes.size(); }
   size_t surfel_count() const;
   void clear();
@@ -67,7 +72,8 @@ struct Treelet {
 // order, every summary derived bottom-up. The parse visits a node, then
 // all of child 0 (or its link), then all of child 1: links are consumed in
 // that order. Throws CorruptionError, prefixed with `what`, when the parts
-// disagree (a bad shape byte, counts that do not add up, an empty leaf, a
+// disagree (a bad shape byte, counts that do not add up, an empty leaf,
+// emission entries that do not match the records that emit, a
 // link to a page id >= page_id: pages only link to pages written before
 // them, so no chain of links can cycle).
 void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& what, Page& out);

@@ -24,12 +24,13 @@ void decode(std::span<const uint8_t> bytes, uint32_t page_id) {
   // The manifest's leaf format is taken from the page's own flag, so that
   // both surfel record formats are reached.
   LeafFormat leaf_format = LeafFormat::kRelative;
-  // The page format too (V4 derived payloads, V5 every node's payload
-  // stored), so that both layouts' checks are reached.
+  // The page format too (V4/V6 derived payloads, V5/V7 every node's
+  // payload stored; V6/V7 compact records with an emission section), so
+  // that every layout's checks are reached.
   uint32_t version = kPageFormatCurrent;
   if (bytes.size() >= kPageHeaderBytes) {
     const uint32_t v = load_le<uint16_t>(bytes.data() + 4);
-    if (v == kPageFormatV4 || v == kPageFormatV5) version = v;
+    if (is_known_page_format(v)) version = v;
     const uint32_t c = load_le<uint16_t>(bytes.data() + 6);
     if (is_known_payload_codec(c) && !codec_needs_state(c)) codec_id = c;
     if (load_le<uint32_t>(bytes.data() + 28) & kPageFlagHalfLeaves) leaf_format = LeafFormat::kHalf;

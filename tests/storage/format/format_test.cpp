@@ -334,6 +334,46 @@ TEST(PackedValues, OctahedralWithinItsStatedAngle) {
   std::printf("octahedral 2x16 bits: worst angle %.3g rad\n", worst);
 }
 
+TEST(PackedValues, Octahedral12WithinItsStatedAngle) {
+  std::mt19937 rng(16);
+  std::normal_distribution<float> g(0.f, 1.f);
+  double worst = 0;
+  auto check = [&](Imath::V3f n) {
+    n.normalize();
+    const uint32_t code = encode_octahedral_bits(n, 12);
+    ASSERT_LT(code, 1u << 24);
+    const Imath::V3f d = decode_octahedral_bits(code, 12);
+    ASSERT_NEAR(d.length(), 1.f, 1e-6f);
+    const double angle = angle_between(d, n);
+    worst = std::max(worst, angle);
+    ASSERT_LE(angle, kOctahedral12MaxAngle) << n;
+  };
+  for (int i = 0; i < 2000000; ++i) check({g(rng), g(rng), g(rng)});
+  for (const Imath::V3f& n : {Imath::V3f(0, 0, 1), Imath::V3f(0, 0, -1), Imath::V3f(1, 0, 0), Imath::V3f(0, -1, 0),
+                              Imath::V3f(1, 1, 0), Imath::V3f(-1, 1, -1e-8f)})
+    check(n);
+  std::printf("octahedral 2x12 bits: worst angle %.3g rad\n", worst);
+}
+
+TEST(PackedValues, NarrowFixedPointWithinHalfAStep) {
+  for (const int bits : {13, 14}) {
+    const float top_s = float((1 << (bits - 1)) - 1), top_u = float((1 << bits) - 1);
+    for (int i = -10000; i <= 10000; ++i) {
+      const float x = float(i) / 10000.f;
+      const uint32_t q = encode_snorm_bits(x, bits);
+      ASSERT_LT(q, 1u << bits);
+      ASSERT_NEAR(decode_snorm_bits(q, bits), x, 0.5f / top_s + 1e-7f);
+      if (x >= 0.f) {
+        ASSERT_NEAR(decode_unorm_bits(encode_unorm_bits(x, bits), bits), x, 0.5f / top_u + 1e-7f);
+      }
+    }
+    EXPECT_EQ(decode_snorm_bits(encode_snorm_bits(-1.f, bits), bits), -1.f);
+    EXPECT_EQ(decode_snorm_bits(encode_snorm_bits(1.f, bits), bits), 1.f);
+    EXPECT_EQ(decode_snorm_bits(encode_snorm_bits(0.f, bits), bits), 0.f);
+    EXPECT_EQ(decode_unorm_bits(encode_unorm_bits(1.f, bits), bits), 1.f);
+  }
+}
+
 // A surfel inside `frame` (its disk within the sphere), random but for
 // the colours, which the tests set.
 Surfel random_surfel_in(const LeafFrame& frame, std::mt19937& rng) {
@@ -355,9 +395,9 @@ TEST(PageRecords, SurfelRecordWithinItsStatedPrecision) {
     s.emission = {0, 0, 0};
     s.radiance = {100.f * (u(rng) + 1.f), 3.f, 0.125f};
     uint8_t rec[kRelativeSurfelRecordBytes];
-    encode_surfel_record(LeafFormat::kRelative, s, frame, rec);
+    encode_surfel_record(SurfelRecords::kRelative, s, frame, rec);
     Surfel d;
-    decode_surfel_record(LeafFormat::kRelative, rec, frame, d);
+    decode_surfel_record(SurfelRecords::kRelative, rec, frame, d);
     // Documented: R/65534 per coordinate, R/131070 for the radius (plus
     // float rounding of center + offset).
     const float ulp = 250.f * 0x1p-23f;
@@ -368,6 +408,72 @@ TEST(PageRecords, SurfelRecordWithinItsStatedPrecision) {
     ASSERT_EQ(d.emission, Imath::C3f(0.f));
     ASSERT_NEAR(d.radiance.x, s.radiance.x, std::max(s.radiance.x, 3.f) / 512.f);
   }
+}
+
+// `s` through a record of `format` in the unit frame at the origin.
+Surfel round_trip(SurfelRecords format, const Surfel& s) {
+  const LeafFrame frame{{0, 0, 0}, 1.f};
+  uint8_t rec[kHalfSurfelRecordBytes];
+  encode_surfel_record(format, s, frame, rec);
+  Surfel d;
+  decode_surfel_record(format, rec, frame, d);
+  return d;
+}
+
+Surfel unit_disk_surfel() {
+  Surfel s;
+  s.normal = {0, 0, 1};
+  s.radius = 0.5f;
+  return s;
+}
+
+// Compact records (V6/V7 pages): the precision page_records.h states, and
+// the emission out of line: a flag in the record, the value an entry.
+TEST(PageRecords, CompactSurfelRecordWithinItsStatedPrecision) {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  const LeafFrame frame{{10.f, -3.f, 250.f}, 0.37f};
+  double worst_normal = 0;
+  for (int i = 0; i < 100000; ++i) {
+    Surfel s = random_surfel_in(frame, rng);
+    const bool emits = i % 3 == 0;
+    s.emission = emits ? Imath::C3f(5.f * (u(rng) + 1.f) + 1e-3f, 0.5f, 0.f) : Imath::C3f(0.f);
+    s.radiance = {100.f * (u(rng) + 1.f), 3.f, 0.125f};
+    uint8_t rec[kCompactSurfelRecordBytes];
+    encode_surfel_record(SurfelRecords::kCompact, s, frame, rec);
+    Surfel d;
+    d.emission = {7, 7, 7};
+    decode_surfel_record(SurfelRecords::kCompact, rec, frame, d);
+    // Documented: R/16382 per coordinate and for the radius (plus float
+    // rounding of center + offset), kOctahedral12MaxAngle for the normal.
+    const float ulp = 250.f * 0x1p-23f;
+    for (int k = 0; k < 3; ++k) ASSERT_NEAR(d.position[k], s.position[k], frame.radius / 16382.f + ulp);
+    ASSERT_NEAR(d.radius, s.radius, frame.radius / 16382.f + 1e-7f);
+    const double angle = angle_between(d.normal, s.normal);
+    worst_normal = std::max(worst_normal, angle);
+    ASSERT_LE(angle, kOctahedral12MaxAngle);
+    ASSERT_EQ(d.albedo, decode_rgb9e5(encode_rgb9e5(s.albedo)));
+    ASSERT_EQ(d.radiance, decode_rgb9e5(encode_rgb9e5(s.radiance)));
+    // Emission: not in the record; the record says whether it emits.
+    ASSERT_EQ(d.emission, Imath::C3f(0.f));
+    ASSERT_EQ(surfel_record_emits(SurfelRecords::kCompact, rec), emits);
+    ASSERT_FALSE(surfel_record_emits(SurfelRecords::kRelative, rec));
+    uint8_t entry[kEmissionEntryBytes];
+    write_emission_entry(s, entry);
+    ASSERT_EQ(read_emission_entry(entry), decode_rgb9e5(encode_rgb9e5(s.emission)));
+  }
+  std::printf("compact leaf records: worst normal angle %.3g rad\n", worst_normal);
+}
+
+// Emission below RGB9E5's smallest step is zero in every layout: such a
+// surfel has no entry (the 24-byte record decodes it as zero too).
+TEST(PageRecords, CompactRecordOfATinyEmissionHasNoEntry) {
+  Surfel s = unit_disk_surfel();
+  s.emission = {1e-12f, 0.f, 0.f};
+  uint8_t rec[kCompactSurfelRecordBytes];
+  encode_surfel_record(SurfelRecords::kCompact, s, {{0, 0, 0}, 1.f}, rec);
+  EXPECT_FALSE(surfel_record_emits(SurfelRecords::kCompact, rec));
+  EXPECT_EQ(round_trip(SurfelRecords::kRelative, s).emission, Imath::C3f(0.f));
 }
 
 // Format A (half): positions exact, the rest within the precision
@@ -382,9 +488,9 @@ TEST(PageRecords, HalfSurfelRecordWithinItsStatedPrecision) {
     s.emission = {1e-6f, 0, 40000.f};
     s.radiance = {100.f * (u(rng) + 1.f), 3.f, 1e-3f * (u(rng) + 1.f)};
     uint8_t rec[kHalfSurfelRecordBytes];
-    encode_surfel_record(LeafFormat::kHalf, s, frame, rec);
+    encode_surfel_record(SurfelRecords::kHalf, s, frame, rec);
     Surfel d;
-    decode_surfel_record(LeafFormat::kHalf, rec, frame, d);
+    decode_surfel_record(SurfelRecords::kHalf, rec, frame, d);
     ASSERT_EQ(d.position, s.position);  // float32, stored as is
     ASSERT_NEAR(d.radius, s.radius, frame.radius / 4096.f);
     ASSERT_NEAR(d.normal.length(), 1.f, 1e-6f);
@@ -404,29 +510,13 @@ TEST(PageRecords, HalfSurfelRecordWithinItsStatedPrecision) {
   std::printf("half leaf records: worst normal angle %.3g rad\n", worst_normal);
 }
 
-// `s` through a record of `format` in the unit frame at the origin.
-Surfel round_trip(LeafFormat format, const Surfel& s) {
-  const LeafFrame frame{{0, 0, 0}, 1.f};
-  uint8_t rec[kHalfSurfelRecordBytes];
-  encode_surfel_record(format, s, frame, rec);
-  Surfel d;
-  decode_surfel_record(format, rec, frame, d);
-  return d;
-}
-
-Surfel unit_disk_surfel() {
-  Surfel s;
-  s.normal = {0, 0, 1};
-  s.radius = 0.5f;
-  return s;
-}
-
 // Half colours keep what RGB9E5's shared exponent loses: a dim channel
 // next to a bright one.
 TEST(PageRecords, HalfKeepsDimChannelsNextToBrightOnes) {
   Surfel s = unit_disk_surfel();
   s.radiance = {1000.f, 0.01f, 0.f};
-  const Surfel relative = round_trip(LeafFormat::kRelative, s), half = round_trip(LeafFormat::kHalf, s);
+  const Surfel relative = round_trip(SurfelRecords::kRelative, s), half = round_trip(SurfelRecords::kHalf, s);
+  EXPECT_EQ(round_trip(SurfelRecords::kCompact, s).radiance.y, 0.f);  // the same RGB9E5
   EXPECT_EQ(relative.radiance.y, 0.f);  // below max/512: flushed by the shared exponent
   EXPECT_NEAR(half.radiance.y, 0.01f, 0.01f * 0x1p-11f);
 }
@@ -436,7 +526,7 @@ TEST(PageRecords, HalfClampsInsteadOfOverflowing) {
   Surfel s = unit_disk_surfel();
   s.emission = {1e9f, 0.f, 0.f};
   s.radiance = {1e9f, 0.f, 0.f};
-  const Surfel d = round_trip(LeafFormat::kHalf, s);
+  const Surfel d = round_trip(SurfelRecords::kHalf, s);
   EXPECT_EQ(d.emission.x, 65504.f);
   EXPECT_EQ(d.radiance.x, 65504.f);
 }
@@ -451,8 +541,14 @@ TEST(PageRecords, LeafFormatNames) {
   } catch (const InvalidArgument& e) {
     EXPECT_NE(std::string(e.what()).find("relative, half"), std::string::npos) << e.what();
   }
-  // Large leaves (not the internal node) set the minimum: 14 more bytes per surfel.
-  EXPECT_EQ(min_page_bytes(64, LeafFormat::kHalf), min_page_bytes(64, LeafFormat::kRelative) + 64 * 14);
+  // Large leaves (not the internal node) set the minimum: the half record
+  // is 20 bytes longer than the compact one, which counts an emission entry
+  // (4 bytes) for every surfel.
+  EXPECT_EQ(min_page_bytes(64, LeafFormat::kHalf), min_page_bytes(64, LeafFormat::kRelative) + 64 * 16);
+  EXPECT_EQ(written_surfel_records(LeafFormat::kRelative), SurfelRecords::kCompact);
+  EXPECT_EQ(surfel_records_of(LeafFormat::kRelative, false), SurfelRecords::kRelative);
+  EXPECT_EQ(surfel_records_of(LeafFormat::kHalf, false), SurfelRecords::kHalf);
+  EXPECT_EQ(surfel_record_bytes(SurfelRecords::kCompact), 18u);
 }
 
 }  // namespace

@@ -1,0 +1,150 @@
+// Page bytes of the two surfel record layouts this build reads for leaf
+// format relative: compact (V6/V7, written) and 24-byte relative (V4/V5,
+// read as before); and the checks behind the checksum on the emission
+// section of compact pages.
+#include "common/errors.h"
+#include "storage/codecs/payload_codec.h"
+#include "storage/format/byte_order.h"
+#include "storage/format/packed_values.h"
+#include "storage/pages/manifest_file.h"
+#include "storage/pages/page_encoding.h"
+#include "storage/tree/leaf_quantizer.h"
+#include "tests/storage/tree/random_surfels.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+namespace pbgi::storage {
+namespace {
+
+bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+
+// A page of one leaf holding `surfels`, in `layout`; `decoded` gets what a
+// reader must decode.
+tree::Treelet one_leaf(SurfelRecords layout, const std::vector<Surfel>& surfels, std::vector<Surfel>& decoded) {
+  tree::Treelet t;
+  t.records = layout;
+  t.shapes.push_back(encode_shape({}));
+  t.surfel_records.resize(surfels.size() * surfel_record_bytes(layout));
+  decoded.resize(surfels.size());
+  const LeafFrame f = tree::quantize_leaf(layout, surfels, t.surfel_records.data(), decoded, t.emission);
+  t.leaf_records.resize(kLeafRecordBytes);
+  write_leaf_record(f, uint32_t(surfels.size()), t.leaf_records.data());
+  return t;
+}
+
+// Four surfels, two of which emit.
+std::vector<Surfel> leaf_surfels() {
+  std::vector<Surfel> s = test::random_surfels(4, 3);
+  s[0].emission = {2.f, 1.f, 0.5f};
+  s[1].emission = {0.f, 0.f, 0.f};
+  s[2].emission = {0.f, 0.f, 0.f};
+  s[3].emission = {0.f, 40.f, 0.f};
+  return s;
+}
+
+std::shared_ptr<tree::Page> decode(std::span<const uint8_t> bytes, uint32_t version) {
+  static const auto codec = make_payload_codec(0);
+  return decode_page(bytes, {"/x/pages.pbgp", 0, 0}, version, *codec, 1);
+}
+
+TEST(PageEncoding, CompactAndRelativePagesDecodeWhatTheBuildDecoded) {
+  const std::vector<Surfel> surfels = leaf_surfels();
+  const auto codec = make_payload_codec(0);
+  for (const SurfelRecords layout : {SurfelRecords::kCompact, SurfelRecords::kRelative}) {
+    std::vector<Surfel> want;
+    const tree::Treelet t = one_leaf(layout, surfels, want);
+    EXPECT_EQ(t.emission.size(), layout == SurfelRecords::kCompact ? 2 * kEmissionEntryBytes : 0u);
+    std::vector<uint8_t> bytes;
+    encode_page(t, 0, *codec, bytes);
+    const uint32_t version = layout == SurfelRecords::kCompact ? kPageFormatV6 : kPageFormatV4;
+    EXPECT_EQ(read_page_header(bytes.data()).format_version, version);
+    const size_t body = kPageHeaderBytes + 4 /*shape, padded*/ + kLeafRecordBytes + 4 * surfel_record_bytes(layout);
+    EXPECT_EQ(bytes.size(), body + t.emission.size() + kPageTrailerBytes);
+    const auto page = decode(bytes, version);
+    ASSERT_EQ(page->surfels.size(), surfels.size());
+    for (size_t i = 0; i < surfels.size(); ++i) {
+      EXPECT_TRUE(test::same_surfel(page->surfels[i], want[i])) << i;
+      // Emission is RGB9E5 in both layouts, in the record or out of line.
+      EXPECT_EQ(page->surfels[i].emission, decode_rgb9e5(encode_rgb9e5(surfels[i].emission))) << i;
+    }
+    // A page is read only as the format its manifest declares.
+    const uint32_t other = version == kPageFormatV6 ? kPageFormatV4 : kPageFormatV6;
+    try {
+      decode(bytes, other);
+      FAIL() << "page format " << version << " read as " << other;
+    } catch (const CorruptionError& e) {
+      EXPECT_TRUE(contains(e.what(), "differs from the manifest's")) << e.what();
+    }
+  }
+}
+
+// Damage behind the checksum (a page re-sealed after the damage, as a
+// writer bug would seal it): the record's emission flags and the emission
+// section must agree, else the page is corrupt, named.
+TEST(PageEncoding, EmissionFlagsAndEntriesMustAgree) {
+  const auto codec = make_payload_codec(0);
+  std::vector<Surfel> want;
+  const tree::Treelet t = one_leaf(SurfelRecords::kCompact, leaf_surfels(), want);
+  std::vector<uint8_t> good;
+  encode_page(t, 0, *codec, good);
+  ASSERT_NO_THROW(decode(good, kPageFormatV6));
+  const size_t records_at = kPageHeaderBytes + 4 + kLeafRecordBytes;
+  auto expect_corrupt = [&](std::vector<uint8_t> bad, const std::string& what) {
+    store_le<uint32_t>(bad.data() + 24, uint32_t(bad.size()));
+    seal_page(bad);
+    try {
+      decode(bad, kPageFormatV6);
+      FAIL() << what << ": accepted";
+    } catch (const CorruptionError& e) {
+      EXPECT_TRUE(contains(e.what(), "/x/pages.pbgp: page 0")) << e.what();
+    }
+  };
+  // A record that says it emits without an entry, and one that lost its flag.
+  for (const size_t surfel : {size_t(1), size_t(0)}) {
+    auto bad = good;
+    bad[records_at + surfel * kCompactSurfelRecordBytes + 9] ^= 0x80;
+    expect_corrupt(bad, "flipped emission flag of surfel " + std::to_string(surfel));
+  }
+  // An entry missing, or one too many.
+  auto shorter = good;
+  shorter.erase(shorter.end() - kPageTrailerBytes - kEmissionEntryBytes, shorter.end() - kPageTrailerBytes);
+  expect_corrupt(shorter, "entry missing");
+  auto longer = good;
+  longer.insert(longer.end() - kPageTrailerBytes, kEmissionEntryBytes, 0);
+  expect_corrupt(longer, "entry too many");
+  // Truncated, not re-sealed: the checksum (or the size) refuses it.
+  for (const size_t cut : {size_t(1), kPageTrailerBytes + 2, good.size() - 10}) {
+    const std::vector<uint8_t> cut_page(good.begin(), good.end() - cut);
+    EXPECT_THROW(decode(cut_page, kPageFormatV6), CorruptionError) << cut;
+  }
+}
+
+// The manifest pairs page formats with payload storage: V4/V6 derived,
+// V5/V7 stored; V4 and V5 page sets (built before compact records) read.
+TEST(PageEncoding, ManifestPairsPageFormatsWithPayloadStorage) {
+  Manifest m;
+  m.build_key = "k";
+  m.stats.page_count = 1;
+  m.stats.file_bytes = 100;
+  m.pages = {{0, 100}};
+  for (const uint32_t format : {kPageFormatV4, kPageFormatV6}) {
+    m.page_format = format;
+    m.node_payloads = false;
+    EXPECT_EQ(decode_manifest(encode_manifest(m), "m").page_format, format);
+    m.node_payloads = true;
+    EXPECT_THROW(decode_manifest(encode_manifest(m), "m"), CorruptionError) << format;
+  }
+  for (const uint32_t format : {kPageFormatV5, kPageFormatV7}) {
+    m.page_format = format;
+    m.node_payloads = true;
+    EXPECT_EQ(decode_manifest(encode_manifest(m), "m").page_format, format);
+    m.node_payloads = false;
+    EXPECT_THROW(decode_manifest(encode_manifest(m), "m"), CorruptionError) << format;
+  }
+}
+
+}  // namespace
+}  // namespace pbgi::storage
