@@ -41,7 +41,9 @@ inline constexpr uint32_t kSceneEntryMagic = fourcc("PBGS");  // <cache>/ingeste
 //       (payload_codec float32-sh, kmeans-sh).
 //   V6: V4 with compact surfel records (leaf format relative: 18 bytes
 //       instead of 24, emission out of line in an emission section after
-//       the surfel records, storage/tree/page_records.h). Derived payloads.
+//       the surfel records, storage/tree/page_records.h) and rounded node
+//       payloads (storage/tree/payload_rounding.h), which the links store
+//       in 76 bytes. Derived payloads.
 //   V7: V5 (every node's payload stored) with V6's compact records.
 inline constexpr uint32_t kPageFormatV1 = 1;
 inline constexpr uint32_t kPageFormatV2 = 2;
@@ -103,7 +105,8 @@ inline constexpr uint32_t kManifestFormatLatest = kManifestFormatV4;   // the ne
 //   3: glossy senders: surfels of glossy materials carry a specular lobe
 //      and pages may carry glossy radiance (V3 manifest, kPageFlagGlossy).
 //   4: V4/V5 pages: treelets of at most kPageLevels levels, unaligned.
-//   5: V6/V7 pages: compact (18-byte) surfel records, emission section.
+//   5: V6/V7 pages: compact (18-byte) surfel records, emission section,
+//      rounded node payloads (76-byte link payloads).
 inline constexpr uint32_t kPageSetFormatVersion = 5;
 
 // Ingested-scene entry versions (server/ingest/scene_entry.h).
@@ -135,6 +138,10 @@ constexpr bool page_format_stores_node_payloads(uint32_t v) { return v == kPageF
 // Whether pages of format `v` hold compact surfel records (leaf format
 // relative) and an emission section.
 constexpr bool page_format_has_compact_records(uint32_t v) { return v == kPageFormatV6 || v == kPageFormatV7; }
+// Whether the nodes of pages of format `v` have rounded payloads
+// (storage/tree/payload_rounding.h), which derived pages' links store in
+// 76 bytes instead of the codec's 144.
+constexpr bool page_format_rounds_payloads(uint32_t v) { return v == kPageFormatV6 || v == kPageFormatV7; }
 constexpr bool is_known_manifest_format(uint32_t v) {
   return v >= kManifestFormatV1 && v <= kManifestFormatV4;
 }

@@ -3,6 +3,7 @@
 #include "common/errors.h"
 #include "storage/codecs/glossy_pages.h"
 #include "storage/tree/page_records.h"
+#include "storage/tree/payload_rounding.h"
 
 #include <string>
 
@@ -34,10 +35,21 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
     at += kLinkRecordBytes;
     linked.push_back(l.summary);
   }
+  // Treelets of 24-byte relative records (only tests make them now) are
+  // V4/V5 pages; this build writes every other treelet as V6/V7.
+  const bool legacy = t.records == SurfelRecords::kRelative;
+  const uint32_t version = legacy ? (node_payloads ? kPageFormatV5 : kPageFormatV4)
+                                  : (node_payloads ? kPageFormatNodePayloads : kPageFormatCurrent);
   const size_t payload_at = out.size();
-  // V3: every node's payload, pre-order; V2: the linked children's.
+  // V5/V7: every node's payload, pre-order; V4: the linked children's, by
+  // the codec; V6: the linked children's rounded payloads.
   if (node_payloads) {
     codec.encode(t.nodes, out);
+  } else if (page_format_rounds_payloads(version)) {
+    out.resize(payload_at + linked.size() * tree::kRoundedPayloadBytes);
+    for (size_t i = 0; i < linked.size(); ++i) {
+      tree::write_rounded_payload(linked[i], out.data() + payload_at + i * tree::kRoundedPayloadBytes);
+    }
   } else {
     codec.encode(linked, out);
   }
@@ -48,11 +60,7 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
   out.resize(out.size() + kPageTrailerBytes);
 
   PageHeader h;
-  // Treelets of 24-byte relative records (only tests make them now) are
-  // V4/V5 pages; this build writes every other treelet as V6/V7.
-  const bool legacy = t.records == SurfelRecords::kRelative;
-  h.format_version = static_cast<uint16_t>(legacy ? (node_payloads ? kPageFormatV5 : kPageFormatV4)
-                                                  : (node_payloads ? kPageFormatNodePayloads : kPageFormatCurrent));
+  h.format_version = static_cast<uint16_t>(version);
   h.flags = (node_payloads ? kPageFlagNodePayloads : 0u) | (glossy.empty() ? 0u : kPageFlagGlossy) |
             (t.records == SurfelRecords::kHalf ? kPageFlagHalfLeaves : 0u);
   h.codec = static_cast<uint16_t>(codec.id());
@@ -139,9 +147,20 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
     }
   }
   std::vector<tree::Node> stored;
+  const bool rounded = page_format_rounds_payloads(h.format_version);
   if (node_payloads) {
     stored.resize(h.node_count);
     codec.decode(bytes.subspan(payload_at, h.payload_bytes), stored, at);
+  } else if (rounded) {
+    if (h.payload_bytes != links * tree::kRoundedPayloadBytes) {
+      throw corrupt("payload array of " + std::to_string(h.payload_bytes) + " bytes for " + std::to_string(links) +
+                    " links of " + std::to_string(tree::kRoundedPayloadBytes) + " bytes");
+    }
+    for (uint64_t i = 0; i < links; ++i) {
+      if (!tree::read_rounded_payload(bytes.data() + payload_at + i * tree::kRoundedPayloadBytes, linked[i])) {
+        throw corrupt("link " + std::to_string(i) + "'s payload has an exponent out of range");
+      }
+    }
   } else {
     codec.decode(bytes.subspan(payload_at, h.payload_bytes), linked, at);
   }
@@ -157,6 +176,7 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   view.emission = bytes.subspan(emission_at, emitting * kEmissionEntryBytes);
   view.payloads = stored;
   view.max_levels = kPageLevels;
+  view.rounded_payloads = rounded;
   auto page = std::make_shared<tree::Page>();
   tree::expand_treelet(view, h.page_id, at, *page);
   // Link records carry a linked child's exact summary only when its

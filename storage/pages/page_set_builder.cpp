@@ -15,6 +15,7 @@
 #include "storage/pages/surfel_sorter.h"
 #include "storage/tree/morton.h"
 #include "storage/tree/page_records.h"
+#include "storage/tree/payload_rounding.h"
 #include "storage/tree/streaming_tree_builder.h"
 #include "storage/tree/surfel_checks.h"
 #include "storage/tree/tree_builder.h"
@@ -231,7 +232,7 @@ struct PageSetBuilder::Impl {
       glossy.emplace(*glossy_shader, GlossyPageOptions{options.glossy_resolution, options.wavelet_threshold});
     }
     PageWriter pages(staging.path() / kPagesFileName, codec, glossy ? &*glossy : nullptr, staging.usage());
-    tree::StreamingTreeBuilder tree(options, options.page_size, node_payloads ? 0 : codec->bytes_per_node(), pages,
+    tree::StreamingTreeBuilder tree(options, options.page_size, node_payloads ? 0 : tree::kRoundedPayloadBytes, pages,
                                     node_payloads ? &sizer : nullptr);
     sorter->drain([&](const Surfel& s, uint64_t code) { tree.add(s, code); },
                   [&](float f) { report_progress(0.95f * f); });

@@ -2,6 +2,7 @@
 
 #include "storage/codecs/payload_codec.h"
 #include "storage/tree/page_records.h"
+#include "storage/tree/payload_rounding.h"
 
 #include <algorithm>
 #include <limits>
@@ -21,7 +22,9 @@ PageSetInspection inspect_page_set(const PageSetReader& reader, bool walk) {
       surfel_record_bytes(surfel_records_of(m.options.leaf_format, page_format_has_compact_records(m.page_format)));
   r.leaf_record_bytes = kLeafRecordBytes;
   r.link_record_bytes = kLinkRecordBytes;
-  r.link_payload_bytes = m.node_payloads ? 0 : codec->bytes_per_node();
+  r.link_payload_bytes = m.node_payloads                              ? 0
+                         : page_format_rounds_payloads(m.page_format) ? tree::kRoundedPayloadBytes
+                                                                      : codec->bytes_per_node();
 
   // 1. Page table.
   r.fill_min = m.pages.empty() ? 0 : std::numeric_limits<double>::infinity();

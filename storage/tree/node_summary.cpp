@@ -3,6 +3,7 @@
 #include "storage/tree/bounding_sphere.h"
 #include "storage/tree/node_payload.h"
 #include "storage/tree/normal_cone.h"
+#include "storage/tree/payload_rounding.h"
 
 namespace pbgi::tree {
 
@@ -19,7 +20,8 @@ float sum_area(const Range& items, Area area_of) {
 
 }  // namespace
 
-void summarize_leaf(std::span<const Surfel> surfels, const storage::LeafFrame& frame, Node& out, bool payload) {
+void summarize_leaf(std::span<const Surfel> surfels, const storage::LeafFrame& frame, Node& out,
+                    PayloadMode payload) {
   const NormalCone cone = cone_of_normals(surfels);
   out.center = frame.center;
   out.radius = frame.radius;
@@ -27,16 +29,17 @@ void summarize_leaf(std::span<const Surfel> surfels, const storage::LeafFrame& f
   out.cone_cos = cone.cos_half_angle;
   out.child_count = 0;
   out.surfel_count = static_cast<uint32_t>(surfels.size());
-  if (!payload) {
+  if (payload == PayloadMode::kNone) {
     out.area = sum_area(surfels, [](const Surfel& s) { return s.area(); });
     return;
   }
   PayloadAccumulator acc;
   for (const Surfel& s : surfels) acc.add_surfel(s);
   acc.store(out);
+  if (payload == PayloadMode::kRounded) round_payload(out);
 }
 
-void summarize_internal(const Node& a, const Node* b, Node& out, bool payload) {
+void summarize_internal(const Node& a, const Node* b, Node& out, PayloadMode payload) {
   PayloadAccumulator acc;
   acc.add_node(a);
   if (b) {
@@ -53,8 +56,9 @@ void summarize_internal(const Node& a, const Node* b, Node& out, bool payload) {
     out.cone_axis = a.cone_axis;
     out.cone_cos = a.cone_cos;
   }
-  if (payload) {
+  if (payload != PayloadMode::kNone) {
     acc.store(out);
+    if (payload == PayloadMode::kRounded) round_payload(out);
   } else {
     const Node* children[2] = {&a, b};
     out.area = sum_area(std::span<const Node* const>(children, b ? 2 : 1), [](const Node* n) { return n->area; });

@@ -12,21 +12,28 @@
 #include "storage/tree/page_records.h"
 #include "storage/tree/surfel.h"
 
+#include <cstdint>
 #include <span>
 
 namespace pbgi::tree {
 
+// What a summary does with the SH payload:
+//   kNone     leaves it alone (pages that store every node's payload); the
+//             area is the same as with a payload;
+//   kExact    the area-weighted average in float (V4/V5 page sets);
+//   kRounded  that average rounded by round_payload() (payload_rounding.h):
+//             the trees this build writes (V6/V7 pages, in-memory trees).
+enum class PayloadMode : uint8_t { kNone, kExact, kRounded };
+
 // Leaf over `surfels` (decoded, non-empty) stored in `frame`: sphere =
 // frame, cone around the normals, area and payload from the surfels. Sets
-// child_count = 0 and surfel_count; leaves first_surfel alone. With
-// `payload` false the SH payload is left alone (pages that store every
-// node's payload); the area is the same either way.
+// child_count = 0 and surfel_count; leaves first_surfel alone.
 void summarize_leaf(std::span<const Surfel> surfels, const storage::LeafFrame& frame, Node& out,
-                    bool payload = true);
+                    PayloadMode payload);
 
 // Internal node over one or two children (`b` may be null): enclosing
 // sphere and cone, summed area, area-weighted payload. Sets child_count;
-// leaves the child links alone. `payload` as for summarize_leaf().
-void summarize_internal(const Node& a, const Node* b, Node& out, bool payload = true);
+// leaves the child links alone.
+void summarize_internal(const Node& a, const Node* b, Node& out, PayloadMode payload);
 
 }  // namespace pbgi::tree

@@ -38,6 +38,7 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
   const size_t surfels = t.surfel_records.size() / record_bytes;
   if (n == 0) throw corrupt("page has no nodes");
   const bool stored = !t.payloads.empty();
+  const PayloadMode mode = stored ? PayloadMode::kNone : t.rounded_payloads ? PayloadMode::kRounded : PayloadMode::kExact;
   if (stored && t.payloads.size() != n) {
     throw corrupt(std::to_string(t.payloads.size()) + " stored payloads for " + std::to_string(n) + " nodes");
   }
@@ -153,7 +154,7 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
         decode_surfel_record(t.records, rec + k * record_bytes, f, s[k]);
       }
       const uint32_t first = node.first_surfel;
-      summarize_leaf({s, node.surfel_count}, f, node, !stored);
+      summarize_leaf({s, node.surfel_count}, f, node, mode);
       node.first_surfel = first;
       if (stored) copy_payload(t.payloads[i], node);
       continue;
@@ -163,7 +164,7 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
       child[c] = shape[i].external[c] ? &t.links[link_of[i][c]].summary : &out.nodes[node.children[c].index];
     }
     const NodeRef links[2] = {node.children[0], node.children[1]};
-    summarize_internal(*child[0], child[1], node, !stored);
+    summarize_internal(*child[0], child[1], node, mode);
     if (stored) copy_payload(t.payloads[i], node);
     node.children[0] = links[0];
     node.children[1] = links[1];

@@ -40,9 +40,12 @@ struct TreeletView {
   // pre-order, whose radiance_sh and coverage_sh are taken instead of
   // derived. Empty: payloads are derived from the surfels and links.
   std::span<const Node> payloads;
-  // Most levels the treelet may span (storage::kPageLevels for V4/V5
+  // Most levels the treelet may span (storage::kPageLevels for V4-V7
   // pages); 0: unbounded.
   uint32_t max_levels = 0;
+  // Derived payloads are rounded (payload_rounding.h: V6/V7 pages and the
+  // trees this build makes) or exact (V4/V5 pages).
+  bool rounded_payloads = true;
 };
 
 // An owning treelet, as the builder hands it to a page writer.
@@ -61,7 +64,7 @@ struct Treelet {
   // page writer turns them into the page's wavelet radiance); else empty.
   std::vector<SurfelGloss> gloss;
 
-  TreeletView view() const { return {shapes, leaf_records, links, surfel_records, records, emission, {}, 0}; }
+  TreeletView view() const { return {shapes, leaf_records, links, surfel_records, records, emission, {}, 0, true}; }
   size_t node_count() const { return shapes.size(); }
   size_t surfel_count() const;
   void clear();

@@ -9,10 +9,15 @@
 #include "storage/pages/manifest_file.h"
 #include "storage/pages/page_encoding.h"
 #include "storage/tree/leaf_quantizer.h"
+#include "storage/tree/morton.h"
+#include "storage/tree/payload_rounding.h"
+#include "storage/tree/streaming_tree_builder.h"
+#include "storage/tree/tree_builder.h"
 #include "tests/storage/tree/random_surfels.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -120,6 +125,71 @@ TEST(PageEncoding, EmissionFlagsAndEntriesMustAgree) {
     const std::vector<uint8_t> cut_page(good.begin(), good.end() - cut);
     EXPECT_THROW(decode(cut_page, kPageFormatV6), CorruptionError) << cut;
   }
+}
+
+// V6 links store the linked child's rounded payload in 76 bytes: exactly
+// what the child's page derives for its root. An exponent byte no writer
+// produces, or a payload array of the wrong size, is corruption.
+TEST(PageEncoding, LinkPayloadsAreTheChildRootsExactly) {
+  struct Keep final : tree::TreeletSink {
+    uint32_t write(const tree::Treelet& t) override {
+      treelets.push_back(t);
+      return uint32_t(treelets.size() - 1);
+    }
+    std::vector<tree::Treelet> treelets;
+  };
+  const std::vector<Surfel> surfels = test::random_surfels(2000, 5);
+  Keep sink;
+  tree::StreamingTreeBuilder b({}, 65536, tree::kRoundedPayloadBytes, sink);
+  std::vector<std::pair<uint64_t, size_t>> order;
+  const tree::MortonFrame frame(tree::surfel_bounds(surfels));
+  for (size_t i = 0; i < surfels.size(); ++i) order.push_back({frame.code(surfels[i].position), i});
+  std::sort(order.begin(), order.end());
+  for (const auto& [code, i] : order) b.add(surfels[i], code);
+  const tree::StreamingTreeStats stats = b.finish();
+  const auto codec = make_payload_codec(0);
+  std::vector<std::vector<uint8_t>> pages(sink.treelets.size());
+  std::vector<std::shared_ptr<tree::Page>> decoded;
+  size_t links = 0;
+  for (uint32_t id = 0; id < pages.size(); ++id) {
+    encode_page(sink.treelets[id], id, *codec, pages[id]);
+    const PageHeader h = read_page_header(pages[id].data());
+    EXPECT_EQ(h.payload_bytes, sink.treelets[id].links.size() * tree::kRoundedPayloadBytes);
+    decoded.push_back(decode_page(pages[id], {"/x/pages.pbgp", id, 0}, kPageFormatV6, *codec, stats.page_count));
+    for (const tree::PageLink& l : decoded.back()->links) {
+      const tree::Node& root = decoded[l.summary.children[0].page]->nodes[0];
+      EXPECT_EQ(l.summary.radiance_sh.r, root.radiance_sh.r);
+      EXPECT_EQ(l.summary.radiance_sh.g, root.radiance_sh.g);
+      EXPECT_EQ(l.summary.radiance_sh.b, root.radiance_sh.b);
+      EXPECT_EQ(l.summary.coverage_sh, root.coverage_sh);
+      EXPECT_EQ(l.summary.area, root.area);
+      EXPECT_EQ(l.summary.center, root.center);
+      ++links;
+    }
+  }
+  EXPECT_GT(links, 50u);
+  const uint32_t root = stats.root.page;
+  ASSERT_FALSE(sink.treelets[root].links.empty());
+  const PageHeader h = read_page_header(pages[root].data());
+  const size_t payload_at = pages[root].size() - kPageTrailerBytes - sink.treelets[root].emission.size() -
+                            sink.treelets[root].surfel_records.size() - h.payload_bytes;
+  auto expect_corrupt = [&](std::vector<uint8_t> bad, const std::string& what) {
+    store_le<uint32_t>(bad.data() + 24, uint32_t(bad.size()));
+    seal_page(bad);
+    try {
+      decode_page(bad, {"/x/pages.pbgp", root, 0}, kPageFormatV6, *codec, stats.page_count);
+      FAIL() << what << ": accepted";
+    } catch (const CorruptionError& e) {
+      EXPECT_TRUE(contains(e.what(), "/x/pages.pbgp: page " + std::to_string(root))) << e.what();
+    }
+  };
+  auto bad = pages[root];
+  bad[payload_at] = 255;
+  expect_corrupt(bad, "exponent out of range");
+  bad = pages[root];
+  store_le<uint32_t>(bad.data() + 20, h.payload_bytes - 1);
+  bad.erase(bad.begin() + long(payload_at));
+  expect_corrupt(bad, "payload array a byte short");
 }
 
 // The manifest pairs page formats with payload storage: V4/V6 derived,

@@ -123,12 +123,12 @@ TEST_F(PageSetTest, InspectionAgreesWithTheManifest) {
   EXPECT_LE(r.fill_max, 1.0);
   EXPECT_EQ(r.payload_bytes_per_node, 0u);  // derived at load
   EXPECT_EQ(r.surfel_record_bytes, 18u);  // compact records (V6 pages)
-  EXPECT_EQ(r.link_payload_bytes, 144u);
+  EXPECT_EQ(r.link_payload_bytes, 76u);   // rounded payloads
   // 18-byte surfels (and 4 bytes per emitting one: a tenth here), leaf
   // records, and per page of at most kPageLevels levels a frame, a table
-  // entry and its parent's link with a float payload (FORMAT.md, "Why this
-  // layout"): ~45 bytes per surfel here.
-  EXPECT_LT(double(manifest_.stats.file_bytes) / manifest_.stats.surfel_count, 54.0);
+  // entry and its parent's link with a 76-byte payload (FORMAT.md, "Why
+  // this layout"): ~40 bytes per surfel here.
+  EXPECT_LT(double(manifest_.stats.file_bytes) / manifest_.stats.surfel_count, 48.0);
   const PageSetInspection quick = inspect_page_set(reader, false);
   EXPECT_FALSE(quick.walked);
   EXPECT_EQ(quick.fill_mean, r.fill_mean);
