@@ -66,12 +66,15 @@ void pages(const fs::path& dir) {
     s.albedo = {0.5f, 0.4f, 0.3f};
     s.radiance = {std::abs(u(rng)), 0.2f, 0.1f};
   }
+  // A few emitters, so that compact pages carry an emission section.
+  for (size_t i = 0; i < surfels.size(); i += 7) surfels[i].emission = {2.f, 1.f, 0.5f};
   const fs::path tmp = fs::temp_directory_path() / ("pbgi-corpus-" + std::to_string(::getpid()));
   fs::remove_all(tmp);
   fs::create_directories(tmp);
   // Both leaf formats (the half one's files suffixed "_half") and both page
-  // formats: V4 (derived payloads) and V5 (every node's payload stored,
-  // float32-sh; suffixed "_v5").
+  // formats this build writes: V6 (derived payloads) and V7 (every node's
+  // payload stored, float32-sh; suffixed "_v7"). The V4/V5 seeds of older
+  // builds stay in the corpus as "v4_*" (the reader still reads them).
   struct Variant {
     pbgi::storage::LeafFormat leaf;
     pbgi::tree::PayloadCodecOption codec;
@@ -79,7 +82,7 @@ void pages(const fs::path& dir) {
   };
   for (const Variant& v : {Variant{pbgi::storage::LeafFormat::kRelative, pbgi::tree::PayloadCodecOption::kDerived, ""},
                            Variant{pbgi::storage::LeafFormat::kHalf, pbgi::tree::PayloadCodecOption::kDerived, "_half"},
-                           Variant{pbgi::storage::LeafFormat::kRelative, pbgi::tree::PayloadCodecOption::kFloatSh, "_v5"}}) {
+                           Variant{pbgi::storage::LeafFormat::kRelative, pbgi::tree::PayloadCodecOption::kFloatSh, "_v7"}}) {
     pbgi::tree::BuildOptions options;
     options.leaf_size = 4;
     options.page_size = 4096;
