@@ -77,6 +77,10 @@ inline constexpr uint32_t kPageLevels = 4;
 inline constexpr uint32_t kPageFlagNodePayloads = 1u << 0;
 inline constexpr uint32_t kPageFlagGlossy = 1u << 1;
 inline constexpr uint32_t kPageFlagHalfLeaves = 1u << 2;
+// kPageFlagSharedAlbedo (V6/V7 pages of compact records only): every
+// surfel of the page has the same albedo, stored once (a u32 RGB9E5 after
+// the payload array), and the records are 14 bytes, without it.
+inline constexpr uint32_t kPageFlagSharedAlbedo = 1u << 3;
 
 // Manifest layout versions.
 //   V1: 16-byte header, body (options, stats, root, codec, page table),

@@ -2,9 +2,11 @@
 
 #include "common/errors.h"
 #include "storage/codecs/glossy_pages.h"
+#include "storage/format/byte_order.h"
 #include "storage/tree/page_records.h"
 #include "storage/tree/payload_rounding.h"
 
+#include <algorithm>
 #include <string>
 
 namespace pbgi::storage {
@@ -54,7 +56,25 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
     codec.encode(linked, out);
   }
   const size_t payload_bytes = out.size() - payload_at;
-  out.insert(out.end(), t.surfel_records.begin(), t.surfel_records.end());
+  // Compact records that all hold one albedo: stored once, records
+  // without it (kPageFlagSharedAlbedo).
+  const size_t surfels = t.surfel_count();
+  bool shared_albedo = t.records == SurfelRecords::kCompact && surfels > 0;
+  for (size_t k = 1; shared_albedo && k < surfels; ++k) {
+    shared_albedo = compact_record_albedo(t.surfel_records.data() + k * kCompactSurfelRecordBytes) ==
+                    compact_record_albedo(t.surfel_records.data());
+  }
+  if (shared_albedo) {
+    const size_t albedo_at = out.size();
+    out.resize(albedo_at + 4 + surfels * kCompactSharedAlbedoRecordBytes);
+    std::copy_n(t.surfel_records.data() + 10, 4, out.data() + albedo_at);  // the u32, as stored in the records
+    for (size_t k = 0; k < surfels; ++k) {
+      drop_albedo(t.surfel_records.data() + k * kCompactSurfelRecordBytes,
+                  out.data() + albedo_at + 4 + k * kCompactSharedAlbedoRecordBytes);
+    }
+  } else {
+    out.insert(out.end(), t.surfel_records.begin(), t.surfel_records.end());
+  }
   out.insert(out.end(), t.emission.begin(), t.emission.end());
   out.insert(out.end(), glossy.begin(), glossy.end());
   out.resize(out.size() + kPageTrailerBytes);
@@ -62,7 +82,8 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
   PageHeader h;
   h.format_version = static_cast<uint16_t>(version);
   h.flags = (node_payloads ? kPageFlagNodePayloads : 0u) | (glossy.empty() ? 0u : kPageFlagGlossy) |
-            (t.records == SurfelRecords::kHalf ? kPageFlagHalfLeaves : 0u);
+            (t.records == SurfelRecords::kHalf ? kPageFlagHalfLeaves : 0u) |
+            (shared_albedo ? kPageFlagSharedAlbedo : 0u);
   h.codec = static_cast<uint16_t>(codec.id());
   h.page_id = page_id;
   h.node_count = static_cast<uint32_t>(n);
@@ -84,16 +105,20 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
     throw corrupt("payload codec " + std::to_string(h.codec) + " differs from the manifest's " +
                   std::to_string(codec.id()));
   }
-  // kPageFlagNodePayloads is set exactly in V5 pages, kPageFlagHalfLeaves
+  // kPageFlagNodePayloads is set exactly in V5/V7 pages, kPageFlagHalfLeaves
   // exactly when the manifest's leaf format is half (a page flagged
   // otherwise is refused); kPageFlagGlossy only where the manifest declares
-  // glossy radiance (format_version.h).
+  // glossy radiance, kPageFlagSharedAlbedo only over compact records
+  // (format_version.h).
   const uint32_t want_flags = (page_format_stores_node_payloads(h.format_version) ? kPageFlagNodePayloads : 0u) |
                               (leaf_format == LeafFormat::kHalf ? kPageFlagHalfLeaves : 0u);
-  const SurfelRecords records = surfel_records_of(leaf_format, page_format_has_compact_records(h.format_version));
-  const size_t record_bytes = surfel_record_bytes(records);
+  SurfelRecords records = surfel_records_of(leaf_format, page_format_has_compact_records(h.format_version));
   const bool glossy = glossy_allowed && (h.flags & kPageFlagGlossy) != 0;
-  if ((h.flags & ~(glossy ? kPageFlagGlossy : 0u)) != want_flags) {
+  // A shared albedo only over compact records (V6/V7, leaf format relative).
+  const bool shared_albedo = records == SurfelRecords::kCompact && (h.flags & kPageFlagSharedAlbedo) != 0;
+  if (shared_albedo) records = SurfelRecords::kCompactSharedAlbedo;
+  const size_t record_bytes = surfel_record_bytes(records);
+  if ((h.flags & ~(glossy ? kPageFlagGlossy : 0u) & ~(shared_albedo ? kPageFlagSharedAlbedo : 0u)) != want_flags) {
     throw corrupt("header flags are " + std::to_string(h.flags) + ", page format " +
                   std::to_string(h.format_version) + " needs " + std::to_string(want_flags));
   }
@@ -114,7 +139,8 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   const uint64_t leaves_at = padded(kPageHeaderBytes + h.node_count);
   const uint64_t links_at = leaves_at + leaves * kLeafRecordBytes;
   const uint64_t payload_at = links_at + links * kLinkRecordBytes;
-  const uint64_t surfels_at = payload_at + h.payload_bytes;
+  const uint64_t albedo_at = payload_at + h.payload_bytes;
+  const uint64_t surfels_at = albedo_at + (shared_albedo ? 4 : 0);
   const uint64_t emission_at = surfels_at + uint64_t(h.surfel_count) * record_bytes;
   // Compact records: one emission entry per record that emits (counted
   // once the records are known to lie inside the page).
@@ -173,6 +199,7 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   view.links = link;
   view.surfel_records = bytes.subspan(surfels_at, uint64_t(h.surfel_count) * record_bytes);
   view.records = records;
+  if (shared_albedo) view.shared_albedo = load_le<uint32_t>(bytes.data() + albedo_at);
   view.emission = bytes.subspan(emission_at, emitting * kEmissionEntryBytes);
   view.payloads = stored;
   view.max_levels = kPageLevels;

@@ -36,16 +36,22 @@ constexpr std::span<const options::EnumName<LeafFormat>> enum_names(LeafFormat) 
 //   relative  leaf format relative in V4/V5 pages: 24 bytes (read only);
 //   compact   leaf format relative in V6/V7 pages: 18 bytes, emission out
 //             of line (the page's emission section);
-//   half      leaf format half in any page: 38 bytes.
-enum class SurfelRecords : uint8_t { kRelative = 0, kCompact = 1, kHalf = 2 };
+//   half      leaf format half in any page: 38 bytes;
+//   compact shared albedo: the compact record without its albedo, 14
+//             bytes, in V6/V7 pages whose surfels all have one albedo
+//             (kPageFlagSharedAlbedo: the page stores it once). Only page
+//             readers and writers see it; the tree build makes compact ones.
+enum class SurfelRecords : uint8_t { kRelative = 0, kCompact = 1, kHalf = 2, kCompactSharedAlbedo = 3 };
 
 inline constexpr size_t kRelativeSurfelRecordBytes = 24;
 inline constexpr size_t kCompactSurfelRecordBytes = 18;
+inline constexpr size_t kCompactSharedAlbedoRecordBytes = 14;
 inline constexpr size_t kHalfSurfelRecordBytes = 38;
 constexpr size_t surfel_record_bytes(SurfelRecords r) {
-  return r == SurfelRecords::kHalf    ? kHalfSurfelRecordBytes
-         : r == SurfelRecords::kCompact ? kCompactSurfelRecordBytes
-                                        : kRelativeSurfelRecordBytes;
+  return r == SurfelRecords::kHalf                   ? kHalfSurfelRecordBytes
+         : r == SurfelRecords::kCompact              ? kCompactSurfelRecordBytes
+         : r == SurfelRecords::kCompactSharedAlbedo ? kCompactSharedAlbedoRecordBytes
+                                                       : kRelativeSurfelRecordBytes;
 }
 // The records of leaf format `f` in pages with (V6/V7) or without (V4/V5)
 // compact records.
@@ -59,7 +65,9 @@ constexpr SurfelRecords written_surfel_records(LeafFormat f) { return surfel_rec
 constexpr size_t surfel_record_bytes(LeafFormat f) { return surfel_record_bytes(written_surfel_records(f)); }
 // Whether a record of `r` keeps its emission out of line: in the page's
 // emission section (4 bytes per emitting surfel), flagged in the record.
-constexpr bool emission_out_of_line(SurfelRecords r) { return r == SurfelRecords::kCompact; }
+constexpr bool emission_out_of_line(SurfelRecords r) {
+  return r == SurfelRecords::kCompact || r == SurfelRecords::kCompactSharedAlbedo;
+}
 inline constexpr size_t kEmissionEntryBytes = 4;
 // As written in config files, CLI flags, requests and `pbgi inspect`.
 // parse_leaf_format throws InvalidArgument naming the accepted values.

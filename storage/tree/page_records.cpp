@@ -135,7 +135,8 @@ void encode_compact(const Surfel& s, const LeafFrame& f, uint8_t* out) {
   store_le<uint32_t>(out + 14, encode_rgb9e5(s.radiance));
 }
 
-void decode_compact(const uint8_t* in, const LeafFrame& f, Surfel& s) {
+// `shared`: the record without albedo (radiance at 10).
+void decode_compact(const uint8_t* in, const LeafFrame& f, Surfel& s, bool shared = false) {
   const uint64_t lo = load_le<uint64_t>(in);
   const uint32_t hi = load_le<uint16_t>(in + 8);
   constexpr uint64_t kPos = (1u << kCompactPositionBits) - 1u;
@@ -146,9 +147,9 @@ void decode_compact(const uint8_t* in, const LeafFrame& f, Surfel& s) {
   const uint32_t oct = uint32_t(lo >> 42) | (hi & 3u) << 22;
   s.normal = decode_octahedral_bits(oct, kCompactNormalBits);
   s.radius = R * decode_unorm_bits((hi >> 2) & ((1u << kCompactRadiusBits) - 1u), kCompactRadiusBits);
-  s.albedo = decode_rgb9e5(load_le<uint32_t>(in + 10));
+  s.albedo = shared ? Imath::C3f(0.f, 0.f, 0.f) : decode_rgb9e5(load_le<uint32_t>(in + 10));  // shared: the page's
   s.emission = Imath::C3f(0.f, 0.f, 0.f);  // from the emission section, if the record emits
-  s.radiance = decode_rgb9e5(load_le<uint32_t>(in + 14));
+  s.radiance = decode_rgb9e5(load_le<uint32_t>(in + (shared ? 10 : 14)));
 }
 
 // Half floats. NaN never reaches here (surfel_checks refuses it); values
@@ -209,6 +210,11 @@ void encode_surfel_record(SurfelRecords records, const Surfel& s, const LeafFram
   switch (records) {
     case SurfelRecords::kHalf: return encode_half(s, f, out);
     case SurfelRecords::kCompact: return encode_compact(s, f, out);
+    case SurfelRecords::kCompactSharedAlbedo: {
+      uint8_t full[kCompactSurfelRecordBytes];
+      encode_compact(s, f, full);
+      return drop_albedo(full, out);
+    }
     case SurfelRecords::kRelative: return encode_relative(s, f, out);
   }
 }
@@ -217,12 +223,20 @@ void decode_surfel_record(SurfelRecords records, const uint8_t* in, const LeafFr
   switch (records) {
     case SurfelRecords::kHalf: return decode_half(in, f, s);
     case SurfelRecords::kCompact: return decode_compact(in, f, s);
+    case SurfelRecords::kCompactSharedAlbedo: return decode_compact(in, f, s, true);
     case SurfelRecords::kRelative: return decode_relative(in, f, s);
   }
 }
 
 bool surfel_record_emits(SurfelRecords records, const uint8_t* in) {
-  return records == SurfelRecords::kCompact && (in[9] & 0x80u) != 0;
+  return emission_out_of_line(records) && (in[9] & 0x80u) != 0;
+}
+
+uint32_t compact_record_albedo(const uint8_t* compact) { return load_le<uint32_t>(compact + 10); }
+
+void drop_albedo(const uint8_t* compact, uint8_t* out) {
+  std::copy(compact, compact + 10, out);
+  std::copy(compact + 14, compact + 18, out + 10);
 }
 
 void write_emission_entry(const Surfel& s, uint8_t* out) { store_le<uint32_t>(out, encode_rgb9e5(s.emission)); }

@@ -96,6 +96,12 @@ void decode_surfel_record(SurfelRecords records, const uint8_t* in, const LeafFr
 // Whether the record at `in` has an emission entry (compact records with
 // a non-zero RGB9E5 emission; never for other layouts).
 bool surfel_record_emits(SurfelRecords records, const uint8_t* in);
+// Shared albedo (pages whose compact records all hold one albedo): the
+// RGB9E5 albedo of a compact record, and the record without it (14 bytes,
+// SurfelRecords::kCompactSharedAlbedo, which decodes with albedo 0: the
+// reader sets the page's).
+uint32_t compact_record_albedo(const uint8_t* compact);
+void drop_albedo(const uint8_t* compact, uint8_t* out);
 // The kEmissionEntryBytes of an emitting surfel's entry: RGB9E5 emission.
 void write_emission_entry(const Surfel& s, uint8_t* out);
 Imath::C3f read_emission_entry(const uint8_t* in);

@@ -1,6 +1,7 @@
 #include "storage/tree/treelet.h"
 
 #include "common/errors.h"
+#include "storage/format/packed_values.h"
 #include "storage/tree/node_summary.h"
 #include "storage/tree/page_records.h"
 
@@ -168,6 +169,10 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
     if (stored) copy_payload(t.payloads[i], node);
     node.children[0] = links[0];
     node.children[1] = links[1];
+  }
+  if (t.records == SurfelRecords::kCompactSharedAlbedo) {
+    const Imath::C3f albedo = decode_rgb9e5(t.shared_albedo);
+    for (Surfel& s : out.surfels) s.albedo = albedo;
   }
   for (size_t k = 0, e = 0; e < emitting; ++k) {
     if (!surfel_record_emits(t.records, t.surfel_records.data() + k * record_bytes)) continue;

@@ -36,6 +36,8 @@ struct TreeletView {
   // Compact records: kEmissionEntryBytes per record that emits, in surfel
   // order (empty otherwise).
   std::span<const uint8_t> emission;
+  // kCompactSharedAlbedo records: every surfel's RGB9E5 albedo.
+  uint32_t shared_albedo = 0;
   // Pages that store every node's payload: one decoded node per node, in
   // pre-order, whose radiance_sh and coverage_sh are taken instead of
   // derived. Empty: payloads are derived from the surfels and links.
@@ -64,7 +66,7 @@ struct Treelet {
   // page writer turns them into the page's wavelet radiance); else empty.
   std::vector<SurfelGloss> gloss;
 
-  TreeletView view() const { return {shapes, leaf_records, links, surfel_records, records, emission, {}, 0, true}; }
+  TreeletView view() const { return {shapes, leaf_records, links, surfel_records, records, emission, 0, {}, 0, true}; }
   size_t node_count() const { return shapes.size(); }
   size_t surfel_count() const;
   void clear();

@@ -86,6 +86,39 @@ TEST(PageEncoding, CompactAndRelativePagesDecodeWhatTheBuildDecoded) {
   }
 }
 
+// Compact pages whose surfels share one albedo store it once, with 14-byte
+// records, and decode to the same surfels; other layouts never do.
+TEST(PageEncoding, SharedAlbedoIsStoredOnce) {
+  std::vector<Surfel> surfels = leaf_surfels();
+  for (Surfel& s : surfels) s.albedo = {0.7f, 0.5f, 0.25f};
+  const auto codec = make_payload_codec(0);
+  for (const SurfelRecords layout : {SurfelRecords::kCompact, SurfelRecords::kRelative}) {
+    std::vector<Surfel> want;
+    const tree::Treelet t = one_leaf(layout, surfels, want);
+    std::vector<uint8_t> bytes;
+    encode_page(t, 0, *codec, bytes);
+    const PageHeader h = read_page_header(bytes.data());
+    const bool shared = layout == SurfelRecords::kCompact;
+    EXPECT_EQ((h.flags & kPageFlagSharedAlbedo) != 0, shared);
+    const size_t records = shared ? 4 + 4 * kCompactSharedAlbedoRecordBytes : 4 * surfel_record_bytes(layout);
+    EXPECT_EQ(bytes.size(), kPageHeaderBytes + 4 + kLeafRecordBytes + records + t.emission.size() + kPageTrailerBytes);
+    const auto page = decode(bytes, h.format_version);
+    ASSERT_EQ(page->surfels.size(), want.size());
+    for (size_t i = 0; i < want.size(); ++i) EXPECT_TRUE(test::same_surfel(page->surfels[i], want[i])) << i;
+    // The flag where it does not belong: a V4 page, or a page whose
+    // records are not laid out for it (re-sealed, as a writer bug would).
+    auto bad = bytes;
+    store_le<uint32_t>(bad.data() + 28, h.flags ^ kPageFlagSharedAlbedo);
+    seal_page(bad);
+    try {
+      decode(bad, h.format_version);
+      FAIL() << "shared albedo flag flipped on a page of format " << h.format_version;
+    } catch (const CorruptionError& e) {
+      EXPECT_TRUE(contains(e.what(), "/x/pages.pbgp: page 0")) << e.what();
+    }
+  }
+}
+
 // Damage behind the checksum (a page re-sealed after the damage, as a
 // writer bug would seal it): the record's emission flags and the emission
 // section must agree, else the page is corrupt, named.
