@@ -42,7 +42,7 @@ void round_payload(Node& n);
 // Writes the rounded payload of `n` (round_payload() must hold it already:
 // the encoding is exact only for rounded values) to kRoundedPayloadBytes
 // at `out`; reads it back into `n`'s payload. read_rounded_payload returns
-// false for bytes no writer produces (an exponent byte out of range).
+// false for bytes no writer produces (an exponent byte outside [14, 242]).
 void write_rounded_payload(const Node& n, uint8_t* out);
 bool read_rounded_payload(const uint8_t* in, Node& n);
 
