@@ -66,8 +66,13 @@ void pages(const fs::path& dir) {
     s.albedo = {0.5f, 0.4f, 0.3f};
     s.radiance = {std::abs(u(rng)), 0.2f, 0.1f};
   }
-  // A few emitters, so that compact pages carry an emission section.
+  // A few emitters, so that compact pages carry an emission section, and
+  // varied albedos on one side, so that some pages share one albedo
+  // (kPageFlagSharedAlbedo) and others do not.
   for (size_t i = 0; i < surfels.size(); i += 7) surfels[i].emission = {2.f, 1.f, 0.5f};
+  for (pbgi::Surfel& s : surfels) {
+    if (s.position.x > 0.f) s.albedo = {std::abs(u(rng)), 0.4f, 0.3f};
+  }
   const fs::path tmp = fs::temp_directory_path() / ("pbgi-corpus-" + std::to_string(::getpid()));
   fs::remove_all(tmp);
   fs::create_directories(tmp);
