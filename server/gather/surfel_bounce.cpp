@@ -5,6 +5,7 @@
 #include "server/gather/gather.h"
 #include "server/gather/view_tree_gather.h"
 #include "storage/tree/node_payload.h"
+#include "storage/tree/payload_rounding.h"
 #include "storage/tree/tree_builder.h"
 
 #include <tbb/blocked_range.h>
@@ -42,7 +43,8 @@ class OnePageTree final : public tree::TreeSource {
 };
 
 // Recomputes every node's payload from its surfels' radiances, children
-// (later in pre-order) before parents.
+// (later in pre-order) before parents, rounded as the tree build rounds
+// every node's payload (storage/tree/payload_rounding.h).
 void rebuild_payloads(tree::Page& page) {
   for (size_t i = page.nodes.size(); i-- > 0;) {
     tree::Node& n = page.nodes[i];
@@ -55,6 +57,7 @@ void rebuild_payloads(tree::Page& page) {
       for (uint32_t c = 0; c < n.child_count; ++c) acc.add_node(page.nodes[n.children[c].index]);
     }
     acc.store(n);
+    tree::round_payload(n);
   }
 }
 
