@@ -6,7 +6,6 @@
 #include "storage/tree/page_records.h"
 #include "storage/tree/payload_rounding.h"
 
-#include <algorithm>
 #include <string>
 
 namespace pbgi::storage {
@@ -67,7 +66,7 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
   if (shared_albedo) {
     const size_t albedo_at = out.size();
     out.resize(albedo_at + 4 + surfels * kCompactSharedAlbedoRecordBytes);
-    std::copy_n(t.surfel_records.data() + 10, 4, out.data() + albedo_at);  // the u32, as stored in the records
+    store_le<uint32_t>(out.data() + albedo_at, compact_record_albedo(t.surfel_records.data()));
     for (size_t k = 0; k < surfels; ++k) {
       drop_albedo(t.surfel_records.data() + k * kCompactSurfelRecordBytes,
                   out.data() + albedo_at + 4 + k * kCompactSharedAlbedoRecordBytes);
