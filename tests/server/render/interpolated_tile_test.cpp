@@ -184,11 +184,17 @@ TEST(InterpolatedTile, NeverTakesAValueAcrossADepthEdge) {
   const Rendered off = render(s, tree, options(InterpolationMode::kOff));
   const Rendered on = render(s, tree, options(InterpolationMode::kAuto));
   size_t dark = 0, lit = 0;
+  float lit_max = 0.f;
+  for (size_t i = 0; i < off.aovs.ao.size(); ++i) lit_max = std::max(lit_max, luminance(off.aovs.indirect, i));
+  // The slab's top gathers nothing: zero up to the rounding noise of senders
+  // at grazing angles (1e-20 with the rounded payloads of the trees this
+  // build makes, storage/tree/payload_rounding.h). A value taken across the
+  // edge would be of the floor's order.
+  const float zero = 1e-9f * lit_max;
   for (size_t i = 0; i < off.aovs.ao.size(); ++i) {
-    if (luminance(off.aovs.indirect, i) == 0.f) {
-      // The slab's top: nothing to take from the floor around it.
+    if (luminance(off.aovs.indirect, i) <= zero) {
       ++dark;
-      EXPECT_EQ(luminance(on.aovs.indirect, i), 0.f) << "pixel " << i;
+      EXPECT_LE(luminance(on.aovs.indirect, i), zero) << "pixel " << i;
     } else {
       ++lit;
     }
