@@ -201,7 +201,7 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   if (shared_albedo) view.shared_albedo = load_le<uint32_t>(bytes.data() + albedo_at);
   view.emission = bytes.subspan(emission_at, emitting * kEmissionEntryBytes);
   view.payloads = stored;
-  view.max_levels = kPageLevels;
+  view.max_levels = kMaxPageLevels;
   view.rounded_payloads = rounded;
   auto page = std::make_shared<tree::Page>();
   tree::expand_treelet(view, h.page_id, at, *page);

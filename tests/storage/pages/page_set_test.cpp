@@ -145,7 +145,7 @@ TEST_F(PageSetTest, InspectionAgreesWithTheManifest) {
   EXPECT_EQ(r.surfel_record_bytes, 18u);  // compact records (V6 pages)
   EXPECT_EQ(r.link_payload_bytes, 76u);   // rounded payloads
   // 18-byte surfels (and 4 bytes per emitting one: a tenth here), leaf
-  // records, and per page of at most kPageLevels levels a frame, a table
+  // records, and per page of a few levels a frame, a table
   // entry and its parent's link with a 76-byte payload (FORMAT.md, "Why
   // this layout"): ~40 bytes per surfel here.
   EXPECT_LT(double(manifest_.stats.file_bytes) / manifest_.stats.surfel_count, 48.0);
