@@ -147,8 +147,8 @@ class CutWalker {
   float hdr_threshold_ = -1.f;  // luminance x sr; < 0 until computed
   // The current receiver (walk_receiver).
   Imath::V3f p_{0, 0, 0}, n_{0, 0, 1};
-  float coord_slack_ = 0.f;
-  const RayScene* rays_ = nullptr;  // set_ray_scene  // plane tolerance from the receiver's float steps (begin_receiver)
+  float coord_slack_ = 0.f;  // plane tolerance from the receiver's float steps (begin_receiver)
+  const RayScene* rays_ = nullptr;  // set_ray_scene
 };
 
 // The cut threshold actually used: the option, bounded by the pixel size.
