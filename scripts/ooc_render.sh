@@ -11,11 +11,10 @@
 # e.g. scripts/ooc_render.sh /work/tmp/city/city.usda /work/tmp/city/cache 0.05 8MiB 64 48 fpbgi
 # BUDGET "0" means unlimited (the daemon's default budget is not used).
 # JOBS (environment, default 4 as `pbgi render`): tile requests in flight.
-# CACHE_ONLY=1 (environment): BUDGET is the page cache's budget alone: the
-# daemon gets it plus the request reserve and the scene's charges
-# (--memory-budget bounds the whole daemon; docs/memory-budget.md), with
-# request_memory 1 MiB and page_cache_floor 0 (a scene is admitted on its
-# estimated charge, several MiB above what it holds once built).
+# CACHE_ONLY=1 (environment): BUDGET is the page cache's budget alone
+# (--page-cache-limit under an unbounded --memory-budget), whatever the
+# scene is charged: "1/8 of the page set" means a page cache of 1/8 of its
+# bytes on disk, while --memory-budget bounds the whole daemon.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 SCENE="$(realpath "$1")"
@@ -35,12 +34,7 @@ LOG="$CACHE/ooc-$$.log"
 [ "$BUDGET" = 0 ] && BUDGET=1TiB
 args=(--memory-budget "$BUDGET")
 if [ "${CACHE_ONLY:-0}" = 1 ] && [ "$BUDGET" != 1TiB ]; then
-  # The scene's charge (geometry and ray structure) as the daemon logged it
-  # when it last opened the scene from this cache directory.
-  charge=$(grep -ho "scene geometry [0-9]* bytes, ray structure [0-9]* bytes" "$CACHE"/*.log 2>/dev/null | tail -1 |
-    awk '{print $3 + $7}')
-  [ -n "$charge" ] || { echo "CACHE_ONLY: no scene charge logged in $CACHE yet (run once unlimited)" >&2; exit 1; }
-  args=(--memory-budget $((BUDGET + 1048576 + charge)) --request-memory 1MiB --page-cache-floor 0)
+  args=(--memory-budget 1TiB --page-cache-limit "$BUDGET")
 fi
 nice -n 10 "$PBGID" --listen "unix:$SOCK" --scene-root "$(dirname "$SCENE")" --cache-dir "$CACHE" \
   "${args[@]}" 2>"$LOG" &
@@ -71,8 +65,21 @@ if [ -n "${STRESS:-}" ]; then
 fi
 # WARM (environment, default 1): warm renders, each reported on its own
 # line (take the median).
+# DROP_OS_CACHE=1 (environment): before each warm render, ask the kernel to
+# drop the page files from its page cache (posix_fadvise DONTNEED, no root
+# needed), so that the render's misses start from the disk, not from memory
+# the budget does not count.
+drop_os_cache() {
+  find "$CACHE" -name '*.pbgp' -print0 | xargs -0 -r python3 -c '
+import os, sys
+for p in sys.argv[1:]:
+    fd = os.open(p, os.O_RDONLY)
+    os.posix_fadvise(fd, 0, 0, os.POSIX_FADV_DONTNEED)
+    os.close(fd)'
+}
 hz=$(getconf CLK_TCK)
 for n in $(seq "${WARM:-1}"); do
+  [ "${DROP_OS_CACHE:-0}" = 1 ] && drop_os_cache
   ticks0=$(cpu_ticks)
   start=$(date +%s.%N)
   render warm

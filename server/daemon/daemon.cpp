@@ -145,6 +145,7 @@ void Daemon::start() {
   budget.total = options_.memory_budget_bytes();
   budget.request_reserve = options_.request_memory_bytes();
   budget.cache_floor = options_.page_cache_floor_bytes();
+  budget.cache_limit = options_.page_cache_limit_bytes();
   memory_ = MemoryAccountant::create(budget, cache_);
   // Every file an opened scene resolves is confined to the scene roots.
   std::vector<fs::path> roots(options_.scene_roots.begin(), options_.scene_roots.end());

@@ -40,6 +40,7 @@ const auto kTopTable = options::table(
     options::field<&DaemonOptions::memory_budget>("memory_budget"),
     options::field<&DaemonOptions::request_memory>("request_memory"),
     options::field<&DaemonOptions::page_cache_floor>("page_cache_floor"),
+    options::field<&DaemonOptions::page_cache_limit>("page_cache_limit"),
     options::field<&DaemonOptions::threads>("threads"), options::field<&DaemonOptions::log_level>("log_level"),
     options::field<&DaemonOptions::python>("python"), options::field<&DaemonOptions::preload>("preload"),
     options::field<&DaemonOptions::allow_insecure_remote>("allow_insecure_remote"),
@@ -87,6 +88,7 @@ uint64_t DaemonOptions::memory_budget_bytes() const {
 uint64_t DaemonOptions::request_memory_bytes() const { return parse_byte_size(request_memory, "request_memory"); }
 
 uint64_t DaemonOptions::page_cache_floor_bytes() const { return parse_byte_size(page_cache_floor, "page_cache_floor"); }
+uint64_t DaemonOptions::page_cache_limit_bytes() const { return parse_byte_size(page_cache_limit, "page_cache_limit"); }
 
 uint64_t DaemonOptions::scene_memory_budget_bytes() const {
   return parse_byte_size(scene_memory_budget, "scene_memory_budget");
@@ -135,6 +137,7 @@ void DaemonOptions::validate() const {
     throw InvalidArgument(fmt::format("log_format '{}' is not text or json", log_format));
   }
   scene_memory_budget_bytes();
+  page_cache_limit_bytes();
   staging_quota_bytes();
   if (cache_dir.empty()) throw InvalidArgument("cache_dir is empty");
   if (memory_budget_bytes() < (1u << 20)) {

@@ -60,6 +60,11 @@ struct DaemonOptions {
   std::string request_memory = "64MiB";
   // The page cache is never shrunk below this to make room for scenes.
   std::string page_cache_floor = "32MiB";
+  // The most the page cache holds, whatever memory_budget leaves it; "0" =
+  // no cap (the cache takes what remains). For a cache of a known size
+  // under a budget that also charges scenes (scripts/ooc_render.sh
+  // CACHE_ONLY=1 measures the cache at fractions of a page set so).
+  std::string page_cache_limit = "0";
   // TBB worker threads for gathers and renders; 0 = all cores.
   uint32_t threads = 0;
   // spdlog level: trace, debug, info, warn, error, critical, off.
@@ -114,6 +119,7 @@ struct DaemonOptions {
   uint64_t memory_budget_bytes() const;      // throws InvalidArgument
   uint64_t request_memory_bytes() const;     // throws InvalidArgument
   uint64_t page_cache_floor_bytes() const;   // throws InvalidArgument
+  uint64_t page_cache_limit_bytes() const;   // throws InvalidArgument
   uint64_t max_message_bytes() const;        // throws InvalidArgument
   uint64_t scene_memory_budget_bytes() const;  // throws InvalidArgument
   uint64_t staging_quota_bytes() const;        // throws InvalidArgument

@@ -101,6 +101,7 @@ std::string& cache_dir(DaemonOptions& o) { return o.cache_dir; }
 std::string& memory_budget(DaemonOptions& o) { return o.memory_budget; }
 std::string& request_memory(DaemonOptions& o) { return o.request_memory; }
 std::string& page_cache_floor(DaemonOptions& o) { return o.page_cache_floor; }
+std::string& page_cache_limit(DaemonOptions& o) { return o.page_cache_limit; }
 uint32_t& threads(DaemonOptions& o) { return o.threads; }
 std::string& log_level(DaemonOptions& o) { return o.log_level; }
 std::string& python(DaemonOptions& o) { return o.python; }
@@ -135,6 +136,8 @@ const DaemonSetting kSettings[] = {
                                            "share of --memory-budget kept for requests in flight (64MiB)"),
     flag_only<std::string, page_cache_floor>("--page-cache-floor",
                                              "the page cache never shrinks below this for scenes (32MiB)"),
+    flag_only<std::string, page_cache_limit>("--page-cache-limit",
+                                             "the page cache holds at most this (0 = what the budget leaves)"),
     setting<uint32_t, threads>("--threads", "PBGI_THREADS", "worker threads (0 = all cores)"),
     setting<std::string, log_level>("--log-level", "PBGI_LOG_LEVEL", "trace, debug, info, warn, error, critical, off"),
     setting<std::string, python>("--python", "PBGI_PYTHON", "interpreter with usd-core"),

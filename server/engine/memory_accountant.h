@@ -37,6 +37,7 @@
 
 #include "storage/cache/page_cache.h"
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <functional>
@@ -50,6 +51,10 @@ struct MemoryBudget {
   uint64_t total = 0;            // the whole budget, bytes
   uint64_t request_reserve = 0;  // kept for requests in flight
   uint64_t cache_floor = 0;      // the page cache is never shrunk below it
+  // The most the page cache may hold, whatever the charges leave it (0 =
+  // no cap): a cache of a known size within a larger budget (measuring a
+  // cache of 1/8 of a page set while scenes are charged their estimates).
+  uint64_t cache_limit = 0;
   // What charges may hold together: total - request_reserve - cache_floor.
   // Throws InvalidArgument naming the three if that is not positive.
   uint64_t chargeable() const;
@@ -154,8 +159,11 @@ class MemoryAccountant : public std::enable_shared_from_this<MemoryAccountant> {
   // Requires mutex_.
   void resize_cache_locked();
   // What the budget leaves the page cache: total less the request reserve
-  // and every charge. Callers hold mutex_.
-  uint64_t cache_budget_locked() const { return budget_.total - budget_.request_reserve - charged_; }
+  // and every charge, at most cache_limit. Callers hold mutex_.
+  uint64_t cache_budget_locked() const {
+    const uint64_t left = budget_.total - budget_.request_reserve - charged_;
+    return budget_.cache_limit ? std::min(left, budget_.cache_limit) : left;
+  }
 
   const MemoryBudget budget_;
   const std::shared_ptr<storage::PageCache> cache_;

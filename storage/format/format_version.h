@@ -31,7 +31,7 @@ inline constexpr uint32_t kSceneEntryMagic = fourcc("PBGS");  // <cache>/ingeste
 //   V3 (retired, refused): the V2 layout; header flag kPageFlagNodePayloads
 //       says the payload array holds every node's payload (pre-order).
 //   V4: the V2 byte layout over cut-shaped treelets: a page holds at most
-//       kPageLevels levels of the tree (and page_size bytes), pages are
+//       kMaxPageLevels levels of the tree (and page_size bytes), pages are
 //       packed without alignment. A gather's cut then leaves a page after
 //       a few levels instead of deriving a thousand nodes it never reads,
 //       and decides on a linked child from its link record (exact summary
@@ -47,14 +47,11 @@ inline constexpr uint32_t kPageFormatV5 = 5;
 inline constexpr uint32_t kPageFormatCurrent = kPageFormatV4;  // derived payloads
 inline constexpr uint32_t kPageFormatNodePayloads = kPageFormatV5;
 
-// Most levels of the tree one V4/V5 page holds (root to deepest leaf of its
-// treelet, counted in nodes). Readers check it. Measured on a 2.5M-surfel
-// city (docs/out-of-core.md, 4 to 12 levels): the fewer levels, the less of
-// each loaded page a cut leaves unused, so a tile's working set of decoded
-// pages shrinks (10.7 MiB at 4 levels, 18.3 at 6, 405 for the V2 layout),
-// at the cost of more link records on disk (48 bytes per surfel at 4, 37 at
-// 6, 32 for V2).
-inline constexpr uint32_t kPageLevels = 4;
+// Most levels of the tree one V4/V5 page may hold (root to deepest leaf of
+// its treelet, counted in nodes). Readers check it; the build chooses fewer
+// (tree::BuildOptions::page_levels and upper_page_levels, docs/out-of-core.md
+// "Page levels").
+inline constexpr uint32_t kMaxPageLevels = 16;
 
 // Page header flags. kPageFlagNodePayloads: V3 pages, always. kPageFlagGlossy
 // (V2 or V3 pages of a V3 manifest that declares glossy radiance): the page
@@ -95,7 +92,9 @@ inline constexpr uint32_t kManifestFormatLatest = kManifestFormatV4;   // the ne
 //   2: V2 pages, trees over Morton order (storage/tree/streaming_tree_builder.h).
 //   3: glossy senders: surfels of glossy materials carry a specular lobe
 //      and pages may carry glossy radiance (V3 manifest, kPageFlagGlossy).
-//   4: V4/V5 pages: treelets of at most kPageLevels levels, unaligned.
+//   4: V4/V5 pages: treelets of at most 4 levels by default
+//      (BuildOptions::page_levels, upper_page_levels; other values enter
+//      the build key), unaligned.
 inline constexpr uint32_t kPageSetFormatVersion = 4;
 
 // Ingested-scene entry versions (server/ingest/scene_entry.h).

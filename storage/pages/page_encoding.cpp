@@ -139,7 +139,7 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   view.surfel_records = bytes.subspan(surfels_at, uint64_t(h.surfel_count) * record_bytes);
   view.leaf_format = leaf_format;
   view.payloads = stored;
-  view.max_levels = kPageLevels;
+  view.max_levels = kMaxPageLevels;
   auto page = std::make_shared<tree::Page>();
   tree::expand_treelet(view, h.page_id, at, *page);
   // Link records carry a linked child's exact summary only when its

@@ -1,6 +1,7 @@
 #include "storage/tree/build_options.h"
 
 #include "common/errors.h"
+#include "storage/format/format_version.h"
 #include "storage/tree/page_records.h"
 
 #include <cmath>
@@ -37,6 +38,11 @@ void BuildOptions::validate() const {
                           std::to_string(min_page) + ", " + std::to_string(kMaxPageSize) +
                           "] for tree.leaf_size = " + std::to_string(leaf_size) + " and tree.leaf_format = " +
                           storage::to_string(leaf_format) + " (a page holds at least one full leaf)");
+  }
+  if (page_levels < 1 || upper_page_levels < page_levels || upper_page_levels > storage::kMaxPageLevels) {
+    throw InvalidArgument("tree.page_levels = " + std::to_string(page_levels) + ", tree.upper_page_levels = " +
+                          std::to_string(upper_page_levels) + ": must satisfy 1 <= page_levels <= upper_page_levels <= " +
+                          std::to_string(storage::kMaxPageLevels));
   }
   constexpr uint64_t kMinSortMemory = 64 * 1024;
   if (sort_memory_bytes < kMinSortMemory) {

@@ -40,6 +40,21 @@ std::string to_string(PayloadCodecOption option);
 struct BuildOptions {
   uint32_t leaf_size = 4;        // max surfels per leaf node (1..4096)
   uint32_t page_size = 65536;    // max bytes per page on disk
+  // Page shape (docs/out-of-core.md, "Page levels"): a page holds at most
+  // page_levels levels of the tree, except a page whose root lies at least
+  // kUpperPageHeight levels above its deepest leaf, which holds up to
+  // upper_page_levels. Every receiver's cut crosses the upper tree and
+  // every cache keeps it, so there large pages cost little memory and save
+  // page entries; near the leaves a cut opens a few nodes of each page it
+  // enters, so small pages load little that it does not use.
+  // 1 <= page_levels <= upper_page_levels <= storage::kMaxPageLevels (16).
+  // Taller upper pages cut the pages a receiver enters and the bytes on
+  // disk, and make a fully cached render cheaper, but a cache of 1/8 of the
+  // page set then holds less of what a cut uses: measured, the default
+  // keeps all pages at 4 levels (docs/measurements/2026-11-27-page-levels.md).
+  uint32_t page_levels = 4;
+  uint32_t upper_page_levels = 4;
+  static constexpr uint32_t kUpperPageHeight = 6;
   // Memory for sorting surfels by Morton code: the run buffer while surfels
   // arrive, then all merge buffers together. Runs beyond it go to disk.
   // Changes only speed and memory, never the page set (so it is neither
@@ -117,6 +132,17 @@ inline constexpr auto kTreeOptionTable = options::table(
         "lut_entries",
         {7, {"--lut-entries", "quantized payloads: LUT size [4096]", options::range(64, 65536)},
          options::KeyMember::kFrozen}),
-    options::field<&BuildOptions::lut_sample_fraction>("lut_sample_fraction", {8, {}, options::KeyMember::kFrozen}));
+    options::field<&BuildOptions::lut_sample_fraction>("lut_sample_fraction", {8, {}, options::KeyMember::kFrozen}),
+    options::field<&BuildOptions::page_levels>(
+        "page_levels",
+        {26,
+         {"--page-levels", "most tree levels a page near the leaves holds [4]", options::range(1, 16)},
+         options::KeyMember::kIfNotDefault}),
+    options::field<&BuildOptions::upper_page_levels>(
+        "upper_page_levels",
+        {27,
+         {"--upper-page-levels", "most tree levels a page of the upper tree holds (>= --page-levels) [4]",
+          options::range(1, 16)},
+         options::KeyMember::kIfNotDefault}));
 
 }  // namespace pbgi::tree

@@ -57,8 +57,11 @@ struct StreamingTreeBuilder::Impl {
   const BuildOptions options;
   const uint64_t page_bytes;     // 0 = unbounded
   const uint64_t link_bytes;     // a link record and its payload
-  // Levels a page's treelet may span (storage/format/format_version.h).
-  const uint32_t max_levels = storage::kPageLevels;
+  // Levels the treelet of a pending node `height` levels above its deepest
+  // leaf may span (BuildOptions::page_levels, upper_page_levels).
+  uint32_t max_levels(uint32_t height) const {
+    return height >= BuildOptions::kUpperPageHeight ? options.upper_page_levels : options.page_levels;
+  }
   TreeletSink& sink;
   const NodePayloadSizer* sizer;  // null: derived payloads
 
@@ -208,7 +211,7 @@ struct StreamingTreeBuilder::Impl {
     // taller one while it has too many levels, else the larger one.
     auto too_big = [&] {
       const Pending& q = arena[n];
-      return page_bytes != 0 && (disk_bytes(q) + kPageOverheadBytes > page_bytes || q.levels > max_levels);
+      return page_bytes != 0 && (disk_bytes(q) + kPageOverheadBytes > page_bytes || q.levels > max_levels(q.height));
     };
     while (too_big()) {
       const uint32_t c0 = arena[n].child[0], c1 = arena[n].child[1];
@@ -216,7 +219,7 @@ struct StreamingTreeBuilder::Impl {
       uint32_t victim;
       if (q0.written() || q1.written()) {
         victim = q0.written() ? c1 : c0;
-      } else if (arena[n].levels > max_levels && q0.levels != q1.levels) {
+      } else if (arena[n].levels > max_levels(arena[n].height) && q0.levels != q1.levels) {
         victim = q0.levels > q1.levels ? c0 : c1;
       } else {
         victim = disk_bytes(q0) >= disk_bytes(q1) ? c0 : c1;

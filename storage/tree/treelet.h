@@ -36,7 +36,7 @@ struct TreeletView {
   // pre-order, whose radiance_sh and coverage_sh are taken instead of
   // derived. Empty: payloads are derived from the surfels and links.
   std::span<const Node> payloads;
-  // Most levels the treelet may span (storage::kPageLevels for V4/V5
+  // Most levels the treelet may span (storage::kMaxPageLevels for V4/V5
   // pages); 0: unbounded.
   uint32_t max_levels = 0;
 };

@@ -97,6 +97,7 @@ DaemonOptions non_default_options() {
   o.service.limits.max_queued = 5;
   o.service.limits.max_surfels = 1'000'000;
   o.scene_memory_budget = "6GiB";
+  o.page_cache_limit = "96MiB";
   o.staging_quota = "100GiB";
   o.log_format = "json";
   o.metrics_listen = "127.0.0.1:9464";

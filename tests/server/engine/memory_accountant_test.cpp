@@ -49,6 +49,24 @@ TEST(MemoryAccountant, TheCacheGetsWhatTheReserveAndChargesLeave) {
   EXPECT_EQ(cache->budget(), 90 * kMiB);
 }
 
+// With a cap (page_cache_limit) the cache holds at most the cap while the
+// budget leaves it more, and less when charges leave it less.
+TEST(MemoryAccountant, ACappedCacheTakesTheLesserOfItsCapAndWhatIsLeft) {
+  auto cache = std::make_shared<storage::PageCache>(0);
+  MemoryBudget budget = budget_of(100);
+  budget.cache_limit = 25 * kMiB;
+  auto memory = MemoryAccountant::create(budget, cache);
+  EXPECT_EQ(cache->budget(), 25 * kMiB);
+  EXPECT_EQ(memory->usage().cache_budget, 25 * kMiB);
+  {
+    MemoryCharge a = memory->charge("/s/a.usda", "geometry", 60 * kMiB);
+    EXPECT_EQ(cache->budget(), 25 * kMiB);  // 30 left, capped at 25
+    a.resize(70 * kMiB, "measured");
+    EXPECT_EQ(cache->budget(), 20 * kMiB);  // 20 left
+  }
+  EXPECT_EQ(cache->budget(), 25 * kMiB);
+}
+
 TEST(MemoryAccountant, AChargeShrinksTheCacheEvictingPages) {
   const uint64_t page = make_page(0, 1000)->memory_bytes() + storage::PageCache::entry_bytes();  // as held
   auto cache = std::make_shared<storage::PageCache>(0);

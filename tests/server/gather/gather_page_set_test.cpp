@@ -201,8 +201,9 @@ TEST(GatherPageSet, ProxiesOfLinkedChildrenChangeOnlyThePagesLoaded) {
   }
 }
 
-// Every page the build writes holds at most kPageLevels levels of the tree
-// (the reader checks it on every load), and links carry their child's root.
+// Every page the build writes holds at most upper_page_levels levels of the
+// tree (tests/storage/pages/streaming_build_test.cpp checks which pages may
+// take them), and links carry their child's root.
 TEST(GatherPageSet, PagesSpanAtMostThePageLevelsAndLinksMatchTheirChildren) {
   TempDir tmp;
   tree::BuildOptions o;
@@ -215,7 +216,7 @@ TEST(GatherPageSet, PagesSpanAtMostThePageLevelsAndLinksMatchTheirChildren) {
     // Depth of every node in its page: parents come before children.
     std::vector<uint32_t> depth(page->nodes.size(), 1);
     for (size_t i = 0; i < page->nodes.size(); ++i) {
-      EXPECT_LE(depth[i], storage::kPageLevels) << "page " << id << " node " << i;
+      EXPECT_LE(depth[i], o.upper_page_levels) << "page " << id << " node " << i;
       const tree::Node& n = page->nodes[i];
       for (uint32_t c = 0; c < n.child_count; ++c) {
         if (n.children[c].page == id) depth[n.children[c].index] = depth[i] + 1;

@@ -90,6 +90,8 @@ struct Args {
   uint64_t sort_memory = uint64_t(2) << 30;
   uint32_t leaf_size = 4;
   uint32_t page_size = 65536;
+  uint32_t page_levels = tree::BuildOptions{}.page_levels;
+  uint32_t upper_page_levels = tree::BuildOptions{}.upper_page_levels;
   uint32_t receivers = 4096;
   uint32_t threads = 2;
   bool reuse = false;
@@ -126,6 +128,8 @@ Args parse(int argc, char** argv) {
     else if (k == "--sort-memory") a.sort_memory = parse_size(val());
     else if (k == "--leaf-size") a.leaf_size = uint32_t(parse_size(val()));
     else if (k == "--page-size") a.page_size = uint32_t(parse_size(val()));
+    else if (k == "--page-levels") a.page_levels = uint32_t(parse_size(val()));
+    else if (k == "--upper-page-levels") a.upper_page_levels = uint32_t(parse_size(val()));
     else if (k == "--receivers") a.receivers = uint32_t(parse_size(val()));
     else if (k == "--threads") a.threads = uint32_t(parse_size(val()));
     else if (k == "--reuse") a.reuse = true;
@@ -144,7 +148,8 @@ Args parse(int argc, char** argv) {
     } else {
       std::fprintf(stderr,
                    "usage: bench_out_of_core [--surfels N] [--dir DIR] [--sort-memory SIZE] [--leaf-size N]\n"
-                   "       [--page-size BYTES] [--receivers N] [--threads N] [--reuse] [--keep]\n"
+                   "       [--page-size BYTES] [--page-levels N] [--upper-page-levels N]\n"
+                   "       [--receivers N] [--threads N] [--reuse] [--keep]\n"
                    "       bench_out_of_core --page-set DIR [--receivers N] [--threads N] [--skip-decoded-budget]\n"
                    "       [--decode-only]  (stop after the decoded size and where its bytes go)\n"
                    "       [--budget-fraction F]  (the small budget: F x the page set's size on disk; 1/8)\n"
@@ -305,7 +310,8 @@ int run(const Args& a) {
     city.emplace(a.surfels);
     fs::create_directories(a.dir);
     set = a.dir / ("bench-ooc-" + std::to_string(city->count()) + "-l" + std::to_string(a.leaf_size) + "-p" +
-                   std::to_string(a.page_size));
+                   std::to_string(a.page_size) + "-L" + std::to_string(a.page_levels) + "-" +
+                   std::to_string(a.upper_page_levels));
     std::printf("surfels        %llu (spacing %.4g over a %.0f m city)\n", (unsigned long long)city->count(),
                 city->spacing(), city->size());
   }
@@ -319,6 +325,8 @@ int run(const Args& a) {
     tree::BuildOptions o;
     o.leaf_size = a.leaf_size;
     o.page_size = a.page_size;
+    o.page_levels = a.page_levels;
+    o.upper_page_levels = a.upper_page_levels;
     o.sort_memory_bytes = a.sort_memory;
     const auto t0 = Clock::now();
     storage::PageSetBuilder b(o, "bench-ooc", set, city->bounds());

@@ -124,8 +124,8 @@ TEST_F(PageSetTest, InspectionAgreesWithTheManifest) {
   EXPECT_EQ(r.payload_bytes_per_node, 0u);  // derived at load
   EXPECT_EQ(r.surfel_record_bytes, 24u);
   EXPECT_EQ(r.link_payload_bytes, 144u);
-  // 24-byte surfels, leaf records, and per page of at most kPageLevels
-  // levels a frame, a table entry and its parent's link with a float
+  // 24-byte surfels, leaf records, and per page of a few levels
+  // a frame, a table entry and its parent's link with a float
   // payload (FORMAT.md, "Why this layout"): ~50 bytes per surfel here.
   EXPECT_LT(double(manifest_.stats.file_bytes) / manifest_.stats.surfel_count, 60.0);
   const PageSetInspection quick = inspect_page_set(reader, false);

@@ -180,39 +180,100 @@ TEST(StreamingTreeBuilder, RefusesUnsortedCodesAndEmptyStreams) {
   EXPECT_THROW(empty.finish(), InvalidArgument);
 }
 
-// Pages hold at most kPageLevels levels of the tree: the builder cuts them
-// so, and a reader refuses a page whose treelet is deeper (here the whole
-// tree of 3000 surfels as one treelet) as corruption naming the page.
-TEST(StreamingTreeBuilder, PagesSpanAtMostThePageLevels) {
-  struct Keep final : tree::TreeletSink {
-    uint32_t write(const tree::Treelet& t) override {
-      treelets.push_back(t);
-      return uint32_t(treelets.size() - 1);
+// Height (levels above its deepest leaf, across pages) and levels within
+// its page of the node at shapes[at] of treelet t, whose linked children's
+// pages have the heights `page_height`. Advances `at` and `link` past the
+// node's subtree in the page, in the parse order of FORMAT.md.
+struct NodeShape {
+  uint32_t height = 0, levels = 1;
+};
+NodeShape shape_of(const tree::Treelet& t, size_t& at, size_t& link, const std::vector<uint32_t>& page_height) {
+  const uint8_t shape = t.shapes.at(at++);
+  NodeShape out;
+  for (uint32_t c = 0; c < (shape & 3u); ++c) {
+    if (shape & (4u << c)) {
+      out.height = std::max(out.height, 1 + page_height.at(t.links.at(link++).page));
+    } else {
+      const NodeShape child = shape_of(t, at, link, page_height);
+      out.height = std::max(out.height, 1 + child.height);
+      out.levels = std::max(out.levels, 1 + child.levels);
     }
-    std::vector<tree::Treelet> treelets;
-  };
-  const std::vector<Surfel> surfels = test::random_surfels(3000, 7);
-  auto build = [&](uint64_t page_bytes, Keep& sink) {
-    tree::StreamingTreeBuilder b({}, page_bytes, 144, sink);
-    std::vector<std::pair<uint64_t, size_t>> order;
-    const tree::MortonFrame frame(tree::surfel_bounds(surfels));
-    for (size_t i = 0; i < surfels.size(); ++i) order.push_back({frame.code(surfels[i].position), i});
-    std::sort(order.begin(), order.end());
-    for (const auto& [code, i] : order) b.add(surfels[i], code);
-    return b.finish();
-  };
+  }
+  return out;
+}
+
+struct KeepTreelets final : tree::TreeletSink {
+  uint32_t write(const tree::Treelet& t) override {
+    treelets.push_back(t);
+    return uint32_t(treelets.size() - 1);
+  }
+  std::vector<tree::Treelet> treelets;
+};
+
+tree::StreamingTreeStats build_treelets(const tree::BuildOptions& o, uint64_t page_bytes,
+                                        const std::vector<Surfel>& surfels, KeepTreelets& sink) {
+  tree::StreamingTreeBuilder b(o, page_bytes, 144, sink);
+  std::vector<std::pair<uint64_t, size_t>> order;
+  const tree::MortonFrame frame(tree::surfel_bounds(surfels));
+  for (size_t i = 0; i < surfels.size(); ++i) order.push_back({frame.code(surfels[i].position), i});
+  std::sort(order.begin(), order.end());
+  for (const auto& [code, i] : order) b.add(surfels[i], code);
+  return b.finish();
+}
+
+// A page holds at most page_levels levels of the tree, or upper_page_levels
+// when its root lies kUpperPageHeight or more levels above its deepest leaf
+// (build_options.h): the builder cuts pages so, with the defaults and with
+// other values, and the upper rule is used (some pages are taller than
+// page_levels).
+TEST(StreamingTreeBuilder, PagesSpanThePageLevelsNearTheLeavesAndTheUpperLevelsAbove) {
+  const std::vector<Surfel> surfels = test::random_surfels(20000, 7);
+  for (const auto [lower, upper] : {std::pair<uint32_t, uint32_t>{tree::BuildOptions{}.page_levels,
+                                                                  tree::BuildOptions{}.upper_page_levels},
+                                    {2, 7}, {5, 5}}) {
+    SCOPED_TRACE(std::to_string(lower) + " / " + std::to_string(upper) + " levels");
+    tree::BuildOptions o;
+    o.leaf_size = 1;
+    o.page_levels = lower;
+    o.upper_page_levels = upper;
+    KeepTreelets sink;
+    const tree::StreamingTreeStats stats = build_treelets(o, 65536, surfels, sink);
+    EXPECT_GT(stats.max_depth, 2 * upper);
+    std::vector<uint32_t> page_height;
+    uint32_t tallest = 0, tallest_lower = 0;
+    for (uint32_t id = 0; id < sink.treelets.size(); ++id) {
+      size_t at = 0, link = 0;
+      const NodeShape root = shape_of(sink.treelets[id], at, link, page_height);
+      ASSERT_EQ(at, sink.treelets[id].shapes.size());
+      page_height.push_back(root.height);
+      const bool upper_page = root.height >= tree::BuildOptions::kUpperPageHeight;
+      EXPECT_LE(root.levels, upper_page ? upper : lower) << "page " << id << ", height " << root.height;
+      tallest = std::max(tallest, root.levels);
+      if (!upper_page) tallest_lower = std::max(tallest_lower, root.levels);
+    }
+    EXPECT_EQ(tallest_lower, lower);
+    EXPECT_EQ(tallest, upper);
+  }
+}
+
+// A reader refuses a page whose treelet is deeper than kMaxPageLevels
+// (here the whole tree as one treelet) as corruption naming the page, and
+// reads the pages the builder cut.
+TEST(StreamingTreeBuilder, AReaderRefusesAPageDeeperThanTheFormatAllows) {
+  const std::vector<Surfel> surfels = test::random_surfels(20000, 7);
+  tree::BuildOptions o;
+  o.leaf_size = 1;
   const auto codec = make_payload_codec(0);
-  Keep paged;
-  const tree::StreamingTreeStats stats = build(65536, paged);
-  EXPECT_GT(stats.page_count, 20u);
-  EXPECT_GT(stats.max_depth, 2 * kPageLevels);
+  KeepTreelets paged;
+  const tree::StreamingTreeStats stats = build_treelets(o, 65536, surfels, paged);
+  EXPECT_GT(stats.max_depth, kMaxPageLevels);
   std::vector<uint8_t> bytes;
   for (uint32_t id = 0; id < paged.treelets.size(); ++id) {
     encode_page(paged.treelets[id], id, *codec, bytes);
     EXPECT_NO_THROW(decode_page(bytes, {"p", id, 0}, kPageFormatCurrent, *codec, stats.page_count));
   }
-  Keep whole;
-  build(0, whole);  // one unbounded treelet
+  KeepTreelets whole;
+  build_treelets(o, 0, surfels, whole);  // one unbounded treelet
   ASSERT_EQ(whole.treelets.size(), 1u);
   encode_page(whole.treelets[0], 0, *codec, bytes);
   try {
