@@ -216,6 +216,7 @@ MethodConfig pbgi_config(const PbgiSweep& sweep, const std::string& build, const
   options.gather.epsilon = sweep.fpbgi_epsilon;
   options.gather.glossy_max_resolution = sweep.glossy_max_resolution;
   options.gather.glossy_radiance_weight = sweep.glossy_radiance_weight;
+  options.gather.ray_depth_caps = sweep.ray_depth_caps;
   options.pixel_samples = k.pixel_samples;
   options.edge_samples = sweep.edge_samples;
   options.light_samples = sweep.light_samples;
@@ -248,6 +249,7 @@ MethodConfig pbgi_config(const PbgiSweep& sweep, const std::string& build, const
               {"light_samples", std::to_string(sweep.light_samples)},
               {"glossy_max_resolution", std::to_string(sweep.glossy_max_resolution)},
               {"glossy_radiance_weight", fmt::format("{:g}", sweep.glossy_radiance_weight)},
+              {"ray_depth_caps", sweep.ray_depth_caps ? "true" : "false"},
               {"interpolation", interpolation_mode_name(options.interpolation.mode)},
               {"interpolation_tolerance", fmt::format("{:g}", options.interpolation.tolerance)},
               {"interpolation_spacing", std::to_string(options.interpolation.spacing)}};

@@ -41,6 +41,8 @@ struct PbgiSweep {
   uint32_t glossy_max_resolution = GatherOptions{}.glossy_max_resolution;
   // And how much of its refinement follows incoming radiance (GatherOptions').
   float glossy_radiance_weight = GatherOptions{}.glossy_radiance_weight;
+  // Ray-traced depth caps of the microbuffer (GatherOptions'), for every render.
+  bool ray_depth_caps = GatherOptions{}.ray_depth_caps;
   // Payload codecs. The first gets the full sweep above (the default
   // configuration is one of its); every other one is one more page set at
   // default_target_surfels, rendered by each method at each microbuffer

@@ -38,6 +38,7 @@ struct BenchArgs {
   std::optional<float> epsilon;
   std::optional<uint32_t> glossy_max_resolution;
   std::optional<float> glossy_radiance_weight;
+  std::optional<bool> ray_depth_caps;
   std::optional<uint32_t> bounces;
   std::optional<bool> bounce_splatting;
   std::optional<float> bounce_view_solid_angle;
@@ -85,6 +86,7 @@ int run(const BenchArgs& args) {
   if (args.epsilon) o.pbgi.fpbgi_epsilon = *args.epsilon;
   if (args.glossy_max_resolution) o.pbgi.glossy_max_resolution = *args.glossy_max_resolution;
   if (args.glossy_radiance_weight) o.pbgi.glossy_radiance_weight = *args.glossy_radiance_weight;
+  if (args.ray_depth_caps) o.pbgi.ray_depth_caps = *args.ray_depth_caps;
   if (args.bounces) o.pbgi.bounce.bounces = *args.bounces;
   if (args.bounce_splatting) o.pbgi.bounce.splatting = *args.bounce_splatting;
   if (args.bounce_view_solid_angle) o.pbgi.bounce.view_solid_angle = *args.bounce_view_solid_angle;
@@ -202,11 +204,13 @@ const CommandRegistrar kRegistrar("bench", [](CLI::App& app, int* exit_code) {
                   "Glossy receivers: share of the lobe's refinement that follows incoming radiance, "
                   "0..1 (default 0.5)")
       ->check(CLI::Range(0.f, 1.f));
+  cmd->add_option("--ray-depth-caps", args->ray_depth_caps,
+                  "Ray-traced depth caps of the microbuffer for every render (true/false, default false)");
   cmd->add_option("--bounces", args->bounces,
                   "Light bounces every build puts into the surfels (1..4, default 1); compare with "
                   "--max-depth bounces + 1");
   cmd->add_option("--bounce-splatting", args->bounce_splatting,
-                  "Bounce gathers: view-tree splatting (true/false, default true)");
+                  "Bounce gathers: view-tree splatting (true/false, default false)");
   cmd->add_option("--bounce-view-solid-angle", args->bounce_view_solid_angle,
                   "Bounce splatting: view solid angle in sr (default 0 = auto)");
   cmd->add_option("--bounce-receiver-stride", args->bounce_receiver_stride,

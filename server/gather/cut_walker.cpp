@@ -140,7 +140,8 @@ CutWalker::CutWalker(const tree::TreeSource& tree, const GatherOptions& options,
       counters_(counters),
       layout_(CubeLayout::get(options.microbuffer_resolution)),
       buffer_(layout_, depth_band_for(options)),
-      raster_(buffer_),
+      caps_(layout_),
+      raster_(buffer_, &caps_),
       views_(shared),
       pins_(tree, views_),
       cut_(cut_solid_angle(options)),
@@ -157,6 +158,7 @@ void CutWalker::begin_receiver(const Imath::V3f& p, const Imath::V3f& n) {
   const float largest = std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
   coord_slack_ = 4.f * std::numeric_limits<float>::epsilon() * largest;
   buffer_.begin(n);
+  caps_.clear();  // walk_receiver() casts them; cluster walks draw none
 }
 
 void CutWalker::push_root() {
@@ -493,6 +495,11 @@ void CutWalker::walk(const CutOf& cut_of) {
 }
 
 void CutWalker::walk_receiver() {
+  if (options_.ray_depth_caps && rays_) {
+    const uint64_t before = caps_.rays_cast();
+    caps_.compute(rays_, p_, n_);
+    counters_.depth_rays += caps_.rays_cast() - before;
+  }
   const float omega_max = cut_;
   walk([omega_max](const Imath::V3f&, float, float) { return omega_max; });
 }

@@ -22,6 +22,7 @@
 #include "server/gather/page_pins.h"
 #include "server/gather/page_views.h"
 #include "server/gather/rasterizer.h"
+#include "server/gather/ray_depth_caps.h"
 
 #include <Imath/ImathVec.h>
 
@@ -62,6 +63,9 @@ class CutWalker {
   Microbuffer& buffer() { return buffer_; }
   const Microbuffer& buffer() const { return buffer_; }
   PageViews& views() { return views_; }
+  // The scene's geometry for the depth caps (GatherOptions::ray_depth_caps);
+  // null = none.
+  void set_ray_scene(const RayScene* rays) { rays_ = rays; }
 
   // Starts a receiver: empty microbuffer for its hemisphere.
   void begin_receiver(const Imath::V3f& p, const Imath::V3f& n);
@@ -133,6 +137,7 @@ class CutWalker {
   GatherCounters& counters_;
   const CubeLayout& layout_;
   Microbuffer buffer_;
+  RayDepthCaps caps_;  // before raster_, which holds a pointer to it
   Rasterizer raster_;
   PageViews views_;
   PagePins pins_;
@@ -143,6 +148,7 @@ class CutWalker {
   // The current receiver (walk_receiver).
   Imath::V3f p_{0, 0, 0}, n_{0, 0, 1};
   float coord_slack_ = 0.f;  // plane tolerance from the receiver's float steps (begin_receiver)
+  const RayScene* rays_ = nullptr;  // set_ray_scene
 };
 
 // The cut threshold actually used: the option, bounded by the pixel size.

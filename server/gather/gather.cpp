@@ -59,6 +59,8 @@ void Gatherer::set_volume_points(std::shared_ptr<const VolumePoints> fog) {
   impl_->fog = fog && !fog->empty() ? std::move(fog) : nullptr;
 }
 
+void Gatherer::set_ray_scene(const RayScene* rays) { impl_->walker.set_ray_scene(rays); }
+
 namespace {
 
 // GatherCounters::non_finite: a result with a NaN or infinity becomes

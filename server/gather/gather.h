@@ -18,6 +18,7 @@
 namespace pbgi {
 
 class VolumePoints;  // server/scene/volume_points.h
+class RayScene;      // server/scene/ray_scene.h
 
 // The specular part of a glossy receiver: a GGX lobe (server/scene/brdf.h,
 // specular lobe only) seen from `view`. A zero (or absent) specular colour
@@ -64,12 +65,14 @@ struct GatherCounters {
   // AO 1) so that one bad receiver cannot spread through interpolation and
   // filtering into a tile.
   uint64_t non_finite = 0;
+  // Rays cast for depth caps (GatherOptions::ray_depth_caps).
+  uint64_t depth_rays = 0;
   void add(const GatherCounters& o) {
     receivers += o.receivers; nodes_visited += o.nodes_visited;
     nodes_rasterized += o.nodes_rasterized; surfels_raycast += o.surfels_raycast;
     surfels_splatted += o.surfels_splatted; pages_fetched += o.pages_fetched;
     glossy_receivers += o.glossy_receivers; glossy_nodes_visited += o.glossy_nodes_visited;
-    non_finite += o.non_finite;
+    non_finite += o.non_finite; depth_rays += o.depth_rays;
   }
 };
 
@@ -124,6 +127,11 @@ class Gatherer {
   // factorized gather composites the cluster's far content behind it);
   // null = none.
   void set_volume_points(std::shared_ptr<const VolumePoints> fog);
+
+  // The scene's geometry, in the tree's frame, for GatherOptions::
+  // ray_depth_caps; null (the default) = none, no caps. Must outlive the
+  // Gatherer's use of it; thread-safe to share.
+  void set_ray_scene(const RayScene* rays);
 
   // Gathers a batch of receivers, typically one image tile in scan order,
   // with options.method: PBGI gathers each receiver alone (as gather());

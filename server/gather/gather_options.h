@@ -101,6 +101,19 @@ struct GatherOptions {
   // one pass over the microbuffer's pixels per receiver.
   bool bent_normal = false;
 
+  // Ray-traced depth caps (docs/microbuffer.md, section 4b): before a
+  // receiver's walk, one ray per microbuffer pixel above its horizon meets
+  // the scene's geometry, and fragments lying wholly beyond the farthest
+  // hit of a pixel and its neighbours are dropped: light behind walls that
+  // the splats do not close. Closed rooms on a sunlit ground: 3-4x less
+  // light inside; costs ~15% of a PBGI render's CPU on the Cornell box
+  // (docs/measurements/2026-11-27-closed-rooms.md), hence off by default:
+  // for interiors. Only where the Gatherer has the scene's geometry
+  // (Gatherer::set_ray_scene: tile renders do; build-time bounces and the
+  // Gather RPC do not); PBGI's walk and FPBGI's near walks, not FPBGI's
+  // shared far buffer.
+  bool ray_depth_caps = false;
+
   // Throws pbgi::InvalidArgument naming the field when out of range.
   void validate() const;
   // epsilon, with 0 resolved to its automatic value.
@@ -146,6 +159,12 @@ inline constexpr auto kGatherOptionTable = options::table(
           "glossy lobes: share of a cell's importance that follows incoming radiance, "
           "0 = the lobe alone [0.5]",
           options::range(0, 1)}}),
-    options::field<&GatherOptions::bent_normal>("bent_normal", {13}));
+    options::field<&GatherOptions::bent_normal>("bent_normal", {13}),
+    options::field<&GatherOptions::ray_depth_caps>(
+        "ray_depth_caps",
+        {22,
+         {"--ray-depth-caps",
+          "drop what lies behind the first surface the scene's rays meet in each microbuffer pixel "
+          "(true/false) [false]"}}));
 
 }  // namespace pbgi

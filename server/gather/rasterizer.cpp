@@ -1,6 +1,7 @@
 #include "server/gather/rasterizer.h"
 
 #include "server/gather/far_field.h"
+#include "server/gather/ray_depth_caps.h"
 #include "server/gather/splat_filter.h"
 
 #include <algorithm>
@@ -39,9 +40,10 @@ inline bool tent_masses(float c, float s0, float s1, float inv, float pw, uint32
 
 }  // namespace
 
-Rasterizer::Rasterizer(Microbuffer& buffer)
+Rasterizer::Rasterizer(Microbuffer& buffer, const RayDepthCaps* caps)
     : buffer_(buffer),
       layout_(buffer.layout()),
+      caps_(caps),
       inv_pw_(1.f / layout_.pixel_width()),
       batch_(std::make_unique<SplatBatch>()) {
   candidates_.reserve(layout_.pixel_count());
@@ -70,6 +72,7 @@ void Rasterizer::queue(const Imath::V3f& dir, const Shape& shape, float depth,
   // A zero `facing` (unknown surface) gives a zero normal: still unknown.
   pending_[i] = {depth - extent,
                  depth + extent,
+                 depth * (1.f - std::min(1.f, shape.max_radius)),
                  radiance,
                  far,
                  {shape.facing, depth * shape.facing.dot(dir), shape.plane_tolerance}};
@@ -159,6 +162,10 @@ void Rasterizer::draw(size_t i, const Ellipse& e, const Pending& p) {
   // weights are spread in proportion of solid angle, and their total is
   // exact.
   const float* solid = layout_.solid_angles();
+  // Depth caps (ray_depth_caps.h): a fragment is hidden when even the
+  // nearest point of the splat's bounding sphere lies beyond the pixel's
+  // cap.
+  const RayDepthCaps* caps = caps_ && caps_->active() ? caps_ : nullptr;
   if (above && b.inside[i]) {
     const float covered = b.covered[i];
     if (!(covered > 0.f)) return;
@@ -174,6 +181,7 @@ void Rasterizer::draw(size_t i, const Ellipse& e, const Pending& p) {
       for (uint32_t c = 0; c < ni; ++c) {
         const uint32_t k = row + c;
         const float m = b.mu[c][i];
+        if (caps && caps->hides(k, p.front)) continue;
         buffer_.add_coverage(k, p.z0, p.z1, m * a_v, m * w_v * solid[k], p.radiance, surface);
       }
     }
@@ -184,6 +192,7 @@ void Rasterizer::draw(size_t i, const Ellipse& e, const Pending& p) {
   const float scale = omega / covered_;
   const float weight_scale = above && weighted_ > 0.f ? target / weighted_ : scale;
   for (const Candidate& c : candidates_) {
+    if (caps && caps->hides(c.pixel, p.front)) continue;
     buffer_.add_coverage(c.pixel, p.z0, p.z1, c.fraction * scale, c.fraction * weight_scale * solid[c.pixel] * c.cosine,
                          p.radiance, surface);
   }
@@ -421,7 +430,7 @@ uint32_t Rasterizer::raycast(const Imath::V3f& offset, const Imath::V3f& normal,
             }
           }
         }
-        if (mask) {
+        if (mask && !(caps_ && caps_->active() && caps_->hides(k, z0))) {
           buffer_.add_hit(k, z0, z1, radiance, mask, surface);
           ++hits;
         }

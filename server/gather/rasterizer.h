@@ -43,10 +43,13 @@
 namespace pbgi::gather {
 
 class FarBuffer;
+class RayDepthCaps;
 
 class Rasterizer {
  public:
-  explicit Rasterizer(Microbuffer& buffer);
+  // `caps` (may be null): depth caps whose hidden fragments are dropped
+  // (ray_depth_caps.h), read while active.
+  explicit Rasterizer(Microbuffer& buffer, const RayDepthCaps* caps = nullptr);
 
   // The shape of a splat: an ellipse of solid angle `omega` (steradians)
   // whose minor axis lies along `squash` (a unit vector perpendicular to
@@ -114,6 +117,9 @@ class Rasterizer {
   // What queue() keeps of a splat besides the kernel's inputs.
   struct Pending {
     float z0, z1;  // depth interval of its fragments
+    // The nearest depth anything the splat stands for may lie at (its
+    // bounding sphere's): the depth caps (ray_depth_caps.h) compare it.
+    float front;
     Imath::C3f radiance;
     FarBuffer* far;  // null: the microbuffer
     FragmentSurface surface;
@@ -138,6 +144,7 @@ class Rasterizer {
 
   Microbuffer& buffer_;
   const CubeLayout& layout_;
+  const RayDepthCaps* caps_;
   const float inv_pw_;  // 1 / pixel width
   std::vector<Candidate> candidates_;
   SplatLayout kernel_layout_;

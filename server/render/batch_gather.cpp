@@ -20,6 +20,7 @@ void gather_receivers(const BatchGatherInput& in, std::span<const Receiver> rece
   tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks, 1), [&](const auto& range) {
     Gatherer gatherer(in.tree, in.options, in.cache);
     gatherer.set_volume_points(in.fog);
+    gatherer.set_ray_scene(in.rays);
     for (size_t b = range.begin(); b != range.end(); ++b) {
       if (in.check_cancelled) in.check_cancelled();
       const size_t begin = b * block, end = std::min(receivers.size(), begin + block);

@@ -18,6 +18,9 @@ struct BatchGatherInput {
   const GatherOptions& options;
   std::shared_ptr<GatherCache> cache;
   std::shared_ptr<const VolumePoints> fog;
+  // The scene's geometry for the gather's depth caps
+  // (GatherOptions::ray_depth_caps); null = none.
+  const RayScene* rays = nullptr;
   // Called between blocks of receivers; throws to stop (Cancelled).
   std::function<void()> check_cancelled;
 };

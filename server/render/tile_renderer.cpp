@@ -93,7 +93,7 @@ TileAovs render_tile(const RayScene& rays, const tree::TreeSource& tree, const C
 
   GatherCounters total;
   // The gatherers of this tile share their traversal data (page views).
-  const BatchGatherInput gather{tree, options.gather, std::make_shared<GatherCache>(), fog, [&] {
+  const BatchGatherInput gather{tree, options.gather, std::make_shared<GatherCache>(), fog, &rays, [&] {
                                   if (is_cancelled()) throw cancel_error();
                                 }};
   if (options.interpolation.mode == InterpolationMode::kAuto) {
@@ -155,6 +155,7 @@ TileAovs render_tile(const RayScene& rays, const tree::TreeSource& tree, const C
   tbb::parallel_for(tbb::blocked_range<uint32_t>(rect.y0, rect.y1, 1), [&](const auto& rows) {
     Gatherer gatherer(tree, options.gather, gather.cache);
     gatherer.set_volume_points(fog);
+    gatherer.set_ray_scene(&rays);
     for (uint32_t y = rows.begin(); y != rows.end(); ++y) {
       if (is_cancelled()) throw cancel_error();
       for (uint32_t x = rect.x0; x < rect.x1; ++x) {
