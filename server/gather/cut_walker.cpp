@@ -133,8 +133,8 @@ float depth_band_for(const GatherOptions& o) {
   return std::clamp(2.f * std::sqrt(cut_solid_angle(o) / kPi), 0.05f, 0.3f);
 }
 
-CutWalker::CutWalker(const tree::TreeSource& tree, const GatherOptions& options,
-                     GatherCounters& counters, GatherCache::Impl* shared)
+CutWalker::CutWalker(const tree::TreeSource& tree, const GatherOptions& options, GatherCounters& counters,
+                     GatherCache::Impl* shared)
     : tree_(tree),
       options_(options),
       counters_(counters),

@@ -72,7 +72,8 @@ struct GatherCounters {
     nodes_rasterized += o.nodes_rasterized; surfels_raycast += o.surfels_raycast;
     surfels_splatted += o.surfels_splatted; pages_fetched += o.pages_fetched;
     glossy_receivers += o.glossy_receivers; glossy_nodes_visited += o.glossy_nodes_visited;
-    non_finite += o.non_finite; depth_rays += o.depth_rays;
+    non_finite += o.non_finite;
+    depth_rays += o.depth_rays;
   }
 };
 

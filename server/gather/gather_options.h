@@ -135,36 +135,33 @@ struct GatherOptions {
 inline constexpr auto kGatherOptionTable = options::table(
     options::field<&GatherOptions::microbuffer_resolution>(
         "microbuffer_resolution", {2, {"--mb-res", "microbuffer resolution per cube face [8]"}}),
-    options::field<&GatherOptions::max_solid_angle>(
-        "max_solid_angle", {3, {"--max-solid-angle", "cut threshold, sr [0.03]"}}),
-    options::field<&GatherOptions::ao_max_distance>(
-        "ao_max_distance", {4, {"--ao-max-distance", "AO distance, 0 = unbounded"}}),
+    options::field<&GatherOptions::max_solid_angle>("max_solid_angle",
+                                                    {3, {"--max-solid-angle", "cut threshold, sr [0.03]"}}),
+    options::field<&GatherOptions::ao_max_distance>("ao_max_distance",
+                                                    {4, {"--ao-max-distance", "AO distance, 0 = unbounded"}}),
     options::field<&GatherOptions::method>("method", {1, {"--method", "gather: pbgi or fpbgi [pbgi]"}}),
-    options::field<&GatherOptions::clusters>(
-        "clusters", {7, {"--clusters", "FPBGI clusters per 1024 receivers [100]"}}),
-    options::field<&GatherOptions::epsilon>(
-        "epsilon", {8, {"--epsilon", "FPBGI far/near split, radians [0.4 / mb-res]"}}),
-    options::field<&GatherOptions::hdr_refine>(
-        "hdr_refine", {9, {"--hdr-refine", "HDR-aware cut refinement, 0 = off"}}),
+    options::field<&GatherOptions::clusters>("clusters",
+                                             {7, {"--clusters", "FPBGI clusters per 1024 receivers [100]"}}),
+    options::field<&GatherOptions::epsilon>("epsilon",
+                                            {8, {"--epsilon", "FPBGI far/near split, radians [0.4 / mb-res]"}}),
+    options::field<&GatherOptions::hdr_refine>("hdr_refine",
+                                               {9, {"--hdr-refine", "HDR-aware cut refinement, 0 = off"}}),
     options::field<&GatherOptions::glossy_max_resolution>(
-        "glossy_max_resolution",
-        {10, {"--glossy-max-res", "glossy lobes: finest microbuffer resolution, 4..64 [32]"}}),
+        "glossy_max_resolution", {10, {"--glossy-max-res", "glossy lobes: finest microbuffer resolution, 4..64 [32]"}}),
     options::field<&GatherOptions::glossy_importance>(
         "glossy_importance",
         {11, {"--glossy-importance", "glossy lobes: lobe share that splits a cell, (0, 1] [0.01]"}}),
     options::field<&GatherOptions::glossy_radiance_weight>(
-        "glossy_radiance_weight",
-        {12,
-         {"--glossy-radiance-weight",
-          "glossy lobes: share of a cell's importance that follows incoming radiance, "
-          "0 = the lobe alone [0.5]",
-          options::range(0, 1)}}),
+        "glossy_radiance_weight", {12,
+                                   {"--glossy-radiance-weight",
+                                    "glossy lobes: share of a cell's importance that follows incoming radiance, "
+                                    "0 = the lobe alone [0.5]",
+                                    options::range(0, 1)}}),
     options::field<&GatherOptions::bent_normal>("bent_normal", {13}),
     options::field<&GatherOptions::ray_depth_caps>(
-        "ray_depth_caps",
-        {22,
-         {"--ray-depth-caps",
-          "drop what lies behind the first surface the scene's rays meet in each microbuffer pixel "
-          "(true/false) [false]"}}));
+        "ray_depth_caps", {22,
+                           {"--ray-depth-caps",
+                            "drop what lies behind the first surface the scene's rays meet in each microbuffer pixel "
+                            "(true/false) [false]"}}));
 
 }  // namespace pbgi

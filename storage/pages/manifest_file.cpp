@@ -85,9 +85,8 @@ Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path)
   }
   // Stored payloads: V5 or V7 pages; derived: V4 or V6.
   if (page_format_stores_node_payloads(m.page_format) != m.node_payloads) {
-    throw corrupt("page format " + std::to_string(m.page_format) + " with " +
-                  (m.node_payloads ? "stored" : "derived") + " node payloads (expected " +
-                  (m.node_payloads ? "5 or 7" : "4 or 6") + ")");
+    throw corrupt("page format " + std::to_string(m.page_format) + " with " + (m.node_payloads ? "stored" : "derived") +
+                  " node payloads (expected " + (m.node_payloads ? "5 or 7" : "4 or 6") + ")");
   }
   if (codec_needs_state(m.codec) != !m.codec_state.empty()) {
     throw corrupt("payload codec " + std::to_string(m.codec) + " with " + std::to_string(m.codec_state.size()) +

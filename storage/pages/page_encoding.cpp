@@ -156,8 +156,7 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
     throw corrupt("header and shapes (" + std::to_string(h.node_count) + " nodes, " + std::to_string(leaves) +
                   " leaves, " + std::to_string(links) + " links, " + std::to_string(h.payload_bytes) +
                   " payload bytes, " + std::to_string(h.surfel_count) + " surfels, " + std::to_string(emitting) +
-                  " emitting) need " +
-                  std::to_string(need) + " bytes, page has " + std::to_string(bytes.size()));
+                  " emitting) need " + std::to_string(need) + " bytes, page has " + std::to_string(bytes.size()));
   }
 
   // 2. Links and the payloads: the linked children's (V2) or every

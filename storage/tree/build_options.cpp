@@ -40,9 +40,10 @@ void BuildOptions::validate() const {
                           storage::to_string(leaf_format) + " (a page holds at least one full leaf)");
   }
   if (page_levels < 1 || upper_page_levels < page_levels || upper_page_levels > storage::kMaxPageLevels) {
-    throw InvalidArgument("tree.page_levels = " + std::to_string(page_levels) + ", tree.upper_page_levels = " +
-                          std::to_string(upper_page_levels) + ": must satisfy 1 <= page_levels <= upper_page_levels <= " +
-                          std::to_string(storage::kMaxPageLevels));
+    throw InvalidArgument(
+        "tree.page_levels = " + std::to_string(page_levels) +
+        ", tree.upper_page_levels = " + std::to_string(upper_page_levels) +
+        ": must satisfy 1 <= page_levels <= upper_page_levels <= " + std::to_string(storage::kMaxPageLevels));
   }
   constexpr uint64_t kMinSortMemory = 64 * 1024;
   if (sort_memory_bytes < kMinSortMemory) {

@@ -104,40 +104,38 @@ inline constexpr auto kTreeOptionTable = options::table(
          {"--glossy-resolution", "glossy senders' cube maps: pixels per face side [16]", options::one_of({8, 16, 32})},
          options::KeyMember::kFrozen}),
     options::field<&BuildOptions::wavelet_threshold>(
-        "wavelet_threshold",
-        {17,
-         {"--wavelet-threshold",
-          "drop wavelet detail blocks (one cube face) whose L2 norm is below this; 0 = exact [0]",
-          options::non_negative()},
-         options::KeyMember::kFrozen}),
+        "wavelet_threshold", {17,
+                              {"--wavelet-threshold",
+                               "drop wavelet detail blocks (one cube face) whose L2 norm is below this; 0 = exact [0]",
+                               options::non_negative()},
+                              options::KeyMember::kFrozen}),
     options::field<&BuildOptions::page_size>("page_size", {4, {}, options::KeyMember::kFrozen}),
     options::field<&BuildOptions::leaf_size>("leaf_size", {5, {}, options::KeyMember::kFrozen}),
     options::field<&BuildOptions::leaf_format>(
-        "leaf_format",
-        {19,
-         {"--leaf-format",
-          "how leaves store surfels: relative (24 B, positions relative to the leaf, RGB9E5 "
-          "colours) or half (38 B, float32 positions, half-float colours) [relative]"},
-         options::KeyMember::kFrozen}),
+        "leaf_format", {19,
+                        {"--leaf-format",
+                         "how leaves store surfels: relative (24 B, positions relative to the leaf, RGB9E5 "
+                         "colours) or half (38 B, float32 positions, half-float colours) [relative]"},
+                        options::KeyMember::kFrozen}),
     options::field<&BuildOptions::payload_codec>(
-        "payload_codec",
-        {6,
-         {"--payload",
-          "node payloads: sh (exact, derived from the surfels as pages load), quantized "
-          "(k-means LUT), auto, or a codec name (derived, float32-sh, kmeans-sh); "
-          "glossy senders' wavelet radiance has its own flags [daemon default]",
-          {}, options::Flag::Kind::kValue, kPayloadFlagAliases},
-         options::KeyMember::kFrozen}),
+        "payload_codec", {6,
+                          {"--payload",
+                           "node payloads: sh (exact, derived from the surfels as pages load), quantized "
+                           "(k-means LUT), auto, or a codec name (derived, float32-sh, kmeans-sh); "
+                           "glossy senders' wavelet radiance has its own flags [daemon default]",
+                           {},
+                           options::Flag::Kind::kValue,
+                           kPayloadFlagAliases},
+                          options::KeyMember::kFrozen}),
     options::field<&BuildOptions::lut_entries>(
-        "lut_entries",
-        {7, {"--lut-entries", "quantized payloads: LUT size [4096]", options::range(64, 65536)},
-         options::KeyMember::kFrozen}),
+        "lut_entries", {7,
+                        {"--lut-entries", "quantized payloads: LUT size [4096]", options::range(64, 65536)},
+                        options::KeyMember::kFrozen}),
     options::field<&BuildOptions::lut_sample_fraction>("lut_sample_fraction", {8, {}, options::KeyMember::kFrozen}),
     options::field<&BuildOptions::page_levels>(
-        "page_levels",
-        {26,
-         {"--page-levels", "most tree levels a page near the leaves holds [4]", options::range(1, 16)},
-         options::KeyMember::kIfNotDefault}),
+        "page_levels", {26,
+                        {"--page-levels", "most tree levels a page near the leaves holds [4]", options::range(1, 16)},
+                        options::KeyMember::kIfNotDefault}),
     options::field<&BuildOptions::upper_page_levels>(
         "upper_page_levels",
         {27,

@@ -48,10 +48,10 @@ inline constexpr size_t kCompactSurfelRecordBytes = 18;
 inline constexpr size_t kCompactSharedAlbedoRecordBytes = 14;
 inline constexpr size_t kHalfSurfelRecordBytes = 38;
 constexpr size_t surfel_record_bytes(SurfelRecords r) {
-  return r == SurfelRecords::kHalf                   ? kHalfSurfelRecordBytes
-         : r == SurfelRecords::kCompact              ? kCompactSurfelRecordBytes
+  return r == SurfelRecords::kHalf                  ? kHalfSurfelRecordBytes
+         : r == SurfelRecords::kCompact             ? kCompactSurfelRecordBytes
          : r == SurfelRecords::kCompactSharedAlbedo ? kCompactSharedAlbedoRecordBytes
-                                                       : kRelativeSurfelRecordBytes;
+                                                    : kRelativeSurfelRecordBytes;
 }
 // The records of leaf format `f` in pages with (V6/V7) or without (V4/V5)
 // compact records.

@@ -23,8 +23,8 @@ void add_emission(storage::SurfelRecords format, std::span<const Surfel> surfels
 }
 }  // namespace
 
-storage::LeafFrame quantize_leaf(storage::SurfelRecords format, std::span<const Surfel> surfels,
-                                 uint8_t* records, std::span<Surfel> decoded, std::vector<uint8_t>& emission) {
+storage::LeafFrame quantize_leaf(storage::SurfelRecords format, std::span<const Surfel> surfels, uint8_t* records,
+                                 std::span<Surfel> decoded, std::vector<uint8_t>& emission) {
   const size_t record_bytes = storage::surfel_record_bytes(format);
   const Sphere tight = sphere_of_disks(surfels);
   storage::LeafFrame f;

@@ -23,7 +23,7 @@ namespace pbgi::tree {
 // what a reader will decode into `decoded` (same size). Records that keep
 // the emission out of line (compact) append the emitting surfels' entries,
 // in surfel order, to `emission`. Returns the frame.
-storage::LeafFrame quantize_leaf(storage::SurfelRecords layout, std::span<const Surfel> surfels,
-                                 uint8_t* records, std::span<Surfel> decoded, std::vector<uint8_t>& emission);
+storage::LeafFrame quantize_leaf(storage::SurfelRecords layout, std::span<const Surfel> surfels, uint8_t* records,
+                                 std::span<Surfel> decoded, std::vector<uint8_t>& emission);
 
 }  // namespace pbgi::tree

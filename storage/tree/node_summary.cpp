@@ -20,8 +20,7 @@ float sum_area(const Range& items, Area area_of) {
 
 }  // namespace
 
-void summarize_leaf(std::span<const Surfel> surfels, const storage::LeafFrame& frame, Node& out,
-                    PayloadMode payload) {
+void summarize_leaf(std::span<const Surfel> surfels, const storage::LeafFrame& frame, Node& out, PayloadMode payload) {
   const NormalCone cone = cone_of_normals(surfels);
   out.center = frame.center;
   out.radius = frame.radius;

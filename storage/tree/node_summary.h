@@ -28,8 +28,7 @@ enum class PayloadMode : uint8_t { kNone, kExact, kRounded };
 // Leaf over `surfels` (decoded, non-empty) stored in `frame`: sphere =
 // frame, cone around the normals, area and payload from the surfels. Sets
 // child_count = 0 and surfel_count; leaves first_surfel alone.
-void summarize_leaf(std::span<const Surfel> surfels, const storage::LeafFrame& frame, Node& out,
-                    PayloadMode payload);
+void summarize_leaf(std::span<const Surfel> surfels, const storage::LeafFrame& frame, Node& out, PayloadMode payload);
 
 // Internal node over one or two children (`b` may be null): enclosing
 // sphere and cone, summed area, area-weighted payload. Sets child_count;

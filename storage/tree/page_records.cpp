@@ -208,23 +208,30 @@ void decode_half(const uint8_t* in, const LeafFrame& f, Surfel& s) {
 
 void encode_surfel_record(SurfelRecords records, const Surfel& s, const LeafFrame& f, uint8_t* out) {
   switch (records) {
-    case SurfelRecords::kHalf: return encode_half(s, f, out);
-    case SurfelRecords::kCompact: return encode_compact(s, f, out);
+    case SurfelRecords::kHalf:
+      return encode_half(s, f, out);
+    case SurfelRecords::kCompact:
+      return encode_compact(s, f, out);
     case SurfelRecords::kCompactSharedAlbedo: {
       uint8_t full[kCompactSurfelRecordBytes];
       encode_compact(s, f, full);
       return drop_albedo(full, out);
     }
-    case SurfelRecords::kRelative: return encode_relative(s, f, out);
+    case SurfelRecords::kRelative:
+      return encode_relative(s, f, out);
   }
 }
 
 void decode_surfel_record(SurfelRecords records, const uint8_t* in, const LeafFrame& f, Surfel& s) {
   switch (records) {
-    case SurfelRecords::kHalf: return decode_half(in, f, s);
-    case SurfelRecords::kCompact: return decode_compact(in, f, s);
-    case SurfelRecords::kCompactSharedAlbedo: return decode_compact(in, f, s, true);
-    case SurfelRecords::kRelative: return decode_relative(in, f, s);
+    case SurfelRecords::kHalf:
+      return decode_half(in, f, s);
+    case SurfelRecords::kCompact:
+      return decode_compact(in, f, s);
+    case SurfelRecords::kCompactSharedAlbedo:
+      return decode_compact(in, f, s, true);
+    case SurfelRecords::kRelative:
+      return decode_relative(in, f, s);
   }
 }
 

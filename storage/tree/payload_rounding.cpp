@@ -37,7 +37,7 @@ float pow2(int e) { return std::bit_cast<float>(uint32_t(e + 127) << 23); }
 // a normal float).
 int block_exponent(float m) {
   const int k = int((std::bit_cast<uint32_t>(m) >> 23) & 255u) - 126;  // m in [2^(k-1), 2^k)
-  int e = k - 15;                                                       // m 2^-e < 2^15
+  int e = k - 15;                                                      // m 2^-e < 2^15
   if (std::rint(m * pow2(-e)) > float(kMantissaMax)) ++e;
   return e;
 }

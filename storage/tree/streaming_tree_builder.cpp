@@ -38,7 +38,7 @@ struct Pending {
   std::vector<Surfel> raw;      // candidate surfels (capacity kept across reuse)
   storage::LeafFrame frame;     // closed leaf
   std::vector<uint8_t> records; // closed leaf: its surfel records
-  std::vector<uint8_t> emission;  // closed leaf, compact records: its emitting surfels' entries
+  std::vector<uint8_t> emission;   // closed leaf, compact records: its emitting surfels' entries
   std::vector<SurfelGloss> gloss;  // closed leaf with a glossy surfel: each surfel's lobe
 
   bool written() const { return page != kNone; }

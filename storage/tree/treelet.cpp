@@ -9,9 +9,7 @@
 
 namespace pbgi::tree {
 
-size_t Treelet::surfel_count() const {
-  return surfel_records.size() / storage::surfel_record_bytes(records);
-}
+size_t Treelet::surfel_count() const { return surfel_records.size() / storage::surfel_record_bytes(records); }
 
 namespace {
 void copy_payload(const Node& from, Node& to) {
@@ -39,7 +37,9 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
   const size_t surfels = t.surfel_records.size() / record_bytes;
   if (n == 0) throw corrupt("page has no nodes");
   const bool stored = !t.payloads.empty();
-  const PayloadMode mode = stored ? PayloadMode::kNone : t.rounded_payloads ? PayloadMode::kRounded : PayloadMode::kExact;
+  const PayloadMode mode = stored               ? PayloadMode::kNone
+                           : t.rounded_payloads ? PayloadMode::kRounded
+                                                : PayloadMode::kExact;
   if (stored && t.payloads.size() != n) {
     throw corrupt(std::to_string(t.payloads.size()) + " stored payloads for " + std::to_string(n) + " nodes");
   }
@@ -137,9 +137,8 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
     emitting += surfel_record_emits(t.records, t.surfel_records.data() + k * record_bytes) ? 1 : 0;
   }
   if (emitting * kEmissionEntryBytes != t.emission.size()) {
-    throw corrupt(std::to_string(emitting) + " surfel records emit, the page has " +
-                  std::to_string(t.emission.size()) + " bytes of emission entries (" +
-                  std::to_string(kEmissionEntryBytes) + " each)");
+    throw corrupt(std::to_string(emitting) + " surfel records emit, the page has " + std::to_string(t.emission.size()) +
+                  " bytes of emission entries (" + std::to_string(kEmissionEntryBytes) + " each)");
   }
 
   // 3. Summaries, children first (reverse pre-order), exactly as the build

@@ -85,9 +85,10 @@ void pages(const fs::path& dir) {
     pbgi::tree::PayloadCodecOption codec;
     const char* suffix;
   };
-  for (const Variant& v : {Variant{pbgi::storage::LeafFormat::kRelative, pbgi::tree::PayloadCodecOption::kDerived, ""},
-                           Variant{pbgi::storage::LeafFormat::kHalf, pbgi::tree::PayloadCodecOption::kDerived, "_half"},
-                           Variant{pbgi::storage::LeafFormat::kRelative, pbgi::tree::PayloadCodecOption::kFloatSh, "_v7"}}) {
+  for (const Variant& v :
+       {Variant{pbgi::storage::LeafFormat::kRelative, pbgi::tree::PayloadCodecOption::kDerived, ""},
+        Variant{pbgi::storage::LeafFormat::kHalf, pbgi::tree::PayloadCodecOption::kDerived, "_half"},
+        Variant{pbgi::storage::LeafFormat::kRelative, pbgi::tree::PayloadCodecOption::kFloatSh, "_v7"}}) {
     pbgi::tree::BuildOptions options;
     options.leaf_size = 4;
     options.page_size = 4096;

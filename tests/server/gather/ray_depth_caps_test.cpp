@@ -1,9 +1,9 @@
 // Ray-traced depth caps (server/gather/ray_depth_caps.h,
 // GatherOptions::ray_depth_caps): what the scene's rays find hides what
 // lies behind it, and nothing else changes.
+#include "server/gather/ray_depth_caps.h"
 #include "server/gather/cube_layout.h"
 #include "server/gather/gather.h"
-#include "server/gather/ray_depth_caps.h"
 #include "server/scene/ray_scene.h"
 #include "tests/server/gather/surfel_shapes.h"
 #include "tests/server/gather/surfel_tree.h"
@@ -105,8 +105,8 @@ TEST(RayDepthCaps, LightBehindAWallIsDropped) {
   ASSERT_GT(seen, 1.f);
   const float leak_before = gather_at_origin(tree, false, &rays).irradiance.y;
   const float leak = gather_at_origin(tree, true, &rays).irradiance.y;
-  std::printf("[ measured ] light behind a wall / seen without it: %.3g without caps, %.3g with\n",
-              leak_before / seen, leak / seen);
+  std::printf("[ measured ] light behind a wall / seen without it: %.3g without caps, %.3g with\n", leak_before / seen,
+              leak / seen);
   // The splats of the wall let some through (measured 7.1e-4).
   EXPECT_GT(leak_before / seen, 2e-4);
   EXPECT_EQ(leak, 0.f);

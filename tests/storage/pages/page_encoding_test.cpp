@@ -2,12 +2,12 @@
 // format relative: compact (V6/V7, written) and 24-byte relative (V4/V5,
 // read as before); and the checks behind the checksum on the emission
 // section of compact pages.
+#include "storage/pages/page_encoding.h"
 #include "common/errors.h"
 #include "storage/codecs/payload_codec.h"
 #include "storage/format/byte_order.h"
 #include "storage/format/packed_values.h"
 #include "storage/pages/manifest_file.h"
-#include "storage/pages/page_encoding.h"
 #include "storage/tree/leaf_quantizer.h"
 #include "storage/tree/morton.h"
 #include "storage/tree/payload_rounding.h"

@@ -124,7 +124,8 @@ TEST_F(PageSetTest, SharedAlbedoPagesEqualTheInMemoryTree) {
   EXPECT_LT(m.stats.file_bytes + 2 * surfels.size(), manifest_.stats.file_bytes);
   const auto bytes = read_file(dir / kPagesFileName);
   uint32_t shared = 0;
-  for (const PageExtent& e : m.pages) shared += (read_page_header(bytes.data() + e.offset).flags & kPageFlagSharedAlbedo) ? 1 : 0;
+  for (const PageExtent& e : m.pages)
+    shared += (read_page_header(bytes.data() + e.offset).flags & kPageFlagSharedAlbedo) ? 1 : 0;
   EXPECT_GT(shared, m.stats.page_count / 2);
 }
 
@@ -142,8 +143,8 @@ TEST_F(PageSetTest, InspectionAgreesWithTheManifest) {
   EXPECT_GT(r.fill_min, 0.0);
   EXPECT_LE(r.fill_max, 1.0);
   EXPECT_EQ(r.payload_bytes_per_node, 0u);  // derived at load
-  EXPECT_EQ(r.surfel_record_bytes, 18u);  // compact records (V6 pages)
-  EXPECT_EQ(r.link_payload_bytes, 76u);   // rounded payloads
+  EXPECT_EQ(r.surfel_record_bytes, 18u);    // compact records (V6 pages)
+  EXPECT_EQ(r.link_payload_bytes, 76u);     // rounded payloads
   // 18-byte surfels (and 4 bytes per emitting one: a tenth here), leaf
   // records, and per page of a few levels a frame, a table
   // entry and its parent's link with a 76-byte payload (FORMAT.md, "Why

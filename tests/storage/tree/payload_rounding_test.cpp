@@ -11,8 +11,10 @@ namespace pbgi::tree {
 namespace {
 
 float* block(Node& n, int b) {
-  return b == 0 ? n.radiance_sh.r.data() : b == 1 ? n.radiance_sh.g.data() : b == 2 ? n.radiance_sh.b.data()
-                                                                                   : n.coverage_sh.data();
+  return b == 0   ? n.radiance_sh.r.data()
+         : b == 1 ? n.radiance_sh.g.data()
+         : b == 2 ? n.radiance_sh.b.data()
+                  : n.coverage_sh.data();
 }
 
 // Blocks of random magnitudes (1e-30 to 1e30), signs, and spreads within a
