@@ -75,33 +75,7 @@ inline Imath::C3f decode_rgb9e5(uint32_t v) {
 // over 10^7 directions by tests/storage/format; the bound holds with margin).
 inline constexpr float kOctahedralMaxAngle = 1e-4f;
 
-inline uint32_t encode_octahedral(const Imath::V3f& n) {
-  const float l1 = std::abs(n.x) + std::abs(n.y) + std::abs(n.z);
-  float u = l1 > 0.f ? n.x / l1 : 0.f, v = l1 > 0.f ? n.y / l1 : 0.f;
-  if (n.z < 0.f) {
-    const float fu = (1.f - std::abs(v)) * (u >= 0.f ? 1.f : -1.f);
-    const float fv = (1.f - std::abs(u)) * (v >= 0.f ? 1.f : -1.f);
-    u = fu;
-    v = fv;
-  }
-  auto q = [](float x) {
-    return uint32_t(std::lround(std::clamp((x * 0.5f + 0.5f) * 65535.f, 0.f, 65535.f)));
-  };
-  return q(u) | q(v) << 16;
-}
-
-inline Imath::V3f decode_octahedral(uint32_t bits) {
-  const float u = float(bits & 0xffffu) * (2.f / 65535.f) - 1.f;
-  const float v = float(bits >> 16) * (2.f / 65535.f) - 1.f;
-  Imath::V3f n(u, v, 1.f - std::abs(u) - std::abs(v));
-  const float t = std::max(-n.z, 0.f);
-  n.x += n.x >= 0.f ? -t : t;
-  n.y += n.y >= 0.f ? -t : t;
-  return n / n.length();
-}
-
-// The same code with `bits` (2..16) bits per coordinate: u | v << bits.
-// Not used for 16 bits (encode_octahedral above is that format's code).
+// The octahedral code with `bits` (2..16) bits per coordinate: u | v << bits.
 inline uint32_t encode_octahedral_bits(const Imath::V3f& n, int bits) {
   const float l1 = std::abs(n.x) + std::abs(n.y) + std::abs(n.z);
   float u = l1 > 0.f ? n.x / l1 : 0.f, v = l1 > 0.f ? n.y / l1 : 0.f;
@@ -127,6 +101,10 @@ inline Imath::V3f decode_octahedral_bits(uint32_t code, int bits) {
   n.y += n.y >= 0.f ? -t : t;
   return n / n.length();
 }
+
+// 16 bits per coordinate (the V4/V5 surfel record's normal).
+inline uint32_t encode_octahedral(const Imath::V3f& n) { return encode_octahedral_bits(n, 16); }
+inline Imath::V3f decode_octahedral(uint32_t bits) { return decode_octahedral_bits(bits, 16); }
 
 // Largest angle between a unit vector and its decoded 12-bit encoding
 // (measured over 10^7 directions by tests/storage/format, with margin).
