@@ -43,7 +43,9 @@ TEST(PayloadRounding, WithinItsStatedPrecisionIdempotentAndStoredExactly) {
         // 2^-15 of the block's largest magnitude; a block below 2^-100 is zero.
         const float tol = m < 0x1p-100f ? m : m * 0x1p-15f;
         ASSERT_LE(std::abs(block(r, b)[i] - block(e, b)[i]), tol) << k << " " << b << " " << i;
-        if (m < 0x1p-100f) ASSERT_EQ(block(r, b)[i], 0.f);
+        if (m < 0x1p-100f) {
+          ASSERT_EQ(block(r, b)[i], 0.f);
+        }
       }
     }
     Node again = r;
