@@ -228,7 +228,7 @@ tree::StreamingTreeStats build_treelets(const tree::BuildOptions& o, uint64_t pa
 // page_levels).
 TEST(StreamingTreeBuilder, PagesSpanThePageLevelsNearTheLeavesAndTheUpperLevelsAbove) {
   const std::vector<Surfel> surfels = test::random_surfels(20000, 7);
-  for (const auto [lower, upper] :
+  for (const auto& [lower, upper] :
        {std::pair<uint32_t, uint32_t>{tree::BuildOptions{}.page_levels, tree::BuildOptions{}.upper_page_levels},
         {2, 7},
         {5, 5}}) {
