@@ -304,7 +304,7 @@ TEST(PackedValues, Rgb9e5WithinItsStatedPrecision) {
   }
   EXPECT_EQ(decode_rgb9e5(encode_rgb9e5({0, 0, 0})), Imath::C3f(0.f));
   EXPECT_EQ(decode_rgb9e5(encode_rgb9e5({1, 0.5f, 0.25f})), Imath::C3f(1, 0.5f, 0.25f));  // exact
-  EXPECT_EQ(decode_rgb9e5(encode_rgb9e5({1e9f, 0, 0})).x, kRgb9e5Max);  // clamped
+  EXPECT_EQ(decode_rgb9e5(encode_rgb9e5({1e9f, 0, 0})).x, kRgb9e5Max);                    // clamped
   EXPECT_EQ(decode_rgb9e5(encode_rgb9e5({-1, 2, 0})).x, 0.f);
 }
 
@@ -315,44 +315,40 @@ double angle_between(const Imath::V3f& a, const Imath::V3f& b) {
   return std::atan2(x.cross(y).length(), x.dot(y));
 }
 
-TEST(PackedValues, OctahedralWithinItsStatedAngle) {
-  std::mt19937 rng(6);
+// Every one of `samples` random unit vectors and of a few axes and edges
+// of the octahedron comes back from `code` (vector -> decoded vector) unit
+// length and within `bound` radians; prints the worst angle.
+template <class Code>
+void expect_octahedral_within(uint32_t seed, int samples, double bound, const char* what, Code code) {
+  std::mt19937 rng(seed);
   std::normal_distribution<float> g(0.f, 1.f);
   double worst = 0;
   auto check = [&](Imath::V3f n) {
     n.normalize();
-    const Imath::V3f d = decode_octahedral(encode_octahedral(n));
+    const Imath::V3f d = code(n);
     ASSERT_NEAR(d.length(), 1.f, 1e-6f);
     const double angle = angle_between(d, n);
     worst = std::max(worst, angle);
-    ASSERT_LE(angle, kOctahedralMaxAngle) << n;
+    ASSERT_LE(angle, bound) << n;
   };
-  for (int i = 0; i < 200000; ++i) check({g(rng), g(rng), g(rng)});
+  for (int i = 0; i < samples; ++i) check({g(rng), g(rng), g(rng)});
   for (const Imath::V3f& n : {Imath::V3f(0, 0, 1), Imath::V3f(0, 0, -1), Imath::V3f(1, 0, 0), Imath::V3f(0, -1, 0),
                               Imath::V3f(1, 1, 0), Imath::V3f(-1, 1, -1e-8f)})
     check(n);
-  std::printf("octahedral 2x16 bits: worst angle %.3g rad\n", worst);
+  std::printf("octahedral %s: worst angle %.3g rad\n", what, worst);
+}
+
+TEST(PackedValues, OctahedralWithinItsStatedAngle) {
+  expect_octahedral_within(6, 200000, kOctahedralMaxAngle, "2x16 bits",
+                           [](const Imath::V3f& n) { return decode_octahedral(encode_octahedral(n)); });
 }
 
 TEST(PackedValues, Octahedral12WithinItsStatedAngle) {
-  std::mt19937 rng(16);
-  std::normal_distribution<float> g(0.f, 1.f);
-  double worst = 0;
-  auto check = [&](Imath::V3f n) {
-    n.normalize();
+  expect_octahedral_within(16, 2000000, kOctahedral12MaxAngle, "2x12 bits", [](const Imath::V3f& n) {
     const uint32_t code = encode_octahedral_bits(n, 12);
-    ASSERT_LT(code, 1u << 24);
-    const Imath::V3f d = decode_octahedral_bits(code, 12);
-    ASSERT_NEAR(d.length(), 1.f, 1e-6f);
-    const double angle = angle_between(d, n);
-    worst = std::max(worst, angle);
-    ASSERT_LE(angle, kOctahedral12MaxAngle) << n;
-  };
-  for (int i = 0; i < 2000000; ++i) check({g(rng), g(rng), g(rng)});
-  for (const Imath::V3f& n : {Imath::V3f(0, 0, 1), Imath::V3f(0, 0, -1), Imath::V3f(1, 0, 0), Imath::V3f(0, -1, 0),
-                              Imath::V3f(1, 1, 0), Imath::V3f(-1, 1, -1e-8f)})
-    check(n);
-  std::printf("octahedral 2x12 bits: worst angle %.3g rad\n", worst);
+    EXPECT_LT(code, 1u << 24);
+    return decode_octahedral_bits(code, 12);
+  });
 }
 
 TEST(PackedValues, NarrowFixedPointWithinHalfAStep) {
@@ -517,7 +513,7 @@ TEST(PageRecords, HalfKeepsDimChannelsNextToBrightOnes) {
   s.radiance = {1000.f, 0.01f, 0.f};
   const Surfel relative = round_trip(SurfelRecords::kRelative, s), half = round_trip(SurfelRecords::kHalf, s);
   EXPECT_EQ(round_trip(SurfelRecords::kCompact, s).radiance.y, 0.f);  // the same RGB9E5
-  EXPECT_EQ(relative.radiance.y, 0.f);  // below max/512: flushed by the shared exponent
+  EXPECT_EQ(relative.radiance.y, 0.f);                                // below max/512: flushed by the shared exponent
   EXPECT_NEAR(half.radiance.y, 0.01f, 0.01f * 0x1p-11f);
 }
 
