@@ -3,6 +3,7 @@
 #include "server/gather/gather.h"
 #include "server/gather/page_views.h"
 #include "storage/cache/page_cache.h"
+#include "storage/format/packed_values.h"
 #include "storage/pages/page_set.h"
 #include "surfel_shapes.h"
 #include "surfel_tree.h"
@@ -26,6 +27,7 @@ namespace pbgi {
 namespace {
 
 using Imath::C3f;
+using Imath::V3d;
 using Imath::V3f;
 namespace fs = std::filesystem;
 constexpr float kPi = 3.14159265358979f;
@@ -141,15 +143,25 @@ TEST(GatherPageSet, ViewIsOneAllocationWithTheRootBesideItsHeader) {
     const gather::PageView::Ptr view = gather::PageView::build(*page);
     const auto at = reinterpret_cast<uintptr_t>(view.get());
     ASSERT_EQ(at % 128, 0u) << "page " << id;
-    ASSERT_EQ(reinterpret_cast<uintptr_t>(view->node_data()), at + 64) << "page " << id;
+    ASSERT_EQ(reinterpret_cast<uintptr_t>(view->packed_nodes()), at + 64) << "page " << id;
     ASSERT_EQ(view->node_count, page->nodes.size() + page->links.size());
     EXPECT_TRUE(view->matches(*page));
-    EXPECT_GE(view->memory_bytes(), 64 + view->node_count * (sizeof(gather::HotNode) + sizeof(gather::NodeLook)));
+    EXPECT_GE(view->memory_bytes(), 64 + view->node_count * (sizeof(gather::PackedNode) + sizeof(gather::PackedLook)));
     for (uint32_t i = 0; i < view->node_count; ++i) {
-      const gather::HotNode& h = view->nodes()[i];
+      const gather::HotNode h = view->node(i);
       const tree::Node& n = i < page->nodes.size() ? page->nodes[i] : page->links[i - page->nodes.size()].summary;
       EXPECT_EQ(h.cx, n.center.x) << "page " << id << " node " << i;
       EXPECT_EQ(h.radius, n.radius) << "page " << id << " node " << i;
+      // The decoded cone contains the node's: its axis code moved the axis
+      // by at most kOctahedralMaxAngle, by which the cone was widened.
+      if (n.cone_cos > -1.f) {
+        const double moved = std::acos(std::clamp(double(V3f(h.ax, h.ay, h.az).dot(n.cone_axis)), -1.0, 1.0));
+        EXPECT_LE(moved, storage::kOctahedralMaxAngle) << "page " << id << " node " << i;
+        EXPECT_LE(h.cone_cos, n.cone_cos) << "page " << id << " node " << i;
+        EXPECT_GE(std::acos(std::max(-1.0, double(h.cone_cos))),
+                  std::acos(std::min(1.0, double(n.cone_cos))) + moved - 1e-6)
+            << "page " << id << " node " << i;
+      }
       EXPECT_EQ(h.proxy(), i >= page->nodes.size()) << "page " << id << " node " << i;
       proxies += h.proxy();
     }
@@ -259,19 +271,30 @@ TEST(GatherPageSet, AttachedViewFreesThePagesDecodedContent) {
               tree::heap_block_bytes(tree::Page::kSharedControlBytes + sizeof(tree::Page)) +
                   page->attachment->memory_bytes())
         << "page " << id;
-    // The view's leaf surfels are the page's, to the bit, in their order.
+    // The view's leaf surfels are the page's, in their order, within the
+    // precision of their codes (page_views.h: PackedSurfel), relative to
+    // the radius R of their leaf's sphere; the radiance, RGB9E5 on disk, to
+    // the bit.
     gather::PageViews views;
     const gather::PageView& v = views.get(*page);
     ASSERT_EQ(v.cold->surfel_count, full->surfels.size());
-    for (size_t i = 0; i < full->surfels.size(); ++i) {
-      const Surfel& s = full->surfels[i];
-      const gather::LeafSurfel& l = v.surfels()[i];
-      EXPECT_EQ(l.position, s.position) << "page " << id << " surfel " << i;
-      EXPECT_EQ(l.normal, s.normal) << "page " << id << " surfel " << i;
-      EXPECT_EQ(l.radius, s.radius) << "page " << id << " surfel " << i;
-      EXPECT_EQ(l.radiance, s.radiance) << "page " << id << " surfel " << i;
-      EXPECT_EQ(l.area(), s.area()) << "page " << id << " surfel " << i;
+    size_t seen = 0;
+    for (uint32_t i = 0; i < v.page_nodes; ++i) {
+      const gather::HotNode h = v.node(i);
+      if (!h.leaf()) continue;
+      const double r = h.radius;
+      for (uint32_t k = h.first(); k < h.first() + h.size(); ++k, ++seen) {
+        const Surfel& s = full->surfels[k];
+        const gather::LeafSurfel l = v.surfel(h, k);
+        EXPECT_LE((V3d(l.position) - V3d(s.position)).length(), r * 0.87 / 32767 + 1e-6 * r)
+            << "page " << id << " surfel " << k;
+        EXPECT_LE(std::abs(double(l.radius) - s.radius), r * 0.51 / 65535 + 1e-6 * r) << "page " << id << " surfel " << k;
+        EXPECT_LE(std::acos(std::min(1.f, l.normal.dot(s.normal))), storage::kOctahedralMaxAngle)
+            << "page " << id << " surfel " << k;
+        EXPECT_EQ(l.radiance, s.radiance) << "page " << id << " surfel " << k;
+      }
     }
+    EXPECT_EQ(seen, full->surfels.size()) << "page " << id;
   }
 }
 
