@@ -179,8 +179,8 @@ void CutWalker::push_root() {
     if (root.index == 0) {
       std::copy(view->cold->node0_dc, view->cold->node0_dc + 4, dc);
     } else {
-      const WideNode* full = view->full_node(root.index);
       WideNode own;
+      const WideNode* full = view->full_node(root.index, own) ? &own : nullptr;
       if (!full && root.index < page->nodes.size()) full = &(own = wide_node(page->nodes[root.index]));
       if (!full) {
         pins_.release(pin);
@@ -355,12 +355,11 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
     const bool small = disk < kWideRefineFraction * cut_ * d2;
     if (!small && (!(h.cone_cos > 0.f) || (cos_phi < 0.f && cos_far < -kStraddleCos))) return false;
     straddles = cos_far < 0.f;
-    const WideNode* full = e.view->full_node(e.index);  // kept for every wide, non-bipolar node
-    if (!full) {
+    WideNode node;  // kept for every wide, non-bipolar node
+    if (!e.view->full_node(e.index, node)) {
       throw CorruptionError("tree page " + std::to_string(e.view->id) + " node " + std::to_string(e.index) +
                             ": wide node without its payload");
     }
-    const WideNode& node = *full;
     Appearance look;
     if (!node_appearance(node, -dir, look)) return true;
     shape.omega = std::min(node.area * look.coverage, disk) / d2;

@@ -297,16 +297,39 @@ PageView::Ptr PageView::build(const tree::Page& page) {
                     std::is_trivially_destructible_v<WideNode> && std::is_trivially_destructible_v<Bipolar> &&
                     std::is_trivially_destructible_v<PackedSurfel> && std::is_trivially_destructible_v<tree::NodeRef>,
                 "parts are copy-constructed into raw storage and never destroyed");
+  // Wide nodes in the tree's rounded payload form when each round-trips
+  // exactly (always, for trees built with rounded payloads).
+  std::vector<PackedWide> packed_wide(parts.full.size());
+  bool exact = true;
+  for (size_t k = 0; k < parts.full.size() && exact; ++k) {
+    const WideNode& w = parts.full[k];
+    PackedWide& p = packed_wide[k];
+    std::copy(&w.cone_axis.x, &w.cone_axis.x + 3, p.cone_axis);
+    p.cone_cos = w.cone_cos;
+    p.area = w.area;
+    tree::Node probe;
+    probe.radiance_sh = w.radiance_sh;
+    probe.coverage_sh = w.coverage_sh;
+    tree::write_rounded_payload(probe, p.payload);
+    WideNode back;
+    exact = tree::read_rounded_payload(p.payload, back.radiance_sh, back.coverage_sh) &&
+            std::equal(&back.radiance_sh.r[0], &back.radiance_sh.r[0] + sh::kCoeffs, &w.radiance_sh.r[0]) &&
+            std::equal(&back.radiance_sh.g[0], &back.radiance_sh.g[0] + sh::kCoeffs, &w.radiance_sh.g[0]) &&
+            std::equal(&back.radiance_sh.b[0], &back.radiance_sh.b[0] + sh::kCoeffs, &w.radiance_sh.b[0]) &&
+            std::equal(&back.coverage_sh[0], &back.coverage_sh[0] + sh::kCoeffs, &w.coverage_sh[0]);
+  }
+  if (!exact) header.flags |= kFloatWide;
+  const size_t wide_bytes = exact ? sizeof(PackedWide) : sizeof(WideNode);
   // Header, nodes (half lines), looks (quarter lines), leaf surfels, refs,
-  // full nodes, bipolar faces, then the cold part.
+  // wide nodes, bipolar faces, then the cold part.
   const size_t nodes_at = sizeof(PageView);
   const size_t looks_at = nodes_at + nodes.size() * sizeof(PackedNode);
   const size_t surfels_at = looks_at + looks.size() * sizeof(PackedLook);
   const size_t refs_at = round_up(surfels_at + page.surfels.size() * sizeof(PackedSurfel), alignof(tree::NodeRef));
   const size_t full_at = round_up(refs_at + refs.size() * sizeof(tree::NodeRef), alignof(WideNode));
-  const size_t bipolar_at = round_up(full_at + parts.full.size() * sizeof(WideNode), alignof(Bipolar));
+  const size_t bipolar_at = round_up(full_at + parts.full.size() * wide_bytes, alignof(Bipolar));
   const size_t cold_at = round_up(bipolar_at + parts.bipolar.size() * sizeof(Bipolar), alignof(Cold));
-  if (cold_at > std::numeric_limits<uint32_t>::max()) {
+  if (cold_at + sizeof(Cold) + 16 > std::numeric_limits<uint32_t>::max()) {
     throw CorruptionError("tree page " + std::to_string(page.id) + ": too large for a page view (" +
                           std::to_string(cold_at) + " bytes)");
   }
@@ -336,7 +359,11 @@ PageView::Ptr PageView::build(const tree::Page& page) {
   copy_to(base, nodes_at, nodes);
   copy_to(base, looks_at, looks);
   copy_to(base, refs_at, refs);
-  copy_to(base, full_at, parts.full);
+  if (exact) {
+    copy_to(base, full_at, packed_wide);
+  } else {
+    copy_to(base, full_at, parts.full);
+  }
   copy_to(base, bipolar_at, parts.bipolar);
   auto* surfels = reinterpret_cast<PackedSurfel*>(base + surfels_at);
   std::uninitialized_fill_n(surfels, page.surfels.size(), PackedSurfel{});
@@ -346,11 +373,10 @@ PageView::Ptr PageView::build(const tree::Page& page) {
   }
   Cold* cold = new (base + cold_at) Cold();
   cold->glossy = page.glossy;
-  cold->surfel_count = page.surfels.size();
-  cold->bytes = tree::heap_block_bytes(bytes);
-  cold->full_count = uint32_t(parts.full.size());
-  cold->bipolar_count = uint32_t(parts.bipolar.size());
-  cold->ref_count = uint32_t(refs.size());
+  view->surfel_count = uint32_t(page.surfels.size());
+  view->bytes = uint32_t(tree::heap_block_bytes(bytes));
+  view->full_count = uint32_t(parts.full.size());
+  view->bipolar_count = uint32_t(parts.bipolar.size());
   std::copy(parts.node0_dc, parts.node0_dc + 4, cold->node0_dc);
   view->cold = cold;
   return owned;
@@ -370,12 +396,22 @@ NodeLook PageView::look(uint32_t i) const {
   return l;
 }
 
-const WideNode* PageView::full_node(uint32_t i) const {
-  if (i >= node_count) return nullptr;
+bool PageView::full_node(uint32_t i, WideNode& out) const {
+  if (i >= node_count) return false;
   const HotNode h = node(i);
-  if (h.narrow() || h.bipolar()) return nullptr;
+  if (h.narrow() || h.bipolar()) return false;
   const uint32_t k = looks()[i].index();
-  return k < cold->full_count ? full_nodes() + k : nullptr;
+  if (k >= full_count) return false;
+  if (flags & kFloatWide) {
+    out = at<WideNode>(full_at)[k];
+    return true;
+  }
+  const PackedWide& p = at<PackedWide>(full_at)[k];
+  out.cone_axis = Imath::V3f(p.cone_axis[0], p.cone_axis[1], p.cone_axis[2]);
+  out.cone_cos = p.cone_cos;
+  out.area = p.area;
+  // Checked when the view was built: always true.
+  return tree::read_rounded_payload(p.payload, out.radiance_sh, out.coverage_sh);
 }
 
 LeafSurfel PageView::surfel(const HotNode& leaf, uint32_t i) const {

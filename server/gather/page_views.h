@@ -33,6 +33,7 @@
 #include "server/gather/node_appearance.h"
 #include "server/gather/view_codes.h"
 #include "storage/format/packed_values.h"
+#include "storage/tree/payload_rounding.h"
 #include "storage/codecs/glossy_pages.h"
 #include "storage/tree/node.h"
 
@@ -166,7 +167,7 @@ static_assert(sizeof(PackedSurfel) == 18);
 
 // What a wide splat reads of its node (node_appearance.h): the cone, area
 // and SH payload of a tree::Node, without its bounds and links, which the
-// PackedNode holds (164 bytes instead of 208).
+// PackedNode holds (164 bytes instead of 208). Decoded from a PackedWide.
 struct WideNode {
   Imath::V3f cone_axis;
   float cone_cos = -1.f;
@@ -175,6 +176,18 @@ struct WideNode {
   sh::Sh9 coverage_sh{};
 };
 inline WideNode wide_node(const tree::Node& n) { return {n.cone_axis, n.cone_cos, n.area, n.radiance_sh, n.coverage_sh}; }
+
+// A WideNode as the view keeps it (96 bytes): its payload in the rounded
+// form of the tree's payloads (storage/tree/payload_rounding.h), exactly.
+// A view whose wide nodes' payloads are not all of that form (a tree built
+// without rounding) keeps WideNodes instead (PageView::kFloatWide).
+struct PackedWide {
+  float cone_axis[3];
+  float cone_cos;
+  float area;
+  uint8_t payload[tree::kRoundedPayloadBytes];
+};
+static_assert(sizeof(PackedWide) == 96);
 
 // A page's view is one allocation: its header line (PageView), then its
 // packed nodes, looks, leaf surfels, child references, full nodes and
@@ -189,6 +202,8 @@ struct alignas(64) PageView {
   // In `flags`: children are pairs in refs (a view too large for 15-bit
   // slots: PackedNode::link).
   static constexpr uint32_t kWideLinks = 1u;
+  // In `flags`: full_at holds WideNodes, not PackedWides.
+  static constexpr uint32_t kFloatWide = 2u;
 
   uint32_t id = 0;
   uint32_t page_nodes = 0;  // nodes of the page; proxies follow them
@@ -196,19 +211,16 @@ struct alignas(64) PageView {
   uint32_t flags = 0;
   // Byte offsets from `this` of the parts after the nodes.
   uint32_t looks_at = 0, surfels_at = 0, refs_at = 0, full_at = 0, bipolar_at = 0;
-  uint32_t pad_[5] = {0, 0, 0, 0, 0};  // to one line
+  uint32_t surfel_count = 0, full_count = 0, bipolar_count = 0;
+  uint32_t bytes = 0;  // the whole allocation's heap block (tree::heap_block_bytes)
+  uint32_t pad_ = 0;   // to one line
   struct Cold;
   const Cold* cold = nullptr;
 
-  // What only building, checking, accounting and rare paths read.
+  // What only rare paths read.
   struct Cold {
     // The page's glossy radiance, or null.
     std::shared_ptr<const storage::GlossyNodes> glossy;
-    size_t surfel_count = 0;
-    size_t bytes = 0;  // the whole allocation's heap block (tree::heap_block_bytes)
-    uint32_t full_count = 0;
-    uint32_t bipolar_count = 0;
-    uint32_t ref_count = 0;
     // Node 0's DC radiance and coverage (radiance_sh[0], coverage_sh[0]):
     // a tree root's mean radiance, kept apart so that node 0 needs no full
     // copy (most pages' node 0 is narrow).
@@ -223,7 +235,6 @@ struct alignas(64) PageView {
   const PackedLook* looks() const { return at<PackedLook>(looks_at); }
   const PackedSurfel* surfels() const { return at<PackedSurfel>(surfels_at); }
   const tree::NodeRef* refs() const { return at<tree::NodeRef>(refs_at); }
-  const WideNode* full_nodes() const { return at<WideNode>(full_at); }
   const Bipolar* bipolar() const { return at<Bipolar>(bipolar_at); }
   const storage::GlossyNodes* glossy() const { return cold->glossy.get(); }
 
@@ -260,8 +271,11 @@ struct alignas(64) PageView {
   // Narrow node i's look.
   NodeLook look(uint32_t i) const;
   float look_area(uint32_t i) const { return looks()[i].area; }
-  // The WideNode of view node `i`, for the nodes full_nodes() keeps; else null.
-  const WideNode* full_node(uint32_t i) const;
+  // The WideNode of view node `i` into `out`, for the nodes the view keeps
+  // one of (wide cones that are not bipolar); else false.
+  bool full_node(uint32_t i, WideNode& out) const;
+  // Bytes of the view's wide nodes.
+  size_t full_bytes() const { return bipolar_at - full_at; }
   // Bipolar node i's faces.
   const Bipolar& bipolar_of(uint32_t i) const { return bipolar()[looks()[i].index()]; }
   // Surfel `i` of the view, of leaf `leaf` (decoded).
@@ -280,11 +294,11 @@ struct alignas(64) PageView {
 
   PageView(const PageView&) = delete;
   PageView& operator=(const PageView&) = delete;
-  size_t memory_bytes() const { return cold->bytes; }
+  size_t memory_bytes() const { return bytes; }
   // Whether `page` could be the page this view was built from.
   bool matches(const tree::Page& page) const {
     return page.id == id && page.nodes.size() == page_nodes && page.nodes.size() + page.links.size() == node_count &&
-           page.surfels.size() == cold->surfel_count;
+           page.surfels.size() == surfel_count;
   }
 
  private:

@@ -81,8 +81,8 @@ void write_rounded_payload(const Node& n, uint8_t* out) {
   }
 }
 
-bool read_rounded_payload(const uint8_t* in, Node& n) {
-  for (float* v : blocks(n)) {
+bool read_rounded_payload(const uint8_t* in, sh::ShRgb& radiance, sh::Sh9& coverage) {
+  for (float* v : {radiance.r.data(), radiance.g.data(), radiance.b.data(), coverage.data()}) {
     const int e = int(*in++) - kExponentBias;
     if (e < kMinExponent || e > kMaxExponent) return false;
     const float up = pow2(e);
@@ -93,5 +93,7 @@ bool read_rounded_payload(const uint8_t* in, Node& n) {
   }
   return true;
 }
+
+bool read_rounded_payload(const uint8_t* in, Node& n) { return read_rounded_payload(in, n.radiance_sh, n.coverage_sh); }
 
 }  // namespace pbgi::tree

@@ -277,7 +277,7 @@ TEST(GatherPageSet, AttachedViewFreesThePagesDecodedContent) {
     // the bit.
     gather::PageViews views;
     const gather::PageView& v = views.get(*page);
-    ASSERT_EQ(v.cold->surfel_count, full->surfels.size());
+    ASSERT_EQ(v.surfel_count, full->surfels.size());
     size_t seen = 0;
     for (uint32_t i = 0; i < v.page_nodes; ++i) {
       const gather::HotNode h = v.node(i);

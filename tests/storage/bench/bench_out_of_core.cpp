@@ -230,13 +230,13 @@ void print_decoded_parts(const storage::PageSetReader& reader) {
     view += double(v.memory_bytes());
     hot += double(v.node_count * sizeof(gather::PackedNode));
     looks += double(v.node_count * sizeof(gather::PackedLook));
-    leaf_surfels += double(v.cold->surfel_count * sizeof(gather::PackedSurfel));
-    full += double(v.cold->full_count * sizeof(gather::WideNode));
-    bipolar += double(v.cold->bipolar_count * sizeof(gather::Bipolar));
-    surfels += double(v.cold->surfel_count);
+    leaf_surfels += double(v.surfel_count * sizeof(gather::PackedSurfel));
+    full += double(v.full_bytes());
+    bipolar += double(v.bipolar_count * sizeof(gather::Bipolar));
+    surfels += double(v.surfel_count);
     nodes += double(v.page_nodes);
     proxies += double(v.node_count - v.page_nodes);
-    full_count += double(v.cold->full_count);
+    full_count += double(v.full_count);
   }
   const double n = std::max(1.0, double(pages));
   charged += double(storage::PageCache::entry_bytes()) * n;  // as a cache holding every page charges
