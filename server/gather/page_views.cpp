@@ -28,8 +28,6 @@ std::string where(const tree::Page& page, size_t node) {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 // What build() derives of a node before it is packed.
 struct NodeParts {
   Imath::V3f center{0.f};
@@ -176,14 +174,22 @@ ViewParts derive_parts(const tree::Page& page) {
 // code, rounded down: the decoded cone contains the node's normals.
 float widened_cone(const NodeParts& h, uint32_t code) {
   if (!(h.cone_cos > -1.f)) return h.cone_cos;
-  const Imath::V3f decoded = storage::decode_octahedral(code);
-  const double dot = double(decoded.x) * h.axis.x + double(decoded.y) * h.axis.y + double(decoded.z) * h.axis.z;
+  const Imath::V3f decoded = decode_axis(code);
   const double len = std::sqrt(double(h.axis.x) * h.axis.x + double(h.axis.y) * h.axis.y + double(h.axis.z) * h.axis.z);
-  const double moved = len > 0.0 ? std::acos(std::clamp(dot / len, -1.0, 1.0)) : kPi;
-  const double beta = std::acos(std::clamp(double(h.cone_cos), -1.0, 1.0)) + moved;
-  if (!(beta < kPi)) return -2.f;  // normals every way (or NaN)
-  const float c = float(std::cos(beta));
-  return double(c) > std::cos(beta) ? std::nextafter(c, -2.f) : c;
+  const double dn = std::sqrt(double(decoded.x) * decoded.x + double(decoded.y) * decoded.y + double(decoded.z) * decoded.z);
+  if (!(len > 0.0) || !(dn > 0.0)) return -2.f;
+  // cos and sin of the angle d the code moved the axis, and of the cone's
+  // half angle b: cos(b + d) = cos b cos d - sin b sin d.
+  const double cos_d = std::clamp(
+      (double(decoded.x) * h.axis.x + double(decoded.y) * h.axis.y + double(decoded.z) * h.axis.z) / (len * dn), -1.0, 1.0);
+  const double sin_d = std::sqrt(1.0 - cos_d * cos_d);
+  const double cos_b = std::clamp(double(h.cone_cos), -1.0, 1.0), sin_b = std::sqrt(1.0 - cos_b * cos_b);
+  // b + d past pi: normals every way.
+  if (cos_d < 0.0 || (sin_b * cos_d + cos_b * sin_d) < 0.0) return -2.f;
+  const double widened = cos_b * cos_d - sin_b * sin_d;
+  if (!(widened > -1.0)) return -2.f;
+  const float c = float(widened);
+  return double(c) > widened ? std::nextafter(c, -2.f) : c;
 }
 
 // Packs the nodes. Children in other pages without proxies (and every
@@ -238,14 +244,26 @@ std::vector<PackedNode> pack_nodes(const ViewParts& parts, const tree::Page& pag
   return packed;
 }
 
+// x in [-1, 1] (clamped; NaN -> 0) to [-32767, 32767] and x in [0, 1] to
+// [0, 65535], rounded to nearest: storage::encode_snorm16/unorm16 without
+// their library call (a view is built on every page cache miss).
+int16_t snorm16(float x) {
+  const float t = std::clamp(x, -1.f, 1.f) * 32767.f;
+  return t >= 0.f ? int16_t(t + 0.5f) : t < 0.f ? int16_t(-int(-t + 0.5f)) : int16_t(0);
+}
+uint16_t unorm16(float x) {
+  const float t = std::clamp(x, 0.f, 1.f) * 65535.f;
+  return t >= 0.f ? uint16_t(t + 0.5f) : uint16_t(0);
+}
+
 PackedLook pack_look(const NodeParts& h) {
   PackedLook l;
   l.area = h.look.area;
   if (h.count & HotNode::kNarrow) {
     l.radiance = encode_rgb48(Imath::C3f(h.look.r, h.look.g, h.look.b));
-    l.extra[0] = uint16_t(storage::encode_snorm16(h.look.mx));
-    l.extra[1] = uint16_t(storage::encode_snorm16(h.look.my));
-    l.extra[2] = uint16_t(storage::encode_snorm16(h.look.mz));
+    l.extra[0] = uint16_t(snorm16(h.look.mx));
+    l.extra[1] = uint16_t(snorm16(h.look.my));
+    l.extra[2] = uint16_t(snorm16(h.look.mz));
   } else {
     l.extra[0] = uint16_t(h.index);
     l.extra[1] = uint16_t(h.index >> 16);
@@ -261,8 +279,8 @@ void pack_surfels(const tree::Page& page, const HotNode& leaf, PackedSurfel* out
   for (uint32_t k = 0; k < leaf.size(); ++k) {
     const Surfel& s = page.surfels[leaf.first() + k];
     PackedSurfel& p = out[leaf.first() + k];
-    for (int a = 0; a < 3; ++a) p.offset[a] = storage::encode_snorm16((s.position[a] - c[a]) * inv);
-    p.radius = storage::encode_unorm16(s.radius * inv);
+    for (int a = 0; a < 3; ++a) p.offset[a] = snorm16((s.position[a] - c[a]) * inv);
+    p.radius = unorm16(s.radius * inv);
     const uint32_t n = storage::encode_octahedral(s.normal);
     p.normal[0] = uint16_t(n);
     p.normal[1] = uint16_t(n >> 16);
@@ -397,9 +415,7 @@ NodeLook PageView::look(uint32_t i) const {
 }
 
 bool PageView::full_node(uint32_t i, WideNode& out) const {
-  if (i >= node_count) return false;
-  const HotNode h = node(i);
-  if (h.narrow() || h.bipolar()) return false;
+  if (i >= node_count || (packed_nodes()[i].count & (HotNode::kNarrow | HotNode::kBipolar))) return false;
   const uint32_t k = looks()[i].index();
   if (k >= full_count) return false;
   if (flags & kFloatWide) {

@@ -108,7 +108,7 @@ struct HotNode {
 struct alignas(32) PackedNode {
   float center[3];
   float radius;
-  uint32_t axis;   // storage::encode_octahedral
+  uint32_t axis;   // storage::encode_octahedral; decode_axis (view_codes.h)
   float cone_cos;  // as HotNode::cone_cos, widened by the axis code's error
   uint32_t count;  // as HotNode::count
   // Leaf: its first surfel. Proxy: its target in PageView::refs. Internal:
@@ -246,7 +246,7 @@ struct alignas(64) PageView {
     h.cy = p.center[1];
     h.cz = p.center[2];
     h.radius = p.radius;
-    const Imath::V3f a = storage::decode_octahedral(p.axis);
+    const Imath::V3f a = decode_axis(p.axis);
     h.ax = a.x;
     h.ay = a.y;
     h.az = a.z;
