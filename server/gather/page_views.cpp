@@ -4,21 +4,19 @@
 #include "storage/format/packed_values.h"
 
 #include <algorithm>
-#include <memory>
-#include <new>
-#include <type_traits>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
+#include <memory>
+#include <new>
 #include <string>
+#include <type_traits>
 
 namespace pbgi::gather {
 
 namespace {
 
-bool finite(const Imath::V3f& v) {
-  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
-}
+bool finite(const Imath::V3f& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
 std::string where(const tree::Page& page, size_t node) {
   return "tree page " + std::to_string(page.id) + " node " + std::to_string(node);
@@ -35,10 +33,10 @@ struct NodeParts {
   Imath::V3f axis{0.f};
   float cone_cos = -2.f;
   uint32_t count = 0;
-  uint32_t first = 0;                    // leaf
+  uint32_t first = 0;                                // leaf
   tree::NodeRef children[tree::Node::kMaxChildren];  // internal; proxy: children[0]
-  NodeLook look;                         // narrow: all of it; else its area
-  uint32_t index = 0;                    // wide: full entry; bipolar: its faces
+  NodeLook look;                                     // narrow: all of it; else its area
+  uint32_t index = 0;                                // wide: full entry; bipolar: its faces
 };
 
 // What build() derives from a page before it lays the view out in one
@@ -54,8 +52,7 @@ struct ViewParts {
   uint32_t describe(const tree::Node& n, size_t i, const storage::GlossyNodes* glossy, size_t page_nodes);
 };
 
-uint32_t ViewParts::describe(const tree::Node& n, size_t i, const storage::GlossyNodes* glossy,
-                             size_t page_nodes) {
+uint32_t ViewParts::describe(const tree::Node& n, size_t i, const storage::GlossyNodes* glossy, size_t page_nodes) {
   NodeParts& h = nodes[i];
   h.center = n.center;
   h.radius = n.radius;
@@ -170,28 +167,6 @@ ViewParts derive_parts(const tree::Page& page) {
   return parts;
 }
 
-// The node's cone widened by the angle between its axis and the axis's
-// code, rounded down: the decoded cone contains the node's normals.
-float widened_cone(const NodeParts& h, uint32_t code) {
-  if (!(h.cone_cos > -1.f)) return h.cone_cos;
-  const Imath::V3f decoded = decode_axis(code);
-  const double len = std::sqrt(double(h.axis.x) * h.axis.x + double(h.axis.y) * h.axis.y + double(h.axis.z) * h.axis.z);
-  const double dn = std::sqrt(double(decoded.x) * decoded.x + double(decoded.y) * decoded.y + double(decoded.z) * decoded.z);
-  if (!(len > 0.0) || !(dn > 0.0)) return -2.f;
-  // cos and sin of the angle d the code moved the axis, and of the cone's
-  // half angle b: cos(b + d) = cos b cos d - sin b sin d.
-  const double cos_d = std::clamp(
-      (double(decoded.x) * h.axis.x + double(decoded.y) * h.axis.y + double(decoded.z) * h.axis.z) / (len * dn), -1.0, 1.0);
-  const double sin_d = std::sqrt(1.0 - cos_d * cos_d);
-  const double cos_b = std::clamp(double(h.cone_cos), -1.0, 1.0), sin_b = std::sqrt(1.0 - cos_b * cos_b);
-  // b + d past pi: normals every way.
-  if (cos_d < 0.0 || (sin_b * cos_d + cos_b * sin_d) < 0.0) return -2.f;
-  const double widened = cos_b * cos_d - sin_b * sin_d;
-  if (!(widened > -1.0)) return -2.f;
-  const float c = float(widened);
-  return double(c) > widened ? std::nextafter(c, -2.f) : c;
-}
-
 // Packs the nodes. Children in other pages without proxies (and every
 // child of a kWideLinks view) go to `refs`.
 std::vector<PackedNode> pack_nodes(const ViewParts& parts, const tree::Page& page, PageView& view,
@@ -218,7 +193,7 @@ std::vector<PackedNode> pack_nodes(const ViewParts& parts, const tree::Page& pag
     p.center[2] = h.center.z;
     p.radius = h.radius;
     p.axis = storage::encode_octahedral(h.axis);
-    p.cone_cos = widened_cone(h, p.axis);
+    p.cone_cos = h.cone_cos;
     p.count = h.count;
     if (h.count & HotNode::kLeaf) {
       p.link = h.first;

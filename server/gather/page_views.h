@@ -7,8 +7,7 @@
 // storage/format/packed_values.h) and decoded as the walk reads them: the
 // page cache's budget is set in bytes on disk, and a view of float records
 // cost 4.7 times a page's bytes on disk, so the cache held a fifth of the
-// pages its budget named (docs/out-of-core.md). Cones are widened by their
-// axis code's error, so culling stays conservative. Building a view costs about one pass over
+// pages its budget named (docs/out-of-core.md). Building a view costs about one pass over
 // the page's nodes; views are cached and reused by every receiver.
 //
 // The walk is bound by memory latency (perf on bench_gather and pbgi
@@ -32,10 +31,10 @@
 #include "server/gather/gather.h"
 #include "server/gather/node_appearance.h"
 #include "server/gather/view_codes.h"
-#include "storage/format/packed_values.h"
-#include "storage/tree/payload_rounding.h"
 #include "storage/codecs/glossy_pages.h"
+#include "storage/format/packed_values.h"
 #include "storage/tree/node.h"
+#include "storage/tree/payload_rounding.h"
 
 #include <algorithm>
 #include <cmath>
@@ -99,17 +98,20 @@ struct HotNode {
 };
 
 // A node as the view keeps it: half a cache line. Bounds and cone are the
-// node's floats; the axis is a 16-bit octahedral code (within
-// storage::kOctahedralMaxAngle), and the cone is widened by how far the
-// code moved it, so culling stays conservative. Every code depends on the
-// node alone, not on its page: a node decodes to the same bits in any
-// page layout, as the proxy of a linked child and as its page's root. The
-// cone's sine and coplanarity bound are derived when the node is decoded.
+// node's floats; the axis is a 16-bit octahedral code, within
+// storage::kOctahedralMaxAngle (1e-4 rad) of the node's. The cone is not
+// widened by that: a cull decided by 1e-4 rad of a normal cone concerns
+// light from within 1e-4 rad of grazing, and widening every cone cost a
+// fifth of a view's build (on every page cache miss). Every code depends
+// on the node alone, not on its page: a node decodes to the same bits in
+// any page layout, as the proxy of a linked child and as its page's root.
+// The cone's sine and coplanarity bound are derived when the node is
+// decoded.
 struct alignas(32) PackedNode {
   float center[3];
   float radius;
   uint32_t axis;   // storage::encode_octahedral; decode_axis (view_codes.h)
-  float cone_cos;  // as HotNode::cone_cos, widened by the axis code's error
+  float cone_cos;  // as HotNode::cone_cos
   uint32_t count;  // as HotNode::count
   // Leaf: its first surfel. Proxy: its target in PageView::refs. Internal:
   // child c in bits 16c..16c+15, a view node below 0x8000, else
@@ -175,7 +177,9 @@ struct WideNode {
   sh::ShRgb radiance_sh;
   sh::Sh9 coverage_sh{};
 };
-inline WideNode wide_node(const tree::Node& n) { return {n.cone_axis, n.cone_cos, n.area, n.radiance_sh, n.coverage_sh}; }
+inline WideNode wide_node(const tree::Node& n) {
+  return {n.cone_axis, n.cone_cos, n.area, n.radiance_sh, n.coverage_sh};
+}
 
 // A WideNode as the view keeps it (96 bytes): its payload in the rounded
 // form of the tree's payloads (storage/tree/payload_rounding.h), exactly.
@@ -307,7 +311,7 @@ struct alignas(64) PageView {
   const T* at(uint32_t offset) const {
     return reinterpret_cast<const T*>(reinterpret_cast<const std::byte*>(this) + offset);
   }
-  static constexpr float kCoplanarCos = 0.99980000666657776f;  // cos(kCoplanarAngle)
+  static constexpr float kCoplanarCos = 0.99980000666657776f;   // cos(kCoplanarAngle)
   static constexpr float kCoplanarSin = 0.019998666693333080f;  // sin(kCoplanarAngle)
 };
 static_assert(sizeof(PageView) == 64, "one line; nodes 0 and 1 are the next, in the same 128-byte pair");

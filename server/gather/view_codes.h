@@ -11,8 +11,7 @@
 //
 // Unit vectors (node cone axes) are storage::encode_octahedral's 16-bit
 // codes, decoded here with one reciprocal instead of three divisions: the
-// walk decodes one per node it visits. Both the view's build, which widens
-// each cone by its axis's decoding error, and the walk use decode_axis().
+// walk decodes one per node it visits.
 //
 // Thread-safety: pure functions.
 #pragma once
@@ -46,7 +45,8 @@ struct Rgb48Scales {
   float s[64];
   constexpr Rgb48Scales() : s() {
     for (int e = 0; e < 64; ++e) {
-      s[e] = e == kRgb48NanExponent ? std::bit_cast<float>(0x7fc00000u) : std::bit_cast<float>(uint32_t(e - 46 + 127) << 23);
+      s[e] = e == kRgb48NanExponent ? std::bit_cast<float>(0x7fc00000u)
+                                    : std::bit_cast<float>(uint32_t(e - 46 + 127) << 23);
     }
   }
 };
