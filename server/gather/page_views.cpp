@@ -1,7 +1,6 @@
 #include "server/gather/page_views.h"
 
 #include "common/errors.h"
-#include "storage/format/packed_values.h"
 
 #include <algorithm>
 #include <cmath>
@@ -167,6 +166,18 @@ ViewParts derive_parts(const tree::Page& page) {
   return parts;
 }
 
+// x in [-1, 1] (clamped; NaN -> 0) to [-32767, 32767] and x in [0, 1] to
+// [0, 65535], rounded to nearest (storage/format/packed_values.h's codes,
+// without their library call: a view is built on every page cache miss).
+int16_t snorm16(float x) {
+  const float t = std::clamp(x, -1.f, 1.f) * 32767.f;
+  return t >= 0.f ? int16_t(t + 0.5f) : t < 0.f ? int16_t(-int(-t + 0.5f)) : int16_t(0);
+}
+uint16_t unorm16(float x) {
+  const float t = std::clamp(x, 0.f, 1.f) * 65535.f;
+  return t >= 0.f ? uint16_t(t + 0.5f) : uint16_t(0);
+}
+
 // Packs the nodes. Children in other pages without proxies (and every
 // child of a kWideLinks view) go to `refs`.
 std::vector<PackedNode> pack_nodes(const ViewParts& parts, const tree::Page& page, PageView& view,
@@ -185,6 +196,12 @@ std::vector<PackedNode> pack_nodes(const ViewParts& parts, const tree::Page& pag
   }
   if (count > 0x8000u || external > 0x8000u) view.flags |= PageView::kWideLinks;
   const bool wide = view.flags & PageView::kWideLinks;
+  for (const NodeParts& h : parts.nodes) {
+    if ((h.count & HotNode::kLeaf) && (h.count & HotNode::kCountMask) > PackedNode::kMaxCount) {
+      view.flags |= PageView::kWideCounts;
+    }
+  }
+  const bool wide_counts = view.flags & PageView::kWideCounts;
   for (size_t i = 0; i < count; ++i) {
     const NodeParts& h = parts.nodes[i];
     PackedNode& p = packed[i];
@@ -192,10 +209,14 @@ std::vector<PackedNode> pack_nodes(const ViewParts& parts, const tree::Page& pag
     p.center[1] = h.center.y;
     p.center[2] = h.center.z;
     p.radius = h.radius;
-    p.axis = storage::encode_octahedral(h.axis);
+    for (int a = 0; a < 3; ++a) p.axis[a] = snorm16(h.axis[a]);
     p.cone_cos = h.cone_cos;
-    p.count = h.count;
-    if (h.count & HotNode::kLeaf) {
+    const uint32_t size = h.count & HotNode::kCountMask;
+    p.count = uint16_t((h.count & ~HotNode::kCountMask) >> 16 | std::min(size, PackedNode::kMaxCount));
+    if ((h.count & HotNode::kLeaf) && wide_counts) {
+      p.link = uint32_t(refs.size());
+      refs.push_back({h.first, size});
+    } else if (h.count & HotNode::kLeaf) {
       p.link = h.first;
     } else if (h.count & HotNode::kProxy) {
       p.link = uint32_t(refs.size());
@@ -217,18 +238,6 @@ std::vector<PackedNode> pack_nodes(const ViewParts& parts, const tree::Page& pag
     }
   }
   return packed;
-}
-
-// x in [-1, 1] (clamped; NaN -> 0) to [-32767, 32767] and x in [0, 1] to
-// [0, 65535], rounded to nearest: storage::encode_snorm16/unorm16 without
-// their library call (a view is built on every page cache miss).
-int16_t snorm16(float x) {
-  const float t = std::clamp(x, -1.f, 1.f) * 32767.f;
-  return t >= 0.f ? int16_t(t + 0.5f) : t < 0.f ? int16_t(-int(-t + 0.5f)) : int16_t(0);
-}
-uint16_t unorm16(float x) {
-  const float t = std::clamp(x, 0.f, 1.f) * 65535.f;
-  return t >= 0.f ? uint16_t(t + 0.5f) : uint16_t(0);
 }
 
 PackedLook pack_look(const NodeParts& h) {
@@ -256,9 +265,7 @@ void pack_surfels(const tree::Page& page, const HotNode& leaf, PackedSurfel* out
     PackedSurfel& p = out[leaf.first() + k];
     for (int a = 0; a < 3; ++a) p.offset[a] = snorm16((s.position[a] - c[a]) * inv);
     p.radius = unorm16(s.radius * inv);
-    const uint32_t n = storage::encode_octahedral(s.normal);
-    p.normal[0] = uint16_t(n);
-    p.normal[1] = uint16_t(n >> 16);
+    for (int a = 0; a < 3; ++a) p.normal[a] = snorm16(s.normal[a]);
     p.radiance = encode_rgb48(s.radiance);
   }
 }
@@ -383,9 +390,9 @@ NodeLook PageView::look(uint32_t i) const {
   l.g = c.y;
   l.b = c.z;
   l.area = p.area;
-  l.mx = storage::decode_snorm16(int16_t(p.extra[0]));
-  l.my = storage::decode_snorm16(int16_t(p.extra[1]));
-  l.mz = storage::decode_snorm16(int16_t(p.extra[2]));
+  l.mx = float(int16_t(p.extra[0])) * (1.f / 32767.f);
+  l.my = float(int16_t(p.extra[1])) * (1.f / 32767.f);
+  l.mz = float(int16_t(p.extra[2])) * (1.f / 32767.f);
   return l;
 }
 
@@ -403,18 +410,6 @@ bool PageView::full_node(uint32_t i, WideNode& out) const {
   out.area = p.area;
   // Checked when the view was built: always true.
   return tree::read_rounded_payload(p.payload, out.radiance_sh, out.coverage_sh);
-}
-
-LeafSurfel PageView::surfel(const HotNode& leaf, uint32_t i) const {
-  const PackedSurfel& p = surfels()[i];
-  const float step = leaf.radius * (1.f / 32767.f);
-  LeafSurfel s;
-  s.position = Imath::V3f(leaf.cx + float(p.offset[0]) * step, leaf.cy + float(p.offset[1]) * step,
-                          leaf.cz + float(p.offset[2]) * step);
-  s.radius = float(p.radius) * (leaf.radius * (1.f / 65535.f));
-  s.normal = storage::decode_octahedral(uint32_t(p.normal[0]) | uint32_t(p.normal[1]) << 16);
-  s.radiance = decode_rgb48(p.radiance);
-  return s;
 }
 
 void PageView::Free::operator()(PageView* v) const {

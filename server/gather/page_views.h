@@ -3,8 +3,8 @@
 // a cache line (PackedNode), and in an array of its own what a node shows
 // when it is splatted (PackedLook, a quarter line), apart from the cone and
 // SH payload that only wide-cone splats read (WideNode). Cone axes, looks
-// and leaf surfels are kept in fixed-point codes (view_codes.h,
-// storage/format/packed_values.h) and decoded as the walk reads them: the
+// and leaf surfels are kept in fixed-point codes (below, view_codes.h)
+// and decoded as the walk reads them: the
 // page cache's budget is set in bytes on disk, and a view of float records
 // cost 4.7 times a page's bytes on disk, so the cache held a fifth of the
 // pages its budget named (docs/out-of-core.md). Building a view costs about one pass over
@@ -32,7 +32,6 @@
 #include "server/gather/node_appearance.h"
 #include "server/gather/view_codes.h"
 #include "storage/codecs/glossy_pages.h"
-#include "storage/format/packed_values.h"
 #include "storage/tree/node.h"
 #include "storage/tree/payload_rounding.h"
 
@@ -98,25 +97,29 @@ struct HotNode {
 };
 
 // A node as the view keeps it: half a cache line. Bounds and cone are the
-// node's floats; the axis is a 16-bit octahedral code, within
-// storage::kOctahedralMaxAngle (1e-4 rad) of the node's. The cone is not
-// widened by that: a cull decided by 1e-4 rad of a normal cone concerns
-// light from within 1e-4 rad of grazing, and widening every cone cost a
-// fifth of a view's build (on every page cache miss). Every code depends
-// on the node alone, not on its page: a node decodes to the same bits in
-// any page layout, as the proxy of a linked child and as its page's root.
-// The cone's sine and coplanarity bound are derived when the node is
-// decoded.
+// node's floats; the axis is 16-bit fixed point per coordinate (within
+// 2.6e-5 of the node's, not renormalized: a normalization per node visited
+// cost ~7% of a gather), and the cone is not widened by that (a cull
+// decided by 3e-5 rad of a normal cone concerns light from within 3e-5 rad
+// of grazing). Flags and child or surfel count share 16 bits: 6 bits of
+// HotNode flags, 10 of count; a view with a leaf of more surfels
+// (kWideCounts) keeps every leaf's first surfel and count in refs. Every
+// code depends on the node alone, not on its page: a node decodes to the
+// same bits in any page layout, as the proxy of a linked child and as its
+// page's root. The cone's sine and coplanarity bound are derived when the
+// node is decoded.
 struct alignas(32) PackedNode {
+  static constexpr uint32_t kMaxCount = 1023;
   float center[3];
   float radius;
-  uint32_t axis;   // storage::encode_octahedral; decode_axis (view_codes.h)
-  float cone_cos;  // as HotNode::cone_cos
-  uint32_t count;  // as HotNode::count
-  // Leaf: its first surfel. Proxy: its target in PageView::refs. Internal:
-  // child c in bits 16c..16c+15, a view node below 0x8000, else
-  // refs[slot - 0x8000] (a child in another page that has no proxy); in a
-  // view of kWideLinks, refs[link + c].
+  int16_t axis[3];  // x 32767, rounded
+  uint16_t count;   // HotNode::count's flags >> 16 | its count (<= kMaxCount)
+  float cone_cos;   // as HotNode::cone_cos
+  // Leaf: its first surfel (kWideCounts: its {first, count} in refs).
+  // Proxy: its target in PageView::refs. Internal: child c in bits
+  // 16c..16c+15, a view node below 0x8000, else refs[slot - 0x8000] (a
+  // child in another page that has no proxy); in a view of kWideLinks,
+  // refs[link + c].
   uint32_t link;
 };
 static_assert(sizeof(PackedNode) == 32, "two nodes a cache line");
@@ -154,18 +157,19 @@ struct LeafSurfel {
   float area() const { return 3.14159265358979f * radius * radius; }
 };
 
-// A leaf surfel as the view keeps it (18 bytes): position and radius in
+// A leaf surfel as the view keeps it (20 bytes): position and radius in
 // 16-bit fixed point of its leaf's decoded sphere (within R / 65534 and
-// R / 131070), normal as a 16-bit octahedral code (within
-// storage::kOctahedralMaxAngle), radiance in Rgb48 (exact for the RGB9E5
-// radiance of pages on disk).
+// R / 131070), normal in 16-bit fixed point per coordinate (within 2.6e-5,
+// not renormalized: an octahedral code's normalization cost 4% of a
+// gather), radiance in Rgb48 (exact for the RGB9E5 radiance of pages on
+// disk).
 struct PackedSurfel {
   int16_t offset[3];
   uint16_t radius;
-  uint16_t normal[2];
+  int16_t normal[3];
   Rgb48 radiance;
 };
-static_assert(sizeof(PackedSurfel) == 18);
+static_assert(sizeof(PackedSurfel) == 20);
 
 // What a wide splat reads of its node (node_appearance.h): the cone, area
 // and SH payload of a tree::Node, without its bounds and links, which the
@@ -208,6 +212,9 @@ struct alignas(64) PageView {
   static constexpr uint32_t kWideLinks = 1u;
   // In `flags`: full_at holds WideNodes, not PackedWides.
   static constexpr uint32_t kFloatWide = 2u;
+  // In `flags`: a leaf holds more than PackedNode::kMaxCount surfels; every
+  // leaf's first surfel and count are in refs ({page = first, index = count}).
+  static constexpr uint32_t kWideCounts = 4u;
 
   uint32_t id = 0;
   uint32_t page_nodes = 0;  // nodes of the page; proxies follow them
@@ -250,18 +257,23 @@ struct alignas(64) PageView {
     h.cy = p.center[1];
     h.cz = p.center[2];
     h.radius = p.radius;
-    const Imath::V3f a = decode_axis(p.axis);
-    h.ax = a.x;
-    h.ay = a.y;
-    h.az = a.z;
+    constexpr float kSnorm = 1.f / 32767.f;
+    h.ax = float(p.axis[0]) * kSnorm;
+    h.ay = float(p.axis[1]) * kSnorm;
+    h.az = float(p.axis[2]) * kSnorm;
     h.cone_cos = p.cone_cos;
     const bool cone = p.cone_cos > -1.f;
     h.cone_sin = cone ? std::sqrt(std::max(0.f, 1.f - p.cone_cos * p.cone_cos)) : 1.f;
     // angle(axis, n) + beta < kCoplanarAngle  <=>  dot(axis, n) > cos(kCoplanarAngle - beta)
     //   = cos(kCoplanarAngle) cos(beta) + sin(kCoplanarAngle) sin(beta).
     h.coplanar_cos = cone && p.cone_cos > kCoplanarCos ? kCoplanarCos * p.cone_cos + kCoplanarSin * h.cone_sin : 2.f;
-    h.count = p.count;
+    h.count = uint32_t(p.count & 0xfc00u) << 16 | (p.count & 0x3ffu);
     h.link = p.link;
+    if ((flags & kWideCounts) && h.leaf()) {
+      const tree::NodeRef& r = refs()[p.link];
+      h.link = r.page;
+      h.count = (h.count & ~HotNode::kCountMask) | r.index;
+    }
     return h;
   }
   // Child `c` of internal node `h` of this view.
@@ -283,7 +295,18 @@ struct alignas(64) PageView {
   // Bipolar node i's faces.
   const Bipolar& bipolar_of(uint32_t i) const { return bipolar()[looks()[i].index()]; }
   // Surfel `i` of the view, of leaf `leaf` (decoded).
-  LeafSurfel surfel(const HotNode& leaf, uint32_t i) const;
+  LeafSurfel surfel(const HotNode& leaf, uint32_t i) const {
+    const PackedSurfel& p = surfels()[i];
+    const float step = leaf.radius * (1.f / 32767.f);
+    constexpr float kSnorm = 1.f / 32767.f;
+    LeafSurfel s;
+    s.position = Imath::V3f(leaf.cx + float(p.offset[0]) * step, leaf.cy + float(p.offset[1]) * step,
+                            leaf.cz + float(p.offset[2]) * step);
+    s.radius = float(p.radius) * (leaf.radius * (1.f / 65535.f));
+    s.normal = Imath::V3f(float(p.normal[0]) * kSnorm, float(p.normal[1]) * kSnorm, float(p.normal[2]) * kSnorm);
+    s.radiance = decode_rgb48(p.radiance);
+    return s;
+  }
 
   // Frees a view made by build().
   struct Free {

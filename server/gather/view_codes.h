@@ -9,19 +9,12 @@
 // from pages on disk) re-encode exactly. The code depends on the colour
 // alone, so a node or surfel decodes to the same bits in any page.
 //
-// Unit vectors (node cone axes) are storage::encode_octahedral's 16-bit
-// codes, decoded here with one reciprocal instead of three divisions: the
-// walk decodes one per node it visits.
-//
 // Thread-safety: pure functions.
 #pragma once
 
 #include <Imath/ImathColor.h>
-#include <Imath/ImathVec.h>
 
-#include <algorithm>
 #include <bit>
-#include <cmath>
 #include <cstdint>
 
 namespace pbgi::gather {
@@ -57,19 +50,6 @@ inline Imath::C3f decode_rgb48(const Rgb48& c) {
   const uint64_t v = uint64_t(c.w[0]) | uint64_t(c.w[1]) << 16 | uint64_t(c.w[2]) << 32;
   const float scale = detail::kRgb48Scales.s[v >> 42];
   return {float(v & 0x3fffu) * scale, float((v >> 14) & 0x3fffu) * scale, float((v >> 28) & 0x3fffu) * scale};
-}
-
-// The unit vector of a 16-bit octahedral code (storage::encode_octahedral),
-// within storage::kOctahedralMaxAngle of the encoded vector.
-inline Imath::V3f decode_axis(uint32_t code) {
-  constexpr float kStep = 2.f / 65535.f;
-  const float u = float(code & 0xffffu) * kStep - 1.f;
-  const float v = float(code >> 16) * kStep - 1.f;
-  Imath::V3f n(u, v, 1.f - std::abs(u) - std::abs(v));
-  const float t = std::max(-n.z, 0.f);
-  n.x += n.x >= 0.f ? -t : t;
-  n.y += n.y >= 0.f ? -t : t;
-  return n * (1.f / std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z));
 }
 
 }  // namespace pbgi::gather
