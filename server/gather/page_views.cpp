@@ -110,10 +110,14 @@ uint32_t ViewParts::describe(const tree::Node& n, size_t i, const storage::Gloss
   return flags;
 }
 
-ViewParts derive_parts(const tree::Page& page) {
-  ViewParts parts;
+// Fills `parts` (its arrays reused: a view is built on every page cache
+// miss, and allocating them was a tenth of that).
+void derive_parts(const tree::Page& page, ViewParts& parts) {
   const size_t n = page.nodes.size();
-  parts.nodes.resize(n + page.links.size());
+  parts.nodes.assign(n + page.links.size(), NodeParts{});
+  parts.full.clear();
+  parts.bipolar.clear();
+  std::fill(parts.node0_dc, parts.node0_dc + 4, 0.f);
   const storage::GlossyNodes* glossy = page.glossy.get();
   for (size_t i = 0; i < n; ++i) {
     const tree::Node& node = page.nodes[i];
@@ -163,7 +167,6 @@ ViewParts derive_parts(const tree::Page& page) {
     h.children[0] = l.summary.children[0];
     parts.nodes[l.parent].children[l.slot] = {page.id, uint32_t(i)};
   }
-  return parts;
 }
 
 // x in [-1, 1] (clamped; NaN -> 0) to [-32767, 32767] and x in [0, 1] to
@@ -180,10 +183,10 @@ uint16_t unorm16(float x) {
 
 // Packs the nodes. Children in other pages without proxies (and every
 // child of a kWideLinks view) go to `refs`.
-std::vector<PackedNode> pack_nodes(const ViewParts& parts, const tree::Page& page, PageView& view,
-                                   std::vector<tree::NodeRef>& refs) {
+void pack_nodes(const ViewParts& parts, const tree::Page& page, PageView& view, std::vector<PackedNode>& packed,
+                std::vector<tree::NodeRef>& refs) {
   const size_t count = parts.nodes.size();
-  std::vector<PackedNode> packed(count);
+  packed.resize(count);
   // 15-bit slots name the view's own nodes and refs; beyond that every
   // child is a pair in refs.
   size_t external = 0;
@@ -237,7 +240,6 @@ std::vector<PackedNode> pack_nodes(const ViewParts& parts, const tree::Page& pag
       }
     }
   }
-  return packed;
 }
 
 PackedLook pack_look(const NodeParts& h) {
@@ -284,14 +286,27 @@ T* copy_to(std::byte* base, size_t offset, const std::vector<T>& v) {
 }  // namespace
 
 PageView::Ptr PageView::build(const tree::Page& page) {
-  const ViewParts parts = derive_parts(page);
+  // Scratch arrays of this thread, reused from view to view.
+  struct Scratch {
+    ViewParts parts;
+    std::vector<tree::NodeRef> refs;
+    std::vector<PackedNode> nodes;
+    std::vector<PackedLook> looks;
+    std::vector<PackedWide> packed_wide;
+  };
+  thread_local Scratch scratch;
+  ViewParts& parts = scratch.parts;
+  derive_parts(page, parts);
   PageView header;
   header.id = page.id;
   header.page_nodes = uint32_t(page.nodes.size());
   header.node_count = uint32_t(parts.nodes.size());
-  std::vector<tree::NodeRef> refs;
-  const std::vector<PackedNode> nodes = pack_nodes(parts, page, header, refs);
-  std::vector<PackedLook> looks(parts.nodes.size());
+  std::vector<tree::NodeRef>& refs = scratch.refs;
+  refs.clear();
+  std::vector<PackedNode>& nodes = scratch.nodes;
+  pack_nodes(parts, page, header, nodes, refs);
+  std::vector<PackedLook>& looks = scratch.looks;
+  looks.resize(parts.nodes.size());
   for (size_t i = 0; i < looks.size(); ++i) looks[i] = pack_look(parts.nodes[i]);
   static_assert(std::is_trivially_destructible_v<PackedNode> && std::is_trivially_destructible_v<PackedLook> &&
                     std::is_trivially_destructible_v<WideNode> && std::is_trivially_destructible_v<Bipolar> &&
@@ -299,7 +314,8 @@ PageView::Ptr PageView::build(const tree::Page& page) {
                 "parts are copy-constructed into raw storage and never destroyed");
   // Wide nodes in the tree's rounded payload form when each round-trips
   // exactly (always, for trees built with rounded payloads).
-  std::vector<PackedWide> packed_wide(parts.full.size());
+  std::vector<PackedWide>& packed_wide = scratch.packed_wide;
+  packed_wide.resize(parts.full.size());
   bool exact = true;
   for (size_t k = 0; k < parts.full.size() && exact; ++k) {
     const WideNode& w = parts.full[k];
