@@ -243,11 +243,13 @@ void print_decoded_parts(const storage::PageSetReader& reader) {
   std::printf("decoded/page   %.0f B charged against %.0f B on disk (%.2fx); %.2f nodes, %.2f proxies, %.2f full "
               "nodes, %.2f surfels a page\n",
               charged / n, disk / n, charged / disk, nodes / n, proxies / n, full_count / n, surfels / n);
-  std::printf("decoded parts  cache entry %.0f, Page block %.0f, Page vectors %.0f, attachment %.0f (view %.0f: header+cold+pad %.0f, "
-              "PackedNode %.0f, PackedLook %.0f, PackedSurfel %.0f, full nodes %.0f, bipolar %.0f); bytes a page\n",
-              double(storage::PageCache::entry_bytes()), page_struct / n, page_vectors / n, attachment / n, view / n,
-              (view - hot - looks - leaf_surfels - full - bipolar) / n, hot / n, looks / n, leaf_surfels / n, full / n,
-              bipolar / n);
+  std::printf(
+      "decoded parts  cache entry %.0f, Page block %.0f, Page vectors %.0f, attachment %.0f (view %.0f: "
+      "header+cold+pad %.0f, "
+      "PackedNode %.0f, PackedLook %.0f, PackedSurfel %.0f, full nodes %.0f, bipolar %.0f); bytes a page\n",
+      double(storage::PageCache::entry_bytes()), page_struct / n, page_vectors / n, attachment / n, view / n,
+      (view - hot - looks - leaf_surfels - full - bipolar) / n, hot / n, looks / n, leaf_surfels / n, full / n,
+      bipolar / n);
 }
 
 struct GatherRun {
