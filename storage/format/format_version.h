@@ -45,6 +45,14 @@ inline constexpr uint32_t kSceneEntryMagic = fourcc("PBGS");  // <cache>/ingeste
 //       payloads (storage/tree/payload_rounding.h), which the links store
 //       in 76 bytes. Derived payloads.
 //   V7: V5 (every node's payload stored) with V6's compact records.
+//   V8: V6 with a 14-byte page header (fields the page table or the shapes
+//       already give are gone: page_bytes, surfel_count, payload_bytes;
+//       narrower node count, codec and flags), no padding, and 13-byte
+//       leaf records: the tree's leaf frames are rounded (page_records.h
+//       RoundedFrame: centre on a power-of-two grid, radius rounded up),
+//       so a record stores them exactly. Derived payloads.
+//   V9: V8 with every node's payload stored (V7's payload array, its size
+//       in a u32 after the header).
 inline constexpr uint32_t kPageFormatV1 = 1;
 inline constexpr uint32_t kPageFormatV2 = 2;
 inline constexpr uint32_t kPageFormatV3 = 3;
@@ -52,9 +60,11 @@ inline constexpr uint32_t kPageFormatV4 = 4;
 inline constexpr uint32_t kPageFormatV5 = 5;
 inline constexpr uint32_t kPageFormatV6 = 6;
 inline constexpr uint32_t kPageFormatV7 = 7;
+inline constexpr uint32_t kPageFormatV8 = 8;
+inline constexpr uint32_t kPageFormatV9 = 9;
 // What this build writes: derived payloads, and every node's payload stored.
-inline constexpr uint32_t kPageFormatCurrent = kPageFormatV6;  // derived payloads
-inline constexpr uint32_t kPageFormatNodePayloads = kPageFormatV7;
+inline constexpr uint32_t kPageFormatCurrent = kPageFormatV8;  // derived payloads
+inline constexpr uint32_t kPageFormatNodePayloads = kPageFormatV9;
 
 // Most levels of the tree one V4/V5 page may hold (root to deepest leaf of
 // its treelet, counted in nodes). Readers check it; the build chooses fewer
@@ -110,7 +120,9 @@ inline constexpr uint32_t kManifestFormatLatest = kManifestFormatV4;   // the ne
 //      the build key), unaligned.
 //   5: V6/V7 pages: compact (18-byte) surfel records, emission section,
 //      shared albedo, rounded node payloads (76-byte link payloads).
-inline constexpr uint32_t kPageSetFormatVersion = 5;
+//   6: V8/V9 pages: 14-byte page headers, rounded leaf frames in 13-byte
+//      leaf records.
+inline constexpr uint32_t kPageSetFormatVersion = 6;
 
 // Ingested-scene entry versions (server/ingest/scene_entry.h).
 //   1-3 (refused): no frame -- the bare SceneChunk stream, dependencies in a
@@ -134,17 +146,24 @@ constexpr bool is_known_scene_entry_format(uint32_t v) { return v == kSceneEntry
 // V4/V5 pages (kPageSetFormatVersion 4) are still read: their build keys
 // no longer match, so a daemon rebuilds them, but a page set opened by
 // path (pbgi inspect, benchmarks) reads as before.
-constexpr bool is_known_page_format(uint32_t v) { return v >= kPageFormatV4 && v <= kPageFormatV7; }
+// V6/V7 pages (kPageSetFormatVersion 5) likewise.
+constexpr bool is_known_page_format(uint32_t v) { return v >= kPageFormatV4 && v <= kPageFormatV9; }
 constexpr bool is_retired_page_format(uint32_t v) { return v >= kPageFormatV1 && v <= kPageFormatV3; }
 // Whether pages of format `v` store every node's payload.
-constexpr bool page_format_stores_node_payloads(uint32_t v) { return v == kPageFormatV5 || v == kPageFormatV7; }
+constexpr bool page_format_stores_node_payloads(uint32_t v) {
+  return v == kPageFormatV5 || v == kPageFormatV7 || v == kPageFormatV9;
+}
 // Whether pages of format `v` hold compact surfel records (leaf format
 // relative) and an emission section.
-constexpr bool page_format_has_compact_records(uint32_t v) { return v == kPageFormatV6 || v == kPageFormatV7; }
+constexpr bool page_format_has_compact_records(uint32_t v) { return v >= kPageFormatV6 && v <= kPageFormatV9; }
 // Whether the nodes of pages of format `v` have rounded payloads
 // (storage/tree/payload_rounding.h), which derived pages' links store in
 // 76 bytes instead of the codec's 144.
-constexpr bool page_format_rounds_payloads(uint32_t v) { return v == kPageFormatV6 || v == kPageFormatV7; }
+constexpr bool page_format_rounds_payloads(uint32_t v) { return v >= kPageFormatV6 && v <= kPageFormatV9; }
+// Whether pages of format `v` have the compact frame (14-byte header, no
+// padding) and 13-byte leaf records of rounded frames (page_frame.h,
+// page_records.h).
+constexpr bool page_format_has_compact_frame(uint32_t v) { return v == kPageFormatV8 || v == kPageFormatV9; }
 constexpr bool is_known_manifest_format(uint32_t v) {
   return v >= kManifestFormatV1 && v <= kManifestFormatV4;
 }

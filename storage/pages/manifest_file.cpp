@@ -83,10 +83,10 @@ Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path)
     const auto state = r.get_bytes(state_bytes, "codec_state");
     m.codec_state.assign(state.begin(), state.end());
   }
-  // Stored payloads: V5 or V7 pages; derived: V4 or V6.
+  // Stored payloads: V5, V7 or V9 pages; derived: V4, V6 or V8.
   if (page_format_stores_node_payloads(m.page_format) != m.node_payloads) {
     throw corrupt("page format " + std::to_string(m.page_format) + " with " + (m.node_payloads ? "stored" : "derived") +
-                  " node payloads (expected " + (m.node_payloads ? "5 or 7" : "4 or 6") + ")");
+                  " node payloads (expected " + (m.node_payloads ? "5, 7 or 9" : "4, 6 or 8") + ")");
   }
   if (codec_needs_state(m.codec) != !m.codec_state.empty()) {
     throw corrupt("payload codec " + std::to_string(m.codec) + " with " + std::to_string(m.codec_state.size()) +
@@ -135,7 +135,7 @@ Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path)
     PageExtent& e = m.pages[i];
     e.offset = r.get<uint64_t>("page.offset");
     e.bytes = r.get<uint32_t>("page.bytes");
-    if (e.bytes < kPageHeaderBytes + kPageTrailerBytes || e.offset > m.stats.file_bytes ||
+    if (e.bytes < page_header_bytes(m.page_format) + kPageTrailerBytes || e.offset > m.stats.file_bytes ||
         e.bytes > m.stats.file_bytes - e.offset) {
       throw corrupt("page table entry " + std::to_string(i) + " at offset " + std::to_string(at) +
                     " (offset " + std::to_string(e.offset) + ", " + std::to_string(e.bytes) +

@@ -6,6 +6,7 @@
 #include "storage/tree/page_records.h"
 #include "storage/tree/payload_rounding.h"
 
+#include <limits>
 #include <string>
 
 namespace pbgi::storage {
@@ -18,17 +19,38 @@ size_t padded(size_t n) { return (n + 3) & ~size_t(3); }
 void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& codec,
                  std::vector<uint8_t>& out, std::span<const uint8_t> glossy) {
   const size_t n = t.shapes.size();
-  const size_t leaves_at = padded(kPageHeaderBytes + n);
-  out.assign(leaves_at, 0);
-  std::copy(t.shapes.begin(), t.shapes.end(), out.begin() + kPageHeaderBytes);
-  out.insert(out.end(), t.leaf_records.begin(), t.leaf_records.end());
-  size_t at = out.size();
-  out.resize(at + t.links.size() * kLinkRecordBytes);
   const bool node_payloads = !t.nodes.empty();
   if (node_payloads && t.nodes.size() != n) {
     throw Error("internal: treelet of " + std::to_string(n) + " nodes has " + std::to_string(t.nodes.size()) +
                 " stored payloads");
   }
+  // Treelets of 24-byte relative records (only tests make them now) are
+  // V4/V5 pages; this build writes every other treelet as V8/V9.
+  const bool legacy = t.records == SurfelRecords::kRelative;
+  const uint32_t version = legacy ? (node_payloads ? kPageFormatV5 : kPageFormatV4)
+                                  : (node_payloads ? kPageFormatNodePayloads : kPageFormatCurrent);
+  const bool compact_frame = page_format_has_compact_frame(version);
+  const size_t header_bytes = page_header_bytes(version);
+  // V4-V7: leaf records at a multiple of 4; V8/V9 need no alignment.
+  const size_t leaves_at = compact_frame ? header_bytes + n : padded(header_bytes + n);
+  out.assign(leaves_at, 0);
+  std::copy(t.shapes.begin(), t.shapes.end(), out.begin() + header_bytes);
+  if (compact_frame) {
+    // The builder's frames are rounded (leaf_quantizer.h): 13 bytes hold
+    // each exactly.
+    const size_t leaves = t.leaf_records.size() / kLeafRecordBytes;
+    out.resize(leaves_at + leaves * kCompactLeafRecordBytes);
+    for (size_t i = 0; i < leaves; ++i) {
+      LeafFrame f;
+      uint32_t count = 0;
+      read_leaf_record(t.leaf_records.data() + i * kLeafRecordBytes, f, count);
+      write_compact_leaf_record(f, count, out.data() + leaves_at + i * kCompactLeafRecordBytes);
+    }
+  } else {
+    out.insert(out.end(), t.leaf_records.begin(), t.leaf_records.end());
+  }
+  size_t at = out.size();
+  out.resize(at + t.links.size() * kLinkRecordBytes);
   std::vector<tree::Node> linked;
   linked.reserve(t.links.size());
   for (const tree::TreeletLink& l : t.links) {
@@ -36,14 +58,9 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
     at += kLinkRecordBytes;
     linked.push_back(l.summary);
   }
-  // Treelets of 24-byte relative records (only tests make them now) are
-  // V4/V5 pages; this build writes every other treelet as V6/V7.
-  const bool legacy = t.records == SurfelRecords::kRelative;
-  const uint32_t version = legacy ? (node_payloads ? kPageFormatV5 : kPageFormatV4)
-                                  : (node_payloads ? kPageFormatNodePayloads : kPageFormatCurrent);
   const size_t payload_at = out.size();
-  // V5/V7: every node's payload, pre-order; V4: the linked children's, by
-  // the codec; V6: the linked children's rounded payloads.
+  // V5/V7/V9: every node's payload, pre-order; V4: the linked children's,
+  // by the codec; V6/V8: the linked children's rounded payloads.
   if (node_payloads) {
     codec.encode(t.nodes, out);
   } else if (page_format_rounds_payloads(version)) {
@@ -96,7 +113,7 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
 std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const PageLocation& where,
                           uint32_t expected_version, const PayloadCodec& codec,
                           uint32_t page_count, bool glossy_allowed, LeafFormat leaf_format) {
-  const PageHeader h = open_page(bytes, where, expected_version);
+  PageHeader h = open_page(bytes, where, expected_version);
   const std::string at = where.describe();
   auto corrupt = [&](const std::string& msg) { return CorruptionError(at + ": " + msg); };
 
@@ -123,21 +140,48 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   }
   const bool node_payloads = (h.flags & kPageFlagNodePayloads) != 0;
   if (h.node_count == 0) throw corrupt("page has no nodes");
+  const bool compact_frame = page_format_has_compact_frame(h.format_version);
+  const size_t header_bytes = page_header_bytes(h.format_version);
   // 1. Sizes. Leaf and link counts follow from the shapes (each byte is
   //    checked when the treelet is parsed).
-  const uint64_t body = bytes.size() - kPageHeaderBytes - kPageTrailerBytes;
+  const uint64_t body = bytes.size() - header_bytes - kPageTrailerBytes;
   if (h.node_count > body) {
     throw corrupt(std::to_string(h.node_count) + " shape bytes do not fit the page");
   }
-  const std::span<const uint8_t> shapes = bytes.subspan(kPageHeaderBytes, h.node_count);
+  const std::span<const uint8_t> shapes = bytes.subspan(header_bytes, h.node_count);
   uint64_t leaves = 0, links = 0;
   for (uint8_t s : shapes) {
     leaves += (s & 3u) == 0 ? 1 : 0;
     links += ((s >> 2) & 1u) + ((s >> 3) & 1u);
   }
-  const uint64_t leaves_at = padded(kPageHeaderBytes + h.node_count);
-  const uint64_t links_at = leaves_at + leaves * kLeafRecordBytes;
+  const uint64_t leaves_at = compact_frame ? header_bytes + h.node_count : padded(header_bytes + h.node_count);
+  const size_t leaf_record_bytes = compact_frame ? kCompactLeafRecordBytes : kLeafRecordBytes;
+  const uint64_t links_at = leaves_at + leaves * leaf_record_bytes;
   const uint64_t payload_at = links_at + links * kLinkRecordBytes;
+  if (compact_frame) {
+    // V8/V9 headers do not store the surfel count (the leaf records' counts
+    // add up to it) nor, in V8, the payload array's size (76 bytes a link).
+    if (payload_at + kPageTrailerBytes > bytes.size()) {
+      throw corrupt("header and shapes (" + std::to_string(h.node_count) + " nodes, " + std::to_string(leaves) +
+                    " leaves, " + std::to_string(links) + " links) need at least " +
+                    std::to_string(payload_at + kPageTrailerBytes) + " bytes, page has " +
+                    std::to_string(bytes.size()));
+    }
+    uint64_t surfels = 0;
+    for (uint64_t i = 0; i < leaves; ++i) {
+      LeafFrame f;
+      uint32_t count = 0;
+      if (!read_compact_leaf_record(bytes.data() + leaves_at + i * kCompactLeafRecordBytes, f, count)) {
+        throw corrupt("leaf record " + std::to_string(i) + " has an exponent or centre out of range");
+      }
+      surfels += count;
+    }
+    if (surfels > std::numeric_limits<uint32_t>::max()) {
+      throw corrupt("leaf records count " + std::to_string(surfels) + " surfels");
+    }
+    h.surfel_count = uint32_t(surfels);
+    if (!node_payloads) h.payload_bytes = uint32_t(links * tree::kRoundedPayloadBytes);
+  }
   const uint64_t albedo_at = payload_at + h.payload_bytes;
   const uint64_t surfels_at = albedo_at + (shared_albedo ? 4 : 0);
   const uint64_t emission_at = surfels_at + uint64_t(h.surfel_count) * record_bytes;
@@ -193,7 +237,8 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   // 3. The treelet, every summary derived.
   tree::TreeletView view;
   view.shapes = shapes;
-  view.leaf_records = bytes.subspan(leaves_at, leaves * kLeafRecordBytes);
+  view.leaf_records = bytes.subspan(leaves_at, leaves * leaf_record_bytes);
+  view.compact_leaf_records = compact_frame;
   view.links = link;
   view.surfel_records = bytes.subspan(surfels_at, uint64_t(h.surfel_count) * record_bytes);
   view.records = records;

@@ -8,6 +8,8 @@
 #include <Imath/half.h>
 
 #include <algorithm>
+#include <bit>
+#include <cmath>
 
 namespace pbgi::storage {
 
@@ -55,6 +57,125 @@ void read_leaf_record(const uint8_t* in, LeafFrame& f, uint32_t& surfel_count) {
   const uint8_t* p = get3(in, f.center);
   f.radius = load_le<float>(p);
   surfel_count = load_le<uint16_t>(p + 4);
+}
+
+namespace {
+// 2^e as a float from its bits (e in [-126, 127]): exact, unlike ldexp's
+// callers' arithmetic, and cheap.
+float pow2f(int e) { return std::bit_cast<float>(uint32_t(e + 127) << 23); }
+constexpr int kFrameExponentBias = 128;
+constexpr int kFrameGridBits = 10;    // step >= radius / 2048
+constexpr int kFrameCenterBits = 21;  // |k| <= 2^22
+int ilogb_or_min(float v) { return v > 0.f ? std::ilogb(v) : kMinFrameExponent; }
+
+void put_i24(uint8_t* p, int32_t v) {
+  const uint32_t u = uint32_t(v) & 0xffffffu;
+  p[0] = uint8_t(u);
+  p[1] = uint8_t(u >> 8);
+  p[2] = uint8_t(u >> 16);
+}
+uint32_t get_u24(const uint8_t* p) { return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16; }
+int32_t get_i24(const uint8_t* p) {
+  const uint32_t u = get_u24(p);
+  return int32_t(u ^ 0x800000u) - 0x800000;
+}
+}  // namespace
+
+LeafFrame RoundedFrame::frame() const {
+  const float step = pow2f(exponent);
+  return {{float(k[0]) * step, float(k[1]) * step, float(k[2]) * step}, float(m) * step};
+}
+
+RoundedFrame round_frame_outward(const LeafFrame& f) {
+  const float largest = std::max({std::abs(f.center.x), std::abs(f.center.y), std::abs(f.center.z)});
+  int e = std::max({ilogb_or_min(f.radius) - kFrameGridBits, ilogb_or_min(largest) - kFrameCenterBits,
+                    kMinFrameExponent});
+  for (;; ++e) {
+    if (e > kMaxFrameExponent) {
+      throw InvalidArgument("a leaf frame of radius " + std::to_string(f.radius) +
+                            " is too large for a rounded frame");
+    }
+    RoundedFrame r;
+    r.exponent = e;
+    const float down = pow2f(-e);  // e >= -126: 2^-e <= 2^126, a float
+    double moved2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      // |c| < 2^(ilogb + 1) <= 2^(e + 22): c 2^-e is exact and below 2^22.
+      r.k[a] = int32_t(std::rint(f.center[a] * down));
+      const double d = double(f.center[a]) - double(r.k[a]) * double(pow2f(e));
+      moved2 += d * d;
+    }
+    // The radius, widened by the centre's move, rounded up to the grid (in
+    // double: exact for the steps and sizes here, and never below).
+    const double need = (double(f.radius) + std::sqrt(moved2)) * double(down);
+    const double m = std::ceil(need);
+    if (m > double(kMaxRoundedFrameRadius)) continue;  // a coarser grid
+    r.m = uint32_t(m);
+    return r;
+  }
+}
+
+namespace {
+// The exponent of the lowest set bit of a non-zero finite float.
+int lowest_bit_exponent(float v) {
+  const uint32_t bits = std::bit_cast<uint32_t>(v) & 0x7fffffffu;
+  const int biased = int(bits >> 23);
+  const uint32_t mantissa = (bits & 0x7fffffu) | (biased != 0 ? 0x800000u : 0u);
+  return (biased != 0 ? biased - 127 - 23 : -126 - 23) + std::countr_zero(mantissa);
+}
+}  // namespace
+
+bool to_rounded_frame(const LeafFrame& f, RoundedFrame& out) {
+  const float v[4] = {f.center.x, f.center.y, f.center.z, f.radius};
+  // The coarsest grid on which all four are integers: the smallest k and m.
+  int e = kMaxFrameExponent;
+  for (float x : v) {
+    if (!std::isfinite(x)) return false;
+    if (x != 0.f) e = std::min(e, lowest_bit_exponent(x));
+  }
+  if (e < kMinFrameExponent || f.radius < 0.f) return false;
+  const float down = pow2f(-e);
+  out.exponent = e;
+  for (int a = 0; a < 3; ++a) {
+    const float k = v[a] * down;  // an integer: exact
+    if (std::abs(k) > float(kMaxRoundedFrameCenter)) return false;
+    out.k[a] = int32_t(k);
+  }
+  const float m = f.radius * down;
+  if (m > float(kMaxRoundedFrameRadius)) return false;
+  out.m = uint32_t(m);
+  return true;
+}
+
+void write_compact_leaf_record(const LeafFrame& f, uint32_t surfel_count, uint8_t* out) {
+  RoundedFrame r;
+  if (!to_rounded_frame(f, r) || surfel_count < 1 || surfel_count > kMaxCompactLeafSurfels) {
+    throw Error("internal: a compact leaf record of " + std::to_string(surfel_count) +
+                " surfels for a frame that is not rounded or a count out of range");
+  }
+  out[0] = uint8_t(r.exponent + kFrameExponentBias);
+  for (int a = 0; a < 3; ++a) put_i24(out + 1 + 3 * a, r.k[a]);
+  const uint32_t tail = r.m | (surfel_count - 1) << 12;
+  out[10] = uint8_t(tail);
+  out[11] = uint8_t(tail >> 8);
+  out[12] = uint8_t(tail >> 16);
+}
+
+bool read_compact_leaf_record(const uint8_t* in, LeafFrame& f, uint32_t& surfel_count) {
+  RoundedFrame r;
+  r.exponent = int(in[0]) - kFrameExponentBias;
+  if (r.exponent < kMinFrameExponent || r.exponent > kMaxFrameExponent) return false;
+  for (int a = 0; a < 3; ++a) r.k[a] = get_i24(in + 1 + 3 * a);
+  const uint32_t tail = get_u24(in + 10);
+  r.m = tail & 0xfffu;
+  surfel_count = (tail >> 12) + 1;
+  if (std::abs(r.k[0]) > kMaxRoundedFrameCenter || std::abs(r.k[1]) > kMaxRoundedFrameCenter ||
+      std::abs(r.k[2]) > kMaxRoundedFrameCenter || r.m > kMaxRoundedFrameRadius) {
+    return false;
+  }
+  f = r.frame();
+  // A centre beyond float range (a large k at a large exponent): never written.
+  return std::isfinite(f.center.x) && std::isfinite(f.center.y) && std::isfinite(f.center.z);
 }
 
 void write_link_record(uint32_t page, const tree::Node& n, uint8_t* out) {

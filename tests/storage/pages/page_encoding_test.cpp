@@ -1,7 +1,8 @@
 // Page bytes of the two surfel record layouts this build reads for leaf
-// format relative: compact (V6/V7, written) and 24-byte relative (V4/V5,
-// read as before); and the checks behind the checksum on the emission
-// section of compact pages.
+// format relative: compact (V8/V9, written; V6/V7 read) and 24-byte
+// relative (V4/V5, read as before); and the checks behind the checksum on
+// the compact page frame (V8/V9: 14-byte header, 13-byte leaf records)
+// and the emission section of compact pages.
 #include "storage/pages/page_encoding.h"
 #include "common/errors.h"
 #include "storage/codecs/payload_codec.h"
@@ -35,6 +36,8 @@ tree::Treelet one_leaf(SurfelRecords layout, const std::vector<Surfel>& surfels,
   t.surfel_records.resize(surfels.size() * surfel_record_bytes(layout));
   decoded.resize(surfels.size());
   const LeafFrame f = tree::quantize_leaf(layout, surfels, t.surfel_records.data(), decoded, t.emission);
+  RoundedFrame rounded;
+  EXPECT_TRUE(to_rounded_frame(f, rounded)) << "the build's leaf frames are rounded";
   t.leaf_records.resize(kLeafRecordBytes);
   write_leaf_record(f, uint32_t(surfels.size()), t.leaf_records.data());
   return t;
@@ -64,9 +67,12 @@ TEST(PageEncoding, CompactAndRelativePagesDecodeWhatTheBuildDecoded) {
     EXPECT_EQ(t.emission.size(), layout == SurfelRecords::kCompact ? 2 * kEmissionEntryBytes : 0u);
     std::vector<uint8_t> bytes;
     encode_page(t, 0, *codec, bytes);
-    const uint32_t version = layout == SurfelRecords::kCompact ? kPageFormatV6 : kPageFormatV4;
+    const uint32_t version = layout == SurfelRecords::kCompact ? kPageFormatV8 : kPageFormatV4;
     EXPECT_EQ(read_page_header(bytes.data()).format_version, version);
-    const size_t body = kPageHeaderBytes + 4 /*shape, padded*/ + kLeafRecordBytes + 4 * surfel_record_bytes(layout);
+    const size_t body = layout == SurfelRecords::kCompact
+                            ? kCompactPageHeaderBytes + 1 /*shape, not padded*/ + kCompactLeafRecordBytes +
+                                  4 * surfel_record_bytes(layout)
+                            : kPageHeaderBytes + 4 /*shape, padded*/ + kLeafRecordBytes + 4 * surfel_record_bytes(layout);
     EXPECT_EQ(bytes.size(), body + t.emission.size() + kPageTrailerBytes);
     const auto page = decode(bytes, version);
     ASSERT_EQ(page->surfels.size(), surfels.size());
@@ -76,7 +82,7 @@ TEST(PageEncoding, CompactAndRelativePagesDecodeWhatTheBuildDecoded) {
       EXPECT_EQ(page->surfels[i].emission, decode_rgb9e5(encode_rgb9e5(surfels[i].emission))) << i;
     }
     // A page is read only as the format its manifest declares.
-    const uint32_t other = version == kPageFormatV6 ? kPageFormatV4 : kPageFormatV6;
+    const uint32_t other = version == kPageFormatV8 ? kPageFormatV4 : kPageFormatV8;
     try {
       decode(bytes, other);
       FAIL() << "page format " << version << " read as " << other;
@@ -101,14 +107,17 @@ TEST(PageEncoding, SharedAlbedoIsStoredOnce) {
     const bool shared = layout == SurfelRecords::kCompact;
     EXPECT_EQ((h.flags & kPageFlagSharedAlbedo) != 0, shared);
     const size_t records = shared ? 4 + 4 * kCompactSharedAlbedoRecordBytes : 4 * surfel_record_bytes(layout);
-    EXPECT_EQ(bytes.size(), kPageHeaderBytes + 4 + kLeafRecordBytes + records + t.emission.size() + kPageTrailerBytes);
+    const size_t frame = shared ? kCompactPageHeaderBytes + 1 + kCompactLeafRecordBytes : kPageHeaderBytes + 4 + kLeafRecordBytes;
+    EXPECT_EQ(bytes.size(), frame + records + t.emission.size() + kPageTrailerBytes);
     const auto page = decode(bytes, h.format_version);
     ASSERT_EQ(page->surfels.size(), want.size());
     for (size_t i = 0; i < want.size(); ++i) EXPECT_TRUE(test::same_surfel(page->surfels[i], want[i])) << i;
     // The flag where it does not belong: a V4 page, or a page whose
     // records are not laid out for it (re-sealed, as a writer bug would).
     auto bad = bytes;
-    store_le<uint32_t>(bad.data() + 28, h.flags ^ kPageFlagSharedAlbedo);
+    PageHeader flipped = h;
+    flipped.flags ^= kPageFlagSharedAlbedo;
+    write_page_header(flipped, bad.data());
     seal_page(bad);
     try {
       decode(bad, h.format_version);
@@ -128,13 +137,12 @@ TEST(PageEncoding, EmissionFlagsAndEntriesMustAgree) {
   const tree::Treelet t = one_leaf(SurfelRecords::kCompact, leaf_surfels(), want);
   std::vector<uint8_t> good;
   encode_page(t, 0, *codec, good);
-  ASSERT_NO_THROW(decode(good, kPageFormatV6));
-  const size_t records_at = kPageHeaderBytes + 4 + kLeafRecordBytes;
+  ASSERT_NO_THROW(decode(good, kPageFormatV8));
+  const size_t records_at = kCompactPageHeaderBytes + 1 + kCompactLeafRecordBytes;
   auto expect_corrupt = [&](std::vector<uint8_t> bad, const std::string& what) {
-    store_le<uint32_t>(bad.data() + 24, uint32_t(bad.size()));
-    seal_page(bad);
+    seal_page(bad);  // V8 headers do not store the page's size
     try {
-      decode(bad, kPageFormatV6);
+      decode(bad, kPageFormatV8);
       FAIL() << what << ": accepted";
     } catch (const CorruptionError& e) {
       EXPECT_TRUE(contains(e.what(), "/x/pages.pbgp: page 0")) << e.what();
@@ -146,6 +154,18 @@ TEST(PageEncoding, EmissionFlagsAndEntriesMustAgree) {
     bad[records_at + surfel * kCompactSurfelRecordBytes + 9] ^= 0x80;
     expect_corrupt(bad, "flipped emission flag of surfel " + std::to_string(surfel));
   }
+  // A leaf record's exponent no writer produces; its count one more or one
+  // less than the records (which then do not add up to the page).
+  for (const int delta : {0, 1, -1}) {
+    auto bad = good;
+    uint8_t* leaf = bad.data() + kCompactPageHeaderBytes + 1;
+    if (delta == 0) {
+      leaf[0] = 250;
+    } else {
+      leaf[11] = uint8_t(leaf[11] + delta * 16);  // count - 1 lies in bits 12-23 of the u24 at 10
+    }
+    expect_corrupt(bad, "leaf record damaged (" + std::to_string(delta) + ")");
+  }
   // An entry missing, or one too many.
   auto shorter = good;
   shorter.erase(shorter.end() - kPageTrailerBytes - kEmissionEntryBytes, shorter.end() - kPageTrailerBytes);
@@ -156,13 +176,13 @@ TEST(PageEncoding, EmissionFlagsAndEntriesMustAgree) {
   // Truncated, not re-sealed: the checksum (or the size) refuses it.
   for (const size_t cut : {size_t(1), kPageTrailerBytes + 2, good.size() - 10}) {
     const std::vector<uint8_t> cut_page(good.begin(), good.end() - cut);
-    EXPECT_THROW(decode(cut_page, kPageFormatV6), CorruptionError) << cut;
+    EXPECT_THROW(decode(cut_page, kPageFormatV8), CorruptionError) << cut;
   }
 }
 
-// V6 links store the linked child's rounded payload in 76 bytes: exactly
-// what the child's page derives for its root. An exponent byte no writer
-// produces, or a payload array of the wrong size, is corruption.
+// V8 links (as V6's) store the linked child's rounded payload in 76 bytes:
+// exactly what the child's page derives for its root. An exponent byte no
+// writer produces, or a payload array of the wrong size, is corruption.
 TEST(PageEncoding, LinkPayloadsAreTheChildRootsExactly) {
   struct Keep final : tree::TreeletSink {
     uint32_t write(const tree::Treelet& t) override {
@@ -186,9 +206,7 @@ TEST(PageEncoding, LinkPayloadsAreTheChildRootsExactly) {
   size_t links = 0;
   for (uint32_t id = 0; id < pages.size(); ++id) {
     encode_page(sink.treelets[id], id, *codec, pages[id]);
-    const PageHeader h = read_page_header(pages[id].data());
-    EXPECT_EQ(h.payload_bytes, sink.treelets[id].links.size() * tree::kRoundedPayloadBytes);
-    decoded.push_back(decode_page(pages[id], {"/x/pages.pbgp", id, 0}, kPageFormatV6, *codec, stats.page_count));
+    decoded.push_back(decode_page(pages[id], {"/x/pages.pbgp", id, 0}, kPageFormatV8, *codec, stats.page_count));
     for (const tree::PageLink& l : decoded.back()->links) {
       const tree::Node& root = decoded[l.summary.children[0].page]->nodes[0];
       EXPECT_EQ(l.summary.radiance_sh.r, root.radiance_sh.r);
@@ -197,20 +215,23 @@ TEST(PageEncoding, LinkPayloadsAreTheChildRootsExactly) {
       EXPECT_EQ(l.summary.coverage_sh, root.coverage_sh);
       EXPECT_EQ(l.summary.area, root.area);
       EXPECT_EQ(l.summary.center, root.center);
+      EXPECT_EQ(l.summary.radius, root.radius);
+      EXPECT_EQ(l.summary.cone_axis, root.cone_axis);
+      EXPECT_EQ(l.summary.cone_cos, root.cone_cos);
       ++links;
     }
   }
   EXPECT_GT(links, 50u);
   const uint32_t root = stats.root.page;
   ASSERT_FALSE(sink.treelets[root].links.empty());
-  const PageHeader h = read_page_header(pages[root].data());
-  const size_t payload_at = pages[root].size() - kPageTrailerBytes - sink.treelets[root].emission.size() -
-                            sink.treelets[root].surfel_records.size() - h.payload_bytes;
+  // The root page has no leaves (its treelet is the upper levels).
+  ASSERT_TRUE(sink.treelets[root].leaf_records.empty());
+  const size_t payload_at =
+      kCompactPageHeaderBytes + sink.treelets[root].shapes.size() + sink.treelets[root].links.size() * kLinkRecordBytes;
   auto expect_corrupt = [&](std::vector<uint8_t> bad, const std::string& what) {
-    store_le<uint32_t>(bad.data() + 24, uint32_t(bad.size()));
     seal_page(bad);
     try {
-      decode_page(bad, {"/x/pages.pbgp", root, 0}, kPageFormatV6, *codec, stats.page_count);
+      decode_page(bad, {"/x/pages.pbgp", root, 0}, kPageFormatV8, *codec, stats.page_count);
       FAIL() << what << ": accepted";
     } catch (const CorruptionError& e) {
       EXPECT_TRUE(contains(e.what(), "/x/pages.pbgp: page " + std::to_string(root))) << e.what();
@@ -220,27 +241,27 @@ TEST(PageEncoding, LinkPayloadsAreTheChildRootsExactly) {
   bad[payload_at] = 255;
   expect_corrupt(bad, "exponent out of range");
   bad = pages[root];
-  store_le<uint32_t>(bad.data() + 20, h.payload_bytes - 1);
   bad.erase(bad.begin() + long(payload_at));
   expect_corrupt(bad, "payload array a byte short");
 }
 
-// The manifest pairs page formats with payload storage: V4/V6 derived,
-// V5/V7 stored; V4 and V5 page sets (built before compact records) read.
+// The manifest pairs page formats with payload storage: V4/V6/V8 derived,
+// V5/V7/V9 stored; V4-V7 page sets (built before compact records or the
+// compact page frame) read.
 TEST(PageEncoding, ManifestPairsPageFormatsWithPayloadStorage) {
   Manifest m;
   m.build_key = "k";
   m.stats.page_count = 1;
   m.stats.file_bytes = 100;
   m.pages = {{0, 100}};
-  for (const uint32_t format : {kPageFormatV4, kPageFormatV6}) {
+  for (const uint32_t format : {kPageFormatV4, kPageFormatV6, kPageFormatV8}) {
     m.page_format = format;
     m.node_payloads = false;
     EXPECT_EQ(decode_manifest(encode_manifest(m), "m").page_format, format);
     m.node_payloads = true;
     EXPECT_THROW(decode_manifest(encode_manifest(m), "m"), CorruptionError) << format;
   }
-  for (const uint32_t format : {kPageFormatV5, kPageFormatV7}) {
+  for (const uint32_t format : {kPageFormatV5, kPageFormatV7, kPageFormatV9}) {
     m.page_format = format;
     m.node_payloads = true;
     EXPECT_EQ(decode_manifest(encode_manifest(m), "m").page_format, format);

@@ -66,11 +66,11 @@ TEST_F(PayloadCodecBuildTest, StoredFloatPayloadsEqualDerivedOnes) {
   BuildReport report;
   const Manifest m = build_page_set(surfels_, options_with(PayloadCodecOption::kFloatSh), "k", stored, {}, &report);
   EXPECT_TRUE(m.node_payloads);
-  EXPECT_EQ(m.page_format, kPageFormatV7);
+  EXPECT_EQ(m.page_format, kPageFormatNodePayloads);
   EXPECT_EQ(report.payload_codec, "float32-sh");
   const PageSetReader a(derived, nullptr), b(stored, nullptr);
   EXPECT_FALSE(a.manifest().node_payloads);
-  EXPECT_EQ(a.manifest().page_format, kPageFormatV6);
+  EXPECT_EQ(a.manifest().page_format, kPageFormatCurrent);
   EXPECT_TRUE(b.manifest().node_payloads);
   const test::Walk wa = test::walk(a), wb = test::walk(b);
   ASSERT_EQ(wa.nodes.size(), wb.nodes.size());
@@ -130,7 +130,7 @@ TEST_F(PayloadCodecBuildTest, StreamingQuantizationEqualsQuantizingTheFinishedTr
   // Pages keep to their size, and the payload arrays hold exactly the codes.
   uint64_t payload = 0;
   for (const PageHeader& h : page_headers(dir, m)) {
-    EXPECT_EQ(h.format_version, kPageFormatV7);
+    EXPECT_EQ(h.format_version, kPageFormatNodePayloads);
     EXPECT_LE(h.page_bytes, o.page_size);
     payload += h.payload_bytes;
   }
@@ -190,7 +190,7 @@ TEST_F(PayloadCodecBuildTest, AutoPicksDerivedForSmallScenes) {
       build_page_set(surfels_, options_with(PayloadCodecOption::kAuto), "k", tmp_.path() / "auto", {}, &report);
   EXPECT_EQ(report.payload_codec, "derived");
   EXPECT_FALSE(m.node_payloads);
-  EXPECT_EQ(m.page_format, kPageFormatV6);
+  EXPECT_EQ(m.page_format, kPageFormatCurrent);
   EXPECT_EQ(m.options.payload_codec, PayloadCodecOption::kAuto);  // the option as asked
   EXPECT_EQ(PageSetReader(tmp_.path() / "auto", nullptr).manifest().options.payload_codec, PayloadCodecOption::kAuto);
 }
