@@ -50,12 +50,17 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
     out.insert(out.end(), t.leaf_records.begin(), t.leaf_records.end());
   }
   size_t at = out.size();
-  out.resize(at + t.links.size() * kLinkRecordBytes);
+  const size_t link_record_bytes = compact_frame ? kCompactLinkRecordBytes : kLinkRecordBytes;
+  out.resize(at + t.links.size() * link_record_bytes);
   std::vector<tree::Node> linked;
   linked.reserve(t.links.size());
   for (const tree::TreeletLink& l : t.links) {
-    write_link_record(l.page, l.summary, out.data() + at);
-    at += kLinkRecordBytes;
+    if (compact_frame) {
+      write_compact_link_record(l.page, l.summary, out.data() + at);  // the tree's bounds are rounded
+    } else {
+      write_link_record(l.page, l.summary, out.data() + at);
+    }
+    at += link_record_bytes;
     linked.push_back(l.summary);
   }
   const size_t payload_at = out.size();
@@ -156,8 +161,9 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   }
   const uint64_t leaves_at = compact_frame ? header_bytes + h.node_count : padded(header_bytes + h.node_count);
   const size_t leaf_record_bytes = compact_frame ? kCompactLeafRecordBytes : kLeafRecordBytes;
+  const size_t link_record_bytes = compact_frame ? kCompactLinkRecordBytes : kLinkRecordBytes;
   const uint64_t links_at = leaves_at + leaves * leaf_record_bytes;
-  const uint64_t payload_at = links_at + links * kLinkRecordBytes;
+  const uint64_t payload_at = links_at + links * link_record_bytes;
   if (compact_frame) {
     // V8/V9 headers do not store the surfel count (the leaf records' counts
     // add up to it) nor, in V8, the payload array's size (76 bytes a link).
@@ -208,7 +214,13 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   std::vector<tree::TreeletLink> link(links);
   std::vector<tree::Node> linked(links);
   for (uint64_t i = 0; i < links; ++i) {
-    read_link_record(bytes.data() + links_at + i * kLinkRecordBytes, link[i].page, linked[i]);
+    const uint8_t* record = bytes.data() + links_at + i * link_record_bytes;
+    if (!compact_frame) {
+      read_link_record(record, link[i].page, linked[i]);
+    } else if (!read_compact_link_record(record, link[i].page, linked[i])) {
+      throw corrupt("link record " + std::to_string(i) +
+                    " has a sphere, cone or area out of range");
+    }
     if (link[i].page >= page_count) {
       throw corrupt("link " + std::to_string(i) + " to page " + std::to_string(link[i].page) +
                     " outside the " + std::to_string(page_count) + " pages");
@@ -247,6 +259,7 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   view.payloads = stored;
   view.max_levels = kMaxPageLevels;
   view.rounded_payloads = rounded;
+  view.rounded_bounds = compact_frame;
   auto page = std::make_shared<tree::Page>();
   tree::expand_treelet(view, h.page_id, at, *page);
   // Link records carry a linked child's exact summary only when its

@@ -21,7 +21,7 @@ PageSetInspection inspect_page_set(const PageSetReader& reader, bool walk) {
   r.surfel_record_bytes =
       surfel_record_bytes(surfel_records_of(m.options.leaf_format, page_format_has_compact_records(m.page_format)));
   r.leaf_record_bytes = page_format_has_compact_frame(m.page_format) ? kCompactLeafRecordBytes : kLeafRecordBytes;
-  r.link_record_bytes = kLinkRecordBytes;
+  r.link_record_bytes = page_format_has_compact_frame(m.page_format) ? kCompactLinkRecordBytes : kLinkRecordBytes;
   r.link_payload_bytes = m.node_payloads                              ? 0
                          : page_format_rounds_payloads(m.page_format) ? tree::kRoundedPayloadBytes
                                                                       : codec->bytes_per_node();

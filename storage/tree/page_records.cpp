@@ -4,6 +4,7 @@
 #include "storage/format/byte_order.h"
 #include "storage/format/packed_values.h"
 #include "storage/format/page_frame.h"
+#include "storage/tree/bounds_rounding.h"
 
 #include <Imath/half.h>
 
@@ -176,6 +177,59 @@ bool read_compact_leaf_record(const uint8_t* in, LeafFrame& f, uint32_t& surfel_
   f = r.frame();
   // A centre beyond float range (a large k at a large exponent): never written.
   return std::isfinite(f.center.x) && std::isfinite(f.center.y) && std::isfinite(f.center.z);
+}
+
+namespace {
+// The 12-byte sphere of a compact link record: a rounded frame with m in a u16.
+void write_sphere(const LeafFrame& f, uint8_t* out) {
+  RoundedFrame r;
+  if (!to_rounded_frame(f, r)) throw Error("internal: a link record for a sphere that is not rounded");
+  out[0] = uint8_t(r.exponent + kFrameExponentBias);
+  for (int a = 0; a < 3; ++a) put_i24(out + 1 + 3 * a, r.k[a]);
+  store_le<uint16_t>(out + 10, uint16_t(r.m));
+}
+bool read_sphere(const uint8_t* in, LeafFrame& f) {
+  RoundedFrame r;
+  r.exponent = int(in[0]) - kFrameExponentBias;
+  if (r.exponent < kMinFrameExponent || r.exponent > kMaxFrameExponent) return false;
+  for (int a = 0; a < 3; ++a) {
+    r.k[a] = get_i24(in + 1 + 3 * a);
+    if (std::abs(r.k[a]) > kMaxRoundedFrameCenter) return false;
+  }
+  r.m = load_le<uint16_t>(in + 10);
+  if (r.m > kMaxRoundedFrameRadius) return false;
+  f = r.frame();
+  return std::isfinite(f.center.x) && std::isfinite(f.center.y) && std::isfinite(f.center.z);
+}
+}  // namespace
+
+void write_compact_link_record(uint32_t page, const tree::Node& n, uint8_t* out) {
+  store_le<uint32_t>(out, page);             // 0
+  write_sphere({n.center, n.radius}, out + 4);  // 4
+  uint32_t axis = 0;
+  uint16_t one_minus_cos = 0;
+  if (!tree::cone_code({n.cone_axis, n.cone_cos}, axis, one_minus_cos)) {
+    throw Error("internal: a link record for a cone that is not rounded");
+  }
+  store_le<uint32_t>(out + 16, axis);            // 16
+  store_le<uint16_t>(out + 20, one_minus_cos);   // 20
+  store_le<float>(out + 22, n.area);             // 22
+}
+
+bool read_compact_link_record(const uint8_t* in, uint32_t& page, tree::Node& n) {
+  page = load_le<uint32_t>(in);
+  LeafFrame sphere;
+  if (!read_sphere(in + 4, sphere)) return false;
+  tree::NormalCone cone;
+  if (!tree::cone_of_code(load_le<uint32_t>(in + 16), load_le<uint16_t>(in + 20), cone)) return false;
+  const float area = load_le<float>(in + 22);
+  if (!(area >= 0.f) || !std::isfinite(area)) return false;
+  n.center = sphere.center;
+  n.radius = sphere.radius;
+  n.cone_axis = cone.axis;
+  n.cone_cos = cone.cos_half_angle;
+  n.area = area;
+  return true;
 }
 
 void write_link_record(uint32_t page, const tree::Node& n, uint8_t* out) {

@@ -131,6 +131,19 @@ void write_link_record(uint32_t page, const tree::Node& n, uint8_t* out);
 // Reads them back into `n` (other fields untouched).
 void read_link_record(const uint8_t* in, uint32_t& page, tree::Node& n);
 
+// ---- compact link record (V8/V9) ----
+// kCompactLinkRecordBytes: u32 page; the child's sphere as a compact leaf
+// record's frame (u8 e + 128, three i24 k, u16 m: 12 bytes); its cone as
+// a u32 octahedral axis code and the u16 half-float bits of 1 - cos
+// (bounds_rounding.h); f32 area. The tree's bounds are rounded, so this
+// holds the child's summary exactly. write throws Error for bounds that
+// are not rounded (a writer's bug); read returns false for bytes no writer
+// produces (exponent, radius or 1 - cos out of range, a centre beyond
+// float range, an area that is negative or not finite).
+inline constexpr size_t kCompactLinkRecordBytes = 26;
+void write_compact_link_record(uint32_t page, const tree::Node& n, uint8_t* out);
+bool read_compact_link_record(const uint8_t* in, uint32_t& page, tree::Node& n);
+
 // ---- surfel record ----
 // Encodes `s` relative to `f` in `records` (surfel_record_bytes(records)
 // bytes); `s` must lie in the frame (its disk inside the sphere) for the

@@ -41,6 +41,7 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
   const PayloadMode mode = stored               ? PayloadMode::kNone
                            : t.rounded_payloads ? PayloadMode::kRounded
                                                 : PayloadMode::kExact;
+  const BoundsMode bounds = t.rounded_bounds ? BoundsMode::kRounded : BoundsMode::kExact;
   if (stored && t.payloads.size() != n) {
     throw corrupt(std::to_string(t.payloads.size()) + " stored payloads for " + std::to_string(n) + " nodes");
   }
@@ -161,7 +162,7 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
         decode_surfel_record(t.records, rec + k * record_bytes, f, s[k]);
       }
       const uint32_t first = node.first_surfel;
-      summarize_leaf({s, node.surfel_count}, f, node, mode);
+      summarize_leaf({s, node.surfel_count}, f, node, mode, bounds);
       node.first_surfel = first;
       if (stored) copy_payload(t.payloads[i], node);
       continue;
@@ -171,7 +172,7 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
       child[c] = shape[i].external[c] ? &t.links[link_of[i][c]].summary : &out.nodes[node.children[c].index];
     }
     const NodeRef links[2] = {node.children[0], node.children[1]};
-    summarize_internal(*child[0], child[1], node, mode);
+    summarize_internal(*child[0], child[1], node, mode, bounds);
     if (stored) copy_payload(t.payloads[i], node);
     node.children[0] = links[0];
     node.children[1] = links[1];

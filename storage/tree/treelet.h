@@ -48,6 +48,9 @@ struct TreeletView {
   // Derived payloads are rounded (payload_rounding.h: V6-V9 pages and the
   // trees this build makes) or exact (V4/V5 pages).
   bool rounded_payloads = true;
+  // Derived bounds are rounded (bounds_rounding.h: V8/V9 pages and the
+  // trees this build makes) or exact (V4-V7 pages).
+  bool rounded_bounds = true;
   // Leaf records are compact (13 bytes, V8/V9 pages) instead of 18 bytes.
   bool compact_leaf_records = false;
 };
@@ -69,7 +72,7 @@ struct Treelet {
   std::vector<SurfelGloss> gloss;
 
   TreeletView view() const {
-    return {shapes, leaf_records, links, surfel_records, records, emission, 0, {}, 0, true, false};
+    return {shapes, leaf_records, links, surfel_records, records, emission, 0, {}, 0, true, true, false};
   }
   size_t node_count() const { return shapes.size(); }
   size_t surfel_count() const;

@@ -227,7 +227,8 @@ TEST(PageEncoding, LinkPayloadsAreTheChildRootsExactly) {
   // The root page has no leaves (its treelet is the upper levels).
   ASSERT_TRUE(sink.treelets[root].leaf_records.empty());
   const size_t payload_at =
-      kCompactPageHeaderBytes + sink.treelets[root].shapes.size() + sink.treelets[root].links.size() * kLinkRecordBytes;
+      kCompactPageHeaderBytes + sink.treelets[root].shapes.size() + sink.treelets[root].links.size() * kCompactLinkRecordBytes;
+  const size_t links_at = kCompactPageHeaderBytes + sink.treelets[root].shapes.size();
   auto expect_corrupt = [&](std::vector<uint8_t> bad, const std::string& what) {
     seal_page(bad);
     try {
@@ -243,6 +244,18 @@ TEST(PageEncoding, LinkPayloadsAreTheChildRootsExactly) {
   bad = pages[root];
   bad.erase(bad.begin() + long(payload_at));
   expect_corrupt(bad, "payload array a byte short");
+  // A link record's fields out of range: the sphere's exponent, its radius
+  // past 12 bits, 1 - cos not a half float in [0, 2] (NaN, 3.0), a negative area.
+  const auto damage = [&](size_t at, std::vector<uint8_t> value, const std::string& what) {
+    auto b = pages[root];
+    std::copy(value.begin(), value.end(), b.begin() + long(links_at + at));
+    expect_corrupt(b, what);
+  };
+  damage(4, {255}, "sphere exponent");
+  damage(14, {0x00, 0x10}, "radius past 12 bits");
+  damage(20, {0x00, 0x7e}, "1 - cos NaN");
+  damage(20, {0x00, 0x42}, "1 - cos 3");
+  damage(22, {0x00, 0x00, 0x80, 0xbf}, "area -1");
 }
 
 // The manifest pairs page formats with payload storage: V4/V6/V8 derived,
