@@ -3,6 +3,7 @@
 #include "common/errors.h"
 #include "storage/codecs/glossy_pages.h"
 #include "storage/format/byte_order.h"
+#include "storage/pages/leaf_section.h"
 #include "storage/tree/page_records.h"
 #include "storage/tree/payload_rounding.h"
 
@@ -36,16 +37,13 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
   out.assign(leaves_at, 0);
   std::copy(t.shapes.begin(), t.shapes.end(), out.begin() + header_bytes);
   if (compact_frame) {
-    // The builder's frames are rounded (leaf_quantizer.h): 13 bytes hold
-    // each exactly.
-    const size_t leaves = t.leaf_records.size() / kLeafRecordBytes;
-    out.resize(leaves_at + leaves * kCompactLeafRecordBytes);
-    for (size_t i = 0; i < leaves; ++i) {
-      LeafFrame f;
-      uint32_t count = 0;
-      read_leaf_record(t.leaf_records.data() + i * kLeafRecordBytes, f, count);
-      write_compact_leaf_record(f, count, out.data() + leaves_at + i * kCompactLeafRecordBytes);
+    // The builder's frames are rounded (leaf_quantizer.h): the leaf
+    // section holds them exactly.
+    std::vector<LeafRecord> leaves(t.leaf_records.size() / kLeafRecordBytes);
+    for (size_t i = 0; i < leaves.size(); ++i) {
+      read_leaf_record(t.leaf_records.data() + i * kLeafRecordBytes, leaves[i].frame, leaves[i].surfel_count);
     }
+    encode_leaf_section(leaves, out);
   } else {
     out.insert(out.end(), t.leaf_records.begin(), t.leaf_records.end());
   }
@@ -160,28 +158,26 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
     links += ((s >> 2) & 1u) + ((s >> 3) & 1u);
   }
   const uint64_t leaves_at = compact_frame ? header_bytes + h.node_count : padded(header_bytes + h.node_count);
-  const size_t leaf_record_bytes = compact_frame ? kCompactLeafRecordBytes : kLeafRecordBytes;
   const size_t link_record_bytes = compact_frame ? kCompactLinkRecordBytes : kLinkRecordBytes;
-  const uint64_t links_at = leaves_at + leaves * leaf_record_bytes;
+  // V8/V9: the leaf section, decoded first (its size depends on its widths).
+  std::vector<LeafRecord> leaf_section;
+  const uint64_t leaf_bytes =
+      compact_frame ? decode_leaf_section(bytes.subspan(leaves_at, bytes.size() - kPageTrailerBytes - leaves_at), leaves,
+                                          leaf_section, at)
+                    : leaves * kLeafRecordBytes;
+  const uint64_t links_at = leaves_at + leaf_bytes;
   const uint64_t payload_at = links_at + links * link_record_bytes;
   if (compact_frame) {
-    // V8/V9 headers do not store the surfel count (the leaf records' counts
-    // add up to it) nor, in V8, the payload array's size (76 bytes a link).
+    // V8/V9 headers do not store the surfel count (the leaves' counts add
+    // up to it) nor, in V8, the payload array's size (76 bytes a link).
     if (payload_at + kPageTrailerBytes > bytes.size()) {
-      throw corrupt("header and shapes (" + std::to_string(h.node_count) + " nodes, " + std::to_string(leaves) +
-                    " leaves, " + std::to_string(links) + " links) need at least " +
+      throw corrupt("header, shapes and leaves (" + std::to_string(h.node_count) + " nodes, " +
+                    std::to_string(leaves) + " leaves, " + std::to_string(links) + " links) need at least " +
                     std::to_string(payload_at + kPageTrailerBytes) + " bytes, page has " +
                     std::to_string(bytes.size()));
     }
     uint64_t surfels = 0;
-    for (uint64_t i = 0; i < leaves; ++i) {
-      LeafFrame f;
-      uint32_t count = 0;
-      if (!read_compact_leaf_record(bytes.data() + leaves_at + i * kCompactLeafRecordBytes, f, count)) {
-        throw corrupt("leaf record " + std::to_string(i) + " has an exponent or centre out of range");
-      }
-      surfels += count;
-    }
+    for (const LeafRecord& l : leaf_section) surfels += l.surfel_count;
     if (surfels > std::numeric_limits<uint32_t>::max()) {
       throw corrupt("leaf records count " + std::to_string(surfels) + " surfels");
     }
@@ -249,8 +245,11 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   // 3. The treelet, every summary derived.
   tree::TreeletView view;
   view.shapes = shapes;
-  view.leaf_records = bytes.subspan(leaves_at, leaves * leaf_record_bytes);
-  view.compact_leaf_records = compact_frame;
+  if (compact_frame) {
+    view.leaves = leaf_section;
+  } else {
+    view.leaf_records = bytes.subspan(leaves_at, leaves * kLeafRecordBytes);
+  }
   view.links = link;
   view.surfel_records = bytes.subspan(surfels_at, uint64_t(h.surfel_count) * record_bytes);
   view.records = records;

@@ -148,37 +148,6 @@ bool to_rounded_frame(const LeafFrame& f, RoundedFrame& out) {
   return true;
 }
 
-void write_compact_leaf_record(const LeafFrame& f, uint32_t surfel_count, uint8_t* out) {
-  RoundedFrame r;
-  if (!to_rounded_frame(f, r) || surfel_count < 1 || surfel_count > kMaxCompactLeafSurfels) {
-    throw Error("internal: a compact leaf record of " + std::to_string(surfel_count) +
-                " surfels for a frame that is not rounded or a count out of range");
-  }
-  out[0] = uint8_t(r.exponent + kFrameExponentBias);
-  for (int a = 0; a < 3; ++a) put_i24(out + 1 + 3 * a, r.k[a]);
-  const uint32_t tail = r.m | (surfel_count - 1) << 12;
-  out[10] = uint8_t(tail);
-  out[11] = uint8_t(tail >> 8);
-  out[12] = uint8_t(tail >> 16);
-}
-
-bool read_compact_leaf_record(const uint8_t* in, LeafFrame& f, uint32_t& surfel_count) {
-  RoundedFrame r;
-  r.exponent = int(in[0]) - kFrameExponentBias;
-  if (r.exponent < kMinFrameExponent || r.exponent > kMaxFrameExponent) return false;
-  for (int a = 0; a < 3; ++a) r.k[a] = get_i24(in + 1 + 3 * a);
-  const uint32_t tail = get_u24(in + 10);
-  r.m = tail & 0xfffu;
-  surfel_count = (tail >> 12) + 1;
-  if (std::abs(r.k[0]) > kMaxRoundedFrameCenter || std::abs(r.k[1]) > kMaxRoundedFrameCenter ||
-      std::abs(r.k[2]) > kMaxRoundedFrameCenter || r.m > kMaxRoundedFrameRadius) {
-    return false;
-  }
-  f = r.frame();
-  // A centre beyond float range (a large k at a large exponent): never written.
-  return std::isfinite(f.center.x) && std::isfinite(f.center.y) && std::isfinite(f.center.z);
-}
-
 namespace {
 // The 12-byte sphere of a compact link record: a rounded frame with m in a u16.
 void write_sphere(const LeafFrame& f, uint8_t* out) {

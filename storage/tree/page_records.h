@@ -4,8 +4,11 @@
 //    live in another page. The shapes alone determine the treelet.
 //  * leaf record: the leaf's frame (bounding sphere, also the quantization
 //    frame of its surfels) and its surfel count: 18 bytes of floats in
-//    V4-V7 pages, 13 bytes in V8/V9 pages, whose frames are rounded
-//    (RoundedFrame below: every frame the tree build makes is).
+//    V4-V7 pages; in V8/V9 pages, whose frames are rounded (RoundedFrame
+//    below: every frame the tree build makes is), a bit-packed leaf
+//    section (storage/pages/leaf_section.h).
+//  * compact link record (V8/V9): the link record with the rounded
+//    bounds (bounds_rounding.h) in 26 bytes instead of 40.
 //  * link record: a child that lives in another page: that page's id and
 //    the bounds, cone and area of its root (its payload follows in the
 //    page's payload array), so that the ancestors' bounds and payloads can
@@ -79,8 +82,8 @@ struct LeafFrame {
 void write_leaf_record(const LeafFrame& f, uint32_t surfel_count, uint8_t* out);
 void read_leaf_record(const uint8_t* in, LeafFrame& f, uint32_t& surfel_count);
 
-// ---- rounded leaf frame, compact leaf record (V8/V9) ----
-// Leaf frames are rounded so that 13 bytes hold them exactly: the centre
+// ---- rounded leaf frame (V8/V9) ----
+// Leaf frames are rounded so that a few integers hold them exactly: the centre
 // is k * 2^e per axis and the radius m * 2^e, with one exponent e per
 // frame, |k| <= 2^22 and 0 <= m <= kMaxRoundedFrameRadius. e is the
 // larger of ilogb(radius) - 10 (a grid step of 1/2048 to 1/1024 of the
@@ -94,9 +97,8 @@ void read_leaf_record(const uint8_t* in, LeafFrame& f, uint32_t& surfel_count);
 // the tree is defined with rounded frames (leaf_quantizer.h quantizes the
 // surfels in them), so records hold the tree exactly and a page set
 // still equals the in-memory tree bit for bit.
-inline constexpr size_t kCompactLeafRecordBytes = 13;
 inline constexpr uint32_t kMaxRoundedFrameRadius = 4095;   // m: 12 bits
-inline constexpr uint32_t kMaxCompactLeafSurfels = 4096;   // count - 1: 12 bits (BuildOptions: leaf_size <= 4096)
+inline constexpr uint32_t kMaxCompactLeafSurfels = 4096;   // BuildOptions: leaf_size <= 4096
 inline constexpr int kMinFrameExponent = -126;
 inline constexpr int kMaxFrameExponent = 115;  // m 2^e stays a finite float
 struct RoundedFrame {
@@ -116,14 +118,12 @@ RoundedFrame round_frame_outward(const LeafFrame& f);
 // leaf_quantizer.h widens, is.
 inline constexpr int32_t kMaxRoundedFrameCenter = (1 << 23) - 1;  // i24
 bool to_rounded_frame(const LeafFrame& f, RoundedFrame& out);
-// Compact leaf record (kCompactLeafRecordBytes): u8 e + 128, three i24 k,
-// then a u24 holding m (bits 0-11) and surfel_count - 1 (bits 12-23).
-// `f` must be rounded and 1 <= surfel_count <= kMaxCompactLeafSurfels
-// (else Error: a writer's bug). read_compact_leaf_record returns false for
-// bytes no writer produces (an exponent out of range, a centre beyond float
-// range).
-void write_compact_leaf_record(const LeafFrame& f, uint32_t surfel_count, uint8_t* out);
-bool read_compact_leaf_record(const uint8_t* in, LeafFrame& f, uint32_t& surfel_count);
+// A leaf's frame and surfel count, as a page's leaf section (V8/V9,
+// storage/pages/leaf_section.h) holds them.
+struct LeafRecord {
+  LeafFrame frame;
+  uint32_t surfel_count = 0;
+};
 
 // ---- link record ----
 // Writes page, center, radius, cone axis, cone cos and area of `n`.

@@ -32,8 +32,8 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
   using namespace storage;
   auto corrupt = [&](const std::string& msg) { return CorruptionError(what + ": " + msg); };
   const size_t n = t.shapes.size();
-  const size_t leaf_record_bytes = t.compact_leaf_records ? kCompactLeafRecordBytes : kLeafRecordBytes;
-  const size_t leaves = t.leaf_records.size() / leaf_record_bytes;
+  const bool decoded_leaves = !t.leaves.empty();
+  const size_t leaves = decoded_leaves ? t.leaves.size() : t.leaf_records.size() / kLeafRecordBytes;
   const size_t record_bytes = surfel_record_bytes(t.records);
   const size_t surfels = t.surfel_records.size() / record_bytes;
   if (n == 0) throw corrupt("page has no nodes");
@@ -80,12 +80,11 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
     }
     if (leaf >= leaves) throw corrupt("more leaves than the " + std::to_string(leaves) + " leaf records");
     uint32_t count = 0;
-    const uint8_t* record = t.leaf_records.data() + leaf * leaf_record_bytes;
-    if (!t.compact_leaf_records) {
-      read_leaf_record(record, frame[leaf], count);
-    } else if (!read_compact_leaf_record(record, frame[leaf], count)) {
-      throw corrupt("leaf " + std::to_string(leaf) + " (node " + std::to_string(i) +
-                    ") has a frame exponent or centre out of range");
+    if (decoded_leaves) {
+      frame[leaf] = t.leaves[leaf].frame;
+      count = t.leaves[leaf].surfel_count;
+    } else {
+      read_leaf_record(t.leaf_records.data() + leaf * kLeafRecordBytes, frame[leaf], count);
     }
     if (count == 0 || first_surfel + count > surfels) {
       throw corrupt("leaf " + std::to_string(leaf) + " (node " + std::to_string(i) + ") has surfels [" +

@@ -29,7 +29,7 @@ struct TreeletLink {
 // Borrowed view of a treelet's parts.
 struct TreeletView {
   std::span<const uint8_t> shapes;          // storage::kShapeBytes per node
-  std::span<const uint8_t> leaf_records;    // storage::kLeafRecordBytes per leaf (kCompactLeafRecordBytes if compact)
+  std::span<const uint8_t> leaf_records;    // storage::kLeafRecordBytes per leaf (V4-V7 pages, the build)
   std::span<const TreeletLink> links;       // in the order the parse meets them
   std::span<const uint8_t> surfel_records;  // surfel_record_bytes(records) per surfel
   storage::SurfelRecords records = storage::SurfelRecords::kCompact;
@@ -51,8 +51,9 @@ struct TreeletView {
   // Derived bounds are rounded (bounds_rounding.h: V8/V9 pages and the
   // trees this build makes) or exact (V4-V7 pages).
   bool rounded_bounds = true;
-  // Leaf records are compact (13 bytes, V8/V9 pages) instead of 18 bytes.
-  bool compact_leaf_records = false;
+  // V8/V9 pages: the leaves' frames and counts, decoded from the page's
+  // leaf section, used instead of leaf_records (then empty).
+  std::span<const storage::LeafRecord> leaves;
 };
 
 // An owning treelet, as the builder hands it to a page writer.
@@ -72,7 +73,7 @@ struct Treelet {
   std::vector<SurfelGloss> gloss;
 
   TreeletView view() const {
-    return {shapes, leaf_records, links, surfel_records, records, emission, 0, {}, 0, true, true, false};
+    return {shapes, leaf_records, links, surfel_records, records, emission, 0, {}, 0, true, true, {}};
   }
   size_t node_count() const { return shapes.size(); }
   size_t surfel_count() const;

@@ -640,41 +640,6 @@ TEST(PageRecords, RoundedFrameContainsTheSphereWithinItsBound) {
   EXPECT_THROW(round_frame_outward({{0.f, 0.f, 0.f}, 3e38f}), InvalidArgument);
 }
 
-TEST(PageRecords, CompactLeafRecordRoundTripAndRefusal) {
-  const LeafFrame f = round_frame_outward({{1.f, -2.f, 3.5e4f}, 0.25f}).frame();
-  for (const uint32_t count : {1u, 3u, 4096u}) {
-    uint8_t rec[kCompactLeafRecordBytes];
-    write_compact_leaf_record(f, count, rec);
-    LeafFrame g;
-    uint32_t n = 0;
-    ASSERT_TRUE(read_compact_leaf_record(rec, g, n));
-    EXPECT_EQ(g.center, f.center);
-    EXPECT_EQ(g.radius, f.radius);
-    EXPECT_EQ(n, count);
-    EXPECT_EQ((uint32_t(rec[11]) >> 4 | uint32_t(rec[12]) << 4) + 1, count);  // bits 12-23 of the u24 at 10
-  }
-  uint8_t rec[kCompactLeafRecordBytes];
-  // A frame that is not rounded, or a count the record cannot hold: a writer's bug.
-  EXPECT_THROW(write_compact_leaf_record({{0.1f, 0.f, 0.f}, 1.f}, 1, rec), Error);
-  EXPECT_THROW(write_compact_leaf_record(f, 0, rec), Error);
-  EXPECT_THROW(write_compact_leaf_record(f, 4097, rec), Error);
-  // Bytes no writer produces: exponents outside [-126, 115], a centre
-  // beyond float range.
-  write_compact_leaf_record(f, 2, rec);
-  LeafFrame g;
-  uint32_t n = 0;
-  for (const int byte : {0, 1, 244, 255}) {
-    uint8_t bad[kCompactLeafRecordBytes];
-    std::copy(rec, rec + kCompactLeafRecordBytes, bad);
-    bad[0] = uint8_t(byte);
-    EXPECT_FALSE(read_compact_leaf_record(bad, g, n)) << byte;
-  }
-  uint8_t far[kCompactLeafRecordBytes];
-  std::copy(rec, rec + kCompactLeafRecordBytes, far);
-  far[0] = 115 + 128;
-  far[1] = 0xff, far[2] = 0xff, far[3] = 0x3f;  // k = 2^22 - 1 at 2^115
-  EXPECT_FALSE(read_compact_leaf_record(far, g, n));
-}
 
 }  // namespace
 }  // namespace pbgi::storage

@@ -8,6 +8,7 @@
 #include "storage/codecs/payload_codec.h"
 #include "storage/format/byte_order.h"
 #include "storage/format/packed_values.h"
+#include "storage/pages/leaf_section.h"
 #include "storage/pages/manifest_file.h"
 #include "storage/tree/leaf_quantizer.h"
 #include "storage/tree/morton.h"
@@ -53,6 +54,17 @@ std::vector<Surfel> leaf_surfels() {
   return s;
 }
 
+// The size of the leaf section of a treelet's leaves (V8/V9 pages).
+size_t leaf_section_bytes(const tree::Treelet& t) {
+  std::vector<LeafRecord> leaves(t.leaf_records.size() / kLeafRecordBytes);
+  for (size_t i = 0; i < leaves.size(); ++i) {
+    read_leaf_record(t.leaf_records.data() + i * kLeafRecordBytes, leaves[i].frame, leaves[i].surfel_count);
+  }
+  std::vector<uint8_t> out;
+  encode_leaf_section(leaves, out);
+  return out.size();
+}
+
 std::shared_ptr<tree::Page> decode(std::span<const uint8_t> bytes, uint32_t version) {
   static const auto codec = make_payload_codec(0);
   return decode_page(bytes, {"/x/pages.pbgp", 0, 0}, version, *codec, 1);
@@ -70,7 +82,7 @@ TEST(PageEncoding, CompactAndRelativePagesDecodeWhatTheBuildDecoded) {
     const uint32_t version = layout == SurfelRecords::kCompact ? kPageFormatV8 : kPageFormatV4;
     EXPECT_EQ(read_page_header(bytes.data()).format_version, version);
     const size_t body = layout == SurfelRecords::kCompact
-                            ? kCompactPageHeaderBytes + 1 /*shape, not padded*/ + kCompactLeafRecordBytes +
+                            ? kCompactPageHeaderBytes + 1 /*shape, not padded*/ + leaf_section_bytes(t) +
                                   4 * surfel_record_bytes(layout)
                             : kPageHeaderBytes + 4 /*shape, padded*/ + kLeafRecordBytes + 4 * surfel_record_bytes(layout);
     EXPECT_EQ(bytes.size(), body + t.emission.size() + kPageTrailerBytes);
@@ -107,7 +119,8 @@ TEST(PageEncoding, SharedAlbedoIsStoredOnce) {
     const bool shared = layout == SurfelRecords::kCompact;
     EXPECT_EQ((h.flags & kPageFlagSharedAlbedo) != 0, shared);
     const size_t records = shared ? 4 + 4 * kCompactSharedAlbedoRecordBytes : 4 * surfel_record_bytes(layout);
-    const size_t frame = shared ? kCompactPageHeaderBytes + 1 + kCompactLeafRecordBytes : kPageHeaderBytes + 4 + kLeafRecordBytes;
+    const size_t frame =
+        shared ? kCompactPageHeaderBytes + 1 + leaf_section_bytes(t) : kPageHeaderBytes + 4 + kLeafRecordBytes;
     EXPECT_EQ(bytes.size(), frame + records + t.emission.size() + kPageTrailerBytes);
     const auto page = decode(bytes, h.format_version);
     ASSERT_EQ(page->surfels.size(), want.size());
@@ -138,7 +151,8 @@ TEST(PageEncoding, EmissionFlagsAndEntriesMustAgree) {
   std::vector<uint8_t> good;
   encode_page(t, 0, *codec, good);
   ASSERT_NO_THROW(decode(good, kPageFormatV8));
-  const size_t records_at = kCompactPageHeaderBytes + 1 + kCompactLeafRecordBytes;
+  const size_t leaves_at = kCompactPageHeaderBytes + 1;
+  const size_t records_at = leaves_at + leaf_section_bytes(t);
   auto expect_corrupt = [&](std::vector<uint8_t> bad, const std::string& what) {
     seal_page(bad);  // V8 headers do not store the page's size
     try {
@@ -154,17 +168,23 @@ TEST(PageEncoding, EmissionFlagsAndEntriesMustAgree) {
     bad[records_at + surfel * kCompactSurfelRecordBytes + 9] ^= 0x80;
     expect_corrupt(bad, "flipped emission flag of surfel " + std::to_string(surfel));
   }
-  // A leaf record's exponent no writer produces; its count one more or one
-  // less than the records (which then do not add up to the page).
-  for (const int delta : {0, 1, -1}) {
+  // The leaf section's widths out of range; its leaf's count one more or
+  // one less than the records (which then do not add up to the page).
+  for (const uint8_t widths2 : {uint8_t(0xd0) /*count bits 13*/, uint8_t(0x0d) /*radius bits 13*/}) {
     auto bad = good;
-    uint8_t* leaf = bad.data() + kCompactPageHeaderBytes + 1;
-    if (delta == 0) {
-      leaf[0] = 250;
-    } else {
-      leaf[11] = uint8_t(leaf[11] + delta * 16);  // count - 1 lies in bits 12-23 of the u24 at 10
-    }
-    expect_corrupt(bad, "leaf record damaged (" + std::to_string(delta) + ")");
+    bad[leaves_at + 2] = widths2;
+    expect_corrupt(bad, "leaf section widths");
+  }
+  for (const int delta : {1, -1}) {
+    std::vector<LeafRecord> leaves;
+    const size_t section = decode_leaf_section(std::span(good).subspan(leaves_at), 1, leaves, "test");
+    leaves[0].surfel_count = uint32_t(int(leaves[0].surfel_count) + delta);
+    std::vector<uint8_t> other;
+    encode_leaf_section(leaves, other);
+    auto bad = good;
+    bad.erase(bad.begin() + long(leaves_at), bad.begin() + long(leaves_at + section));
+    bad.insert(bad.begin() + long(leaves_at), other.begin(), other.end());
+    expect_corrupt(bad, "leaf count " + std::to_string(delta));
   }
   // An entry missing, or one too many.
   auto shorter = good;
