@@ -42,9 +42,30 @@ float cos_of(uint16_t s_bits) {
 
 }  // namespace
 
+// A decoded axis that encodes to a code decoding to it again, so that
+// cone_code() finds it. Re-encoding a decoded axis is not always stable:
+// on the lower hemisphere's fold a coordinate decoded as 0 encodes to the
+// mirrored code, which decodes a few ulp away; a few rounds reach a
+// stable one. false if they do not (never seen; the caller widens).
+bool stable_axis(const Imath::V3f& axis, Imath::V3f& out) {
+  uint32_t code = storage::encode_octahedral_bits(axis, kAxisBits);
+  for (int round = 0; round < 4; ++round) {
+    out = decode_axis(code);
+    const uint32_t again = storage::encode_octahedral_bits(out, kAxisBits);
+    if (decode_axis(again) == out) return true;
+    code = again;
+  }
+  return false;
+}
+
 NormalCone round_cone_outward(const NormalCone& c) {
   NormalCone out;
-  out.axis = decode_axis(storage::encode_octahedral_bits(c.axis, kAxisBits));
+  if (!stable_axis(c.axis, out.axis)) {
+    // The whole sphere around a stable axis: contains anything.
+    stable_axis({0.f, 0.f, 1.f}, out.axis);
+    out.cos_half_angle = -1.f;
+    return out;
+  }
   // The axis moved by the angle between the two unit vectors, at most
   // 2 asin(chord / 2) <= 1.0001 chord for the chords here (< 1e-3); the
   // float normalization adds ~1e-7.
