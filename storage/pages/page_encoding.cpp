@@ -12,6 +12,14 @@
 
 namespace pbgi::storage {
 
+// The builder sizes pages with V4-V7 records (streaming_tree_builder.h:
+// 18 bytes a leaf, 40 + 76 a link, a 32-byte header and 3 bytes of
+// padding); V8/V9 pages never take more, so no page exceeds page_size:
+// a leaf section takes at most 3 + 13 bytes for its first leaf and 15
+// for each other, a link 26 + 88 bytes, the header 18.
+static_assert(kCompactLinkRecordBytes + tree::kMaxCompactPayloadBytes <= kLinkRecordBytes + tree::kRoundedPayloadBytes);
+static_assert(kCompactPageHeaderBytes + 4 <= kPageHeaderBytes);
+
 namespace {
 // Leaf records start at a multiple of 4 from the page start.
 size_t padded(size_t n) { return (n + 3) & ~size_t(3); }
@@ -66,6 +74,8 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
   // by the codec; V6/V8: the linked children's rounded payloads.
   if (node_payloads) {
     codec.encode(t.nodes, out);
+  } else if (compact_frame) {
+    for (const tree::Node& l : linked) tree::write_compact_payload(l, out);
   } else if (page_format_rounds_payloads(version)) {
     out.resize(payload_at + linked.size() * tree::kRoundedPayloadBytes);
     for (size_t i = 0; i < linked.size(); ++i) {
@@ -167,9 +177,11 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
                     : leaves * kLeafRecordBytes;
   const uint64_t links_at = leaves_at + leaf_bytes;
   const uint64_t payload_at = links_at + links * link_record_bytes;
+  std::vector<tree::Node> compact_payloads;
   if (compact_frame) {
     // V8/V9 headers do not store the surfel count (the leaves' counts add
-    // up to it) nor, in V8, the payload array's size (76 bytes a link).
+    // up to it) nor, in V8, the payload array's size (its compact payloads
+    // say theirs).
     if (payload_at + kPageTrailerBytes > bytes.size()) {
       throw corrupt("header, shapes and leaves (" + std::to_string(h.node_count) + " nodes, " +
                     std::to_string(leaves) + " leaves, " + std::to_string(links) + " links) need at least " +
@@ -182,7 +194,20 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
       throw corrupt("leaf records count " + std::to_string(surfels) + " surfels");
     }
     h.surfel_count = uint32_t(surfels);
-    if (!node_payloads) h.payload_bytes = uint32_t(links * tree::kRoundedPayloadBytes);
+    if (!node_payloads) {
+      // V8: the linked children's compact payloads, back to back.
+      compact_payloads.resize(links);
+      uint64_t used = 0;
+      const auto rest = bytes.subspan(payload_at, bytes.size() - kPageTrailerBytes - payload_at);
+      for (uint64_t i = 0; i < links; ++i) {
+        const size_t n = tree::read_compact_payload(rest.subspan(used), compact_payloads[i]);
+        if (n == 0) {
+          throw corrupt("link " + std::to_string(i) + "'s payload is cut short or holds what no writer produces");
+        }
+        used += n;
+      }
+      h.payload_bytes = uint32_t(used);
+    }
   }
   const uint64_t albedo_at = payload_at + h.payload_bytes;
   const uint64_t surfels_at = albedo_at + (shared_albedo ? 4 : 0);
@@ -227,6 +252,11 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   if (node_payloads) {
     stored.resize(h.node_count);
     codec.decode(bytes.subspan(payload_at, h.payload_bytes), stored, at);
+  } else if (compact_frame) {
+    for (uint64_t i = 0; i < links; ++i) {
+      linked[i].radiance_sh = compact_payloads[i].radiance_sh;
+      linked[i].coverage_sh = compact_payloads[i].coverage_sh;
+    }
   } else if (rounded) {
     if (h.payload_bytes != links * tree::kRoundedPayloadBytes) {
       throw corrupt("payload array of " + std::to_string(h.payload_bytes) + " bytes for " + std::to_string(links) +
