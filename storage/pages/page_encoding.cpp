@@ -40,10 +40,16 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
                                   : (node_payloads ? kPageFormatNodePayloads : kPageFormatCurrent);
   const bool compact_frame = page_format_has_compact_frame(version);
   const size_t header_bytes = page_header_bytes(version);
-  // V4-V7: leaf records at a multiple of 4; V8/V9 need no alignment.
-  const size_t leaves_at = compact_frame ? header_bytes + n : padded(header_bytes + n);
+  // V4-V7: a shape byte per node, leaf records at a multiple of 4; V8/V9:
+  // two shapes a byte (node 2i in the low nibble), no alignment.
+  const size_t shape_bytes = compact_frame ? (n + 1) / 2 : n;
+  const size_t leaves_at = compact_frame ? header_bytes + shape_bytes : padded(header_bytes + n);
   out.assign(leaves_at, 0);
-  std::copy(t.shapes.begin(), t.shapes.end(), out.begin() + header_bytes);
+  if (compact_frame) {
+    for (size_t i = 0; i < n; ++i) out[header_bytes + i / 2] |= uint8_t(t.shapes[i] << (4 * (i % 2)));
+  } else {
+    std::copy(t.shapes.begin(), t.shapes.end(), out.begin() + header_bytes);
+  }
   if (compact_frame) {
     // The builder's frames are rounded (leaf_quantizer.h): the leaf
     // section holds them exactly.
@@ -125,7 +131,7 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
 
 std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const PageLocation& where,
                           uint32_t expected_version, const PayloadCodec& codec,
-                          uint32_t page_count, bool glossy_allowed, LeafFormat leaf_format) {
+                          uint32_t page_count, bool glossy_allowed, LeafFormat leaf_format, PageParts* parts) {
   PageHeader h = open_page(bytes, where, expected_version);
   const std::string at = where.describe();
   auto corrupt = [&](const std::string& msg) { return CorruptionError(at + ": " + msg); };
@@ -158,16 +164,29 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   // 1. Sizes. Leaf and link counts follow from the shapes (each byte is
   //    checked when the treelet is parsed).
   const uint64_t body = bytes.size() - header_bytes - kPageTrailerBytes;
-  if (h.node_count > body) {
-    throw corrupt(std::to_string(h.node_count) + " shape bytes do not fit the page");
+  const uint64_t shape_bytes = compact_frame ? (uint64_t(h.node_count) + 1) / 2 : h.node_count;
+  if (shape_bytes > body) {
+    throw corrupt(std::to_string(h.node_count) + " shapes do not fit the page");
   }
-  const std::span<const uint8_t> shapes = bytes.subspan(header_bytes, h.node_count);
+  // V8/V9 shapes are nibbles: unpacked, one byte a node, for the parse.
+  std::vector<uint8_t> unpacked;
+  std::span<const uint8_t> shapes;
+  if (!compact_frame) {
+    shapes = bytes.subspan(header_bytes, h.node_count);
+  } else {
+    unpacked.resize(h.node_count);
+    for (uint32_t i = 0; i < h.node_count; ++i) unpacked[i] = (bytes[header_bytes + i / 2] >> (4 * (i % 2))) & 15u;
+    if (h.node_count % 2 == 1 && (bytes[header_bytes + h.node_count / 2] >> 4) != 0) {
+      throw corrupt("the shapes' padding nibble is not zero");
+    }
+    shapes = unpacked;
+  }
   uint64_t leaves = 0, links = 0;
   for (uint8_t s : shapes) {
     leaves += (s & 3u) == 0 ? 1 : 0;
     links += ((s >> 2) & 1u) + ((s >> 3) & 1u);
   }
-  const uint64_t leaves_at = compact_frame ? header_bytes + h.node_count : padded(header_bytes + h.node_count);
+  const uint64_t leaves_at = compact_frame ? header_bytes + shape_bytes : padded(header_bytes + h.node_count);
   const size_t link_record_bytes = compact_frame ? kCompactLinkRecordBytes : kLinkRecordBytes;
   // V8/V9: the leaf section, decoded first (its size depends on its widths).
   std::vector<LeafRecord> leaf_section;
@@ -222,6 +241,10 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   }
   const uint64_t glossy_at = emission_at + emitting * kEmissionEntryBytes;
   const uint64_t need = glossy_at + kPageTrailerBytes;
+  if (parts) {
+    *parts = {header_bytes, leaves_at, links_at, payload_at, albedo_at, surfels_at, emission_at, glossy_at,
+              bytes.size() - kPageTrailerBytes};
+  }
   // A glossy section fills what lies between the surfels and the trailer.
   if (glossy ? need >= bytes.size() : need != bytes.size()) {
     throw corrupt("header and shapes (" + std::to_string(h.node_count) + " nodes, " + std::to_string(leaves) +

@@ -25,6 +25,14 @@ namespace pbgi::storage {
 void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& codec,
                  std::vector<uint8_t>& out, std::span<const uint8_t> glossy = {});
 
+// Where the parts of a decoded page lie: byte offsets from its start, in
+// page order (FORMAT.md); each part ends where the next begins, the
+// trailer at the page's end. For size breakdowns (benchmarks, inspection).
+struct PageParts {
+  uint64_t shapes = 0, leaves = 0, links = 0, payloads = 0, albedo = 0, surfels = 0, emission = 0, glossy = 0,
+           trailer = 0;
+};
+
 // Verifies (checksum, header, sizes, shapes, links) and decodes the page at
 // `where`, deriving every node's summary. Links must point to pages with a
 // smaller id (written before). A glossy section is accepted only when
@@ -36,6 +44,6 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
 std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const PageLocation& where,
                           uint32_t expected_version, const PayloadCodec& codec,
                           uint32_t page_count, bool glossy_allowed = false,
-                          LeafFormat leaf_format = LeafFormat::kRelative);
+                          LeafFormat leaf_format = LeafFormat::kRelative, PageParts* parts = nullptr);
 
 }  // namespace pbgi::storage

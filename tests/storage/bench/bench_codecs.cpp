@@ -28,8 +28,9 @@
 #include "server/surfels/surfels.h"
 #include "storage/cache/page_cache.h"
 #include "storage/format/page_frame.h"
+#include "storage/codecs/payload_codec.h"
+#include "storage/pages/page_encoding.h"
 #include "storage/pages/page_set.h"
-#include "storage/tree/payload_rounding.h"
 #include "storage/tree/tree_builder.h"
 
 #include <CLI/CLI.hpp>
@@ -141,28 +142,23 @@ struct Row {
   double glossy_shade_seconds = 0;
 };
 
-// Sum of the payload arrays of every page, from the page headers (V8
-// pages do not store it: 76 bytes per link, counted from the shapes).
+// Sum of the payload arrays of every page (decoded: V8 headers do not
+// store their size).
 uint64_t payload_bytes(const fs::path& dir, const storage::Manifest& m) {
   std::ifstream f(dir / storage::kPagesFileName, std::ios::binary);
+  const auto codec = storage::make_payload_codec(m.codec, m.codec_state, dir.string());
   uint64_t total = 0;
   std::vector<uint8_t> page;
-  for (const storage::PageExtent& e : m.pages) {
+  for (uint32_t id = 0; id < m.pages.size(); ++id) {
+    const storage::PageExtent& e = m.pages[id];
     page.resize(e.bytes);
     f.seekg(std::streamoff(e.offset));
     f.read(reinterpret_cast<char*>(page.data()), std::streamsize(page.size()));
-    if (!f) throw IoError(dir.string() + ": cannot read page");
-    const storage::PageHeader h = storage::read_page_header(page.data());
-    if (!storage::page_format_has_compact_frame(h.format_version) ||
-        storage::page_format_stores_node_payloads(h.format_version)) {
-      total += h.payload_bytes;
-      continue;
-    }
-    const size_t shapes_at = storage::page_header_bytes(h.format_version);
-    for (uint32_t i = 0; i < h.node_count && shapes_at + i < page.size(); ++i) {
-      const uint8_t s = page[shapes_at + i];
-      total += (((s >> 2) & 1u) + ((s >> 3) & 1u)) * tree::kRoundedPayloadBytes;
-    }
+    if (!f) throw IoError(dir.string() + ": cannot read page " + std::to_string(id));
+    storage::PageParts parts;
+    storage::decode_page(page, {(dir / storage::kPagesFileName).string(), id, e.offset}, m.page_format, *codec,
+                         uint32_t(m.pages.size()), m.glossy_resolution != 0, m.options.leaf_format, &parts);
+    total += parts.albedo - parts.payloads;
   }
   return total;
 }

@@ -151,7 +151,7 @@ TEST(PageEncoding, EmissionFlagsAndEntriesMustAgree) {
   std::vector<uint8_t> good;
   encode_page(t, 0, *codec, good);
   ASSERT_NO_THROW(decode(good, kPageFormatV8));
-  const size_t leaves_at = kCompactPageHeaderBytes + 1;
+  const size_t leaves_at = kCompactPageHeaderBytes + 1;  // one shape nibble, padded
   const size_t records_at = leaves_at + leaf_section_bytes(t);
   auto expect_corrupt = [&](std::vector<uint8_t> bad, const std::string& what) {
     seal_page(bad);  // V8 headers do not store the page's size
@@ -167,6 +167,12 @@ TEST(PageEncoding, EmissionFlagsAndEntriesMustAgree) {
     auto bad = good;
     bad[records_at + surfel * kCompactSurfelRecordBytes + 9] ^= 0x80;
     expect_corrupt(bad, "flipped emission flag of surfel " + std::to_string(surfel));
+  }
+  // V8 shapes are nibbles: the one node's byte has a zero high nibble.
+  {
+    auto bad = good;
+    bad[kCompactPageHeaderBytes] |= 0x10;
+    expect_corrupt(bad, "shape padding nibble");
   }
   // The leaf section's widths out of range; its leaf's count one more or
   // one less than the records (which then do not add up to the page).
@@ -247,8 +253,9 @@ TEST(PageEncoding, LinkPayloadsAreTheChildRootsExactly) {
   // The root page has no leaves (its treelet is the upper levels).
   ASSERT_TRUE(sink.treelets[root].leaf_records.empty());
   const size_t payload_at =
-      kCompactPageHeaderBytes + sink.treelets[root].shapes.size() + sink.treelets[root].links.size() * kCompactLinkRecordBytes;
-  const size_t links_at = kCompactPageHeaderBytes + sink.treelets[root].shapes.size();
+      kCompactPageHeaderBytes + (sink.treelets[root].shapes.size() + 1) / 2 +
+      sink.treelets[root].links.size() * kCompactLinkRecordBytes;
+  const size_t links_at = kCompactPageHeaderBytes + (sink.treelets[root].shapes.size() + 1) / 2;
   auto expect_corrupt = [&](std::vector<uint8_t> bad, const std::string& what) {
     seal_page(bad);
     try {
