@@ -105,9 +105,15 @@ inline constexpr uint32_t kPageFlagSharedAlbedo = 1u << 3;
 inline constexpr uint32_t kManifestFormatV1 = 1;
 inline constexpr uint32_t kManifestFormatV2 = 2;
 inline constexpr uint32_t kManifestFormatV3 = 3;
+//   V5: V4's fields (glossy_resolution may be 0, leaf_format 0 or 1), the
+//       page table as the pages' sizes alone, LEB128 varints: pages follow
+//       each other from offset 0 without gaps, so the offsets are the
+//       sizes' prefix sums (2 bytes a page instead of 12). Written with
+//       V8/V9 pages, and only with them.
 inline constexpr uint32_t kManifestFormatV4 = 4;
-inline constexpr uint32_t kManifestFormatCurrent = kManifestFormatV2;  // diffuse page sets
-inline constexpr uint32_t kManifestFormatLatest = kManifestFormatV4;   // the newest this build reads
+inline constexpr uint32_t kManifestFormatV5 = 5;
+inline constexpr uint32_t kManifestFormatCurrent = kManifestFormatV5;  // what this build writes
+inline constexpr uint32_t kManifestFormatLatest = kManifestFormatV5;   // the newest this build reads
 
 // Version of a page set as a whole (manifest + pages + codec set). Build keys
 // hash it, so bumping it makes every daemon rebuild its cached page sets.
@@ -165,7 +171,7 @@ constexpr bool page_format_rounds_payloads(uint32_t v) { return v >= kPageFormat
 // page_records.h).
 constexpr bool page_format_has_compact_frame(uint32_t v) { return v == kPageFormatV8 || v == kPageFormatV9; }
 constexpr bool is_known_manifest_format(uint32_t v) {
-  return v >= kManifestFormatV1 && v <= kManifestFormatV4;
+  return v >= kManifestFormatV1 && v <= kManifestFormatV5;
 }
 
 }  // namespace pbgi::storage

@@ -7,6 +7,7 @@
 #include "common/errors.h"
 #include "storage/codecs/payload_codec.h"
 #include "storage/format/byte_order.h"
+#include "storage/format/manifest_frame.h"
 #include "storage/format/packed_values.h"
 #include "storage/pages/leaf_section.h"
 #include "storage/pages/manifest_file.h"
@@ -308,6 +309,67 @@ TEST(PageEncoding, ManifestPairsPageFormatsWithPayloadStorage) {
     m.node_payloads = false;
     EXPECT_THROW(decode_manifest(encode_manifest(m), "m"), CorruptionError) << format;
   }
+}
+
+// Manifest V5 (with V8/V9 pages): the page table is the pages' sizes,
+// LEB128, the offsets their prefix sums.
+TEST(PageEncoding, ManifestV5StoresPageSizesOnly) {
+  Manifest m;
+  m.build_key = "k";
+  m.page_format = kPageFormatV8;
+  const std::vector<uint32_t> sizes = {40, 127, 128, 16383, 16384, 1u << 30};
+  uint64_t at = 0;
+  for (const uint32_t b : sizes) {
+    m.pages.push_back({at, b});
+    at += b;
+  }
+  m.stats.page_count = uint32_t(sizes.size());
+  m.stats.file_bytes = at;
+  const auto file = encode_manifest(m);
+  EXPECT_EQ(unframe_manifest(file, "m").version, kManifestFormatV5);
+  const Manifest back = decode_manifest(file, "m");
+  ASSERT_EQ(back.pages.size(), sizes.size());
+  for (size_t i = 0; i < sizes.size(); ++i) {
+    EXPECT_EQ(back.pages[i].offset, m.pages[i].offset) << i;
+    EXPECT_EQ(back.pages[i].bytes, m.pages[i].bytes) << i;
+  }
+  // 1 + 1 + 2 + 2 + 3 + 5 bytes of sizes, against 12 a page before.
+  Manifest v2 = m;
+  v2.page_format = kPageFormatV6;
+  EXPECT_EQ(encode_manifest(v2).size() - file.size(), 12 * sizes.size() - 14 - 12 /*V5's glossy and leaf fields*/);
+
+  auto expect_corrupt = [&](const Manifest& bad, const std::string& what) {
+    try {
+      decode_manifest(encode_manifest(bad), "/x/manifest.pbgm");
+      FAIL() << what << ": accepted";
+    } catch (const CorruptionError& e) {
+      EXPECT_TRUE(contains(e.what(), "/x/manifest.pbgm")) << e.what();
+    }
+  };
+  Manifest longer = m;
+  longer.stats.file_bytes += 1;  // the sizes do not add up to the file
+  expect_corrupt(longer, "sizes short of the file");
+  // A V5 table cannot say a page does not follow the previous one.
+  Manifest gap = m;
+  gap.pages[2].offset += 1;
+  EXPECT_THROW(encode_manifest(gap), Error);
+  // A redundant varint byte (128 as 0x80 0x81 0x00 ...): written by hand.
+  auto body = unframe_manifest(file, "m").body;
+  std::vector<uint8_t> raw(body.begin(), body.end());
+  const size_t table = raw.size() - 12 - (1 + 1 + 2 + 2 + 3 + 5);
+  EXPECT_EQ(raw[table], 40u);
+  raw.insert(raw.begin() + long(table) + 1, 0x00);
+  raw[table] = 40 | 0x80;
+  try {
+    decode_manifest(frame_manifest(raw, kManifestFormatV5), "/x/manifest.pbgm");
+    FAIL() << "redundant varint byte accepted";
+  } catch (const CorruptionError& e) {
+    EXPECT_TRUE(contains(e.what(), "redundant")) << e.what();
+  }
+  // V5 manifests go with V8/V9 pages only, and V8/V9 pages with them.
+  raw.assign(body.begin(), body.end());
+  store_le<uint32_t>(raw.data(), kPageFormatV6);
+  EXPECT_THROW(decode_manifest(frame_manifest(raw, kManifestFormatV5), "m"), CorruptionError);
 }
 
 }  // namespace

@@ -416,10 +416,11 @@ TEST(PageSet, HalfLeafFormatRoundTrip) {
   // 38 against 24 bytes per surfel.
   EXPECT_GT(m.stats.file_bytes, mr.stats.file_bytes + 3000 * 10);
 
+  // V8 page sets have V5 manifests, which state the leaf format either way.
   const auto manifest_bytes = read_file(tmp.path() / "half" / kManifestFileName);
-  EXPECT_EQ(unframe_manifest(manifest_bytes, "m").version, kManifestFormatV4);
+  EXPECT_EQ(unframe_manifest(manifest_bytes, "m").version, kManifestFormatV5);
   EXPECT_EQ(unframe_manifest(read_file(tmp.path() / "relative" / kManifestFileName), "m").version,
-            kManifestFormatCurrent);
+            kManifestFormatV5);
 
   PageSetReader reader(tmp.path() / "half", nullptr);
   EXPECT_EQ(reader.manifest().options.leaf_format, LeafFormat::kHalf);
@@ -444,11 +445,11 @@ TEST(PageSet, HalfLeafFormatRoundTrip) {
   } catch (const CorruptionError& e) {
     EXPECT_TRUE(contains(e.what(), "flags")) << e.what();
   }
-  // And a V4 manifest naming an unknown leaf format is corrupt.
+  // And a manifest naming an unknown leaf format is corrupt.
   auto body = unframe_manifest(manifest_bytes, "m").body;
   std::vector<uint8_t> raw(body.begin(), body.end());
   raw[raw.size() - 4] = 7;  // the leaf_format u32, last in the body
-  write_file(tmp.path() / "half" / kManifestFileName, frame_manifest(raw, kManifestFormatV4));
+  write_file(tmp.path() / "half" / kManifestFileName, frame_manifest(raw, kManifestFormatV5));
   EXPECT_THROW(PageSetReader(tmp.path() / "half", nullptr), CorruptionError);
 }
 
