@@ -4,6 +4,7 @@
 #include "storage/codecs/glossy_pages.h"
 #include "storage/format/byte_order.h"
 #include "storage/pages/leaf_section.h"
+#include "storage/pages/surfel_section.h"
 #include "storage/tree/page_records.h"
 #include "storage/tree/payload_rounding.h"
 
@@ -94,7 +95,9 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
   // Compact records that all hold one albedo: stored once, records
   // without it (kPageFlagSharedAlbedo).
   const size_t surfels = t.surfel_count();
-  bool shared_albedo = t.records == SurfelRecords::kCompact && surfels > 0;
+  // V8/V9: compact records as a column-packed surfel section.
+  const bool surfel_section = compact_frame && t.records == SurfelRecords::kCompact;
+  bool shared_albedo = !surfel_section && t.records == SurfelRecords::kCompact && surfels > 0;
   for (size_t k = 1; shared_albedo && k < surfels; ++k) {
     shared_albedo = compact_record_albedo(t.surfel_records.data() + k * kCompactSurfelRecordBytes) ==
                     compact_record_albedo(t.surfel_records.data());
@@ -107,6 +110,8 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
       drop_albedo(t.surfel_records.data() + k * kCompactSurfelRecordBytes,
                   out.data() + albedo_at + 4 + k * kCompactSharedAlbedoRecordBytes);
     }
+  } else if (surfel_section) {
+    encode_surfel_section(t.surfel_records, out);
   } else {
     out.insert(out.end(), t.surfel_records.begin(), t.surfel_records.end());
   }
@@ -149,8 +154,12 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
                               (leaf_format == LeafFormat::kHalf ? kPageFlagHalfLeaves : 0u);
   SurfelRecords records = surfel_records_of(leaf_format, page_format_has_compact_records(h.format_version));
   const bool glossy = glossy_allowed && (h.flags & kPageFlagGlossy) != 0;
-  // A shared albedo only over compact records (V6/V7, leaf format relative).
-  const bool shared_albedo = records == SurfelRecords::kCompact && (h.flags & kPageFlagSharedAlbedo) != 0;
+  // A shared albedo only over compact records in V6/V7 pages (V8/V9 pages
+  // store compact records in a surfel section, which needs no flag).
+  const bool surfel_section =
+      page_format_has_compact_frame(h.format_version) && records == SurfelRecords::kCompact;
+  const bool shared_albedo =
+      !surfel_section && records == SurfelRecords::kCompact && (h.flags & kPageFlagSharedAlbedo) != 0;
   if (shared_albedo) records = SurfelRecords::kCompactSharedAlbedo;
   const size_t record_bytes = surfel_record_bytes(records);
   if ((h.flags & ~(glossy ? kPageFlagGlossy : 0u) & ~(shared_albedo ? kPageFlagSharedAlbedo : 0u)) != want_flags) {
@@ -230,13 +239,29 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   }
   const uint64_t albedo_at = payload_at + h.payload_bytes;
   const uint64_t surfels_at = albedo_at + (shared_albedo ? 4 : 0);
-  const uint64_t emission_at = surfels_at + uint64_t(h.surfel_count) * record_bytes;
+  // V8/V9 compact records: decoded from the surfel section (its size
+  // follows from its column widths) into `unpacked_records`.
+  std::vector<uint8_t> unpacked_records;
+  std::span<const uint8_t> record_span;
+  uint64_t surfel_bytes = uint64_t(h.surfel_count) * record_bytes;
+  if (surfel_section) {
+    if (surfels_at + kPageTrailerBytes > bytes.size()) {
+      throw corrupt("the payload array (" + std::to_string(h.payload_bytes) + " bytes) runs past the page");
+    }
+    surfel_bytes = decode_surfel_section(bytes.subspan(surfels_at, bytes.size() - kPageTrailerBytes - surfels_at),
+                                         h.surfel_count, unpacked_records, at);
+    record_span = unpacked_records;
+  }
+  const uint64_t emission_at = surfels_at + surfel_bytes;
+  if (!surfel_section && emission_at + kPageTrailerBytes <= bytes.size()) {
+    record_span = bytes.subspan(surfels_at, surfel_bytes);
+  }
   // Compact records: one emission entry per record that emits (counted
   // once the records are known to lie inside the page).
   uint64_t emitting = 0;
-  if (emission_out_of_line(records) && emission_at + kPageTrailerBytes <= bytes.size()) {
+  if (emission_out_of_line(records) && record_span.size() == uint64_t(h.surfel_count) * record_bytes) {
     for (uint64_t k = 0; k < h.surfel_count; ++k) {
-      emitting += surfel_record_emits(records, bytes.data() + surfels_at + k * record_bytes) ? 1 : 0;
+      emitting += surfel_record_emits(records, record_span.data() + k * record_bytes) ? 1 : 0;
     }
   }
   const uint64_t glossy_at = emission_at + emitting * kEmissionEntryBytes;
@@ -304,7 +329,7 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
     view.leaf_records = bytes.subspan(leaves_at, leaves * kLeafRecordBytes);
   }
   view.links = link;
-  view.surfel_records = bytes.subspan(surfels_at, uint64_t(h.surfel_count) * record_bytes);
+  view.surfel_records = record_span;
   view.records = records;
   if (shared_albedo) view.shared_albedo = load_le<uint32_t>(bytes.data() + albedo_at);
   view.emission = bytes.subspan(emission_at, emitting * kEmissionEntryBytes);

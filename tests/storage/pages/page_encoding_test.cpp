@@ -11,6 +11,7 @@
 #include "storage/format/packed_values.h"
 #include "storage/pages/leaf_section.h"
 #include "storage/pages/manifest_file.h"
+#include "storage/pages/surfel_section.h"
 #include "storage/tree/leaf_quantizer.h"
 #include "storage/tree/morton.h"
 #include "storage/tree/payload_rounding.h"
@@ -66,6 +67,13 @@ size_t leaf_section_bytes(const tree::Treelet& t) {
   return out.size();
 }
 
+// The size of the surfel section of a treelet's compact records (V8/V9).
+size_t surfel_section_bytes(const tree::Treelet& t) {
+  std::vector<uint8_t> out;
+  encode_surfel_section(t.surfel_records, out);
+  return out.size();
+}
+
 std::shared_ptr<tree::Page> decode(std::span<const uint8_t> bytes, uint32_t version) {
   static const auto codec = make_payload_codec(0);
   return decode_page(bytes, {"/x/pages.pbgp", 0, 0}, version, *codec, 1);
@@ -84,7 +92,7 @@ TEST(PageEncoding, CompactAndRelativePagesDecodeWhatTheBuildDecoded) {
     EXPECT_EQ(read_page_header(bytes.data()).format_version, version);
     const size_t body = layout == SurfelRecords::kCompact
                             ? kCompactPageHeaderBytes + 1 /*shape, not padded*/ + leaf_section_bytes(t) +
-                                  4 * surfel_record_bytes(layout)
+                                  surfel_section_bytes(t)
                             : kPageHeaderBytes + 4 /*shape, padded*/ + kLeafRecordBytes + 4 * surfel_record_bytes(layout);
     EXPECT_EQ(bytes.size(), body + t.emission.size() + kPageTrailerBytes);
     const auto page = decode(bytes, version);
@@ -105,29 +113,33 @@ TEST(PageEncoding, CompactAndRelativePagesDecodeWhatTheBuildDecoded) {
   }
 }
 
-// Compact pages whose surfels share one albedo store it once, with 14-byte
-// records, and decode to the same surfels; other layouts never do.
+// Compact pages whose surfels share one albedo store it once: in V8 pages
+// as albedo columns of width 0 in the surfel section (V6's shared-albedo
+// flag is refused there); V4 pages store it in every record.
 TEST(PageEncoding, SharedAlbedoIsStoredOnce) {
   std::vector<Surfel> surfels = leaf_surfels();
+  std::vector<Surfel> varied = surfels;
   for (Surfel& s : surfels) s.albedo = {0.7f, 0.5f, 0.25f};
   const auto codec = make_payload_codec(0);
   for (const SurfelRecords layout : {SurfelRecords::kCompact, SurfelRecords::kRelative}) {
-    std::vector<Surfel> want;
+    std::vector<Surfel> want, unused;
     const tree::Treelet t = one_leaf(layout, surfels, want);
-    std::vector<uint8_t> bytes;
+    std::vector<uint8_t> bytes, varied_bytes;
     encode_page(t, 0, *codec, bytes);
+    encode_page(one_leaf(layout, varied, unused), 0, *codec, varied_bytes);
     const PageHeader h = read_page_header(bytes.data());
-    const bool shared = layout == SurfelRecords::kCompact;
-    EXPECT_EQ((h.flags & kPageFlagSharedAlbedo) != 0, shared);
-    const size_t records = shared ? 4 + 4 * kCompactSharedAlbedoRecordBytes : 4 * surfel_record_bytes(layout);
-    const size_t frame =
-        shared ? kCompactPageHeaderBytes + 1 + leaf_section_bytes(t) : kPageHeaderBytes + 4 + kLeafRecordBytes;
-    EXPECT_EQ(bytes.size(), frame + records + t.emission.size() + kPageTrailerBytes);
+    EXPECT_EQ(h.flags & kPageFlagSharedAlbedo, 0u);
+    if (layout == SurfelRecords::kCompact) {
+      // 4 surfels of one albedo against 4 of different ones: the 27 bits
+      // of mantissas a surfel (less the differences' widths) are gone.
+      EXPECT_LE(bytes.size() + 4 * 2, varied_bytes.size());
+    } else {
+      EXPECT_EQ(bytes.size(), varied_bytes.size());
+    }
     const auto page = decode(bytes, h.format_version);
     ASSERT_EQ(page->surfels.size(), want.size());
     for (size_t i = 0; i < want.size(); ++i) EXPECT_TRUE(test::same_surfel(page->surfels[i], want[i])) << i;
-    // The flag where it does not belong: a V4 page, or a page whose
-    // records are not laid out for it (re-sealed, as a writer bug would).
+    // The V6 flag on a V8 or a V4 page (re-sealed, as a writer bug would).
     auto bad = bytes;
     PageHeader flipped = h;
     flipped.flags ^= kPageFlagSharedAlbedo;
@@ -135,7 +147,7 @@ TEST(PageEncoding, SharedAlbedoIsStoredOnce) {
     seal_page(bad);
     try {
       decode(bad, h.format_version);
-      FAIL() << "shared albedo flag flipped on a page of format " << h.format_version;
+      FAIL() << "shared albedo flag set on a page of format " << h.format_version;
     } catch (const CorruptionError& e) {
       EXPECT_TRUE(contains(e.what(), "/x/pages.pbgp: page 0")) << e.what();
     }
@@ -163,11 +175,26 @@ TEST(PageEncoding, EmissionFlagsAndEntriesMustAgree) {
       EXPECT_TRUE(contains(e.what(), "/x/pages.pbgp: page 0")) << e.what();
     }
   };
-  // A record that says it emits without an entry, and one that lost its flag.
+  // A record that says it emits without an entry, and one that lost its
+  // flag (the surfel section re-encoded with the flipped bit).
+  const size_t section = surfel_section_bytes(t);
   for (const size_t surfel : {size_t(1), size_t(0)}) {
+    std::vector<uint8_t> records = t.surfel_records;
+    records[surfel * kCompactSurfelRecordBytes + 9] ^= 0x80;
+    std::vector<uint8_t> other;
+    encode_surfel_section(records, other);
     auto bad = good;
-    bad[records_at + surfel * kCompactSurfelRecordBytes + 9] ^= 0x80;
+    bad.erase(bad.begin() + long(records_at), bad.begin() + long(records_at + section));
+    bad.insert(bad.begin() + long(records_at), other.begin(), other.end());
     expect_corrupt(bad, "flipped emission flag of surfel " + std::to_string(surfel));
+  }
+  // The surfel section: a column wider than its field (the first column,
+  // x, is 14 bits: its width nibble follows them), or cut short.
+  {
+    auto bad = good;
+    bad[records_at + 1] |= 0xc0;  // x's width: bits 14-17 of the section
+    bad[records_at + 2] |= 0x03;
+    expect_corrupt(bad, "surfel column width 15");
   }
   // V8 shapes are nibbles: the one node's byte has a zero high nibble.
   {
