@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cstring>
 
 namespace pbgi::storage {
 
@@ -33,24 +34,6 @@ uint32_t field(const uint8_t* rec, const Column& c) {
     return uint32_t(v & ((uint64_t(1) << c.bits) - 1));
   }
   return (load_le<uint32_t>(rec + (c.word == 1 ? 10 : 14)) >> c.shift) & ((1u << c.bits) - 1);
-}
-
-void set_field(uint8_t* rec, const Column& c, uint32_t v) {
-  if (c.word == 0) {
-    uint64_t lo = load_le<uint64_t>(rec);
-    uint64_t hi = load_le<uint16_t>(rec + 8);
-    if (c.shift >= 64) {
-      hi |= uint64_t(v) << (c.shift - 64);
-    } else {
-      lo |= uint64_t(v) << c.shift;
-      if (c.shift + c.bits > 64) hi |= uint64_t(v) >> (64 - c.shift);
-    }
-    store_le<uint64_t>(rec, lo);
-    store_le<uint16_t>(rec + 8, uint16_t(hi));
-    return;
-  }
-  uint8_t* at = rec + (c.word == 1 ? 10 : 14);
-  store_le<uint32_t>(at, load_le<uint32_t>(at) | v << c.shift);
 }
 
 }  // namespace
@@ -107,13 +90,48 @@ size_t decode_surfel_section(std::span<const uint8_t> bytes, size_t surfel_count
     throw corrupt(std::to_string(surfel_count) + " surfels need " + std::to_string(size) + " bytes, " +
                   std::to_string(bytes.size()) + " remain");
   }
+  // Surfel by surfel, each record assembled in registers and stored once:
+  // column c's values start at bit start[c] of the section.
+  uint64_t start[std::size(kColumns)];
+  uint64_t at = header_bits;
   for (size_t c = 0; c < std::size(kColumns); ++c) {
-    const uint32_t limit = 1u << kColumns[c].bits;
-    for (size_t i = 0; i < surfel_count; ++i) {
-      const uint32_t v = lo[c] + r.get(width[c]);
-      if (v >= limit) throw corrupt("surfel " + std::to_string(i) + "'s column " + std::to_string(c) + " is past its field");
-      set_field(records.data() + i * kCompactSurfelRecordBytes, kColumns[c], v);
+    start[c] = at;
+    at += uint64_t(surfel_count) * width[c];
+  }
+  const uint8_t* data = bytes.data();
+  auto get = [&](uint64_t bit, uint32_t w) -> uint32_t {
+    if (w == 0) return 0;
+    // Up to 8 bytes from bit / 8, never past the section (w <= 14: the
+    // value lies in the first 3).
+    uint8_t buf[8] = {};
+    const uint64_t byte = bit / 8;
+    std::memcpy(buf, data + byte, size_t(std::min<uint64_t>(8, size - byte)));
+    const uint64_t word = load_le<uint64_t>(buf);
+    return uint32_t((word >> (bit % 8)) & ((uint64_t(1) << w) - 1));
+  };
+  for (size_t i = 0; i < surfel_count; ++i) {
+    uint32_t v[std::size(kColumns)];
+    for (size_t c = 0; c < std::size(kColumns); ++c) {
+      v[c] = lo[c] + get(start[c] + i * width[c], width[c]);
+      if (v[c] >> kColumns[c].bits) {
+        throw corrupt("surfel " + std::to_string(i) + "'s column " + std::to_string(c) + " is past its field");
+      }
     }
+    uint8_t* rec = records.data() + i * kCompactSurfelRecordBytes;
+    uint64_t lo64 = 0, hi16 = 0;
+    for (size_t c = 0; c < 7; ++c) {
+      const uint32_t sh = kColumns[c].shift;
+      if (sh >= 64) {
+        hi16 |= uint64_t(v[c]) << (sh - 64);
+      } else {
+        lo64 |= uint64_t(v[c]) << sh;
+        if (sh + kColumns[c].bits > 64) hi16 |= uint64_t(v[c]) >> (64 - sh);
+      }
+    }
+    store_le<uint64_t>(rec, lo64);
+    store_le<uint16_t>(rec + 8, uint16_t(hi16));
+    store_le<uint32_t>(rec + 10, v[7] | v[8] << 9 | v[9] << 18 | v[10] << 27);
+    store_le<uint32_t>(rec + 14, v[11] | v[12] << 9 | v[13] << 18 | v[14] << 27);
   }
   const uint32_t pad = uint32_t((8 - bits % 8) % 8);
   if (pad > 0 && (bytes[size - 1] >> (8 - pad)) != 0) throw corrupt("padding bits are not zero");
