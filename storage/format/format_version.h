@@ -45,12 +45,15 @@ inline constexpr uint32_t kSceneEntryMagic = fourcc("PBGS");  // <cache>/ingeste
 //       payloads (storage/tree/payload_rounding.h), which the links store
 //       in 76 bytes. Derived payloads.
 //   V7: V5 (every node's payload stored) with V6's compact records.
-//   V8: V6 with a 14-byte page header (fields the page table or the shapes
-//       already give are gone: page_bytes, surfel_count, payload_bytes;
-//       narrower node count, codec and flags), no padding, and 13-byte
-//       leaf records: the tree's leaf frames are rounded (page_records.h
-//       RoundedFrame: centre on a power-of-two grid, radius rounded up),
-//       so a record stores them exactly. Derived payloads.
+//   V8: V6's treelet in a compact page frame (FORMAT.md "Page formats V8
+//       and V9"): a 14-byte header (what the page table, the shapes or the
+//       sections give is gone: page_bytes, surfel_count, payload_bytes;
+//       narrower node count, codec and flags), shapes two a byte, a
+//       bit-packed leaf section, 26-byte link records, compact link
+//       payloads, a column-packed surfel section. The tree's node bounds
+//       and leaf frames are rounded (bounds_rounding.h, page_records.h
+//       RoundedFrame), as V6's payloads were, so links and leaves store
+//       them exactly. Derived payloads. Always with a V5 manifest.
 //   V9: V8 with every node's payload stored (V7's payload array, its size
 //       in a u32 after the header).
 inline constexpr uint32_t kPageFormatV1 = 1;
@@ -126,8 +129,8 @@ inline constexpr uint32_t kManifestFormatLatest = kManifestFormatV5;   // the ne
 //      the build key), unaligned.
 //   5: V6/V7 pages: compact (18-byte) surfel records, emission section,
 //      shared albedo, rounded node payloads (76-byte link payloads).
-//   6: V8/V9 pages: 14-byte page headers, rounded leaf frames in 13-byte
-//      leaf records.
+//   6: V8/V9 pages (rounded node bounds and leaf frames, compact page
+//      frame) and V5 manifests (page sizes).
 inline constexpr uint32_t kPageSetFormatVersion = 6;
 
 // Ingested-scene entry versions (server/ingest/scene_entry.h).

@@ -1,6 +1,10 @@
-// A treelet <-> the bytes of one V4-V7 page (layout in FORMAT.md):
+// A treelet <-> the bytes of one V4-V9 page (layout in FORMAT.md):
 //   header | shapes | pad | leaf records | link records | payload array |
-//   surfel records | emission entries (V6/V7) | glossy section | trailer
+//   surfel records | emission entries (V6-V9) | glossy section | trailer
+// V8/V9 pages (what this build writes; V4-V7 are read) hold the same
+// parts in compact forms: nibble shapes, no pad, a leaf section
+// (leaf_section.h), 26-byte link records, compact link payloads
+// (payload_rounding.h), a surfel section (surfel_section.h).
 // The payload array holds, through the page set's codec, the payloads of
 // the linked children (the roots of other pages) in link order: what the
 // nodes of this page need to derive their own payloads (V2). A treelet that

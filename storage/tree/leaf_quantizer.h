@@ -6,7 +6,7 @@
 // decoded surfels, so they hold for exactly what a reader gets. The frame
 // radius is at most ~0.05% larger than the tightest sphere of the input,
 // then rounded outward (page_records.h RoundedFrame: up to ~0.15% more),
-// so that a compact leaf record (V8/V9 pages) holds it exactly.
+// so that a V8/V9 page's leaf section holds it exactly.
 //
 // Thread-safety: pure functions.
 #pragma once
