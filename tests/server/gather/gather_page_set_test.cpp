@@ -285,10 +285,11 @@ TEST(GatherPageSet, AttachedViewFreesThePagesDecodedContent) {
 // leaf surfel and the page's fixed costs). 7.7x before the view freed the
 // page's decoded nodes and kept compact surfels and looks; 3.75x at most
 // with V4 pages, ~5.2x with V6's (the same decoded pages over ~30 % fewer
-// bytes on disk: docs/measurements/2026-11-27-compact-records.md), so the
-// charge a page is bounded too.
+// bytes on disk: docs/measurements/2026-11-27-compact-records.md), 8.3x
+// with V8's (~35 % fewer again: 2026-11-27-compact-v8.md), so the charge a
+// page is bounded too.
 TEST(GatherPageSet, CachedPageCostsAFewTimesItsBytesOnDisk) {
-  constexpr double kMaxDecodedOverDisk = 5.5;
+  constexpr double kMaxDecodedOverDisk = 8.5;
   constexpr uint64_t kMaxChargePerPage = 2500;  // measured 2349 here
   TempDir tmp;
   const test::SyntheticCity city(60000, 4);
