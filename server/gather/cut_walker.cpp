@@ -115,8 +115,8 @@ inline float luminance(const Imath::C3f& c) {
 
 // Starts loading a node's traversal line and its look (page_views.h).
 inline void prefetch(const PageView& view, uint32_t index) {
-  __builtin_prefetch(view.node_data() + index);
-  __builtin_prefetch(view.looks + index);
+  __builtin_prefetch(view.packed_nodes() + index);
+  __builtin_prefetch(view.looks() + index);
 }
 
 }  // namespace
@@ -179,8 +179,8 @@ void CutWalker::push_root() {
     if (root.index == 0) {
       std::copy(view->cold->node0_dc, view->cold->node0_dc + 4, dc);
     } else {
-      const WideNode* full = view->full_node(root.index);
       WideNode own;
+      const WideNode* full = view->full_node(root.index, own) ? &own : nullptr;
       if (!full && root.index < page->nodes.size()) full = &(own = wide_node(page->nodes[root.index]));
       if (!full) {
         pins_.release(pin);
@@ -253,7 +253,7 @@ void CutWalker::push_children(const StackEntry& parent, const HotNode& h) {
   // Pushed last to first so that the first child is visited first: the
   // traversal then runs in the depth-first pre-order pages are laid out in.
   for (uint32_t c = h.size(); c-- > 0;) {
-    const tree::NodeRef ref = h.children[c];
+    const tree::NodeRef ref = view.child(h, c);
     const PageView* child_view = &view;
     uint32_t pin = parent.pin;
     if (ref.page == view.id) {
@@ -280,16 +280,15 @@ void CutWalker::push_children(const StackEntry& parent, const HotNode& h) {
   }
 }
 
-const HotNode& CutWalker::resolve(StackEntry& e) {
-  const HotNode& h = e.view->node_data()[e.index];
+HotNode CutWalker::resolve(StackEntry& e, const HotNode& h) {
   if (!h.proxy()) return h;
-  const tree::NodeRef ref = h.children[0];
+  const tree::NodeRef ref = e.view->proxy_target(h);
   const PageView* view = nullptr;
   const uint32_t pin = pins_.acquire(ref.page, view);
-  // The node's address needs no load (PageView::node_data): its line is on
-  // its way while the header's page_nodes is read (node 0, the usual
+  // The node's address needs no load (PageView::packed_nodes): its line is
+  // on its way while the header's page_nodes is read (node 0, the usual
   // target, shares the header's pair of lines).
-  __builtin_prefetch(view->node_data() + ref.index);
+  __builtin_prefetch(view->packed_nodes() + ref.index);
   if (ref.index >= view->page_nodes) {
     pins_.release(pin);
     throw CorruptionError("tree page " + std::to_string(e.view->id) + " node " + std::to_string(e.index) +
@@ -298,7 +297,7 @@ const HotNode& CutWalker::resolve(StackEntry& e) {
   }
   pins_.release(e.pin);
   e = {view, ref.index, pin};
-  return view->node_data()[ref.index];
+  return view->node(ref.index);
 }
 
 bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V3f& v, float d2,
@@ -314,7 +313,7 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
   if (h.narrow()) {
     // Flat node: coverage from its cone, mean radiance (node_appearance.h),
     // both precomputed in the page view.
-    const NodeLook& look = e.view->looks[e.index];
+    const NodeLook look = e.view->look(e.index);
     if (!(look.area > 0.f)) return true;
     const float coverage = narrow_coverage(-dir, Imath::V3f(h.ax, h.ay, h.az),
                                            Imath::V3f(look.mx, look.my, look.mz), fan_cone(h.cone_cos));
@@ -328,11 +327,11 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
     if (h.glossy()) add_glossy(e, -dir, coverage, radiance);
   } else if (h.bipolar()) {
     // Both faces of a thin wall: only the one turned towards the receiver.
-    const Bipolar& b = e.view->bipolar[e.view->bipolar_index[e.index]];
-    const NodeLook& look = e.view->looks[e.index];
+    const Bipolar& b = e.view->bipolar_of(e.index);
+    const float area = e.view->look_area(e.index);
     float coverage;
-    if (!(look.area > 0.f) || !bipolar_appearance(b, -dir, coverage, radiance)) return true;
-    shape.omega = std::min(look.area * coverage, disk) / d2;
+    if (!(area > 0.f) || !bipolar_appearance(b, -dir, coverage, radiance)) return true;
+    shape.omega = std::min(area * coverage, disk) / d2;
     shape.squash = b.axis;
     shape.ratio = std::min(1.f, std::abs(b.axis.dot(dir)));
     shape.facing = b.axis.dot(dir) < 0.f ? b.axis : -b.axis;
@@ -356,12 +355,11 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
     const bool small = disk < kWideRefineFraction * cut_ * d2;
     if (!small && (!(h.cone_cos > 0.f) || (cos_phi < 0.f && cos_far < -kStraddleCos))) return false;
     straddles = cos_far < 0.f;
-    const WideNode* full = e.view->full_node(e.index);  // kept for every wide, non-bipolar node
-    if (!full) {
+    WideNode node;  // kept for every wide, non-bipolar node
+    if (!e.view->full_node(e.index, node)) {
       throw CorruptionError("tree page " + std::to_string(e.view->id) + " node " + std::to_string(e.index) +
                             ": wide node without its payload");
     }
-    const WideNode& node = *full;
     Appearance look;
     if (!node_appearance(node, -dir, look)) return true;
     shape.omega = std::min(node.area * look.coverage, disk) / d2;
@@ -393,17 +391,16 @@ bool CutWalker::splat_node(const StackEntry& e, const HotNode& h, const Imath::V
 
 void CutWalker::add_glossy(const StackEntry& e, const Imath::V3f& w, float coverage, Imath::C3f& radiance) {
   if (!(coverage > kMinCoverage)) return;
-  const Imath::C3f g = e.view->glossy->evaluate(e.index, w);
+  const Imath::C3f g = e.view->glossy()->evaluate(e.index, w);
   // Dropped wavelet details can leave small negative values.
   const float inv = 1.f / coverage;
   radiance += Imath::C3f(std::max(0.f, g.x) * inv, std::max(0.f, g.y) * inv, std::max(0.f, g.z) * inv);
 }
 
 void CutWalker::leaf_surfels(const StackEntry& e, const HotNode& h) {
-  const uint32_t end = h.first + h.size();  // checked against the page by the view
-  const LeafSurfel* surfels = e.view->surfels();
-  for (uint32_t i = h.first; i < end; ++i) {
-    const LeafSurfel& s = surfels[i];
+  const uint32_t end = h.first() + h.size();  // checked against the page by the view
+  for (uint32_t i = h.first(); i < end; ++i) {
+    const LeafSurfel s = e.view->surfel(h, i);
     if (!(s.radius > 0.f)) continue;
     const Imath::V3f q = s.position - p_;
     const float facing = s.normal.dot(q);  // < 0: the receiver sees the front
@@ -425,9 +422,10 @@ void CutWalker::leaf_surfels(const StackEntry& e, const HotNode& h) {
       // the leaf's, over the leaf's projected fraction towards the receiver.
       const Imath::V3f w = -q / std::sqrt(d2);
       float projected = 0.f, area = 0.f;
-      for (uint32_t k = h.first; k < end; ++k) {
-        projected += surfels[k].area() * std::max(0.f, surfels[k].normal.dot(w));
-        area += surfels[k].area();
+      for (uint32_t k = h.first(); k < end; ++k) {
+        const LeafSurfel other = e.view->surfel(h, k);
+        projected += other.area() * std::max(0.f, other.normal.dot(w));
+        area += other.area();
       }
       if (area > 0.f) add_glossy(e, w, projected / area, radiance);
     }
@@ -465,7 +463,7 @@ void CutWalker::walk(const CutOf& cut_of) {
     StackEntry e = stack_.back();
     stack_.pop_back();
     if (!stack_.empty()) prefetch(*stack_.back().view, stack_.back().index);
-    const HotNode& h = e.view->node_data()[e.index];
+    const HotNode h = e.view->node(e.index);
     ++visited;
     const Imath::V3f v(h.cx - p_.x, h.cy - p_.y, h.cz - p_.z);
     const float d2 = v.length2();
@@ -479,7 +477,7 @@ void CutWalker::walk(const CutOf& cut_of) {
           done = splat_node(e, h, v, d2, nullptr);
         }
         if (!done) {
-          const HotNode& open = resolve(e);  // loads a proxy's page
+          const HotNode open = resolve(e, h);  // loads a proxy's page
           if (!open.leaf()) {
             push_children(e, open);
           } else {
@@ -530,7 +528,7 @@ void CutWalker::walk_cluster_stack(const ClusterFrame& c, float eps, bool open_n
     StackEntry e = stack_.back();
     stack_.pop_back();
     if (!stack_.empty()) prefetch(*stack_.back().view, stack_.back().index);
-    const HotNode& h = e.view->node_data()[e.index];
+    const HotNode h = e.view->node(e.index);
     ++visited;
     const Imath::V3f v(h.cx - c.p.x, h.cy - c.p.y, h.cz - c.p.z);
     const float d2 = v.length2();
@@ -548,7 +546,7 @@ void CutWalker::walk_cluster_stack(const ClusterFrame& c, float eps, bool open_n
       // be shared instead of each member drawing them.
       const float farthest = std::sqrt(d2) + c.radius;
       if (open_near && !h.leaf() && kPi * h.radius * h.radius > omega_max * farthest * farthest) {
-        const HotNode& open = resolve(e);  // loads a proxy's page
+        const HotNode open = resolve(e, h);  // loads a proxy's page
         if (!open.leaf()) {
           push_children(e, open);
           pins_.release(e.pin);
@@ -564,7 +562,7 @@ void CutWalker::walk_cluster_stack(const ClusterFrame& c, float eps, bool open_n
       pins_.release(e.pin);
       continue;
     }
-    const HotNode& open = resolve(e);  // loads a proxy's page
+    const HotNode open = resolve(e, h);  // loads a proxy's page
     if (open.leaf()) {
       near.push_back(e);  // surfels one by one: per receiver
       continue;

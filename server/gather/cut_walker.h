@@ -111,11 +111,11 @@ class CutWalker {
   bool culled_for_cluster(const HotNode& h, const Imath::V3f& v, float d2,
                           const ClusterFrame& c) const;
   void push_children(const StackEntry& parent, const HotNode& h);
-  // The node to open for `e`: its own, or for a proxy (HotNode::kProxy)
+  // The node to open for `e` (whose node is `h`): `h`, or for a proxy (HotNode::kProxy)
   // the child it stands for, whose page is pinned (the proxy's pin
   // reference moves to it, `e` is updated). Throws what PagePins::acquire
   // throws, CorruptionError for a link to a missing node.
-  const HotNode& resolve(StackEntry& e);
+  HotNode resolve(StackEntry& e, const HotNode& h);
   // walk_cluster() on whatever the stack holds; `open_near`: near nodes
   // every member would refine are opened rather than handed back.
   void walk_cluster_stack(const ClusterFrame& c, float epsilon, bool open_near, FarBuffer& far,
@@ -125,7 +125,7 @@ class CutWalker {
   // HDR-aware cut wants it refined.
   bool splat_node(const StackEntry& e, const HotNode& h, const Imath::V3f& v, float d2,
                   FarBuffer* far);
-  // The surfels of leaf `h` (PageView::surfels()), one by one.
+  // The surfels of leaf `h` (PageView::surfel()), one by one.
   void leaf_surfels(const StackEntry& e, const HotNode& h);
   // Adds what glossy node e shows towards unit w (node to receiver) to
   // `radiance`, for a node that shows the projected-area fraction `coverage`.

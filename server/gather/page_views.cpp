@@ -3,20 +3,19 @@
 #include "common/errors.h"
 
 #include <algorithm>
-#include <memory>
-#include <new>
-#include <type_traits>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
+#include <memory>
+#include <new>
 #include <string>
+#include <type_traits>
 
 namespace pbgi::gather {
 
 namespace {
 
-bool finite(const Imath::V3f& v) {
-  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
-}
+bool finite(const Imath::V3f& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
 std::string where(const tree::Page& page, size_t node) {
   return "tree page " + std::to_string(page.id) + " node " + std::to_string(node);
@@ -26,42 +25,42 @@ std::string where(const tree::Page& page, size_t node) {
 
 namespace {
 
+// What build() derives of a node before it is packed.
+struct NodeParts {
+  Imath::V3f center{0.f};
+  float radius = 0.f;
+  Imath::V3f axis{0.f};
+  float cone_cos = -2.f;
+  uint32_t count = 0;
+  uint32_t first = 0;                                // leaf
+  tree::NodeRef children[tree::Node::kMaxChildren];  // internal; proxy: children[0]
+  NodeLook look;                                     // narrow: all of it; else its area
+  uint32_t index = 0;                                // wide: full entry; bipolar: its faces
+};
+
 // What build() derives from a page before it lays the view out in one
 // allocation.
 struct ViewParts {
-  std::vector<HotNode> nodes;
-  std::vector<NodeLook> looks;
+  std::vector<NodeParts> nodes;
   std::vector<WideNode> full;
   std::vector<Bipolar> bipolar;
-  std::vector<uint32_t> bipolar_index;
   float node0_dc[4] = {0.f, 0.f, 0.f, 0.f};
 
-  // Fills nodes[i] and looks[i] (and the bipolar or full entry) from `n`;
-  // returns the HotNode flags.
+  // Fills nodes[i] (and the bipolar or full entry) from `n`; returns the
+  // HotNode flags.
   uint32_t describe(const tree::Node& n, size_t i, const storage::GlossyNodes* glossy, size_t page_nodes);
 };
 
-uint32_t ViewParts::describe(const tree::Node& n, size_t i, const storage::GlossyNodes* glossy,
-                             size_t page_nodes) {
-  HotNode& h = nodes[i];
-  h.cx = n.center.x;
-  h.cy = n.center.y;
-  h.cz = n.center.z;
+uint32_t ViewParts::describe(const tree::Node& n, size_t i, const storage::GlossyNodes* glossy, size_t page_nodes) {
+  NodeParts& h = nodes[i];
+  h.center = n.center;
   h.radius = n.radius;
-  h.ax = n.cone_axis.x;
-  h.ay = n.cone_axis.y;
-  h.az = n.cone_axis.z;
+  h.axis = n.cone_axis;
   const bool cone = n.cone_cos > -1.f;  // also false for NaN
   h.cone_cos = cone ? std::min(n.cone_cos, 1.f) : -2.f;
-  h.cone_sin = cone ? std::sqrt(std::max(0.f, 1.f - h.cone_cos * h.cone_cos)) : 1.f;
-  // angle(axis, n) + beta < kCoplanarAngle  <=>  dot(axis, n) > cos(kCoplanarAngle - beta)
-  //   = cos(kCoplanarAngle) cos(beta) + sin(kCoplanarAngle) sin(beta).
-  const float cos_c = std::cos(kCoplanarAngle), sin_c = std::sin(kCoplanarAngle);
-  h.coplanar_cos = cone && h.cone_cos > cos_c ? cos_c * h.cone_cos + sin_c * h.cone_sin : 2.f;
 
   uint32_t flags = 0;
-  NodeLook& look = looks[i];
-  look = NodeLook{};  // zeros; no full entry
+  NodeLook& look = h.look;
   look.area = n.area;
   if (n.cone_cos >= kNarrowConeCos) {
     // The flat model of node_appearance(): DC ratio and the cone's fan.
@@ -89,8 +88,7 @@ uint32_t ViewParts::describe(const tree::Node& n, size_t i, const storage::Gloss
     Bipolar b;
     if (fit_bipolar(n, b)) {
       flags |= HotNode::kBipolar;
-      if (bipolar_index.empty()) bipolar_index.assign(nodes.size(), 0);
-      bipolar_index[i] = uint32_t(bipolar.size());
+      h.index = uint32_t(bipolar.size());
       bipolar.push_back(b);
     }
   }
@@ -102,7 +100,7 @@ uint32_t ViewParts::describe(const tree::Node& n, size_t i, const storage::Gloss
     node0_dc[3] = n.coverage_sh[0];
   }
   if (!(flags & (HotNode::kNarrow | HotNode::kBipolar))) {
-    look.full = uint32_t(full.size());
+    h.index = uint32_t(full.size());
     full.push_back(wide_node(n));
   }
   // Nothing to see: no area, or NaN/negative/infinite bounds.
@@ -112,15 +110,18 @@ uint32_t ViewParts::describe(const tree::Node& n, size_t i, const storage::Gloss
   return flags;
 }
 
-ViewParts derive_parts(const tree::Page& page) {
-  ViewParts parts;
+// Fills `parts` (its arrays reused: a view is built on every page cache
+// miss, and allocating them was a tenth of that).
+void derive_parts(const tree::Page& page, ViewParts& parts) {
   const size_t n = page.nodes.size();
-  parts.nodes.resize(n + page.links.size());
-  parts.looks.resize(n + page.links.size());
+  parts.nodes.assign(n + page.links.size(), NodeParts{});
+  parts.full.clear();
+  parts.bipolar.clear();
+  std::fill(parts.node0_dc, parts.node0_dc + 4, 0.f);
   const storage::GlossyNodes* glossy = page.glossy.get();
   for (size_t i = 0; i < n; ++i) {
     const tree::Node& node = page.nodes[i];
-    HotNode& h = parts.nodes[i];
+    NodeParts& h = parts.nodes[i];
     const uint32_t flags = parts.describe(node, i, glossy, n);
     if (node.is_leaf()) {
       const uint64_t end = uint64_t(node.first_surfel) + node.surfel_count;
@@ -139,7 +140,6 @@ ViewParts derive_parts(const tree::Page& page) {
         throw CorruptionError(where(page, i) + ": child_count " + std::to_string(node.child_count) + " exceeds " +
                               std::to_string(tree::Node::kMaxChildren));
       }
-      h.first = 0;
       h.count = flags | node.child_count;
       for (uint32_t c = 0; c < node.child_count; ++c) {
         const tree::NodeRef ref = node.children[c];
@@ -162,13 +162,114 @@ ViewParts derive_parts(const tree::Page& page) {
       throw CorruptionError(where(page, l.parent) + ": link " + std::to_string(k) +
                             " does not match the node's child " + std::to_string(l.slot));
     }
-    HotNode& h = parts.nodes[i];
+    NodeParts& h = parts.nodes[i];
     h.count = parts.describe(l.summary, i, glossy, n) | HotNode::kProxy | 1u;
-    h.first = 0;
     h.children[0] = l.summary.children[0];
     parts.nodes[l.parent].children[l.slot] = {page.id, uint32_t(i)};
   }
-  return parts;
+}
+
+// x in [-1, 1] (clamped; NaN -> 0) to [-32767, 32767] and x in [0, 1] to
+// [0, 65535], rounded to nearest (storage/format/packed_values.h's codes,
+// without their library call: a view is built on every page cache miss).
+int16_t snorm16(float x) {
+  const float t = std::clamp(x, -1.f, 1.f) * 32767.f;
+  return t >= 0.f ? int16_t(t + 0.5f) : t < 0.f ? int16_t(-int(-t + 0.5f)) : int16_t(0);
+}
+uint16_t unorm16(float x) {
+  const float t = std::clamp(x, 0.f, 1.f) * 65535.f;
+  return t >= 0.f ? uint16_t(t + 0.5f) : uint16_t(0);
+}
+
+// Packs the nodes. Children in other pages without proxies (and every
+// child of a kWideLinks view) go to `refs`.
+void pack_nodes(const ViewParts& parts, const tree::Page& page, PageView& view, std::vector<PackedNode>& packed,
+                std::vector<tree::NodeRef>& refs) {
+  const size_t count = parts.nodes.size();
+  packed.resize(count);
+  // 15-bit slots name the view's own nodes and refs; beyond that every
+  // child is a pair in refs.
+  size_t external = 0;
+  for (const NodeParts& h : parts.nodes) {
+    if ((h.count & (HotNode::kLeaf | HotNode::kProxy)) == 0) {
+      for (uint32_t c = 0; c < (h.count & HotNode::kCountMask); ++c) external += h.children[c].page != page.id;
+    } else if (h.count & HotNode::kProxy) {
+      ++external;
+    }
+  }
+  if (count > 0x8000u || external > 0x8000u) view.flags |= PageView::kWideLinks;
+  const bool wide = view.flags & PageView::kWideLinks;
+  for (const NodeParts& h : parts.nodes) {
+    if ((h.count & HotNode::kLeaf) && (h.count & HotNode::kCountMask) > PackedNode::kMaxCount) {
+      view.flags |= PageView::kWideCounts;
+    }
+  }
+  const bool wide_counts = view.flags & PageView::kWideCounts;
+  for (size_t i = 0; i < count; ++i) {
+    const NodeParts& h = parts.nodes[i];
+    PackedNode& p = packed[i];
+    p.center[0] = h.center.x;
+    p.center[1] = h.center.y;
+    p.center[2] = h.center.z;
+    p.radius = h.radius;
+    for (int a = 0; a < 3; ++a) p.axis[a] = snorm16(h.axis[a]);
+    p.cone_cos = h.cone_cos;
+    const uint32_t size = h.count & HotNode::kCountMask;
+    p.count = uint16_t((h.count & ~HotNode::kCountMask) >> 16 | std::min(size, PackedNode::kMaxCount));
+    if ((h.count & HotNode::kLeaf) && wide_counts) {
+      p.link = uint32_t(refs.size());
+      refs.push_back({h.first, size});
+    } else if (h.count & HotNode::kLeaf) {
+      p.link = h.first;
+    } else if (h.count & HotNode::kProxy) {
+      p.link = uint32_t(refs.size());
+      refs.push_back(h.children[0]);
+    } else if (wide) {
+      p.link = uint32_t(refs.size());
+      refs.insert(refs.end(), h.children, h.children + tree::Node::kMaxChildren);
+    } else {
+      p.link = 0;
+      for (uint32_t c = 0; c < (h.count & HotNode::kCountMask); ++c) {
+        const tree::NodeRef ref = h.children[c];
+        uint32_t slot = ref.index;
+        if (ref.page != page.id) {
+          slot = 0x8000u + uint32_t(refs.size());
+          refs.push_back(ref);
+        }
+        p.link |= slot << (16 * c);
+      }
+    }
+  }
+}
+
+PackedLook pack_look(const NodeParts& h) {
+  PackedLook l;
+  l.area = h.look.area;
+  if (h.count & HotNode::kNarrow) {
+    l.radiance = encode_rgb48(Imath::C3f(h.look.r, h.look.g, h.look.b));
+    l.extra[0] = uint16_t(snorm16(h.look.mx));
+    l.extra[1] = uint16_t(snorm16(h.look.my));
+    l.extra[2] = uint16_t(snorm16(h.look.mz));
+  } else {
+    l.extra[0] = uint16_t(h.index);
+    l.extra[1] = uint16_t(h.index >> 16);
+  }
+  return l;
+}
+
+// The surfels of leaf `leaf` in fixed point of its decoded sphere.
+void pack_surfels(const tree::Page& page, const HotNode& leaf, PackedSurfel* out) {
+  const Imath::V3f c(leaf.cx, leaf.cy, leaf.cz);
+  const float r = leaf.radius;
+  const float inv = r > 0.f ? 1.f / r : 0.f;
+  for (uint32_t k = 0; k < leaf.size(); ++k) {
+    const Surfel& s = page.surfels[leaf.first() + k];
+    PackedSurfel& p = out[leaf.first() + k];
+    for (int a = 0; a < 3; ++a) p.offset[a] = snorm16((s.position[a] - c[a]) * inv);
+    p.radius = unorm16(s.radius * inv);
+    for (int a = 0; a < 3; ++a) p.normal[a] = snorm16(s.normal[a]);
+    p.radiance = encode_rgb48(s.radiance);
+  }
 }
 
 // Byte offsets of a view's parts in its allocation.
@@ -185,21 +286,69 @@ T* copy_to(std::byte* base, size_t offset, const std::vector<T>& v) {
 }  // namespace
 
 PageView::Ptr PageView::build(const tree::Page& page) {
-  const ViewParts parts = derive_parts(page);
-  static_assert(std::is_trivially_destructible_v<HotNode> && std::is_trivially_destructible_v<NodeLook> &&
+  // Scratch arrays of this thread, reused from view to view.
+  struct Scratch {
+    ViewParts parts;
+    std::vector<tree::NodeRef> refs;
+    std::vector<PackedNode> nodes;
+    std::vector<PackedLook> looks;
+    std::vector<PackedWide> packed_wide;
+  };
+  thread_local Scratch scratch;
+  ViewParts& parts = scratch.parts;
+  derive_parts(page, parts);
+  PageView header;
+  header.id = page.id;
+  header.page_nodes = uint32_t(page.nodes.size());
+  header.node_count = uint32_t(parts.nodes.size());
+  std::vector<tree::NodeRef>& refs = scratch.refs;
+  refs.clear();
+  std::vector<PackedNode>& nodes = scratch.nodes;
+  pack_nodes(parts, page, header, nodes, refs);
+  std::vector<PackedLook>& looks = scratch.looks;
+  looks.resize(parts.nodes.size());
+  for (size_t i = 0; i < looks.size(); ++i) looks[i] = pack_look(parts.nodes[i]);
+  static_assert(std::is_trivially_destructible_v<PackedNode> && std::is_trivially_destructible_v<PackedLook> &&
                     std::is_trivially_destructible_v<WideNode> && std::is_trivially_destructible_v<Bipolar> &&
-                    std::is_trivially_destructible_v<LeafSurfel>,
+                    std::is_trivially_destructible_v<PackedSurfel> && std::is_trivially_destructible_v<tree::NodeRef>,
                 "parts are copy-constructed into raw storage and never destroyed");
-  // Header, nodes (64-byte lines), looks (half lines), leaf surfels, full
-  // nodes, bipolar faces and index, then the cold part.
+  // Wide nodes in the tree's rounded payload form when each round-trips
+  // exactly (always, for trees built with rounded payloads).
+  std::vector<PackedWide>& packed_wide = scratch.packed_wide;
+  packed_wide.resize(parts.full.size());
+  bool exact = true;
+  for (size_t k = 0; k < parts.full.size() && exact; ++k) {
+    const WideNode& w = parts.full[k];
+    PackedWide& p = packed_wide[k];
+    std::copy(&w.cone_axis.x, &w.cone_axis.x + 3, p.cone_axis);
+    p.cone_cos = w.cone_cos;
+    p.area = w.area;
+    tree::Node probe;
+    probe.radiance_sh = w.radiance_sh;
+    probe.coverage_sh = w.coverage_sh;
+    tree::write_rounded_payload(probe, p.payload);
+    WideNode back;
+    exact = tree::read_rounded_payload(p.payload, back.radiance_sh, back.coverage_sh) &&
+            std::equal(&back.radiance_sh.r[0], &back.radiance_sh.r[0] + sh::kCoeffs, &w.radiance_sh.r[0]) &&
+            std::equal(&back.radiance_sh.g[0], &back.radiance_sh.g[0] + sh::kCoeffs, &w.radiance_sh.g[0]) &&
+            std::equal(&back.radiance_sh.b[0], &back.radiance_sh.b[0] + sh::kCoeffs, &w.radiance_sh.b[0]) &&
+            std::equal(&back.coverage_sh[0], &back.coverage_sh[0] + sh::kCoeffs, &w.coverage_sh[0]);
+  }
+  if (!exact) header.flags |= kFloatWide;
+  const size_t wide_bytes = exact ? sizeof(PackedWide) : sizeof(WideNode);
+  // Header, nodes (half lines), looks (quarter lines), leaf surfels, refs,
+  // wide nodes, bipolar faces, then the cold part.
   const size_t nodes_at = sizeof(PageView);
-  const size_t looks_at = nodes_at + parts.nodes.size() * sizeof(HotNode);
-  const size_t surfels_at = looks_at + parts.looks.size() * sizeof(NodeLook);
-  static_assert(alignof(LeafSurfel) <= alignof(NodeLook), "surfels() follows the looks unpadded");
-  const size_t full_at = round_up(surfels_at + page.surfels.size() * sizeof(LeafSurfel), alignof(WideNode));
-  const size_t bipolar_at = round_up(full_at + parts.full.size() * sizeof(WideNode), alignof(Bipolar));
-  const size_t index_at = round_up(bipolar_at + parts.bipolar.size() * sizeof(Bipolar), alignof(uint32_t));
-  const size_t cold_at = round_up(index_at + parts.bipolar_index.size() * sizeof(uint32_t), alignof(Cold));
+  const size_t looks_at = nodes_at + nodes.size() * sizeof(PackedNode);
+  const size_t surfels_at = looks_at + looks.size() * sizeof(PackedLook);
+  const size_t refs_at = round_up(surfels_at + page.surfels.size() * sizeof(PackedSurfel), alignof(tree::NodeRef));
+  const size_t full_at = round_up(refs_at + refs.size() * sizeof(tree::NodeRef), alignof(WideNode));
+  const size_t bipolar_at = round_up(full_at + parts.full.size() * wide_bytes, alignof(Bipolar));
+  const size_t cold_at = round_up(bipolar_at + parts.bipolar.size() * sizeof(Bipolar), alignof(Cold));
+  if (cold_at + sizeof(Cold) + 16 > std::numeric_limits<uint32_t>::max()) {
+    throw CorruptionError("tree page " + std::to_string(page.id) + ": too large for a page view (" +
+                          std::to_string(cold_at) + " bytes)");
+  }
   // posix_memalign, not aligned operator new: libstdc++'s rounds the size
   // up to the alignment (C11 aligned_alloc's rule), 64 bytes a view on
   // average; glibc's posix_memalign returns what precedes the aligned
@@ -214,26 +363,69 @@ PageView::Ptr PageView::build(const tree::Page& page) {
   auto* base = static_cast<std::byte*>(memory);
   auto* view = new (base) PageView();
   Ptr owned(view);
-  view->id = page.id;
-  view->page_nodes = uint32_t(page.nodes.size());
-  view->node_count = uint32_t(parts.nodes.size());
-  view->bipolar_count = uint32_t(parts.bipolar.size());
-  copy_to(base, nodes_at, parts.nodes);
-  view->looks = copy_to(base, looks_at, parts.looks);
-  auto* surfels = reinterpret_cast<LeafSurfel*>(base + surfels_at);
-  for (const Surfel& s : page.surfels) *surfels++ = {s.position, s.radius, s.normal, s.radiance};
-  view->full_nodes = copy_to(base, full_at, parts.full);
-  view->bipolar = copy_to(base, bipolar_at, parts.bipolar);
-  view->bipolar_index = parts.bipolar_index.empty() ? nullptr : copy_to(base, index_at, parts.bipolar_index);
-  view->glossy = page.glossy.get();
+  view->id = header.id;
+  view->page_nodes = header.page_nodes;
+  view->node_count = header.node_count;
+  view->flags = header.flags;
+  view->looks_at = uint32_t(looks_at);
+  view->surfels_at = uint32_t(surfels_at);
+  view->refs_at = uint32_t(refs_at);
+  view->full_at = uint32_t(full_at);
+  view->bipolar_at = uint32_t(bipolar_at);
+  copy_to(base, nodes_at, nodes);
+  copy_to(base, looks_at, looks);
+  copy_to(base, refs_at, refs);
+  if (exact) {
+    copy_to(base, full_at, packed_wide);
+  } else {
+    copy_to(base, full_at, parts.full);
+  }
+  copy_to(base, bipolar_at, parts.bipolar);
+  auto* surfels = reinterpret_cast<PackedSurfel*>(base + surfels_at);
+  std::uninitialized_fill_n(surfels, page.surfels.size(), PackedSurfel{});
+  for (uint32_t i = 0; i < view->page_nodes; ++i) {
+    const HotNode h = view->node(i);
+    if (h.leaf()) pack_surfels(page, h, surfels);
+  }
   Cold* cold = new (base + cold_at) Cold();
   cold->glossy = page.glossy;
-  cold->surfel_count = page.surfels.size();
-  cold->bytes = tree::heap_block_bytes(bytes);
-  cold->full_count = uint32_t(parts.full.size());
+  view->surfel_count = uint32_t(page.surfels.size());
+  view->bytes = uint32_t(tree::heap_block_bytes(bytes));
+  view->full_count = uint32_t(parts.full.size());
+  view->bipolar_count = uint32_t(parts.bipolar.size());
   std::copy(parts.node0_dc, parts.node0_dc + 4, cold->node0_dc);
   view->cold = cold;
   return owned;
+}
+
+NodeLook PageView::look(uint32_t i) const {
+  const PackedLook& p = looks()[i];
+  NodeLook l;
+  const Imath::C3f c = decode_rgb48(p.radiance);
+  l.r = c.x;
+  l.g = c.y;
+  l.b = c.z;
+  l.area = p.area;
+  l.mx = float(int16_t(p.extra[0])) * (1.f / 32767.f);
+  l.my = float(int16_t(p.extra[1])) * (1.f / 32767.f);
+  l.mz = float(int16_t(p.extra[2])) * (1.f / 32767.f);
+  return l;
+}
+
+bool PageView::full_node(uint32_t i, WideNode& out) const {
+  if (i >= node_count || (packed_nodes()[i].count & (HotNode::kNarrow | HotNode::kBipolar))) return false;
+  const uint32_t k = looks()[i].index();
+  if (k >= full_count) return false;
+  if (flags & kFloatWide) {
+    out = at<WideNode>(full_at)[k];
+    return true;
+  }
+  const PackedWide& p = at<PackedWide>(full_at)[k];
+  out.cone_axis = Imath::V3f(p.cone_axis[0], p.cone_axis[1], p.cone_axis[2]);
+  out.cone_cos = p.cone_cos;
+  out.area = p.area;
+  // Checked when the view was built: always true.
+  return tree::read_rounded_payload(p.payload, out.radiance_sh, out.coverage_sh);
 }
 
 void PageView::Free::operator()(PageView* v) const {

@@ -1,20 +1,22 @@
 // The gather's own compact view of a tree page: what the traversal's hot
-// loop reads per node (bounding sphere, normal cone, precomputed cone
-// sine and coplanarity bound, child links) in one 64-byte cache line, and
-// in an array of its own what a narrow-cone node shows when it is splatted
-// (NodeLook, half a line), apart from the cone and SH payload that only
-// wide-cone splats read (WideNode). Building a view costs about one
-// pass over the page's nodes; views are cached and reused by every
-// receiver, so the cull and cut tests of the ~3500 nodes a receiver visits
-// touch one line each and compute no square roots for cones.
+// loop reads per node (bounding sphere, normal cone, child links) in half
+// a cache line (PackedNode), and in an array of its own what a node shows
+// when it is splatted (PackedLook, a quarter line), apart from the cone and
+// SH payload that only wide-cone splats read (WideNode). Cone axes, looks
+// and leaf surfels are kept in fixed-point codes (below, view_codes.h)
+// and decoded as the walk reads them: the
+// page cache's budget is set in bytes on disk, and a view of float records
+// cost 4.7 times a page's bytes on disk, so the cache held a fifth of the
+// pages its budget named (docs/out-of-core.md). Building a view costs about one pass over
+// the page's nodes; views are cached and reused by every receiver.
 //
 // The walk is bound by memory latency (perf on bench_gather and pbgi
 // bench, docs/gather.md section 12). The child links live in the node's
-// own line: in an array of their own, loading them was a cache miss of its
-// own (a third of push_children's time). Nodes stay dense, one line each,
-// in the depth-first pre-order of the page: a node's first child, popped
-// next, is the following line. A node's look is prefetched when the node
-// is pushed, so that it is on its way when the node is splatted.
+// own record: in an array of their own, loading them was a cache miss of
+// its own (a third of push_children's time). Nodes stay dense in the
+// depth-first pre-order of the page: a node's first child, popped next, is
+// the following record. A node's look is prefetched when the node is
+// pushed, so that it is on its way when the node is splatted.
 //
 // A view is derived from the page's content only. A TreeSource returns the
 // same content for a page id for its whole life (pages are immutable), so
@@ -28,9 +30,13 @@
 
 #include "server/gather/gather.h"
 #include "server/gather/node_appearance.h"
+#include "server/gather/view_codes.h"
 #include "storage/codecs/glossy_pages.h"
 #include "storage/tree/node.h"
+#include "storage/tree/payload_rounding.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -46,36 +52,39 @@ namespace pbgi::gather {
 // Culling them saves refining the receiver's own surface down to leaves.
 inline constexpr float kCoplanarAngle = 0.02f;
 
-struct alignas(64) HotNode {
+// A node as the walk reads it, decoded from the view's PackedNode
+// (PageView::node()): bounding sphere, normal cone with its sine and
+// coplanarity bound, flags and counts, and the link to its children, its
+// first surfel (leaf) or the child it stands for (proxy).
+struct HotNode {
   static constexpr uint32_t kLeaf = 1u << 31;       // in `count`: a leaf
   static constexpr uint32_t kInvisible = 1u << 30;  // in `count`: no area or NaN bounds
   // In `count`: a narrow normal cone (node_appearance.h); its appearance
-  // comes from PageView::looks without touching the tree::Node.
+  // comes from PageView::look() without touching the tree::Node.
   static constexpr uint32_t kNarrow = 1u << 29;
   // In `count`: a wide cone whose normals form two opposite sheets (both
   // faces of a thin wall, node_appearance.h); its appearance comes from
   // PageView::bipolar.
   static constexpr uint32_t kBipolar = 1u << 28;
   // In `count`: the node may show glossy senders' radiance
-  // (PageView::glossy, storage/codecs/glossy_pages.h) besides its SH's.
+  // (PageView::glossy(), storage/codecs/glossy_pages.h) besides its SH's.
   static constexpr uint32_t kGlossy = 1u << 27;
   // In `count`: a proxy, the view's copy of a child in another page (the
-  // summary its parent's page stores, equal to that page's root); its one
-  // link (children[0]) is the child itself. Seen, culled or
+  // summary its parent's page stores, equal to that page's root); its link
+  // is the child itself (PageView::proxy_target). Seen, culled or
   // splatted as it is; opening it needs the child's page (PagePins).
   static constexpr uint32_t kProxy = 1u << 26;
   static constexpr uint32_t kCountMask = kProxy - 1;
 
-  float cx, cy, cz, radius;  // bounding sphere
+  float cx, cy, cz, radius;  // bounding sphere (contains the tree node's)
   float ax, ay, az;          // normal cone axis (unit)
   float cone_cos;            // cos of the half angle beta; <= -1: normals every way
   float cone_sin;            // sin(beta)
   // cos(kCoplanarAngle - beta) when beta < kCoplanarAngle, else 2: the node
   // is coplanar with a receiver of normal n when dot(axis, n) exceeds it.
   float coplanar_cos;
-  uint32_t first;  // leaf: first surfel
   uint32_t count;  // flags | child count (internal) or surfel count (leaf)
-  tree::NodeRef children[tree::Node::kMaxChildren];  // internal: its children
+  uint32_t link;   // see PackedNode::link
 
   bool leaf() const { return count & kLeaf; }
   bool narrow() const { return count & kNarrow; }
@@ -84,45 +93,87 @@ struct alignas(64) HotNode {
   bool glossy() const { return count & kGlossy; }
   bool proxy() const { return count & kProxy; }
   uint32_t size() const { return count & kCountMask; }
+  uint32_t first() const { return link; }  // leaf: its first surfel in the view
 };
-static_assert(sizeof(HotNode) == 64, "one cache line");
 
-// What a narrow-cone node shows (node_appearance.h), read only when it is
-// splatted: its area-weighted mean radiance, area and mean normal. Wide
-// and bipolar nodes use only its area. Half a line: the cone's fan
-// (FanCone) is not kept but derived from HotNode::cone_cos when the node is
-// splatted (fan_cone(), one square root), which halves the looks of a
-// cached page (docs/out-of-core.md).
-struct alignas(32) NodeLook {
-  float r, g, b;  // >= 0; all 0 when the payload shows nothing
-  float area;
-  float mx, my, mz;  // area-weighted mean normal (node_appearance.h)
-  // A wide, non-bipolar node's entry in PageView::full, else kNoFull: kept
-  // in the look, whose line the walk prefetches with the node's, so that a
-  // wide splat reaches its WideNode without another array's cache miss.
-  uint32_t full = kNoFull;
-  static constexpr uint32_t kNoFull = ~0u;
+// A node as the view keeps it: half a cache line. Bounds and cone are the
+// node's floats; the axis is 16-bit fixed point per coordinate (within
+// 2.6e-5 of the node's, not renormalized: a normalization per node visited
+// cost ~7% of a gather), and the cone is not widened by that (a cull
+// decided by 3e-5 rad of a normal cone concerns light from within 3e-5 rad
+// of grazing). Flags and child or surfel count share 16 bits: 6 bits of
+// HotNode flags, 10 of count; a view with a leaf of more surfels
+// (kWideCounts) keeps every leaf's first surfel and count in refs. Every
+// code depends on the node alone, not on its page: a node decodes to the
+// same bits in any page layout, as the proxy of a linked child and as its
+// page's root. The cone's sine and coplanarity bound are derived when the
+// node is decoded.
+struct alignas(32) PackedNode {
+  static constexpr uint32_t kMaxCount = 1023;
+  float center[3];
+  float radius;
+  int16_t axis[3];  // x 32767, rounded
+  uint16_t count;   // HotNode::count's flags >> 16 | its count (<= kMaxCount)
+  float cone_cos;   // as HotNode::cone_cos
+  // Leaf: its first surfel (kWideCounts: its {first, count} in refs).
+  // Proxy: its target in PageView::refs. Internal: child c in bits
+  // 16c..16c+15, a view node below 0x8000, else refs[slot - 0x8000] (a
+  // child in another page that has no proxy); in a view of kWideLinks,
+  // refs[link + c].
+  uint32_t link;
 };
-static_assert(sizeof(NodeLook) == 32, "half a cache line: two looks never straddle one");
+static_assert(sizeof(PackedNode) == 32, "two nodes a cache line");
 
-// What the walk reads of a leaf's surfel (CutWalker::leaf_surfels): the
-// decoded position, radius, normal and radiance of a tree Surfel, exactly,
-// without its albedo, emission and gloss, which a gather never reads
-// (40 bytes instead of 80). A page that carries its view keeps its
-// surfels only here.
+// What a narrow-cone node shows (node_appearance.h), decoded from its
+// PackedLook when it is splatted: its area-weighted mean radiance, area
+// and mean normal.
+struct NodeLook {
+  float r = 0.f, g = 0.f, b = 0.f;  // >= 0; all 0 when the payload shows nothing
+  float area = 0.f;
+  float mx = 0.f, my = 0.f, mz = 0.f;  // area-weighted mean normal (node_appearance.h)
+};
+
+// A node's look as the view keeps it, read only when the node is
+// splatted: a quarter line. Every node has its area; a narrow node its mean
+// radiance (Rgb48) and mean normal (16-bit fixed point: its length matters,
+// node_appearance.h); a wide node the index of its WideNode, a bipolar one
+// of its Bipolar faces (in `extra`'s first four bytes).
+struct alignas(16) PackedLook {
+  float area = 0.f;
+  Rgb48 radiance;
+  uint16_t extra[3] = {0, 0, 0};
+  uint32_t index() const { return uint32_t(extra[0]) | uint32_t(extra[1]) << 16; }
+};
+static_assert(sizeof(PackedLook) == 16);
+
+// What the walk reads of a leaf's surfel (CutWalker::leaf_surfels): its
+// position, radius, normal and radiance, without its albedo, emission and
+// gloss, which a gather never reads. Decoded from a PackedSurfel.
 struct LeafSurfel {
   Imath::V3f position;
   float radius = 0.f;
   Imath::V3f normal;
   Imath::C3f radiance;
-  // As Surfel::area(), to the bit.
   float area() const { return 3.14159265358979f * radius * radius; }
 };
-static_assert(sizeof(LeafSurfel) == 40);
+
+// A leaf surfel as the view keeps it (20 bytes): position and radius in
+// 16-bit fixed point of its leaf's decoded sphere (within R / 65534 and
+// R / 131070), normal in 16-bit fixed point per coordinate (within 2.6e-5,
+// not renormalized: an octahedral code's normalization cost 4% of a
+// gather), radiance in Rgb48 (exact for the RGB9E5 radiance of pages on
+// disk).
+struct PackedSurfel {
+  int16_t offset[3];
+  uint16_t radius;
+  int16_t normal[3];
+  Rgb48 radiance;
+};
+static_assert(sizeof(PackedSurfel) == 20);
 
 // What a wide splat reads of its node (node_appearance.h): the cone, area
 // and SH payload of a tree::Node, without its bounds and links, which the
-// HotNode holds (164 bytes instead of 208).
+// PackedNode holds (164 bytes instead of 208). Decoded from a PackedWide.
 struct WideNode {
   Imath::V3f cone_axis;
   float cone_cos = -1.f;
@@ -130,45 +181,57 @@ struct WideNode {
   sh::ShRgb radiance_sh;
   sh::Sh9 coverage_sh{};
 };
-inline WideNode wide_node(const tree::Node& n) { return {n.cone_axis, n.cone_cos, n.area, n.radiance_sh, n.coverage_sh}; }
+inline WideNode wide_node(const tree::Node& n) {
+  return {n.cone_axis, n.cone_cos, n.area, n.radiance_sh, n.coverage_sh};
+}
+
+// A WideNode as the view keeps it (96 bytes): its payload in the rounded
+// form of the tree's payloads (storage/tree/payload_rounding.h), exactly.
+// A view whose wide nodes' payloads are not all of that form (a tree built
+// without rounding) keeps WideNodes instead (PageView::kFloatWide).
+struct PackedWide {
+  float cone_axis[3];
+  float cone_cos;
+  float area;
+  uint8_t payload[tree::kRoundedPayloadBytes];
+};
+static_assert(sizeof(PackedWide) == 96);
 
 // A page's view is one allocation: its header line (PageView), then its
-// nodes, looks, leaf surfels, full nodes and bipolar faces, then the rarely read rest
-// (PageView::Cold). With pages of a few levels (formats V4/V5) a walk
-// enters a new view every few nodes, and each entry waited for the view's
-// header and its first node one after the other when they lived in
-// separate allocations; here the header and node 0 (the page's root, the
-// node a walk enters by) share one 128-byte-aligned pair of lines, which
-// the core fetches together, and the nodes' address needs no load at all
-// (nodes() is the line after the header). The header is 64 bytes; build()
-// allocates it 128-byte aligned.
+// packed nodes, looks, leaf surfels, child references, full nodes and
+// bipolar faces, then the rarely read rest (PageView::Cold). With pages of
+// a few levels (formats V4-V7) a walk enters a new view every few nodes,
+// and each entry waited for the view's header and its first node one after
+// the other when they lived in separate allocations; here the header and
+// nodes 0 and 1 (the page's root, the node a walk enters by, and its first
+// child) share one 128-byte-aligned pair of lines, which the core fetches
+// together. The header is 64 bytes; build() allocates it 128-byte aligned.
 struct alignas(64) PageView {
+  // In `flags`: children are pairs in refs (a view too large for 15-bit
+  // slots: PackedNode::link).
+  static constexpr uint32_t kWideLinks = 1u;
+  // In `flags`: full_at holds WideNodes, not PackedWides.
+  static constexpr uint32_t kFloatWide = 2u;
+  // In `flags`: a leaf holds more than PackedNode::kMaxCount surfels; every
+  // leaf's first surfel and count are in refs ({page = first, index = count}).
+  static constexpr uint32_t kWideCounts = 4u;
+
   uint32_t id = 0;
   uint32_t page_nodes = 0;  // nodes of the page; proxies follow them
   uint32_t node_count = 0;  // page nodes + proxies
-  uint32_t bipolar_count = 0;
-  // Per node; meaningful for narrow ones.
-  const NodeLook* looks = nullptr;
-  // The cone and payload of the nodes whose SH payload a splat reads (wide
-  // cones that are not bipolar): full_nodes[looks[i].full]. The rest need
-  // only the nodes and looks, so a page that carries its view need not
-  // keep its nodes.
-  const WideNode* full_nodes = nullptr;
-  // Bipolar nodes' faces; bipolar_index[i] (null when the page has none) is
-  // node i's entry.
-  const Bipolar* bipolar = nullptr;
-  const uint32_t* bipolar_index = nullptr;
-  // The page's glossy radiance (owned through cold->glossy), or null.
-  const storage::GlossyNodes* glossy = nullptr;
+  uint32_t flags = 0;
+  // Byte offsets from `this` of the parts after the nodes.
+  uint32_t looks_at = 0, surfels_at = 0, refs_at = 0, full_at = 0, bipolar_at = 0;
+  uint32_t surfel_count = 0, full_count = 0, bipolar_count = 0;
+  uint32_t bytes = 0;  // the whole allocation's heap block (tree::heap_block_bytes)
+  uint32_t pad_ = 0;   // to one line
   struct Cold;
   const Cold* cold = nullptr;
 
-  // What only building, checking and accounting read.
+  // What only rare paths read.
   struct Cold {
+    // The page's glossy radiance, or null.
     std::shared_ptr<const storage::GlossyNodes> glossy;
-    size_t surfel_count = 0;
-    size_t bytes = 0;  // the whole allocation's heap block (tree::heap_block_bytes)
-    uint32_t full_count = 0;
     // Node 0's DC radiance and coverage (radiance_sh[0], coverage_sh[0]):
     // a tree root's mean radiance, kept apart so that node 0 needs no full
     // copy (most pages' node 0 is narrow).
@@ -179,15 +242,70 @@ struct alignas(64) PageView {
   // in another page that the page describes exactly (tree::Page::links):
   // a walk decides on such a child without loading its page. They start on
   // the line after the header.
-  const HotNode* node_data() const { return reinterpret_cast<const HotNode*>(this + 1); }
-  std::span<const HotNode> nodes() const { return {node_data(), node_count}; }
+  const PackedNode* packed_nodes() const { return reinterpret_cast<const PackedNode*>(this + 1); }
+  const PackedLook* looks() const { return at<PackedLook>(looks_at); }
+  const PackedSurfel* surfels() const { return at<PackedSurfel>(surfels_at); }
+  const tree::NodeRef* refs() const { return at<tree::NodeRef>(refs_at); }
+  const Bipolar* bipolar() const { return at<Bipolar>(bipolar_at); }
+  const storage::GlossyNodes* glossy() const { return cold->glossy.get(); }
 
-  // The page's leaf surfels (Page::surfels, in their order), after the looks.
-  const LeafSurfel* surfels() const { return reinterpret_cast<const LeafSurfel*>(looks + node_count); }
-
-  // The WideNode of view node `i`, for the nodes `full_nodes` keeps; else null.
-  const WideNode* full_node(uint32_t i) const {
-    return i < node_count && looks[i].full != NodeLook::kNoFull ? full_nodes + looks[i].full : nullptr;
+  // Node `i` (< node_count) decoded.
+  HotNode node(uint32_t i) const {
+    const PackedNode& p = packed_nodes()[i];
+    HotNode h;
+    h.cx = p.center[0];
+    h.cy = p.center[1];
+    h.cz = p.center[2];
+    h.radius = p.radius;
+    constexpr float kSnorm = 1.f / 32767.f;
+    h.ax = float(p.axis[0]) * kSnorm;
+    h.ay = float(p.axis[1]) * kSnorm;
+    h.az = float(p.axis[2]) * kSnorm;
+    h.cone_cos = p.cone_cos;
+    const bool cone = p.cone_cos > -1.f;
+    h.cone_sin = cone ? std::sqrt(std::max(0.f, 1.f - p.cone_cos * p.cone_cos)) : 1.f;
+    // angle(axis, n) + beta < kCoplanarAngle  <=>  dot(axis, n) > cos(kCoplanarAngle - beta)
+    //   = cos(kCoplanarAngle) cos(beta) + sin(kCoplanarAngle) sin(beta).
+    h.coplanar_cos = cone && p.cone_cos > kCoplanarCos ? kCoplanarCos * p.cone_cos + kCoplanarSin * h.cone_sin : 2.f;
+    h.count = uint32_t(p.count & 0xfc00u) << 16 | (p.count & 0x3ffu);
+    h.link = p.link;
+    if ((flags & kWideCounts) && h.leaf()) {
+      const tree::NodeRef& r = refs()[p.link];
+      h.link = r.page;
+      h.count = (h.count & ~HotNode::kCountMask) | r.index;
+    }
+    return h;
+  }
+  // Child `c` of internal node `h` of this view.
+  tree::NodeRef child(const HotNode& h, uint32_t c) const {
+    if (flags & kWideLinks) return refs()[h.link + c];
+    const uint32_t slot = (h.link >> (16 * c)) & 0xffffu;
+    return slot < 0x8000u ? tree::NodeRef{id, slot} : refs()[slot - 0x8000u];
+  }
+  // The child proxy `h` stands for.
+  tree::NodeRef proxy_target(const HotNode& h) const { return refs()[h.link]; }
+  // Narrow node i's look.
+  NodeLook look(uint32_t i) const;
+  float look_area(uint32_t i) const { return looks()[i].area; }
+  // The WideNode of view node `i` into `out`, for the nodes the view keeps
+  // one of (wide cones that are not bipolar); else false.
+  bool full_node(uint32_t i, WideNode& out) const;
+  // Bytes of the view's wide nodes.
+  size_t full_bytes() const { return bipolar_at - full_at; }
+  // Bipolar node i's faces.
+  const Bipolar& bipolar_of(uint32_t i) const { return bipolar()[looks()[i].index()]; }
+  // Surfel `i` of the view, of leaf `leaf` (decoded).
+  LeafSurfel surfel(const HotNode& leaf, uint32_t i) const {
+    const PackedSurfel& p = surfels()[i];
+    const float step = leaf.radius * (1.f / 32767.f);
+    constexpr float kSnorm = 1.f / 32767.f;
+    LeafSurfel s;
+    s.position = Imath::V3f(leaf.cx + float(p.offset[0]) * step, leaf.cy + float(p.offset[1]) * step,
+                            leaf.cz + float(p.offset[2]) * step);
+    s.radius = float(p.radius) * (leaf.radius * (1.f / 65535.f));
+    s.normal = Imath::V3f(float(p.normal[0]) * kSnorm, float(p.normal[1]) * kSnorm, float(p.normal[2]) * kSnorm);
+    s.radiance = decode_rgb48(p.radiance);
+    return s;
   }
 
   // Frees a view made by build().
@@ -203,17 +321,23 @@ struct alignas(64) PageView {
 
   PageView(const PageView&) = delete;
   PageView& operator=(const PageView&) = delete;
-  size_t memory_bytes() const { return cold->bytes; }
+  size_t memory_bytes() const { return bytes; }
   // Whether `page` could be the page this view was built from.
   bool matches(const tree::Page& page) const {
     return page.id == id && page.nodes.size() == page_nodes && page.nodes.size() + page.links.size() == node_count &&
-           page.surfels.size() == cold->surfel_count;
+           page.surfels.size() == surfel_count;
   }
 
  private:
   PageView() = default;
+  template <class T>
+  const T* at(uint32_t offset) const {
+    return reinterpret_cast<const T*>(reinterpret_cast<const std::byte*>(this) + offset);
+  }
+  static constexpr float kCoplanarCos = 0.99980000666657776f;   // cos(kCoplanarAngle)
+  static constexpr float kCoplanarSin = 0.019998666693333080f;  // sin(kCoplanarAngle)
 };
-static_assert(sizeof(PageView) == 64, "one line; node 0 is the next, in the same 128-byte pair");
+static_assert(sizeof(PageView) == 64, "one line; nodes 0 and 1 are the next, in the same 128-byte pair");
 
 // Builds `page`'s view and attaches it to the page, so that every Gatherer
 // reuses it for as long as the page cache keeps the page, and the cache's

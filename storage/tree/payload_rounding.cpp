@@ -148,8 +148,8 @@ size_t read_compact_payload(std::span<const uint8_t> in, Node& n) {
   return at;
 }
 
-bool read_rounded_payload(const uint8_t* in, Node& n) {
-  for (float* v : blocks(n)) {
+bool read_rounded_payload(const uint8_t* in, sh::ShRgb& radiance, sh::Sh9& coverage) {
+  for (float* v : {radiance.r.data(), radiance.g.data(), radiance.b.data(), coverage.data()}) {
     const int e = int(*in++) - kExponentBias;
     if (e < kMinExponent || e > kMaxExponent) return false;
     const float up = pow2(e);
@@ -160,5 +160,7 @@ bool read_rounded_payload(const uint8_t* in, Node& n) {
   }
   return true;
 }
+
+bool read_rounded_payload(const uint8_t* in, Node& n) { return read_rounded_payload(in, n.radiance_sh, n.coverage_sh); }
 
 }  // namespace pbgi::tree

@@ -47,6 +47,9 @@ void round_payload(Node& n);
 // false for bytes no writer produces (an exponent byte outside [14, 242]).
 void write_rounded_payload(const Node& n, uint8_t* out);
 bool read_rounded_payload(const uint8_t* in, Node& n);
+// The same into a payload's two parts (the gather's page views keep wide
+// nodes' payloads in this form).
+bool read_rounded_payload(const uint8_t* in, sh::ShRgb& radiance, sh::Sh9& coverage);
 
 // The compact form of a rounded payload (V8/V9 link payloads), the same
 // values in fewer bytes. Per block: the exponent byte (0: the block is

@@ -26,6 +26,7 @@ namespace pbgi {
 namespace {
 
 using Imath::C3f;
+using Imath::V3d;
 using Imath::V3f;
 namespace fs = std::filesystem;
 constexpr float kPi = 3.14159265358979f;
@@ -56,14 +57,13 @@ std::vector<Surfel> scene(float occluder_x) {
   return s;
 }
 
-std::unique_ptr<storage::PageSetReader> build(const std::vector<Surfel>& surfels,
-                                              const fs::path& dir, uint64_t cache_bytes,
-                                              storage::PageDecorator decorate = {}) {
+std::unique_ptr<storage::PageSetReader> build(const std::vector<Surfel>& surfels, const fs::path& dir,
+                                              uint64_t cache_bytes, storage::PageDecorator decorate = {}) {
   tree::BuildOptions o;
   o.page_size = 16384;  // several pages even for this small scene
   storage::build_page_set(surfels, o, "gather-test", dir);
-  return std::make_unique<storage::PageSetReader>(
-      dir, std::make_shared<storage::PageCache>(cache_bytes), std::move(decorate));
+  return std::make_unique<storage::PageSetReader>(dir, std::make_shared<storage::PageCache>(cache_bytes),
+                                                  std::move(decorate));
 }
 
 TEST(GatherPageSet, MatchesClosedFormAndTheInMemoryTree) {
@@ -79,8 +79,8 @@ TEST(GatherPageSet, MatchesClosedFormAndTheInMemoryTree) {
     const GatherResult a = on_disk.gather(r);
     const GatherResult b = in_memory.gather(r);
     const float expect = kPi / 5.f * std::cos(tau);
-    std::printf("tau %2.0f: page set E = %.5f, memory tree E = %.5f, closed form %.5f\n", deg,
-                a.irradiance.x, b.irradiance.x, expect);
+    std::printf("tau %2.0f: page set E = %.5f, memory tree E = %.5f, closed form %.5f\n", deg, a.irradiance.x,
+                b.irradiance.x, expect);
     EXPECT_NEAR(a.irradiance.x, expect, 0.03f * expect);
     EXPECT_NEAR(a.irradiance.x, b.irradiance.x, 0.02f * expect);
     EXPECT_NEAR(a.ao, b.ao, 0.01f);
@@ -141,15 +141,21 @@ TEST(GatherPageSet, ViewIsOneAllocationWithTheRootBesideItsHeader) {
     const gather::PageView::Ptr view = gather::PageView::build(*page);
     const auto at = reinterpret_cast<uintptr_t>(view.get());
     ASSERT_EQ(at % 128, 0u) << "page " << id;
-    ASSERT_EQ(reinterpret_cast<uintptr_t>(view->node_data()), at + 64) << "page " << id;
+    ASSERT_EQ(reinterpret_cast<uintptr_t>(view->packed_nodes()), at + 64) << "page " << id;
     ASSERT_EQ(view->node_count, page->nodes.size() + page->links.size());
     EXPECT_TRUE(view->matches(*page));
-    EXPECT_GE(view->memory_bytes(), 64 + view->node_count * (sizeof(gather::HotNode) + sizeof(gather::NodeLook)));
+    EXPECT_GE(view->memory_bytes(), 64 + view->node_count * (sizeof(gather::PackedNode) + sizeof(gather::PackedLook)));
     for (uint32_t i = 0; i < view->node_count; ++i) {
-      const gather::HotNode& h = view->nodes()[i];
+      const gather::HotNode h = view->node(i);
       const tree::Node& n = i < page->nodes.size() ? page->nodes[i] : page->links[i - page->nodes.size()].summary;
       EXPECT_EQ(h.cx, n.center.x) << "page " << id << " node " << i;
       EXPECT_EQ(h.radius, n.radius) << "page " << id << " node " << i;
+      // The axis code moves the axis by at most 2.6e-5; the cone is the
+      // node's.
+      if (n.cone_cos > -1.f) {
+        EXPECT_LE((V3d(h.ax, h.ay, h.az) - V3d(n.cone_axis)).length(), 2.7e-5) << "page " << id << " node " << i;
+        EXPECT_EQ(h.cone_cos, std::min(n.cone_cos, 1.f)) << "page " << id << " node " << i;
+      }
       EXPECT_EQ(h.proxy(), i >= page->nodes.size()) << "page " << id << " node " << i;
       proxies += h.proxy();
     }
@@ -255,23 +261,33 @@ TEST(GatherPageSet, AttachedViewFreesThePagesDecodedContent) {
     EXPECT_EQ(page->links.capacity(), 0u) << "page " << id;
     EXPECT_EQ(page->surfels.capacity(), 0u) << "page " << id;
     ASSERT_NE(page->attachment, nullptr);
-    EXPECT_EQ(page->memory_bytes(),
-              tree::heap_block_bytes(tree::Page::kSharedControlBytes + sizeof(tree::Page)) +
-                  page->attachment->memory_bytes())
+    EXPECT_EQ(page->memory_bytes(), tree::heap_block_bytes(tree::Page::kSharedControlBytes + sizeof(tree::Page)) +
+                                        page->attachment->memory_bytes())
         << "page " << id;
-    // The view's leaf surfels are the page's, to the bit, in their order.
+    // The view's leaf surfels are the page's, in their order, within the
+    // precision of their codes (page_views.h: PackedSurfel), relative to
+    // the radius R of their leaf's sphere; the radiance, RGB9E5 on disk, to
+    // the bit.
     gather::PageViews views;
     const gather::PageView& v = views.get(*page);
-    ASSERT_EQ(v.cold->surfel_count, full->surfels.size());
-    for (size_t i = 0; i < full->surfels.size(); ++i) {
-      const Surfel& s = full->surfels[i];
-      const gather::LeafSurfel& l = v.surfels()[i];
-      EXPECT_EQ(l.position, s.position) << "page " << id << " surfel " << i;
-      EXPECT_EQ(l.normal, s.normal) << "page " << id << " surfel " << i;
-      EXPECT_EQ(l.radius, s.radius) << "page " << id << " surfel " << i;
-      EXPECT_EQ(l.radiance, s.radiance) << "page " << id << " surfel " << i;
-      EXPECT_EQ(l.area(), s.area()) << "page " << id << " surfel " << i;
+    ASSERT_EQ(v.surfel_count, full->surfels.size());
+    size_t seen = 0;
+    for (uint32_t i = 0; i < v.page_nodes; ++i) {
+      const gather::HotNode h = v.node(i);
+      if (!h.leaf()) continue;
+      const double r = h.radius;
+      for (uint32_t k = h.first(); k < h.first() + h.size(); ++k, ++seen) {
+        const Surfel& s = full->surfels[k];
+        const gather::LeafSurfel l = v.surfel(h, k);
+        EXPECT_LE((V3d(l.position) - V3d(s.position)).length(), r * 0.87 / 32767 + 1e-6 * r)
+            << "page " << id << " surfel " << k;
+        EXPECT_LE(std::abs(double(l.radius) - s.radius), r * 0.51 / 65535 + 1e-6 * r)
+            << "page " << id << " surfel " << k;
+        EXPECT_LE((V3d(l.normal) - V3d(s.normal)).length(), 2.7e-5) << "page " << id << " surfel " << k;
+        EXPECT_EQ(l.radiance, s.radiance) << "page " << id << " surfel " << k;
+      }
     }
+    EXPECT_EQ(seen, full->surfels.size()) << "page " << id;
   }
 }
 
@@ -281,16 +297,13 @@ TEST(GatherPageSet, AttachedViewFreesThePagesDecodedContent) {
 // bytes on disk (1/8 of the page set), so this ratio is how much of a
 // budget's worth of pages the cache can hold. Issue 19 asks for 2x; the
 // view reaches kMaxDecodedOverDisk (docs/out-of-core.md: what is left is
-// one 64-byte traversal node and half-line look per node, 40 bytes per
-// leaf surfel and the page's fixed costs). 7.7x before the view freed the
-// page's decoded nodes and kept compact surfels and looks; 3.75x at most
-// with V4 pages, ~5.2x with V6's (the same decoded pages over ~30 % fewer
-// bytes on disk: docs/measurements/2026-11-27-compact-records.md), 8.3x
-// with V8's (~35 % fewer again: 2026-11-27-compact-v8.md), so the charge a
-// page is bounded too.
+// the page's fixed costs, the Page, its attachment and the cache's entry,
+// ~330 bytes, and 32-byte nodes, 16-byte looks and 18-byte surfels).
+// 7.7x before the view freed the page's decoded nodes; 5.2x with float
+// records in the view over V6 pages; 3.1x with packed ones.
 TEST(GatherPageSet, CachedPageCostsAFewTimesItsBytesOnDisk) {
-  constexpr double kMaxDecodedOverDisk = 8.5;
-  constexpr uint64_t kMaxChargePerPage = 2500;  // measured 2349 here
+  constexpr double kMaxDecodedOverDisk = 3.4;
+  constexpr uint64_t kMaxChargePerPage = 1500;
   TempDir tmp;
   const test::SyntheticCity city(60000, 4);
   std::vector<Surfel> surfels;
@@ -305,7 +318,8 @@ TEST(GatherPageSet, CachedPageCostsAFewTimesItsBytesOnDisk) {
   charged += uint64_t(m.stats.page_count) * storage::PageCache::entry_bytes();  // the cache's bookkeeping
   EXPECT_EQ(cache->counters().bytes_held, charged) << "what the cache holds is what it charges";
   const double ratio = double(charged) / double(m.stats.file_bytes);
-  std::printf("%u pages: %.2fx their bytes on disk charged\n", m.stats.page_count, ratio);
+  std::printf("%u pages: %.2fx their bytes on disk charged, %llu bytes a page\n", m.stats.page_count, ratio,
+              (unsigned long long)(charged / m.stats.page_count));
   EXPECT_LE(ratio, kMaxDecodedOverDisk) << charged << " bytes charged for " << m.stats.file_bytes << " on disk";
   EXPECT_LE(charged / m.stats.page_count, kMaxChargePerPage);
 }
@@ -330,8 +344,8 @@ TEST(GatherPageSet, ResultsIdenticalWhateverTheBudget) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> u(-1.f, 1.f);
   for (int i = 0; i < 64; ++i) {
-    receivers.push_back({V3f(1.5f * u(rng), 1.5f * u(rng), 0.3f * u(rng)),
-                         V3f(0.3f * u(rng), 0.3f * u(rng), 1).normalized()});
+    receivers.push_back(
+        {V3f(1.5f * u(rng), 1.5f * u(rng), 0.3f * u(rng)), V3f(0.3f * u(rng), 0.3f * u(rng), 1).normalized()});
   }
   auto run = [&](uint64_t budget, storage::CacheCounters* counters) {
     auto cache = std::make_shared<storage::PageCache>(budget);

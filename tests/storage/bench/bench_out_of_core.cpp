@@ -228,15 +228,15 @@ void print_decoded_parts(const storage::PageSetReader& reader) {
                            page->links.capacity() * sizeof(tree::PageLink));
     attachment += double(page->attachment ? page->attachment->memory_bytes() : 0);
     view += double(v.memory_bytes());
-    hot += double(v.node_count * sizeof(gather::HotNode));
-    looks += double(v.node_count * sizeof(gather::NodeLook));
-    leaf_surfels += double(v.cold->surfel_count * sizeof(gather::LeafSurfel));
-    full += double(v.cold->full_count * sizeof(gather::WideNode));
+    hot += double(v.node_count * sizeof(gather::PackedNode));
+    looks += double(v.node_count * sizeof(gather::PackedLook));
+    leaf_surfels += double(v.surfel_count * sizeof(gather::PackedSurfel));
+    full += double(v.full_bytes());
     bipolar += double(v.bipolar_count * sizeof(gather::Bipolar));
-    surfels += double(v.cold->surfel_count);
+    surfels += double(v.surfel_count);
     nodes += double(v.page_nodes);
     proxies += double(v.node_count - v.page_nodes);
-    full_count += double(v.cold->full_count);
+    full_count += double(v.full_count);
   }
   const double n = std::max(1.0, double(pages));
   charged += double(storage::PageCache::entry_bytes()) * n;  // as a cache holding every page charges
@@ -244,7 +244,7 @@ void print_decoded_parts(const storage::PageSetReader& reader) {
               "nodes, %.2f surfels a page\n",
               charged / n, disk / n, charged / disk, nodes / n, proxies / n, full_count / n, surfels / n);
   std::printf("decoded parts  cache entry %.0f, Page block %.0f, Page vectors %.0f, attachment %.0f (view %.0f: header+cold+pad %.0f, "
-              "HotNode %.0f, NodeLook %.0f, LeafSurfel %.0f, full nodes %.0f, bipolar %.0f); bytes a page\n",
+              "PackedNode %.0f, PackedLook %.0f, PackedSurfel %.0f, full nodes %.0f, bipolar %.0f); bytes a page\n",
               double(storage::PageCache::entry_bytes()), page_struct / n, page_vectors / n, attachment / n, view / n,
               (view - hot - looks - leaf_surfels - full - bipolar) / n, hot / n, looks / n, leaf_surfels / n, full / n,
               bipolar / n);
