@@ -7,6 +7,7 @@
 #include "client/cli/tool_commands.h"
 #include "storage/cache/page_cache.h"
 #include "storage/format/format_version.h"
+#include "storage/pages/manifest_file.h"
 #include "storage/pages/page_set.h"
 #include "storage/pages/page_set_inspection.h"
 
@@ -35,13 +36,8 @@ std::string json_number(double v) { return cli::json_number(v, 6); }
 
 double per(uint64_t a, uint64_t b) { return b ? double(a) / double(b) : 0.0; }
 
-// The manifest version the writer used: V4 for a leaf format other than
-// relative, else V3 exactly when it declares glossy radiance
-// (storage/format/format_version.h).
-uint32_t manifest_version(const storage::Manifest& m) {
-  if (m.options.leaf_format != storage::LeafFormat::kRelative) return storage::kManifestFormatV4;
-  return m.glossy_resolution ? storage::kManifestFormatV3 : storage::kManifestFormatCurrent;
-}
+// The manifest version the writer used (storage/pages/manifest_file.h).
+uint32_t manifest_version(const storage::Manifest& m) { return storage::manifest_format_of(m); }
 
 void print_json(const std::string& dir, const storage::Manifest& m,
                 const storage::PageSetInspection& r, const storage::CacheCounters& c) {

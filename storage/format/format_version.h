@@ -45,6 +45,17 @@ inline constexpr uint32_t kSceneEntryMagic = fourcc("PBGS");  // <cache>/ingeste
 //       payloads (storage/tree/payload_rounding.h), which the links store
 //       in 76 bytes. Derived payloads.
 //   V7: V5 (every node's payload stored) with V6's compact records.
+//   V8: V6's treelet in a compact page frame (FORMAT.md "Page formats V8
+//       and V9"): a 14-byte header (what the page table, the shapes or the
+//       sections give is gone: page_bytes, surfel_count, payload_bytes;
+//       narrower node count, codec and flags), shapes two a byte, a
+//       bit-packed leaf section, 26-byte link records, compact link
+//       payloads, a column-packed surfel section. The tree's node bounds
+//       and leaf frames are rounded (bounds_rounding.h, page_records.h
+//       RoundedFrame), as V6's payloads were, so links and leaves store
+//       them exactly. Derived payloads. Always with a V5 manifest.
+//   V9: V8 with every node's payload stored (V7's payload array, its size
+//       in a u32 after the header).
 inline constexpr uint32_t kPageFormatV1 = 1;
 inline constexpr uint32_t kPageFormatV2 = 2;
 inline constexpr uint32_t kPageFormatV3 = 3;
@@ -52,9 +63,11 @@ inline constexpr uint32_t kPageFormatV4 = 4;
 inline constexpr uint32_t kPageFormatV5 = 5;
 inline constexpr uint32_t kPageFormatV6 = 6;
 inline constexpr uint32_t kPageFormatV7 = 7;
+inline constexpr uint32_t kPageFormatV8 = 8;
+inline constexpr uint32_t kPageFormatV9 = 9;
 // What this build writes: derived payloads, and every node's payload stored.
-inline constexpr uint32_t kPageFormatCurrent = kPageFormatV6;  // derived payloads
-inline constexpr uint32_t kPageFormatNodePayloads = kPageFormatV7;
+inline constexpr uint32_t kPageFormatCurrent = kPageFormatV8;  // derived payloads
+inline constexpr uint32_t kPageFormatNodePayloads = kPageFormatV9;
 
 // Most levels of the tree one V4/V5 page may hold (root to deepest leaf of
 // its treelet, counted in nodes). Readers check it; the build chooses fewer
@@ -95,9 +108,15 @@ inline constexpr uint32_t kPageFlagSharedAlbedo = 1u << 3;
 inline constexpr uint32_t kManifestFormatV1 = 1;
 inline constexpr uint32_t kManifestFormatV2 = 2;
 inline constexpr uint32_t kManifestFormatV3 = 3;
+//   V5: V4's fields (glossy_resolution may be 0, leaf_format 0 or 1), the
+//       page table as the pages' sizes alone, LEB128 varints: pages follow
+//       each other from offset 0 without gaps, so the offsets are the
+//       sizes' prefix sums (2 bytes a page instead of 12). Written with
+//       V8/V9 pages, and only with them.
 inline constexpr uint32_t kManifestFormatV4 = 4;
-inline constexpr uint32_t kManifestFormatCurrent = kManifestFormatV2;  // diffuse page sets
-inline constexpr uint32_t kManifestFormatLatest = kManifestFormatV4;   // the newest this build reads
+inline constexpr uint32_t kManifestFormatV5 = 5;
+inline constexpr uint32_t kManifestFormatCurrent = kManifestFormatV5;  // what this build writes
+inline constexpr uint32_t kManifestFormatLatest = kManifestFormatV5;   // the newest this build reads
 
 // Version of a page set as a whole (manifest + pages + codec set). Build keys
 // hash it, so bumping it makes every daemon rebuild its cached page sets.
@@ -110,7 +129,9 @@ inline constexpr uint32_t kManifestFormatLatest = kManifestFormatV4;   // the ne
 //      the build key), unaligned.
 //   5: V6/V7 pages: compact (18-byte) surfel records, emission section,
 //      shared albedo, rounded node payloads (76-byte link payloads).
-inline constexpr uint32_t kPageSetFormatVersion = 5;
+//   6: V8/V9 pages (rounded node bounds and leaf frames, compact page
+//      frame) and V5 manifests (page sizes).
+inline constexpr uint32_t kPageSetFormatVersion = 6;
 
 // Ingested-scene entry versions (server/ingest/scene_entry.h).
 //   1-3 (refused): no frame -- the bare SceneChunk stream, dependencies in a
@@ -134,19 +155,26 @@ constexpr bool is_known_scene_entry_format(uint32_t v) { return v == kSceneEntry
 // V4/V5 pages (kPageSetFormatVersion 4) are still read: their build keys
 // no longer match, so a daemon rebuilds them, but a page set opened by
 // path (pbgi inspect, benchmarks) reads as before.
-constexpr bool is_known_page_format(uint32_t v) { return v >= kPageFormatV4 && v <= kPageFormatV7; }
+// V6/V7 pages (kPageSetFormatVersion 5) likewise.
+constexpr bool is_known_page_format(uint32_t v) { return v >= kPageFormatV4 && v <= kPageFormatV9; }
 constexpr bool is_retired_page_format(uint32_t v) { return v >= kPageFormatV1 && v <= kPageFormatV3; }
 // Whether pages of format `v` store every node's payload.
-constexpr bool page_format_stores_node_payloads(uint32_t v) { return v == kPageFormatV5 || v == kPageFormatV7; }
+constexpr bool page_format_stores_node_payloads(uint32_t v) {
+  return v == kPageFormatV5 || v == kPageFormatV7 || v == kPageFormatV9;
+}
 // Whether pages of format `v` hold compact surfel records (leaf format
 // relative) and an emission section.
-constexpr bool page_format_has_compact_records(uint32_t v) { return v == kPageFormatV6 || v == kPageFormatV7; }
+constexpr bool page_format_has_compact_records(uint32_t v) { return v >= kPageFormatV6 && v <= kPageFormatV9; }
 // Whether the nodes of pages of format `v` have rounded payloads
 // (storage/tree/payload_rounding.h), which derived pages' links store in
 // 76 bytes instead of the codec's 144.
-constexpr bool page_format_rounds_payloads(uint32_t v) { return v == kPageFormatV6 || v == kPageFormatV7; }
+constexpr bool page_format_rounds_payloads(uint32_t v) { return v >= kPageFormatV6 && v <= kPageFormatV9; }
+// Whether pages of format `v` have the compact frame (14-byte header, no
+// padding) and 13-byte leaf records of rounded frames (page_frame.h,
+// page_records.h).
+constexpr bool page_format_has_compact_frame(uint32_t v) { return v == kPageFormatV8 || v == kPageFormatV9; }
 constexpr bool is_known_manifest_format(uint32_t v) {
-  return v >= kManifestFormatV1 && v <= kManifestFormatV4;
+  return v >= kManifestFormatV1 && v <= kManifestFormatV5;
 }
 
 }  // namespace pbgi::storage

@@ -14,6 +14,21 @@ std::string PageLocation::describe() const {
 }
 
 void write_page_header(const PageHeader& h, uint8_t* out) {
+  if (page_format_has_compact_frame(h.format_version)) {
+    if (h.node_count > kMaxCompactPageNodes || h.codec > 255 || h.flags > 255) {
+      throw Error("internal: page " + std::to_string(h.page_id) + " has " + std::to_string(h.node_count) +
+                  " nodes, codec " + std::to_string(h.codec) + ", flags " + std::to_string(h.flags) +
+                  ": too many for a compact page header");
+    }
+    store_le<uint32_t>(out + 0, h.magic);
+    store_le<uint16_t>(out + 4, h.format_version);
+    out[6] = uint8_t(h.codec);
+    out[7] = uint8_t(h.flags);
+    store_le<uint32_t>(out + 8, h.page_id);
+    store_le<uint16_t>(out + 12, uint16_t(h.node_count));
+    if (page_format_stores_node_payloads(h.format_version)) store_le<uint32_t>(out + 14, h.payload_bytes);
+    return;
+  }
   store_le<uint32_t>(out + 0, h.magic);
   store_le<uint16_t>(out + 4, h.format_version);
   store_le<uint16_t>(out + 6, h.codec);
@@ -29,6 +44,14 @@ PageHeader read_page_header(const uint8_t* in) {
   PageHeader h;
   h.magic = load_le<uint32_t>(in + 0);
   h.format_version = load_le<uint16_t>(in + 4);
+  if (page_format_has_compact_frame(h.format_version)) {
+    h.codec = in[6];
+    h.flags = in[7];
+    h.page_id = load_le<uint32_t>(in + 8);
+    h.node_count = load_le<uint16_t>(in + 12);
+    if (page_format_stores_node_payloads(h.format_version)) h.payload_bytes = load_le<uint32_t>(in + 14);
+    return h;
+  }
   h.codec = load_le<uint16_t>(in + 6);
   h.page_id = load_le<uint32_t>(in + 8);
   h.node_count = load_le<uint32_t>(in + 12);
@@ -64,9 +87,11 @@ std::string unsupported_page_format(uint32_t version) {
 PageHeader open_page(std::span<const uint8_t> page, const PageLocation& where,
                      uint32_t expected_version) {
   const std::string at = where.describe() + " (" + std::to_string(page.size()) + " bytes)";
-  if (page.size() < kPageHeaderBytes + kPageTrailerBytes) {
+  // The smallest header (V8) and the trailer; the version's own header
+  // size is checked once the version is known.
+  if (page.size() < kCompactPageHeaderBytes + kPageTrailerBytes) {
     throw CorruptionError(at + ": too small for a page: expected at least " +
-                          std::to_string(kPageHeaderBytes + kPageTrailerBytes) + " bytes");
+                          std::to_string(kCompactPageHeaderBytes + kPageTrailerBytes) + " bytes");
   }
   const size_t body = page.size() - kPageTrailerBytes;
   const uint64_t expected = load_le<uint64_t>(page.data() + body);
@@ -76,14 +101,23 @@ PageHeader open_page(std::span<const uint8_t> page, const PageLocation& where,
                           std::to_string(where.offset + body) + ": expected " +
                           checksum_hex(expected) + ", found " + checksum_hex(found));
   }
-  const PageHeader h = read_page_header(page.data());
-  if (h.magic != kPageMagic) {
+  const uint32_t magic = load_le<uint32_t>(page.data());
+  if (magic != kPageMagic) {
     throw CorruptionError(at + ": bad magic: expected " + hex32(kPageMagic) + " ('PBGP'), found " +
-                          hex32(h.magic));
+                          hex32(magic));
   }
-  if (!is_known_page_format(h.format_version)) {
-    throw VersionError(at + ": " + unsupported_page_format(h.format_version));
+  const uint32_t version = load_le<uint16_t>(page.data() + 4);
+  if (!is_known_page_format(version)) {
+    throw VersionError(at + ": " + unsupported_page_format(version));
   }
+  if (page.size() < page_header_bytes(version) + kPageTrailerBytes) {
+    throw CorruptionError(at + ": too small for a page of format " + std::to_string(version) +
+                          ": expected at least " + std::to_string(page_header_bytes(version) + kPageTrailerBytes) +
+                          " bytes");
+  }
+  PageHeader h = read_page_header(page.data());
+  // Compact headers do not store the page's size: the page table's is it.
+  if (page_format_has_compact_frame(version)) h.page_bytes = uint32_t(page.size());
   if (h.format_version != expected_version) {
     throw CorruptionError(at + ": page format version " + std::to_string(h.format_version) +
                           " differs from the manifest's " + std::to_string(expected_version));

@@ -1,6 +1,8 @@
-// The frame around every page of pages.pbgp: a fixed 32-byte header that says
-// what the page holds, and an 8-byte trailer with the XXH3-64 checksum of all
-// bytes before it. What lies between (topology, payload, surfels) is written
+// The frame around every page of pages.pbgp: a header that says what the
+// page holds (32 bytes in V4-V7 pages; 14 in V8, 18 in V9: the compact
+// header keeps the magic, version, codec, flags, page id and node count and
+// drops what the page table or the shapes give), and an 8-byte trailer
+// with the XXH3-64 checksum of all bytes before it. What lies between (topology, payload, surfels) is written
 // by storage/pages; this file only knows sizes.
 //
 // Errors: open_page() throws CorruptionError naming the file, page id, file
@@ -17,19 +19,35 @@
 
 namespace pbgi::storage {
 
-inline constexpr size_t kPageHeaderBytes = 32;
+inline constexpr size_t kPageHeaderBytes = 32;         // V4-V7
+inline constexpr size_t kCompactPageHeaderBytes = 14;  // V8; V9 adds a u32 payload_bytes
 inline constexpr size_t kPageTrailerBytes = 8;
+// Every header starts with the magic (u32) and the format version (u16).
+inline constexpr size_t kPageVersionPrefixBytes = 6;
+// The header size of page format `version` (a known one).
+constexpr size_t page_header_bytes(uint32_t version) {
+  if (!page_format_has_compact_frame(version)) return kPageHeaderBytes;
+  return kCompactPageHeaderBytes + (page_format_stores_node_payloads(version) ? 4 : 0);
+}
+// The most nodes a compact header counts (u16); a V8/V9 page never holds
+// more (kMaxPageLevels levels of at most two children: 2^16 - 1 nodes).
+inline constexpr uint32_t kMaxCompactPageNodes = 65535;
 
+// The fields of any page header. V8/V9 headers do not store surfel_count,
+// page_bytes nor (V8) payload_bytes: read_page_header leaves them 0,
+// open_page sets page_bytes to the page's size, the page decoder counts
+// the rest from the shapes and leaf records; writers of V8/V9 headers
+// ignore them.
 struct PageHeader {
   uint32_t magic = kPageMagic;
   uint16_t format_version = kPageFormatCurrent;
-  uint16_t codec = 0;          // payload codec id (storage/codecs)
+  uint16_t codec = 0;          // payload codec id (storage/codecs); u8 in V8/V9
   uint32_t page_id = 0;
-  uint32_t node_count = 0;
-  uint32_t surfel_count = 0;
-  uint32_t payload_bytes = 0;  // size of the payload array
-  uint32_t page_bytes = 0;     // whole page: header + arrays + trailer
-  uint32_t flags = 0;          // kPageFlag* bits (format_version.h): V2 and V3
+  uint32_t node_count = 0;     // u16 in V8/V9
+  uint32_t surfel_count = 0;   // not stored in V8/V9
+  uint32_t payload_bytes = 0;  // size of the payload array; not stored in V8
+  uint32_t page_bytes = 0;     // whole page: header + arrays + trailer; not stored in V8/V9
+  uint32_t flags = 0;          // kPageFlag* bits (format_version.h); u8 in V8/V9
 };
 
 // Where a page lives, for error messages.
@@ -40,9 +58,13 @@ struct PageLocation {
   std::string describe() const;  // "<file>: page 7 at offset 123 (4096 bytes)"-style prefix
 };
 
-// Writes the 32-byte header at out.
+// Writes the header of h.format_version's layout at out
+// (page_header_bytes(h.format_version) bytes). Throws Error if a field
+// does not fit a compact header (a writer's bug).
 void write_page_header(const PageHeader& h, uint8_t* out);
-// Decodes the header at in; no checks.
+// Decodes the header at in, in the layout of the version it names (the
+// caller ensures page_header_bytes of that version are readable; an
+// unknown version reads as a 32-byte header); no checks.
 PageHeader read_page_header(const uint8_t* in);
 
 // Computes the checksum of page[0, size - 8) and stores it in the trailer.

@@ -14,6 +14,22 @@ constexpr uint32_t kMaxBuildKeyBytes = 4096;
 // A LUT of 65536 entries serializes to 9.4 MB; refuse lengths beyond before
 // allocating.
 constexpr uint32_t kMaxCodecStateBytes = 16u << 20;
+
+// LEB128: 7 bits a byte, low groups first, bit 7 set on every byte but the
+// last. Page sizes (V5 page tables) are u32: at most 5 bytes.
+void put_varint(ByteWriter& w, uint32_t v) {
+  while (v >= 0x80u) {
+    w.put<uint8_t>(uint8_t(v | 0x80u));
+    v >>= 7;
+  }
+  w.put<uint8_t>(uint8_t(v));
+}
+}  // namespace
+
+uint32_t manifest_format_of(const Manifest& m) {
+  if (page_format_has_compact_frame(m.page_format)) return kManifestFormatV5;
+  if (m.options.leaf_format != LeafFormat::kRelative) return kManifestFormatV4;
+  return m.glossy_resolution != 0 ? kManifestFormatV3 : kManifestFormatV2;
 }
 
 std::vector<uint8_t> encode_manifest(const Manifest& m) {
@@ -40,6 +56,23 @@ std::vector<uint8_t> encode_manifest(const Manifest& m) {
   w.put<uint32_t>(m.root.page);
   w.put<uint32_t>(m.root.index);
   w.put<uint32_t>(static_cast<uint32_t>(m.pages.size()));
+  const uint32_t version = manifest_format_of(m);
+  if (version == kManifestFormatV5) {
+    // Sizes alone: the pages lie back to back from offset 0.
+    uint64_t at = 0;
+    for (const PageExtent& e : m.pages) {
+      if (e.offset != at) {
+        throw Error("internal: page at offset " + std::to_string(e.offset) + " does not follow the previous (" +
+                    std::to_string(at) + "): a V5 page table cannot say so");
+      }
+      put_varint(w, e.bytes);
+      at += e.bytes;
+    }
+    w.put<uint32_t>(m.glossy_resolution);
+    w.put<float>(m.options.wavelet_threshold);
+    w.put<uint32_t>(static_cast<uint32_t>(m.options.leaf_format));
+    return frame_manifest(body, kManifestFormatV5);
+  }
   for (const PageExtent& e : m.pages) {
     w.put<uint64_t>(e.offset);
     w.put<uint32_t>(e.bytes);
@@ -83,10 +116,10 @@ Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path)
     const auto state = r.get_bytes(state_bytes, "codec_state");
     m.codec_state.assign(state.begin(), state.end());
   }
-  // Stored payloads: V5 or V7 pages; derived: V4 or V6.
+  // Stored payloads: V5, V7 or V9 pages; derived: V4, V6 or V8.
   if (page_format_stores_node_payloads(m.page_format) != m.node_payloads) {
     throw corrupt("page format " + std::to_string(m.page_format) + " with " + (m.node_payloads ? "stored" : "derived") +
-                  " node payloads (expected " + (m.node_payloads ? "5 or 7" : "4 or 6") + ")");
+                  " node payloads (expected " + (m.node_payloads ? "5, 7 or 9" : "4, 6 or 8") + ")");
   }
   if (codec_needs_state(m.codec) != !m.codec_state.empty()) {
     throw corrupt("payload codec " + std::to_string(m.codec) + " with " + std::to_string(m.codec_state.size()) +
@@ -122,26 +155,57 @@ Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path)
                   std::to_string(table_size) + " entries, stats say " +
                   std::to_string(m.stats.page_count) + " pages");
   }
-  // Each entry takes 12 bytes: refuse a count the body cannot hold before
-  // allocating for it.
-  if (uint64_t(table_size) * 12 > r.remaining()) {
+  // V8/V9 pages come with a V5 manifest, and only they.
+  const bool v5 = framed.version >= kManifestFormatV5;
+  if (v5 != page_format_has_compact_frame(m.page_format)) {
+    throw corrupt("manifest format " + std::to_string(framed.version) + " with page format " +
+                  std::to_string(m.page_format) + " (V5 manifests go with page formats 8 and 9, and only they)");
+  }
+  // Each entry takes 12 bytes (V5: at least 1): refuse a count the body
+  // cannot hold before allocating for it.
+  if (uint64_t(table_size) * (v5 ? 1 : 12) > r.remaining()) {
     throw corrupt("page table of " + std::to_string(table_size) + " entries does not fit the " +
                   std::to_string(r.remaining()) + " bytes left at offset " +
                   std::to_string(r.file_offset()));
   }
   m.pages.resize(table_size);
+  uint64_t next_offset = 0;  // V5: the pages lie back to back
   for (uint32_t i = 0; i < table_size; ++i) {
     const uint64_t at = r.file_offset();
     PageExtent& e = m.pages[i];
-    e.offset = r.get<uint64_t>("page.offset");
-    e.bytes = r.get<uint32_t>("page.bytes");
-    if (e.bytes < kPageHeaderBytes + kPageTrailerBytes || e.offset > m.stats.file_bytes ||
+    if (v5) {
+      uint64_t bytes = 0;
+      for (int shift = 0;; shift += 7) {
+        const uint8_t b = r.get<uint8_t>("page.bytes");
+        if (shift == 28 && b > 0x0fu) throw corrupt("page table entry " + std::to_string(i) + " at offset " +
+                                                    std::to_string(at) + " is not a u32 varint");
+        bytes |= uint64_t(b & 0x7fu) << shift;
+        if ((b & 0x80u) == 0) {
+          if (b == 0 && shift > 0) {
+            throw corrupt("page table entry " + std::to_string(i) + " at offset " + std::to_string(at) +
+                          " has a redundant varint byte");
+          }
+          break;
+        }
+      }
+      e.offset = next_offset;
+      e.bytes = uint32_t(bytes);
+      next_offset += bytes;
+    } else {
+      e.offset = r.get<uint64_t>("page.offset");
+      e.bytes = r.get<uint32_t>("page.bytes");
+    }
+    if (e.bytes < page_header_bytes(m.page_format) + kPageTrailerBytes || e.offset > m.stats.file_bytes ||
         e.bytes > m.stats.file_bytes - e.offset) {
       throw corrupt("page table entry " + std::to_string(i) + " at offset " + std::to_string(at) +
                     " (offset " + std::to_string(e.offset) + ", " + std::to_string(e.bytes) +
                     " bytes) lies outside the " + std::to_string(m.stats.file_bytes) +
                     "-byte pages file");
     }
+  }
+  if (v5 && next_offset != m.stats.file_bytes) {
+    throw corrupt("page table's " + std::to_string(table_size) + " pages add up to " + std::to_string(next_offset) +
+                  " bytes, the pages file has " + std::to_string(m.stats.file_bytes));
   }
   if (framed.version >= kManifestFormatV3) {
     m.glossy_resolution = r.get<uint32_t>("glossy_resolution");
@@ -153,8 +217,11 @@ Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path)
   }
   if (framed.version >= kManifestFormatV4) {
     const uint32_t leaf_format = r.get<uint32_t>("leaf_format");
-    if (leaf_format != static_cast<uint32_t>(LeafFormat::kHalf)) {
-      throw corrupt("leaf_format " + std::to_string(leaf_format) + " is not one a V4 manifest stores (1, half)");
+    if (v5 ? leaf_format > static_cast<uint32_t>(LeafFormat::kHalf)
+           : leaf_format != static_cast<uint32_t>(LeafFormat::kHalf)) {
+      throw corrupt("leaf_format " + std::to_string(leaf_format) + " is not one a V" +
+                    std::to_string(framed.version) + " manifest stores (" + (v5 ? "0 relative, 1 half" : "1, half") +
+                    ")");
     }
     m.options.leaf_format = static_cast<LeafFormat>(leaf_format);
   }

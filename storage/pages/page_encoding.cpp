@@ -3,12 +3,23 @@
 #include "common/errors.h"
 #include "storage/codecs/glossy_pages.h"
 #include "storage/format/byte_order.h"
+#include "storage/pages/leaf_section.h"
+#include "storage/pages/surfel_section.h"
 #include "storage/tree/page_records.h"
 #include "storage/tree/payload_rounding.h"
 
+#include <limits>
 #include <string>
 
 namespace pbgi::storage {
+
+// The builder sizes pages with V4-V7 records (streaming_tree_builder.h:
+// 18 bytes a leaf, 40 + 76 a link, a 32-byte header and 3 bytes of
+// padding); V8/V9 pages never take more, so no page exceeds page_size:
+// a leaf section takes at most 3 + 13 bytes for its first leaf and 15
+// for each other, a link 26 + 88 bytes, the header 18.
+static_assert(kCompactLinkRecordBytes + tree::kMaxCompactPayloadBytes <= kLinkRecordBytes + tree::kRoundedPayloadBytes);
+static_assert(kCompactPageHeaderBytes + 4 <= kPageHeaderBytes);
 
 namespace {
 // Leaf records start at a multiple of 4 from the page start.
@@ -18,34 +29,60 @@ size_t padded(size_t n) { return (n + 3) & ~size_t(3); }
 void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& codec,
                  std::vector<uint8_t>& out, std::span<const uint8_t> glossy) {
   const size_t n = t.shapes.size();
-  const size_t leaves_at = padded(kPageHeaderBytes + n);
-  out.assign(leaves_at, 0);
-  std::copy(t.shapes.begin(), t.shapes.end(), out.begin() + kPageHeaderBytes);
-  out.insert(out.end(), t.leaf_records.begin(), t.leaf_records.end());
-  size_t at = out.size();
-  out.resize(at + t.links.size() * kLinkRecordBytes);
   const bool node_payloads = !t.nodes.empty();
   if (node_payloads && t.nodes.size() != n) {
     throw Error("internal: treelet of " + std::to_string(n) + " nodes has " + std::to_string(t.nodes.size()) +
                 " stored payloads");
   }
-  std::vector<tree::Node> linked;
-  linked.reserve(t.links.size());
-  for (const tree::TreeletLink& l : t.links) {
-    write_link_record(l.page, l.summary, out.data() + at);
-    at += kLinkRecordBytes;
-    linked.push_back(l.summary);
-  }
   // Treelets of 24-byte relative records (only tests make them now) are
-  // V4/V5 pages; this build writes every other treelet as V6/V7.
+  // V4/V5 pages; this build writes every other treelet as V8/V9.
   const bool legacy = t.records == SurfelRecords::kRelative;
   const uint32_t version = legacy ? (node_payloads ? kPageFormatV5 : kPageFormatV4)
                                   : (node_payloads ? kPageFormatNodePayloads : kPageFormatCurrent);
+  const bool compact_frame = page_format_has_compact_frame(version);
+  const size_t header_bytes = page_header_bytes(version);
+  // V4-V7: a shape byte per node, leaf records at a multiple of 4; V8/V9:
+  // two shapes a byte (node 2i in the low nibble), no alignment.
+  const size_t shape_bytes = compact_frame ? (n + 1) / 2 : n;
+  const size_t leaves_at = compact_frame ? header_bytes + shape_bytes : padded(header_bytes + n);
+  out.assign(leaves_at, 0);
+  if (compact_frame) {
+    for (size_t i = 0; i < n; ++i) out[header_bytes + i / 2] |= uint8_t(t.shapes[i] << (4 * (i % 2)));
+  } else {
+    std::copy(t.shapes.begin(), t.shapes.end(), out.begin() + header_bytes);
+  }
+  if (compact_frame) {
+    // The builder's frames are rounded (leaf_quantizer.h): the leaf
+    // section holds them exactly.
+    std::vector<LeafRecord> leaves(t.leaf_records.size() / kLeafRecordBytes);
+    for (size_t i = 0; i < leaves.size(); ++i) {
+      read_leaf_record(t.leaf_records.data() + i * kLeafRecordBytes, leaves[i].frame, leaves[i].surfel_count);
+    }
+    encode_leaf_section(leaves, out);
+  } else {
+    out.insert(out.end(), t.leaf_records.begin(), t.leaf_records.end());
+  }
+  size_t at = out.size();
+  const size_t link_record_bytes = compact_frame ? kCompactLinkRecordBytes : kLinkRecordBytes;
+  out.resize(at + t.links.size() * link_record_bytes);
+  std::vector<tree::Node> linked;
+  linked.reserve(t.links.size());
+  for (const tree::TreeletLink& l : t.links) {
+    if (compact_frame) {
+      write_compact_link_record(l.page, l.summary, out.data() + at);  // the tree's bounds are rounded
+    } else {
+      write_link_record(l.page, l.summary, out.data() + at);
+    }
+    at += link_record_bytes;
+    linked.push_back(l.summary);
+  }
   const size_t payload_at = out.size();
-  // V5/V7: every node's payload, pre-order; V4: the linked children's, by
-  // the codec; V6: the linked children's rounded payloads.
+  // V5/V7/V9: every node's payload, pre-order; V4: the linked children's,
+  // by the codec; V6/V8: the linked children's rounded payloads.
   if (node_payloads) {
     codec.encode(t.nodes, out);
+  } else if (compact_frame) {
+    for (const tree::Node& l : linked) tree::write_compact_payload(l, out);
   } else if (page_format_rounds_payloads(version)) {
     out.resize(payload_at + linked.size() * tree::kRoundedPayloadBytes);
     for (size_t i = 0; i < linked.size(); ++i) {
@@ -58,7 +95,9 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
   // Compact records that all hold one albedo: stored once, records
   // without it (kPageFlagSharedAlbedo).
   const size_t surfels = t.surfel_count();
-  bool shared_albedo = t.records == SurfelRecords::kCompact && surfels > 0;
+  // V8/V9: compact records as a column-packed surfel section.
+  const bool surfel_section = compact_frame && t.records == SurfelRecords::kCompact;
+  bool shared_albedo = !surfel_section && t.records == SurfelRecords::kCompact && surfels > 0;
   for (size_t k = 1; shared_albedo && k < surfels; ++k) {
     shared_albedo = compact_record_albedo(t.surfel_records.data() + k * kCompactSurfelRecordBytes) ==
                     compact_record_albedo(t.surfel_records.data());
@@ -71,6 +110,8 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
       drop_albedo(t.surfel_records.data() + k * kCompactSurfelRecordBytes,
                   out.data() + albedo_at + 4 + k * kCompactSharedAlbedoRecordBytes);
     }
+  } else if (surfel_section) {
+    encode_surfel_section(t.surfel_records, out);
   } else {
     out.insert(out.end(), t.surfel_records.begin(), t.surfel_records.end());
   }
@@ -95,8 +136,8 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
 
 std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const PageLocation& where,
                           uint32_t expected_version, const PayloadCodec& codec,
-                          uint32_t page_count, bool glossy_allowed, LeafFormat leaf_format) {
-  const PageHeader h = open_page(bytes, where, expected_version);
+                          uint32_t page_count, bool glossy_allowed, LeafFormat leaf_format, PageParts* parts) {
+  PageHeader h = open_page(bytes, where, expected_version);
   const std::string at = where.describe();
   auto corrupt = [&](const std::string& msg) { return CorruptionError(at + ": " + msg); };
 
@@ -113,8 +154,12 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
                               (leaf_format == LeafFormat::kHalf ? kPageFlagHalfLeaves : 0u);
   SurfelRecords records = surfel_records_of(leaf_format, page_format_has_compact_records(h.format_version));
   const bool glossy = glossy_allowed && (h.flags & kPageFlagGlossy) != 0;
-  // A shared albedo only over compact records (V6/V7, leaf format relative).
-  const bool shared_albedo = records == SurfelRecords::kCompact && (h.flags & kPageFlagSharedAlbedo) != 0;
+  // A shared albedo only over compact records in V6/V7 pages (V8/V9 pages
+  // store compact records in a surfel section, which needs no flag).
+  const bool surfel_section =
+      page_format_has_compact_frame(h.format_version) && records == SurfelRecords::kCompact;
+  const bool shared_albedo =
+      !surfel_section && records == SurfelRecords::kCompact && (h.flags & kPageFlagSharedAlbedo) != 0;
   if (shared_albedo) records = SurfelRecords::kCompactSharedAlbedo;
   const size_t record_bytes = surfel_record_bytes(records);
   if ((h.flags & ~(glossy ? kPageFlagGlossy : 0u) & ~(shared_albedo ? kPageFlagSharedAlbedo : 0u)) != want_flags) {
@@ -123,34 +168,108 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   }
   const bool node_payloads = (h.flags & kPageFlagNodePayloads) != 0;
   if (h.node_count == 0) throw corrupt("page has no nodes");
+  const bool compact_frame = page_format_has_compact_frame(h.format_version);
+  const size_t header_bytes = page_header_bytes(h.format_version);
   // 1. Sizes. Leaf and link counts follow from the shapes (each byte is
   //    checked when the treelet is parsed).
-  const uint64_t body = bytes.size() - kPageHeaderBytes - kPageTrailerBytes;
-  if (h.node_count > body) {
-    throw corrupt(std::to_string(h.node_count) + " shape bytes do not fit the page");
+  const uint64_t body = bytes.size() - header_bytes - kPageTrailerBytes;
+  const uint64_t shape_bytes = compact_frame ? (uint64_t(h.node_count) + 1) / 2 : h.node_count;
+  if (shape_bytes > body) {
+    throw corrupt(std::to_string(h.node_count) + " shapes do not fit the page");
   }
-  const std::span<const uint8_t> shapes = bytes.subspan(kPageHeaderBytes, h.node_count);
+  // V8/V9 shapes are nibbles: unpacked, one byte a node, for the parse.
+  std::vector<uint8_t> unpacked;
+  std::span<const uint8_t> shapes;
+  if (!compact_frame) {
+    shapes = bytes.subspan(header_bytes, h.node_count);
+  } else {
+    unpacked.resize(h.node_count);
+    for (uint32_t i = 0; i < h.node_count; ++i) unpacked[i] = (bytes[header_bytes + i / 2] >> (4 * (i % 2))) & 15u;
+    if (h.node_count % 2 == 1 && (bytes[header_bytes + h.node_count / 2] >> 4) != 0) {
+      throw corrupt("the shapes' padding nibble is not zero");
+    }
+    shapes = unpacked;
+  }
   uint64_t leaves = 0, links = 0;
   for (uint8_t s : shapes) {
     leaves += (s & 3u) == 0 ? 1 : 0;
     links += ((s >> 2) & 1u) + ((s >> 3) & 1u);
   }
-  const uint64_t leaves_at = padded(kPageHeaderBytes + h.node_count);
-  const uint64_t links_at = leaves_at + leaves * kLeafRecordBytes;
-  const uint64_t payload_at = links_at + links * kLinkRecordBytes;
+  const uint64_t leaves_at = compact_frame ? header_bytes + shape_bytes : padded(header_bytes + h.node_count);
+  const size_t link_record_bytes = compact_frame ? kCompactLinkRecordBytes : kLinkRecordBytes;
+  // V8/V9: the leaf section, decoded first (its size depends on its widths).
+  std::vector<LeafRecord> leaf_section;
+  const uint64_t leaf_bytes =
+      compact_frame ? decode_leaf_section(bytes.subspan(leaves_at, bytes.size() - kPageTrailerBytes - leaves_at), leaves,
+                                          leaf_section, at)
+                    : leaves * kLeafRecordBytes;
+  const uint64_t links_at = leaves_at + leaf_bytes;
+  const uint64_t payload_at = links_at + links * link_record_bytes;
+  std::vector<tree::Node> compact_payloads;
+  if (compact_frame) {
+    // V8/V9 headers do not store the surfel count (the leaves' counts add
+    // up to it) nor, in V8, the payload array's size (its compact payloads
+    // say theirs).
+    if (payload_at + kPageTrailerBytes > bytes.size()) {
+      throw corrupt("header, shapes and leaves (" + std::to_string(h.node_count) + " nodes, " +
+                    std::to_string(leaves) + " leaves, " + std::to_string(links) + " links) need at least " +
+                    std::to_string(payload_at + kPageTrailerBytes) + " bytes, page has " +
+                    std::to_string(bytes.size()));
+    }
+    uint64_t surfels = 0;
+    for (const LeafRecord& l : leaf_section) surfels += l.surfel_count;
+    if (surfels > std::numeric_limits<uint32_t>::max()) {
+      throw corrupt("leaf records count " + std::to_string(surfels) + " surfels");
+    }
+    h.surfel_count = uint32_t(surfels);
+    if (!node_payloads) {
+      // V8: the linked children's compact payloads, back to back.
+      compact_payloads.resize(links);
+      uint64_t used = 0;
+      const auto rest = bytes.subspan(payload_at, bytes.size() - kPageTrailerBytes - payload_at);
+      for (uint64_t i = 0; i < links; ++i) {
+        const size_t n = tree::read_compact_payload(rest.subspan(used), compact_payloads[i]);
+        if (n == 0) {
+          throw corrupt("link " + std::to_string(i) + "'s payload is cut short or holds what no writer produces");
+        }
+        used += n;
+      }
+      h.payload_bytes = uint32_t(used);
+    }
+  }
   const uint64_t albedo_at = payload_at + h.payload_bytes;
   const uint64_t surfels_at = albedo_at + (shared_albedo ? 4 : 0);
-  const uint64_t emission_at = surfels_at + uint64_t(h.surfel_count) * record_bytes;
+  // V8/V9 compact records: decoded from the surfel section (its size
+  // follows from its column widths) into `unpacked_records`.
+  std::vector<uint8_t> unpacked_records;
+  std::span<const uint8_t> record_span;
+  uint64_t surfel_bytes = uint64_t(h.surfel_count) * record_bytes;
+  if (surfel_section) {
+    if (surfels_at + kPageTrailerBytes > bytes.size()) {
+      throw corrupt("the payload array (" + std::to_string(h.payload_bytes) + " bytes) runs past the page");
+    }
+    surfel_bytes = decode_surfel_section(bytes.subspan(surfels_at, bytes.size() - kPageTrailerBytes - surfels_at),
+                                         h.surfel_count, unpacked_records, at);
+    record_span = unpacked_records;
+  }
+  const uint64_t emission_at = surfels_at + surfel_bytes;
+  if (!surfel_section && emission_at + kPageTrailerBytes <= bytes.size()) {
+    record_span = bytes.subspan(surfels_at, surfel_bytes);
+  }
   // Compact records: one emission entry per record that emits (counted
   // once the records are known to lie inside the page).
   uint64_t emitting = 0;
-  if (emission_out_of_line(records) && emission_at + kPageTrailerBytes <= bytes.size()) {
+  if (emission_out_of_line(records) && record_span.size() == uint64_t(h.surfel_count) * record_bytes) {
     for (uint64_t k = 0; k < h.surfel_count; ++k) {
-      emitting += surfel_record_emits(records, bytes.data() + surfels_at + k * record_bytes) ? 1 : 0;
+      emitting += surfel_record_emits(records, record_span.data() + k * record_bytes) ? 1 : 0;
     }
   }
   const uint64_t glossy_at = emission_at + emitting * kEmissionEntryBytes;
   const uint64_t need = glossy_at + kPageTrailerBytes;
+  if (parts) {
+    *parts = {header_bytes, leaves_at, links_at, payload_at, albedo_at, surfels_at, emission_at, glossy_at,
+              bytes.size() - kPageTrailerBytes};
+  }
   // A glossy section fills what lies between the surfels and the trailer.
   if (glossy ? need >= bytes.size() : need != bytes.size()) {
     throw corrupt("header and shapes (" + std::to_string(h.node_count) + " nodes, " + std::to_string(leaves) +
@@ -164,7 +283,13 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   std::vector<tree::TreeletLink> link(links);
   std::vector<tree::Node> linked(links);
   for (uint64_t i = 0; i < links; ++i) {
-    read_link_record(bytes.data() + links_at + i * kLinkRecordBytes, link[i].page, linked[i]);
+    const uint8_t* record = bytes.data() + links_at + i * link_record_bytes;
+    if (!compact_frame) {
+      read_link_record(record, link[i].page, linked[i]);
+    } else if (!read_compact_link_record(record, link[i].page, linked[i])) {
+      throw corrupt("link record " + std::to_string(i) +
+                    " has a sphere, cone or area out of range");
+    }
     if (link[i].page >= page_count) {
       throw corrupt("link " + std::to_string(i) + " to page " + std::to_string(link[i].page) +
                     " outside the " + std::to_string(page_count) + " pages");
@@ -175,6 +300,11 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   if (node_payloads) {
     stored.resize(h.node_count);
     codec.decode(bytes.subspan(payload_at, h.payload_bytes), stored, at);
+  } else if (compact_frame) {
+    for (uint64_t i = 0; i < links; ++i) {
+      linked[i].radiance_sh = compact_payloads[i].radiance_sh;
+      linked[i].coverage_sh = compact_payloads[i].coverage_sh;
+    }
   } else if (rounded) {
     if (h.payload_bytes != links * tree::kRoundedPayloadBytes) {
       throw corrupt("payload array of " + std::to_string(h.payload_bytes) + " bytes for " + std::to_string(links) +
@@ -193,15 +323,20 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   // 3. The treelet, every summary derived.
   tree::TreeletView view;
   view.shapes = shapes;
-  view.leaf_records = bytes.subspan(leaves_at, leaves * kLeafRecordBytes);
+  if (compact_frame) {
+    view.leaves = leaf_section;
+  } else {
+    view.leaf_records = bytes.subspan(leaves_at, leaves * kLeafRecordBytes);
+  }
   view.links = link;
-  view.surfel_records = bytes.subspan(surfels_at, uint64_t(h.surfel_count) * record_bytes);
+  view.surfel_records = record_span;
   view.records = records;
   if (shared_albedo) view.shared_albedo = load_le<uint32_t>(bytes.data() + albedo_at);
   view.emission = bytes.subspan(emission_at, emitting * kEmissionEntryBytes);
   view.payloads = stored;
   view.max_levels = kMaxPageLevels;
   view.rounded_payloads = rounded;
+  view.rounded_bounds = compact_frame;
   auto page = std::make_shared<tree::Page>();
   tree::expand_treelet(view, h.page_id, at, *page);
   // Link records carry a linked child's exact summary only when its

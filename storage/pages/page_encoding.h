@@ -1,6 +1,10 @@
-// A treelet <-> the bytes of one V4-V7 page (layout in FORMAT.md):
+// A treelet <-> the bytes of one V4-V9 page (layout in FORMAT.md):
 //   header | shapes | pad | leaf records | link records | payload array |
-//   surfel records | emission entries (V6/V7) | glossy section | trailer
+//   surfel records | emission entries (V6-V9) | glossy section | trailer
+// V8/V9 pages (what this build writes; V4-V7 are read) hold the same
+// parts in compact forms: nibble shapes, no pad, a leaf section
+// (leaf_section.h), 26-byte link records, compact link payloads
+// (payload_rounding.h), a surfel section (surfel_section.h).
 // The payload array holds, through the page set's codec, the payloads of
 // the linked children (the roots of other pages) in link order: what the
 // nodes of this page need to derive their own payloads (V2). A treelet that
@@ -25,6 +29,14 @@ namespace pbgi::storage {
 void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& codec,
                  std::vector<uint8_t>& out, std::span<const uint8_t> glossy = {});
 
+// Where the parts of a decoded page lie: byte offsets from its start, in
+// page order (FORMAT.md); each part ends where the next begins, the
+// trailer at the page's end. For size breakdowns (benchmarks, inspection).
+struct PageParts {
+  uint64_t shapes = 0, leaves = 0, links = 0, payloads = 0, albedo = 0, surfels = 0, emission = 0, glossy = 0,
+           trailer = 0;
+};
+
 // Verifies (checksum, header, sizes, shapes, links) and decodes the page at
 // `where`, deriving every node's summary. Links must point to pages with a
 // smaller id (written before). A glossy section is accepted only when
@@ -36,6 +48,6 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
 std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const PageLocation& where,
                           uint32_t expected_version, const PayloadCodec& codec,
                           uint32_t page_count, bool glossy_allowed = false,
-                          LeafFormat leaf_format = LeafFormat::kRelative);
+                          LeafFormat leaf_format = LeafFormat::kRelative, PageParts* parts = nullptr);
 
 }  // namespace pbgi::storage

@@ -36,6 +36,10 @@ storage::LeafFrame quantize_leaf(storage::SurfelRecords format, std::span<const 
   // rad times r, though most normals move far less): a 2^-11 margin mostly
   // suffices the first time, and the loop below widens otherwise.
   f.radius = tight.radius * (1.f + 0x1p-11f);
+  // The tree's frames are rounded (page_records.h RoundedFrame), so that
+  // V8/V9 leaf records hold them exactly: the surfels are quantized in the
+  // rounded frame, which contains the sphere it rounds.
+  f = storage::round_frame_outward(f).frame();
   for (int attempt = 0;; ++attempt) {
     double farthest = 0;
     for (size_t i = 0; i < surfels.size(); ++i) {
@@ -53,6 +57,7 @@ storage::LeafFrame quantize_leaf(storage::SurfelRecords format, std::span<const 
     // record changes). Doubling the margin each time ends in a few steps.
     const float grow = 1.f + std::ldexp(1.f, -10 + attempt);
     f.radius = std::max(f.radius * grow, std::nextafter(float(farthest), std::numeric_limits<float>::infinity()));
+    f = storage::round_frame_outward(f).frame();
   }
 }
 

@@ -4,7 +4,9 @@
 // The frame is the bounding sphere of the surfel disks, widened until every
 // *decoded* disk lies inside it: the tree's bounds are computed from the
 // decoded surfels, so they hold for exactly what a reader gets. The frame
-// radius is at most ~0.05% larger than the tightest sphere of the input.
+// radius is at most ~0.05% larger than the tightest sphere of the input,
+// then rounded outward (page_records.h RoundedFrame: up to ~0.15% more),
+// so that a V8/V9 page's leaf section holds it exactly.
 //
 // Thread-safety: pure functions.
 #pragma once

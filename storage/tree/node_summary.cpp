@@ -1,6 +1,7 @@
 #include "storage/tree/node_summary.h"
 
 #include "storage/tree/bounding_sphere.h"
+#include "storage/tree/bounds_rounding.h"
 #include "storage/tree/node_payload.h"
 #include "storage/tree/normal_cone.h"
 #include "storage/tree/payload_rounding.h"
@@ -20,8 +21,10 @@ float sum_area(const Range& items, Area area_of) {
 
 }  // namespace
 
-void summarize_leaf(std::span<const Surfel> surfels, const storage::LeafFrame& frame, Node& out, PayloadMode payload) {
-  const NormalCone cone = cone_of_normals(surfels);
+void summarize_leaf(std::span<const Surfel> surfels, const storage::LeafFrame& frame, Node& out, PayloadMode payload,
+                    BoundsMode bounds) {
+  NormalCone cone = cone_of_normals(surfels);
+  if (bounds == BoundsMode::kRounded) cone = round_cone_outward(cone);
   out.center = frame.center;
   out.radius = frame.radius;
   out.cone_axis = cone.axis;
@@ -38,7 +41,7 @@ void summarize_leaf(std::span<const Surfel> surfels, const storage::LeafFrame& f
   if (payload == PayloadMode::kRounded) round_payload(out);
 }
 
-void summarize_internal(const Node& a, const Node* b, Node& out, PayloadMode payload) {
+void summarize_internal(const Node& a, const Node* b, Node& out, PayloadMode payload, BoundsMode bounds) {
   PayloadAccumulator acc;
   acc.add_node(a);
   if (b) {
@@ -48,6 +51,7 @@ void summarize_internal(const Node& a, const Node* b, Node& out, PayloadMode pay
     out.radius = s.radius;
     out.cone_axis = c.axis;
     out.cone_cos = c.cos_half_angle;
+    if (bounds == BoundsMode::kRounded) round_bounds(out);
     acc.add_node(*b);
   } else {
     out.center = a.center;

@@ -25,14 +25,22 @@ namespace pbgi::tree {
 //             the trees this build writes (V6/V7 pages, in-memory trees).
 enum class PayloadMode : uint8_t { kNone, kExact, kRounded };
 
+// What a summary does with the bounds (sphere and cone):
+//   kExact    the enclosing sphere and cone as computed (V4-V7 page sets);
+//   kRounded  those rounded outward by bounds_rounding.h: the trees this
+//             build writes (V8/V9 pages, in-memory trees). A leaf's sphere
+//             is its frame, rounded already (leaf_quantizer.h).
+enum class BoundsMode : uint8_t { kExact, kRounded };
+
 // Leaf over `surfels` (decoded, non-empty) stored in `frame`: sphere =
 // frame, cone around the normals, area and payload from the surfels. Sets
 // child_count = 0 and surfel_count; leaves first_surfel alone.
-void summarize_leaf(std::span<const Surfel> surfels, const storage::LeafFrame& frame, Node& out, PayloadMode payload);
+void summarize_leaf(std::span<const Surfel> surfels, const storage::LeafFrame& frame, Node& out, PayloadMode payload,
+                    BoundsMode bounds);
 
 // Internal node over one or two children (`b` may be null): enclosing
 // sphere and cone, summed area, area-weighted payload. Sets child_count;
-// leaves the child links alone.
-void summarize_internal(const Node& a, const Node* b, Node& out, PayloadMode payload);
+// leaves the child links alone. One child: its bounds, as they are.
+void summarize_internal(const Node& a, const Node* b, Node& out, PayloadMode payload, BoundsMode bounds);
 
 }  // namespace pbgi::tree

@@ -4,10 +4,13 @@
 #include "storage/format/byte_order.h"
 #include "storage/format/packed_values.h"
 #include "storage/format/page_frame.h"
+#include "storage/tree/bounds_rounding.h"
 
 #include <Imath/half.h>
 
 #include <algorithm>
+#include <bit>
+#include <cmath>
 
 namespace pbgi::storage {
 
@@ -55,6 +58,147 @@ void read_leaf_record(const uint8_t* in, LeafFrame& f, uint32_t& surfel_count) {
   const uint8_t* p = get3(in, f.center);
   f.radius = load_le<float>(p);
   surfel_count = load_le<uint16_t>(p + 4);
+}
+
+namespace {
+// 2^e as a float from its bits (e in [-126, 127]): exact, unlike ldexp's
+// callers' arithmetic, and cheap.
+float pow2f(int e) { return std::bit_cast<float>(uint32_t(e + 127) << 23); }
+constexpr int kFrameExponentBias = 128;
+constexpr int kFrameGridBits = 10;    // step >= radius / 2048
+constexpr int kFrameCenterBits = 21;  // |k| <= 2^22
+int ilogb_or_min(float v) { return v > 0.f ? std::ilogb(v) : kMinFrameExponent; }
+
+void put_i24(uint8_t* p, int32_t v) {
+  const uint32_t u = uint32_t(v) & 0xffffffu;
+  p[0] = uint8_t(u);
+  p[1] = uint8_t(u >> 8);
+  p[2] = uint8_t(u >> 16);
+}
+uint32_t get_u24(const uint8_t* p) { return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16; }
+int32_t get_i24(const uint8_t* p) {
+  const uint32_t u = get_u24(p);
+  return int32_t(u ^ 0x800000u) - 0x800000;
+}
+}  // namespace
+
+LeafFrame RoundedFrame::frame() const {
+  const float step = pow2f(exponent);
+  return {{float(k[0]) * step, float(k[1]) * step, float(k[2]) * step}, float(m) * step};
+}
+
+RoundedFrame round_frame_outward(const LeafFrame& f) {
+  const float largest = std::max({std::abs(f.center.x), std::abs(f.center.y), std::abs(f.center.z)});
+  int e = std::max({ilogb_or_min(f.radius) - kFrameGridBits, ilogb_or_min(largest) - kFrameCenterBits,
+                    kMinFrameExponent});
+  for (;; ++e) {
+    if (e > kMaxFrameExponent) {
+      throw InvalidArgument("a leaf frame of radius " + std::to_string(f.radius) +
+                            " is too large for a rounded frame");
+    }
+    RoundedFrame r;
+    r.exponent = e;
+    const float down = pow2f(-e);  // e >= -126: 2^-e <= 2^126, a float
+    double moved2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      // |c| < 2^(ilogb + 1) <= 2^(e + 22): c 2^-e is exact and below 2^22.
+      r.k[a] = int32_t(std::rint(f.center[a] * down));
+      const double d = double(f.center[a]) - double(r.k[a]) * double(pow2f(e));
+      moved2 += d * d;
+    }
+    // The radius, widened by the centre's move, rounded up to the grid (in
+    // double: exact for the steps and sizes here, and never below).
+    const double need = (double(f.radius) + std::sqrt(moved2)) * double(down);
+    const double m = std::ceil(need);
+    if (m > double(kMaxRoundedFrameRadius)) continue;  // a coarser grid
+    r.m = uint32_t(m);
+    return r;
+  }
+}
+
+namespace {
+// The exponent of the lowest set bit of a non-zero finite float.
+int lowest_bit_exponent(float v) {
+  const uint32_t bits = std::bit_cast<uint32_t>(v) & 0x7fffffffu;
+  const int biased = int(bits >> 23);
+  const uint32_t mantissa = (bits & 0x7fffffu) | (biased != 0 ? 0x800000u : 0u);
+  return (biased != 0 ? biased - 127 - 23 : -126 - 23) + std::countr_zero(mantissa);
+}
+}  // namespace
+
+bool to_rounded_frame(const LeafFrame& f, RoundedFrame& out) {
+  const float v[4] = {f.center.x, f.center.y, f.center.z, f.radius};
+  // The coarsest grid on which all four are integers: the smallest k and m.
+  int e = kMaxFrameExponent;
+  for (float x : v) {
+    if (!std::isfinite(x)) return false;
+    if (x != 0.f) e = std::min(e, lowest_bit_exponent(x));
+  }
+  if (e < kMinFrameExponent || f.radius < 0.f) return false;
+  const float down = pow2f(-e);
+  out.exponent = e;
+  for (int a = 0; a < 3; ++a) {
+    const float k = v[a] * down;  // an integer: exact
+    if (std::abs(k) > float(kMaxRoundedFrameCenter)) return false;
+    out.k[a] = int32_t(k);
+  }
+  const float m = f.radius * down;
+  if (m > float(kMaxRoundedFrameRadius)) return false;
+  out.m = uint32_t(m);
+  return true;
+}
+
+namespace {
+// The 12-byte sphere of a compact link record: a rounded frame with m in a u16.
+void write_sphere(const LeafFrame& f, uint8_t* out) {
+  RoundedFrame r;
+  if (!to_rounded_frame(f, r)) throw Error("internal: a link record for a sphere that is not rounded");
+  out[0] = uint8_t(r.exponent + kFrameExponentBias);
+  for (int a = 0; a < 3; ++a) put_i24(out + 1 + 3 * a, r.k[a]);
+  store_le<uint16_t>(out + 10, uint16_t(r.m));
+}
+bool read_sphere(const uint8_t* in, LeafFrame& f) {
+  RoundedFrame r;
+  r.exponent = int(in[0]) - kFrameExponentBias;
+  if (r.exponent < kMinFrameExponent || r.exponent > kMaxFrameExponent) return false;
+  for (int a = 0; a < 3; ++a) {
+    r.k[a] = get_i24(in + 1 + 3 * a);
+    if (std::abs(r.k[a]) > kMaxRoundedFrameCenter) return false;
+  }
+  r.m = load_le<uint16_t>(in + 10);
+  if (r.m > kMaxRoundedFrameRadius) return false;
+  f = r.frame();
+  return std::isfinite(f.center.x) && std::isfinite(f.center.y) && std::isfinite(f.center.z);
+}
+}  // namespace
+
+void write_compact_link_record(uint32_t page, const tree::Node& n, uint8_t* out) {
+  store_le<uint32_t>(out, page);             // 0
+  write_sphere({n.center, n.radius}, out + 4);  // 4
+  uint32_t axis = 0;
+  uint16_t one_minus_cos = 0;
+  if (!tree::cone_code({n.cone_axis, n.cone_cos}, axis, one_minus_cos)) {
+    throw Error("internal: a link record for a cone that is not rounded");
+  }
+  store_le<uint32_t>(out + 16, axis);            // 16
+  store_le<uint16_t>(out + 20, one_minus_cos);   // 20
+  store_le<float>(out + 22, n.area);             // 22
+}
+
+bool read_compact_link_record(const uint8_t* in, uint32_t& page, tree::Node& n) {
+  page = load_le<uint32_t>(in);
+  LeafFrame sphere;
+  if (!read_sphere(in + 4, sphere)) return false;
+  tree::NormalCone cone;
+  if (!tree::cone_of_code(load_le<uint32_t>(in + 16), load_le<uint16_t>(in + 20), cone)) return false;
+  const float area = load_le<float>(in + 22);
+  if (!(area >= 0.f) || !std::isfinite(area)) return false;
+  n.center = sphere.center;
+  n.radius = sphere.radius;
+  n.cone_axis = cone.axis;
+  n.cone_cos = cone.cos_half_angle;
+  n.area = area;
+  return true;
 }
 
 void write_link_record(uint32_t page, const tree::Node& n, uint8_t* out) {

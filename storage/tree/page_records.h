@@ -3,7 +3,12 @@
 //  * shape byte, one per node in pre-order: child count and which children
 //    live in another page. The shapes alone determine the treelet.
 //  * leaf record: the leaf's frame (bounding sphere, also the quantization
-//    frame of its surfels) and its surfel count.
+//    frame of its surfels) and its surfel count: 18 bytes of floats in
+//    V4-V7 pages; in V8/V9 pages, whose frames are rounded (RoundedFrame
+//    below: every frame the tree build makes is), a bit-packed leaf
+//    section (storage/pages/leaf_section.h).
+//  * compact link record (V8/V9): the link record with the rounded
+//    bounds (bounds_rounding.h) in 26 bytes instead of 40.
 //  * link record: a child that lives in another page: that page's id and
 //    the bounds, cone and area of its root (its payload follows in the
 //    page's payload array), so that the ancestors' bounds and payloads can
@@ -77,11 +82,67 @@ struct LeafFrame {
 void write_leaf_record(const LeafFrame& f, uint32_t surfel_count, uint8_t* out);
 void read_leaf_record(const uint8_t* in, LeafFrame& f, uint32_t& surfel_count);
 
+// ---- rounded leaf frame (V8/V9) ----
+// Leaf frames are rounded so that a few integers hold them exactly: the centre
+// is k * 2^e per axis and the radius m * 2^e, with one exponent e per
+// frame, |k| <= 2^22 and 0 <= m <= kMaxRoundedFrameRadius. e is the
+// larger of ilogb(radius) - 10 (a grid step of 1/2048 to 1/1024 of the
+// radius) and ilogb(largest |centre coordinate|) - 21 (k fits, and k 2^e
+// is an exact float), and at least -126; so the centre moves by at most
+// sqrt(3) 2^(e-1) (< 8.5e-4 of the radius when the first bound decides)
+// and the radius grows by that move and then up to the next multiple of
+// 2^e. The rounded sphere contains the given one.
+// Why round: a frame is a leaf's bounding sphere, from which every
+// ancestor's bounds derive; like rounded payloads (payload_rounding.h)
+// the tree is defined with rounded frames (leaf_quantizer.h quantizes the
+// surfels in them), so records hold the tree exactly and a page set
+// still equals the in-memory tree bit for bit.
+inline constexpr uint32_t kMaxRoundedFrameRadius = 4095;   // m: 12 bits
+inline constexpr uint32_t kMaxCompactLeafSurfels = 4096;   // BuildOptions: leaf_size <= 4096
+inline constexpr int kMinFrameExponent = -126;
+inline constexpr int kMaxFrameExponent = 115;  // m 2^e stays a finite float
+struct RoundedFrame {
+  int exponent = kMinFrameExponent;
+  int32_t k[3] = {0, 0, 0};
+  uint32_t m = 0;
+  LeafFrame frame() const;  // exact: every value is a float
+};
+// The rounded frame containing the sphere (center, radius) (finite, radius
+// >= 0). Throws InvalidArgument when no rounded frame can hold it (a
+// radius beyond ~2^126).
+RoundedFrame round_frame_outward(const LeafFrame& f);
+// Whether a compact record can hold `f` exactly (some e with every centre
+// coordinate k 2^e, |k| <= kMaxRoundedFrameCenter, and the radius m 2^e,
+// m <= kMaxRoundedFrameRadius), and that representation (the coarsest).
+// Every frame round_frame_outward() makes, and any widened as
+// leaf_quantizer.h widens, is.
+inline constexpr int32_t kMaxRoundedFrameCenter = (1 << 23) - 1;  // i24
+bool to_rounded_frame(const LeafFrame& f, RoundedFrame& out);
+// A leaf's frame and surfel count, as a page's leaf section (V8/V9,
+// storage/pages/leaf_section.h) holds them.
+struct LeafRecord {
+  LeafFrame frame;
+  uint32_t surfel_count = 0;
+};
+
 // ---- link record ----
 // Writes page, center, radius, cone axis, cone cos and area of `n`.
 void write_link_record(uint32_t page, const tree::Node& n, uint8_t* out);
 // Reads them back into `n` (other fields untouched).
 void read_link_record(const uint8_t* in, uint32_t& page, tree::Node& n);
+
+// ---- compact link record (V8/V9) ----
+// kCompactLinkRecordBytes: u32 page; the child's sphere as a compact leaf
+// record's frame (u8 e + 128, three i24 k, u16 m: 12 bytes); its cone as
+// a u32 octahedral axis code and the u16 half-float bits of 1 - cos
+// (bounds_rounding.h); f32 area. The tree's bounds are rounded, so this
+// holds the child's summary exactly. write throws Error for bounds that
+// are not rounded (a writer's bug); read returns false for bytes no writer
+// produces (exponent, radius or 1 - cos out of range, a centre beyond
+// float range, an area that is negative or not finite).
+inline constexpr size_t kCompactLinkRecordBytes = 26;
+void write_compact_link_record(uint32_t page, const tree::Node& n, uint8_t* out);
+bool read_compact_link_record(const uint8_t* in, uint32_t& page, tree::Node& n);
 
 // ---- surfel record ----
 // Encodes `s` relative to `f` in `records` (surfel_record_bytes(records)

@@ -81,6 +81,73 @@ void write_rounded_payload(const Node& n, uint8_t* out) {
   }
 }
 
+void write_compact_payload(const Node& n, std::vector<uint8_t>& out) {
+  for (const float* v : blocks(n)) {
+    const float m = block_max(v);
+    if (!(m >= 0x1p-100f) || !std::isfinite(m)) {
+      out.push_back(0);  // a zero block (rounded payloads have no other small ones)
+      continue;
+    }
+    const int e = block_exponent(m);
+    out.push_back(uint8_t(e + kExponentBias));
+    const float down = pow2(-e);
+    int16_t q[kBlock];
+    uint32_t classes = 0;
+    for (int i = 0; i < kBlock; ++i) {
+      q[i] = int16_t(std::rint(v[i] * down));
+      const uint32_t c = q[i] == 0 ? 0u : (q[i] >= -128 && q[i] <= 127) ? 1u : 2u;
+      classes |= c << (2 * i);
+    }
+    out.push_back(uint8_t(classes));
+    out.push_back(uint8_t(classes >> 8));
+    out.push_back(uint8_t(classes >> 16));
+    for (int i = 0; i < kBlock; ++i) {
+      const uint32_t c = (classes >> (2 * i)) & 3u;
+      if (c == 1) out.push_back(uint8_t(int8_t(q[i])));
+      if (c == 2) {
+        out.push_back(uint8_t(uint16_t(q[i])));
+        out.push_back(uint8_t(uint16_t(q[i]) >> 8));
+      }
+    }
+  }
+}
+
+size_t read_compact_payload(std::span<const uint8_t> in, Node& n) {
+  size_t at = 0;
+  for (float* v : blocks(n)) {
+    if (at >= in.size()) return 0;
+    const uint8_t x = in[at++];
+    if (x == 0) {
+      std::fill(v, v + kBlock, 0.f);
+      continue;
+    }
+    const int e = int(x) - kExponentBias;
+    if (e < kMinExponent || e > kMaxExponent || at + 3 > in.size()) return 0;
+    const uint32_t classes = uint32_t(in[at]) | uint32_t(in[at + 1]) << 8 | uint32_t(in[at + 2]) << 16;
+    at += 3;
+    if ((classes >> 18) != 0 || classes == 0) return 0;  // spare bits; a zero block has its own byte
+    const float up = pow2(e);
+    for (int i = 0; i < kBlock; ++i) {
+      const uint32_t c = (classes >> (2 * i)) & 3u;
+      int q = 0;
+      if (c == 1) {
+        if (at + 1 > in.size()) return 0;
+        q = int8_t(in[at++]);
+        if (q == 0) return 0;
+      } else if (c == 2) {
+        if (at + 2 > in.size()) return 0;
+        q = int16_t(uint16_t(in[at]) | uint16_t(in[at + 1]) << 8);
+        at += 2;
+        if (q >= -128 && q <= 127) return 0;
+      } else if (c == 3) {
+        return 0;
+      }
+      v[i] = float(q) * up;
+    }
+  }
+  return at;
+}
+
 bool read_rounded_payload(const uint8_t* in, sh::ShRgb& radiance, sh::Sh9& coverage) {
   for (float* v : {radiance.r.data(), radiance.g.data(), radiance.b.data(), coverage.data()}) {
     const int e = int(*in++) - kExponentBias;

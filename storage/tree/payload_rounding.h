@@ -30,6 +30,8 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <span>
+#include <vector>
 
 namespace pbgi::tree {
 
@@ -48,5 +50,21 @@ bool read_rounded_payload(const uint8_t* in, Node& n);
 // The same into a payload's two parts (the gather's page views keep wide
 // nodes' payloads in this form).
 bool read_rounded_payload(const uint8_t* in, sh::ShRgb& radiance, sh::Sh9& coverage);
+
+// The compact form of a rounded payload (V8/V9 link payloads), the same
+// values in fewer bytes. Per block: the exponent byte (0: the block is
+// zero, nothing follows); then 9 two-bit classes, LSB first in a u24
+// whose top 6 bits are zero (0: q = 0, 1: an i8 follows, 2: an i16
+// follows); then the values, in coefficient order. 4 to 88 bytes; zero
+// blocks (a channel no light reaches) and small higher-band coefficients
+// are common.
+// write appends to `out` (the payload must be rounded); read returns the
+// bytes it took from `in`, or 0 for bytes no writer produces (past the
+// end of `in`, an exponent out of range, class 3, non-zero spare bits, a
+// value of the wrong class: zero, or an i16 that fits an i8, or a block
+// of only zeros under an exponent).
+inline constexpr size_t kMaxCompactPayloadBytes = 4 * (1 + 3 + 9 * 2);
+void write_compact_payload(const Node& n, std::vector<uint8_t>& out);
+size_t read_compact_payload(std::span<const uint8_t> in, Node& n);
 
 }  // namespace pbgi::tree

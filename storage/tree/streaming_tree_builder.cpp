@@ -175,7 +175,7 @@ struct StreamingTreeBuilder::Impl {
       for (size_t k = 0; k < n; ++k) p.gloss[k] = p.raw[k].gloss;
       break;
     }
-    summarize_leaf(decoded, p.frame, p.node, PayloadMode::kRounded);
+    summarize_leaf(decoded, p.frame, p.node, PayloadMode::kRounded, BoundsMode::kRounded);
     p.bytes = kShapeBytes + kLeafRecordBytes + n * record_bytes + p.emission.size();
     p.payload_bits = 0;
     size_payload(p);
@@ -207,7 +207,7 @@ struct StreamingTreeBuilder::Impl {
     const Pending& pb = arena[b];
     p.child[0] = a;
     p.child[1] = b;
-    summarize_internal(pa.node, &pb.node, p.node, PayloadMode::kRounded);
+    summarize_internal(pa.node, &pb.node, p.node, PayloadMode::kRounded, BoundsMode::kRounded);
     p.height = 1 + std::max(pa.height, pb.height);
     p.bytes = kShapeBytes + pa.bytes + pb.bytes;
     p.payload_bits = pa.payload_bits + pb.payload_bits;

@@ -32,7 +32,8 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
   using namespace storage;
   auto corrupt = [&](const std::string& msg) { return CorruptionError(what + ": " + msg); };
   const size_t n = t.shapes.size();
-  const size_t leaves = t.leaf_records.size() / kLeafRecordBytes;
+  const bool decoded_leaves = !t.leaves.empty();
+  const size_t leaves = decoded_leaves ? t.leaves.size() : t.leaf_records.size() / kLeafRecordBytes;
   const size_t record_bytes = surfel_record_bytes(t.records);
   const size_t surfels = t.surfel_records.size() / record_bytes;
   if (n == 0) throw corrupt("page has no nodes");
@@ -40,6 +41,7 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
   const PayloadMode mode = stored               ? PayloadMode::kNone
                            : t.rounded_payloads ? PayloadMode::kRounded
                                                 : PayloadMode::kExact;
+  const BoundsMode bounds = t.rounded_bounds ? BoundsMode::kRounded : BoundsMode::kExact;
   if (stored && t.payloads.size() != n) {
     throw corrupt(std::to_string(t.payloads.size()) + " stored payloads for " + std::to_string(n) + " nodes");
   }
@@ -78,7 +80,12 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
     }
     if (leaf >= leaves) throw corrupt("more leaves than the " + std::to_string(leaves) + " leaf records");
     uint32_t count = 0;
-    read_leaf_record(t.leaf_records.data() + leaf * kLeafRecordBytes, frame[leaf], count);
+    if (decoded_leaves) {
+      frame[leaf] = t.leaves[leaf].frame;
+      count = t.leaves[leaf].surfel_count;
+    } else {
+      read_leaf_record(t.leaf_records.data() + leaf * kLeafRecordBytes, frame[leaf], count);
+    }
     if (count == 0 || first_surfel + count > surfels) {
       throw corrupt("leaf " + std::to_string(leaf) + " (node " + std::to_string(i) + ") has surfels [" +
                     std::to_string(first_surfel) + ", +" + std::to_string(count) + ") outside the page's " +
@@ -154,7 +161,7 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
         decode_surfel_record(t.records, rec + k * record_bytes, f, s[k]);
       }
       const uint32_t first = node.first_surfel;
-      summarize_leaf({s, node.surfel_count}, f, node, mode);
+      summarize_leaf({s, node.surfel_count}, f, node, mode, bounds);
       node.first_surfel = first;
       if (stored) copy_payload(t.payloads[i], node);
       continue;
@@ -164,7 +171,7 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
       child[c] = shape[i].external[c] ? &t.links[link_of[i][c]].summary : &out.nodes[node.children[c].index];
     }
     const NodeRef links[2] = {node.children[0], node.children[1]};
-    summarize_internal(*child[0], child[1], node, mode);
+    summarize_internal(*child[0], child[1], node, mode, bounds);
     if (stored) copy_payload(t.payloads[i], node);
     node.children[0] = links[0];
     node.children[1] = links[1];

@@ -29,7 +29,7 @@ struct TreeletLink {
 // Borrowed view of a treelet's parts.
 struct TreeletView {
   std::span<const uint8_t> shapes;          // storage::kShapeBytes per node
-  std::span<const uint8_t> leaf_records;    // storage::kLeafRecordBytes per leaf
+  std::span<const uint8_t> leaf_records;    // storage::kLeafRecordBytes per leaf (V4-V7 pages, the build)
   std::span<const TreeletLink> links;       // in the order the parse meets them
   std::span<const uint8_t> surfel_records;  // surfel_record_bytes(records) per surfel
   storage::SurfelRecords records = storage::SurfelRecords::kCompact;
@@ -45,9 +45,15 @@ struct TreeletView {
   // Most levels the treelet may span (storage::kMaxPageLevels for V4-V7
   // pages); 0: unbounded.
   uint32_t max_levels = 0;
-  // Derived payloads are rounded (payload_rounding.h: V6/V7 pages and the
+  // Derived payloads are rounded (payload_rounding.h: V6-V9 pages and the
   // trees this build makes) or exact (V4/V5 pages).
   bool rounded_payloads = true;
+  // Derived bounds are rounded (bounds_rounding.h: V8/V9 pages and the
+  // trees this build makes) or exact (V4-V7 pages).
+  bool rounded_bounds = true;
+  // V8/V9 pages: the leaves' frames and counts, decoded from the page's
+  // leaf section, used instead of leaf_records (then empty).
+  std::span<const storage::LeafRecord> leaves;
 };
 
 // An owning treelet, as the builder hands it to a page writer.
@@ -66,7 +72,9 @@ struct Treelet {
   // page writer turns them into the page's wavelet radiance); else empty.
   std::vector<SurfelGloss> gloss;
 
-  TreeletView view() const { return {shapes, leaf_records, links, surfel_records, records, emission, 0, {}, 0, true}; }
+  TreeletView view() const {
+    return {shapes, leaf_records, links, surfel_records, records, emission, 0, {}, 0, true, true, {}};
+  }
   size_t node_count() const { return shapes.size(); }
   size_t surfel_count() const;
   void clear();

@@ -24,16 +24,19 @@ void decode(std::span<const uint8_t> bytes, uint32_t page_id) {
   // The manifest's leaf format is taken from the page's own flag, so that
   // both surfel record formats are reached.
   LeafFormat leaf_format = LeafFormat::kRelative;
-  // The page format too (V4/V6 derived payloads, V5/V7 every node's
-  // payload stored; V6/V7 compact records with an emission section), so
-  // that every layout's checks are reached.
+  // The page format too (V4/V6/V8 derived payloads, V5/V7/V9 every
+  // node's payload stored; V6-V9 compact records with an emission section;
+  // V8/V9 the compact header and leaf records), so that every layout's
+  // checks are reached.
   uint32_t version = kPageFormatCurrent;
-  if (bytes.size() >= kPageHeaderBytes) {
+  if (bytes.size() >= kPageVersionPrefixBytes) {
     const uint32_t v = load_le<uint16_t>(bytes.data() + 4);
     if (is_known_page_format(v)) version = v;
-    const uint32_t c = load_le<uint16_t>(bytes.data() + 6);
-    if (is_known_payload_codec(c) && !codec_needs_state(c)) codec_id = c;
-    if (load_le<uint32_t>(bytes.data() + 28) & kPageFlagHalfLeaves) leaf_format = LeafFormat::kHalf;
+  }
+  if (bytes.size() >= page_header_bytes(version)) {
+    const PageHeader h = read_page_header(bytes.data());
+    if (is_known_payload_codec(h.codec) && !codec_needs_state(h.codec)) codec_id = h.codec;
+    if (h.flags & kPageFlagHalfLeaves) leaf_format = LeafFormat::kHalf;
   }
   static const auto codec0 = make_payload_codec(0);
   const auto codec = codec_id == 0 ? codec0 : make_payload_codec(codec_id);
@@ -52,12 +55,16 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::span<const uint8_t> input(data, size);
   // 1. As stored.
   decode(input, size >= 12 ? load_le<uint32_t>(data + 8) : 0);
-  // 2. Re-sealed: the page id the header names, the size it has, a valid checksum.
-  if (size >= kPageHeaderBytes + kPageTrailerBytes) {
+  // 2. Re-sealed: the page id the header names, the size it has (V4-V7
+  // headers store it), a valid checksum.
+  if (size >= kCompactPageHeaderBytes + kPageTrailerBytes) {
     std::vector<uint8_t> page(data, data + size);
     const uint32_t id = load_le<uint32_t>(page.data() + 8) % 4096;
     store_le<uint32_t>(page.data() + 8, id);
-    store_le<uint32_t>(page.data() + 24, static_cast<uint32_t>(page.size()));
+    const uint32_t v = load_le<uint16_t>(page.data() + 4);
+    if (!page_format_has_compact_frame(v) && size >= kPageHeaderBytes + kPageTrailerBytes) {
+      store_le<uint32_t>(page.data() + 24, static_cast<uint32_t>(page.size()));
+    }
     seal_page(page);
     decode(page, id);
   }

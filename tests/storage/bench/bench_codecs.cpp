@@ -28,6 +28,8 @@
 #include "server/surfels/surfels.h"
 #include "storage/cache/page_cache.h"
 #include "storage/format/page_frame.h"
+#include "storage/codecs/payload_codec.h"
+#include "storage/pages/page_encoding.h"
 #include "storage/pages/page_set.h"
 #include "storage/tree/tree_builder.h"
 
@@ -44,6 +46,7 @@
 #include <fstream>
 #include <iostream>
 #include <optional>
+#include <vector>
 
 namespace pbgi {
 namespace {
@@ -139,16 +142,23 @@ struct Row {
   double glossy_shade_seconds = 0;
 };
 
-// Sum of the payload arrays of every page, from the page headers.
+// Sum of the payload arrays of every page (decoded: V8 headers do not
+// store their size).
 uint64_t payload_bytes(const fs::path& dir, const storage::Manifest& m) {
   std::ifstream f(dir / storage::kPagesFileName, std::ios::binary);
+  const auto codec = storage::make_payload_codec(m.codec, m.codec_state, dir.string());
   uint64_t total = 0;
-  uint8_t header[storage::kPageHeaderBytes];
-  for (const storage::PageExtent& e : m.pages) {
+  std::vector<uint8_t> page;
+  for (uint32_t id = 0; id < m.pages.size(); ++id) {
+    const storage::PageExtent& e = m.pages[id];
+    page.resize(e.bytes);
     f.seekg(std::streamoff(e.offset));
-    f.read(reinterpret_cast<char*>(header), sizeof header);
-    if (!f) throw IoError(dir.string() + ": cannot read page header");
-    total += storage::read_page_header(header).payload_bytes;
+    f.read(reinterpret_cast<char*>(page.data()), std::streamsize(page.size()));
+    if (!f) throw IoError(dir.string() + ": cannot read page " + std::to_string(id));
+    storage::PageParts parts;
+    storage::decode_page(page, {(dir / storage::kPagesFileName).string(), id, e.offset}, m.page_format, *codec,
+                         uint32_t(m.pages.size()), m.glossy_resolution != 0, m.options.leaf_format, &parts);
+    total += parts.albedo - parts.payloads;
   }
   return total;
 }

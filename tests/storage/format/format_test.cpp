@@ -96,8 +96,9 @@ TEST(Checksum, StreamedInPiecesEqualsOneShot) {
 }
 
 std::vector<uint8_t> sample_page(uint32_t id, uint16_t version = kPageFormatCurrent) {
-  std::vector<uint8_t> page(kPageHeaderBytes + 100 + kPageTrailerBytes);
-  std::iota(page.begin() + kPageHeaderBytes, page.end() - kPageTrailerBytes, uint8_t(1));
+  const size_t header = is_known_page_format(version) ? page_header_bytes(version) : kPageHeaderBytes;
+  std::vector<uint8_t> page(header + 100 + kPageTrailerBytes);
+  std::iota(page.begin() + long(header), page.end() - kPageTrailerBytes, uint8_t(1));
   PageHeader h;
   h.format_version = version;
   h.page_id = id;
@@ -110,13 +111,54 @@ std::vector<uint8_t> sample_page(uint32_t id, uint16_t version = kPageFormatCurr
 }
 
 TEST(PageFrame, HeaderRoundTrip) {
-  const auto page = sample_page(7);
-  const PageHeader h = open_page(page, {"pages.pbgp", 7, 8192}, kPageFormatCurrent);
-  EXPECT_EQ(h.magic, kPageMagic);
-  EXPECT_EQ(h.page_id, 7u);
-  EXPECT_EQ(h.node_count, 1u);
-  EXPECT_EQ(h.payload_bytes, 36u);
-  EXPECT_EQ(h.page_bytes, page.size());
+  for (const uint16_t version : {uint16_t(kPageFormatV6), uint16_t(kPageFormatV8), uint16_t(kPageFormatV9)}) {
+    const auto page = sample_page(7, version);
+    const PageHeader h = open_page(page, {"pages.pbgp", 7, 8192}, version);
+    EXPECT_EQ(h.magic, kPageMagic);
+    EXPECT_EQ(h.format_version, version);
+    EXPECT_EQ(h.page_id, 7u);
+    EXPECT_EQ(h.node_count, 1u);
+    // V8 headers do not store the payload array's size (the links give it).
+    EXPECT_EQ(h.payload_bytes, version == kPageFormatV8 ? 0u : 36u) << version;
+    // V8/V9 headers do not store the page's size: open_page takes the table's.
+    EXPECT_EQ(h.page_bytes, page.size());
+    // The bytes after the header are untouched.
+    EXPECT_EQ(page[page_header_bytes(version)], 1u) << version;
+  }
+}
+
+// The compact header (V8: 14 bytes, V9: 18) at its documented offsets; a
+// writer cannot put more than it holds.
+TEST(PageFrame, CompactHeaderFieldsAtTheirOffsets) {
+  EXPECT_EQ(page_header_bytes(kPageFormatV8), 14u);
+  EXPECT_EQ(page_header_bytes(kPageFormatV9), 18u);
+  EXPECT_EQ(page_header_bytes(kPageFormatV6), 32u);
+  uint8_t b[18] = {};
+  PageHeader h;
+  h.format_version = kPageFormatV9;
+  h.codec = 1;
+  h.flags = kPageFlagNodePayloads | kPageFlagSharedAlbedo;
+  h.page_id = 0x01020304;
+  h.node_count = 65535;
+  h.payload_bytes = 0x0a0b0c0d;
+  write_page_header(h, b);
+  EXPECT_EQ(load_le<uint32_t>(b), kPageMagic);
+  EXPECT_EQ(load_le<uint16_t>(b + 4), kPageFormatV9);
+  EXPECT_EQ(b[6], 1u);
+  EXPECT_EQ(b[7], kPageFlagNodePayloads | kPageFlagSharedAlbedo);
+  EXPECT_EQ(load_le<uint32_t>(b + 8), 0x01020304u);
+  EXPECT_EQ(load_le<uint16_t>(b + 12), 65535u);
+  EXPECT_EQ(load_le<uint32_t>(b + 14), 0x0a0b0c0du);
+  const PageHeader r = read_page_header(b);
+  EXPECT_EQ(r.codec, 1u);
+  EXPECT_EQ(r.flags, h.flags);
+  EXPECT_EQ(r.node_count, 65535u);
+  EXPECT_EQ(r.payload_bytes, h.payload_bytes);
+  h.node_count = 65536;
+  EXPECT_THROW(write_page_header(h, b), Error);
+  h.node_count = 1;
+  h.flags = 256;
+  EXPECT_THROW(write_page_header(h, b), Error);
 }
 
 TEST(PageFrame, EveryFlippedByteIsCorruptionNamingThePage) {
@@ -215,6 +257,17 @@ TEST(PageFrame, WrongPlaceIsCorruption) {
   EXPECT_THROW(open_page(page, {"p", 4, 0}, kPageFormatCurrent), CorruptionError);  // page id
   auto short_page = std::vector<uint8_t>(page.begin(), page.begin() + 20);
   EXPECT_THROW(open_page(short_page, {"p", 3, 0}, kPageFormatCurrent), CorruptionError);
+  // Sealed and long enough for a V8 header, too short for V6's 32 bytes.
+  std::vector<uint8_t> v6(kCompactPageHeaderBytes + 4 + kPageTrailerBytes, 0);
+  store_le<uint32_t>(v6.data(), kPageMagic);
+  store_le<uint16_t>(v6.data() + 4, uint16_t(kPageFormatV6));
+  seal_page(v6);
+  try {
+    open_page(v6, {"/x/pages.pbgp", 3, 0}, kPageFormatV6);
+    FAIL() << "a 26-byte V6 page accepted";
+  } catch (const CorruptionError& e) {
+    EXPECT_TRUE(contains(e.what(), "/x/pages.pbgp: page 3")) << e.what();
+  }
 }
 
 TEST(ManifestFrame, RoundTripAndDamage) {
@@ -546,6 +599,47 @@ TEST(PageRecords, LeafFormatNames) {
   EXPECT_EQ(surfel_records_of(LeafFormat::kHalf, false), SurfelRecords::kHalf);
   EXPECT_EQ(surfel_record_bytes(SurfelRecords::kCompact), 18u);
 }
+
+// Rounded leaf frames (V8/V9 leaf records): the rounded sphere contains the
+// given one and is at most (1 + sqrt(3)/2 + 1) grid steps larger, the step
+// being at most radius / 1024 or, for frames far from the origin, at most
+// 2^-21 of the largest centre coordinate (FORMAT.md); rounding is exact
+// for a compact record.
+TEST(PageRecords, RoundedFrameContainsTheSphereWithinItsBound) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  double worst_growth = 0;
+  for (int i = 0; i < 200000; ++i) {
+    const float scale = std::pow(10.f, 5.f * u(rng));   // centres 1e-5 .. 1e5
+    const float radius = std::pow(10.f, -4.f + 3.5f * (u(rng) + 1.f));  // 1e-4 .. 1e3
+    const LeafFrame f{{scale * u(rng), scale * u(rng), scale * u(rng)}, i % 1000 == 0 ? 0.f : radius};
+    const RoundedFrame r = round_frame_outward(f);
+    const LeafFrame g = r.frame();
+    const double moved = std::sqrt(std::pow(double(g.center.x) - f.center.x, 2) +
+                                   std::pow(double(g.center.y) - f.center.y, 2) +
+                                   std::pow(double(g.center.z) - f.center.z, 2));
+    ASSERT_LE(moved + f.radius, double(g.radius)) << i;  // contains
+    const double largest = std::max({std::abs(f.center.x), std::abs(f.center.y), std::abs(f.center.z)});
+    const double step = std::ldexp(1.0, r.exponent);
+    ASSERT_TRUE(step <= f.radius / 1024.0 || step <= largest * 0x1p-21 || r.exponent == kMinFrameExponent) << i;
+    ASSERT_LE(double(g.radius), f.radius + (std::sqrt(3.0) / 2 + 1) * step) << i;
+    if (step <= f.radius / 1024.0) worst_growth = std::max(worst_growth, (double(g.radius) - f.radius) / f.radius);
+    // A compact record holds it exactly.
+    RoundedFrame back;
+    ASSERT_TRUE(to_rounded_frame(g, back)) << i;
+    ASSERT_EQ(back.frame().center, g.center);
+    ASSERT_EQ(back.frame().radius, g.radius);
+  }
+  std::printf("rounded frames: radius grows by at most %.3g of itself (grid from the radius)\n", worst_growth);
+  EXPECT_LE(worst_growth, (std::sqrt(3.0) / 2 + 1) / 1024);
+  // Not every frame is rounded: 0.1 and radius 1 need a grid of 2^-27,
+  // on which the radius is 2^27 steps.
+  RoundedFrame r;
+  EXPECT_FALSE(to_rounded_frame({{0.1f, 0.f, 0.f}, 1.f}, r));
+  EXPECT_FALSE(to_rounded_frame({{std::nanf(""), 0.f, 0.f}, 1.f}, r));
+  EXPECT_THROW(round_frame_outward({{0.f, 0.f, 0.f}, 3e38f}), InvalidArgument);
+}
+
 
 }  // namespace
 }  // namespace pbgi::storage

@@ -66,11 +66,11 @@ TEST_F(PayloadCodecBuildTest, StoredFloatPayloadsEqualDerivedOnes) {
   BuildReport report;
   const Manifest m = build_page_set(surfels_, options_with(PayloadCodecOption::kFloatSh), "k", stored, {}, &report);
   EXPECT_TRUE(m.node_payloads);
-  EXPECT_EQ(m.page_format, kPageFormatV7);
+  EXPECT_EQ(m.page_format, kPageFormatNodePayloads);
   EXPECT_EQ(report.payload_codec, "float32-sh");
   const PageSetReader a(derived, nullptr), b(stored, nullptr);
   EXPECT_FALSE(a.manifest().node_payloads);
-  EXPECT_EQ(a.manifest().page_format, kPageFormatV6);
+  EXPECT_EQ(a.manifest().page_format, kPageFormatCurrent);
   EXPECT_TRUE(b.manifest().node_payloads);
   const test::Walk wa = test::walk(a), wb = test::walk(b);
   ASSERT_EQ(wa.nodes.size(), wb.nodes.size());
@@ -130,7 +130,7 @@ TEST_F(PayloadCodecBuildTest, StreamingQuantizationEqualsQuantizingTheFinishedTr
   // Pages keep to their size, and the payload arrays hold exactly the codes.
   uint64_t payload = 0;
   for (const PageHeader& h : page_headers(dir, m)) {
-    EXPECT_EQ(h.format_version, kPageFormatV7);
+    EXPECT_EQ(h.format_version, kPageFormatNodePayloads);
     EXPECT_LE(h.page_bytes, o.page_size);
     payload += h.payload_bytes;
   }
@@ -190,7 +190,7 @@ TEST_F(PayloadCodecBuildTest, AutoPicksDerivedForSmallScenes) {
       build_page_set(surfels_, options_with(PayloadCodecOption::kAuto), "k", tmp_.path() / "auto", {}, &report);
   EXPECT_EQ(report.payload_codec, "derived");
   EXPECT_FALSE(m.node_payloads);
-  EXPECT_EQ(m.page_format, kPageFormatV6);
+  EXPECT_EQ(m.page_format, kPageFormatCurrent);
   EXPECT_EQ(m.options.payload_codec, PayloadCodecOption::kAuto);  // the option as asked
   EXPECT_EQ(PageSetReader(tmp_.path() / "auto", nullptr).manifest().options.payload_codec, PayloadCodecOption::kAuto);
 }
@@ -257,12 +257,14 @@ TEST_F(PayloadCodecBuildTest, PageFlagsMustMatchTheFormat) {
 }
 
 // Manifest V1 (before payload storage) is still read: derived payloads.
+// (Its pages were V4-V7, which this build no longer writes: the manifest
+// is read alone, its page table that of a V8 build.)
 TEST_F(PayloadCodecBuildTest, ManifestV1IsStillRead) {
   const fs::path dir = tmp_.path() / "v1";
   const Manifest m = build_page_set(surfels_, options_with(PayloadCodecOption::kDerived), "k", dir);
   std::vector<uint8_t> body;
   ByteWriter w(body);  // the V1 body of FORMAT.md
-  w.put<uint32_t>(m.page_format);
+  w.put<uint32_t>(kPageFormatV6);
   w.put<uint32_t>(m.codec);
   w.put_string(m.build_key);
   w.put<uint32_t>(m.options.leaf_size);
@@ -281,10 +283,17 @@ TEST_F(PayloadCodecBuildTest, ManifestV1IsStillRead) {
     w.put<uint32_t>(e.bytes);
   }
   write_file(dir / kManifestFileName, frame_manifest(body, kManifestFormatV1));
-  const PageSetReader reader(dir, nullptr);
-  EXPECT_FALSE(reader.manifest().node_payloads);
-  EXPECT_EQ(reader.manifest().options.payload_codec, PayloadCodecOption::kDerived);
-  EXPECT_EQ(test::walk(reader).nodes.size(), m.stats.node_count);
+  const Manifest v1 = read_manifest(dir / kManifestFileName);
+  EXPECT_FALSE(v1.node_payloads);
+  EXPECT_EQ(v1.options.payload_codec, PayloadCodecOption::kDerived);
+  EXPECT_EQ(v1.page_format, kPageFormatV6);
+  EXPECT_EQ(v1.stats.node_count, m.stats.node_count);
+  ASSERT_EQ(v1.pages.size(), m.pages.size());
+  for (size_t i = 0; i < m.pages.size(); ++i) EXPECT_EQ(v1.pages[i].bytes, m.pages[i].bytes);
+  // A V1 manifest over V8 pages is not one any writer made.
+  body[0] = uint8_t(kPageFormatV8);
+  write_file(dir / kManifestFileName, frame_manifest(body, kManifestFormatV1));
+  EXPECT_THROW(read_manifest(dir / kManifestFileName), CorruptionError);
 }
 
 TEST(LutSampleCollector, FractionMinimumAndBatchIndependence) {

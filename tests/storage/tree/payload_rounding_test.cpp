@@ -4,7 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <vector>
 #include <random>
 
 namespace pbgi::tree {
@@ -80,6 +83,62 @@ TEST(PayloadRounding, ZeroAndTinyBlocksAreZeroAndBadExponentsRefused) {
   EXPECT_FALSE(read_rounded_payload(bytes, back));
   bytes[0] = 0;  // exponent -128: below the smallest the writer uses
   EXPECT_FALSE(read_rounded_payload(bytes, back));
+}
+
+// The compact form (V8/V9 links) holds a rounded payload exactly, in at
+// most kMaxCompactPayloadBytes; zero blocks take one byte; bytes no writer produces are
+// refused.
+TEST(PayloadRounding, CompactFormHoldsRoundedPayloadsExactly) {
+  std::mt19937 rng(23);
+  size_t total = 0;
+  for (int k = 0; k < 100000; ++k) {
+    Node r = random_payload(rng);
+    if (k % 3 == 0) std::fill(block(r, k % 4), block(r, k % 4) + 9, 0.f);        // a dark channel
+    if (k % 5 == 0) block(r, 1)[4] = block(r, 1)[7] = 0.f, block(r, 1)[8] *= 1e-4f;  // small higher bands
+    round_payload(r);
+    std::vector<uint8_t> bytes;
+    write_compact_payload(r, bytes);
+    ASSERT_LE(bytes.size(), kMaxCompactPayloadBytes);
+    total += bytes.size();
+    bytes.push_back(0x55);  // what follows is not read
+    Node back;
+    ASSERT_EQ(read_compact_payload(bytes, back), bytes.size() - 1) << k;
+    for (int b = 0; b < 4; ++b) {
+      for (int i = 0; i < 9; ++i) ASSERT_EQ(block(back, b)[i], block(r, b)[i]) << k << " " << b << " " << i;
+    }
+  }
+  std::printf("compact payloads: %.1f bytes each on random blocks\n", double(total) / 100000);
+  Node zero;
+  std::vector<uint8_t> z;
+  write_compact_payload(zero, z);
+  EXPECT_EQ(z, std::vector<uint8_t>(4, 0));
+
+  Node one;
+  one.coverage_sh[0] = 1.f;
+  one.coverage_sh[3] = 0.25f;  // q = 8192: an i16
+  one.coverage_sh[5] = 0x1p-13f;  // q = 2: an i8
+  round_payload(one);
+  std::vector<uint8_t> good;
+  write_compact_payload(one, good);
+  ASSERT_EQ(good.size(), 3u + 1 + 3 + 2 + 2 + 1);  // three zero blocks; exponent, classes, i16, i16, i8
+  Node back;
+  auto refused = [&](std::vector<uint8_t> bad) { return read_compact_payload(bad, back) == 0; };
+  for (size_t cut = 1; cut < good.size(); ++cut) EXPECT_TRUE(refused({good.begin(), good.end() - long(cut)})) << cut;
+  auto bad = good;
+  bad[3] = 255;  // exponent 127
+  EXPECT_TRUE(refused(bad));
+  bad = good;
+  bad[6] |= 0x04;  // a spare bit of the classes
+  EXPECT_TRUE(refused(bad));
+  bad = good;
+  bad[4] |= 0x0c;  // coefficient 1: class 3
+  EXPECT_TRUE(refused(bad));
+  bad = good;
+  bad[11] = 0;  // the i8 holds 0
+  EXPECT_TRUE(refused(bad));
+  bad = good;
+  bad[7] = 5, bad[8] = 0;  // the first i16 fits an i8
+  EXPECT_TRUE(refused(bad));
 }
 
 }  // namespace
