@@ -173,8 +173,6 @@ constexpr bool page_format_rounds_payloads(uint32_t v) { return v >= kPageFormat
 // padding) and 13-byte leaf records of rounded frames (page_frame.h,
 // page_records.h).
 constexpr bool page_format_has_compact_frame(uint32_t v) { return v == kPageFormatV8 || v == kPageFormatV9; }
-constexpr bool is_known_manifest_format(uint32_t v) {
-  return v >= kManifestFormatV1 && v <= kManifestFormatV5;
-}
+constexpr bool is_known_manifest_format(uint32_t v) { return v >= kManifestFormatV1 && v <= kManifestFormatV5; }
 
 }  // namespace pbgi::storage

@@ -103,17 +103,15 @@ PageHeader open_page(std::span<const uint8_t> page, const PageLocation& where,
   }
   const uint32_t magic = load_le<uint32_t>(page.data());
   if (magic != kPageMagic) {
-    throw CorruptionError(at + ": bad magic: expected " + hex32(kPageMagic) + " ('PBGP'), found " +
-                          hex32(magic));
+    throw CorruptionError(at + ": bad magic: expected " + hex32(kPageMagic) + " ('PBGP'), found " + hex32(magic));
   }
   const uint32_t version = load_le<uint16_t>(page.data() + 4);
   if (!is_known_page_format(version)) {
     throw VersionError(at + ": " + unsupported_page_format(version));
   }
   if (page.size() < page_header_bytes(version) + kPageTrailerBytes) {
-    throw CorruptionError(at + ": too small for a page of format " + std::to_string(version) +
-                          ": expected at least " + std::to_string(page_header_bytes(version) + kPageTrailerBytes) +
-                          " bytes");
+    throw CorruptionError(at + ": too small for a page of format " + std::to_string(version) + ": expected at least " +
+                          std::to_string(page_header_bytes(version) + kPageTrailerBytes) + " bytes");
   }
   PageHeader h = read_page_header(page.data());
   // Compact headers do not store the page's size: the page table's is it.

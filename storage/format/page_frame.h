@@ -41,7 +41,7 @@ inline constexpr uint32_t kMaxCompactPageNodes = 65535;
 struct PageHeader {
   uint32_t magic = kPageMagic;
   uint16_t format_version = kPageFormatCurrent;
-  uint16_t codec = 0;          // payload codec id (storage/codecs); u8 in V8/V9
+  uint16_t codec = 0;  // payload codec id (storage/codecs); u8 in V8/V9
   uint32_t page_id = 0;
   uint32_t node_count = 0;     // u16 in V8/V9
   uint32_t surfel_count = 0;   // not stored in V8/V9

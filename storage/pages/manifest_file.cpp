@@ -177,8 +177,9 @@ Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path)
       uint64_t bytes = 0;
       for (int shift = 0;; shift += 7) {
         const uint8_t b = r.get<uint8_t>("page.bytes");
-        if (shift == 28 && b > 0x0fu) throw corrupt("page table entry " + std::to_string(i) + " at offset " +
-                                                    std::to_string(at) + " is not a u32 varint");
+        if (shift == 28 && b > 0x0fu)
+          throw corrupt("page table entry " + std::to_string(i) + " at offset " + std::to_string(at) +
+                        " is not a u32 varint");
         bytes |= uint64_t(b & 0x7fu) << shift;
         if ((b & 0x80u) == 0) {
           if (b == 0 && shift > 0) {
@@ -219,9 +220,8 @@ Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path)
     const uint32_t leaf_format = r.get<uint32_t>("leaf_format");
     if (v5 ? leaf_format > static_cast<uint32_t>(LeafFormat::kHalf)
            : leaf_format != static_cast<uint32_t>(LeafFormat::kHalf)) {
-      throw corrupt("leaf_format " + std::to_string(leaf_format) + " is not one a V" +
-                    std::to_string(framed.version) + " manifest stores (" + (v5 ? "0 relative, 1 half" : "1, half") +
-                    ")");
+      throw corrupt("leaf_format " + std::to_string(leaf_format) + " is not one a V" + std::to_string(framed.version) +
+                    " manifest stores (" + (v5 ? "0 relative, 1 half" : "1, half") + ")");
     }
     m.options.leaf_format = static_cast<LeafFormat>(leaf_format);
   }

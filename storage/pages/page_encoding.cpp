@@ -135,8 +135,8 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
 }
 
 std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const PageLocation& where,
-                          uint32_t expected_version, const PayloadCodec& codec,
-                          uint32_t page_count, bool glossy_allowed, LeafFormat leaf_format, PageParts* parts) {
+                                        uint32_t expected_version, const PayloadCodec& codec, uint32_t page_count,
+                                        bool glossy_allowed, LeafFormat leaf_format, PageParts* parts) {
   PageHeader h = open_page(bytes, where, expected_version);
   const std::string at = where.describe();
   auto corrupt = [&](const std::string& msg) { return CorruptionError(at + ": " + msg); };
@@ -156,8 +156,7 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   const bool glossy = glossy_allowed && (h.flags & kPageFlagGlossy) != 0;
   // A shared albedo only over compact records in V6/V7 pages (V8/V9 pages
   // store compact records in a surfel section, which needs no flag).
-  const bool surfel_section =
-      page_format_has_compact_frame(h.format_version) && records == SurfelRecords::kCompact;
+  const bool surfel_section = page_format_has_compact_frame(h.format_version) && records == SurfelRecords::kCompact;
   const bool shared_albedo =
       !surfel_section && records == SurfelRecords::kCompact && (h.flags & kPageFlagSharedAlbedo) != 0;
   if (shared_albedo) records = SurfelRecords::kCompactSharedAlbedo;
@@ -200,8 +199,8 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   // V8/V9: the leaf section, decoded first (its size depends on its widths).
   std::vector<LeafRecord> leaf_section;
   const uint64_t leaf_bytes =
-      compact_frame ? decode_leaf_section(bytes.subspan(leaves_at, bytes.size() - kPageTrailerBytes - leaves_at), leaves,
-                                          leaf_section, at)
+      compact_frame ? decode_leaf_section(bytes.subspan(leaves_at, bytes.size() - kPageTrailerBytes - leaves_at),
+                                          leaves, leaf_section, at)
                     : leaves * kLeafRecordBytes;
   const uint64_t links_at = leaves_at + leaf_bytes;
   const uint64_t payload_at = links_at + links * link_record_bytes;
@@ -211,8 +210,8 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
     // up to it) nor, in V8, the payload array's size (its compact payloads
     // say theirs).
     if (payload_at + kPageTrailerBytes > bytes.size()) {
-      throw corrupt("header, shapes and leaves (" + std::to_string(h.node_count) + " nodes, " +
-                    std::to_string(leaves) + " leaves, " + std::to_string(links) + " links) need at least " +
+      throw corrupt("header, shapes and leaves (" + std::to_string(h.node_count) + " nodes, " + std::to_string(leaves) +
+                    " leaves, " + std::to_string(links) + " links) need at least " +
                     std::to_string(payload_at + kPageTrailerBytes) + " bytes, page has " +
                     std::to_string(bytes.size()));
     }
@@ -267,8 +266,9 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   const uint64_t glossy_at = emission_at + emitting * kEmissionEntryBytes;
   const uint64_t need = glossy_at + kPageTrailerBytes;
   if (parts) {
-    *parts = {header_bytes, leaves_at, links_at, payload_at, albedo_at, surfels_at, emission_at, glossy_at,
-              bytes.size() - kPageTrailerBytes};
+    *parts = {header_bytes, leaves_at, links_at,
+              payload_at,   albedo_at, surfels_at,
+              emission_at,  glossy_at, bytes.size() - kPageTrailerBytes};
   }
   // A glossy section fills what lies between the surfels and the trailer.
   if (glossy ? need >= bytes.size() : need != bytes.size()) {
@@ -287,8 +287,7 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
     if (!compact_frame) {
       read_link_record(record, link[i].page, linked[i]);
     } else if (!read_compact_link_record(record, link[i].page, linked[i])) {
-      throw corrupt("link record " + std::to_string(i) +
-                    " has a sphere, cone or area out of range");
+      throw corrupt("link record " + std::to_string(i) + " has a sphere, cone or area out of range");
     }
     if (link[i].page >= page_count) {
       throw corrupt("link " + std::to_string(i) + " to page " + std::to_string(link[i].page) +

@@ -46,8 +46,8 @@ struct PageParts {
 // kPageFlagHalfLeaves disagrees is refused. Throws
 // CorruptionError naming the page, VersionError for an unknown page format.
 std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const PageLocation& where,
-                          uint32_t expected_version, const PayloadCodec& codec,
-                          uint32_t page_count, bool glossy_allowed = false,
-                          LeafFormat leaf_format = LeafFormat::kRelative, PageParts* parts = nullptr);
+                                        uint32_t expected_version, const PayloadCodec& codec, uint32_t page_count,
+                                        bool glossy_allowed = false, LeafFormat leaf_format = LeafFormat::kRelative,
+                                        PageParts* parts = nullptr);
 
 }  // namespace pbgi::storage

@@ -19,10 +19,10 @@ struct Column {
   int word;
   uint32_t shift, bits;
 };
-constexpr Column kColumns[] = {
-    {0, 0, 14},  {0, 14, 14}, {0, 28, 14}, {0, 42, 12}, {0, 54, 12}, {0, 66, 13}, {0, 79, 1},  // G
-    {1, 0, 9},   {1, 9, 9},   {1, 18, 9},  {1, 27, 5},                                          // albedo
-    {2, 0, 9},   {2, 9, 9},   {2, 18, 9},  {2, 27, 5}};                                         // radiance
+constexpr Column kColumns[] = {{0, 0, 14},  {0, 14, 14}, {0, 28, 14}, {0, 42, 12},
+                               {0, 54, 12}, {0, 66, 13}, {0, 79, 1},                // G
+                               {1, 0, 9},   {1, 9, 9},   {1, 18, 9},  {1, 27, 5},   // albedo
+                               {2, 0, 9},   {2, 9, 9},   {2, 18, 9},  {2, 27, 5}};  // radiance
 constexpr uint32_t kWidthBits = 4;  // a column's width: 0 .. its field's bits (<= 14)
 static_assert(kCompactSurfelRecordBytes == 18);
 
@@ -30,7 +30,8 @@ uint32_t field(const uint8_t* rec, const Column& c) {
   if (c.word == 0) {
     const uint64_t lo = load_le<uint64_t>(rec);
     const uint64_t hi = load_le<uint16_t>(rec + 8);
-    const uint64_t v = c.shift >= 64 ? hi >> (c.shift - 64) : (lo >> c.shift) | (c.shift == 0 ? 0 : hi << (64 - c.shift));
+    const uint64_t v =
+        c.shift >= 64 ? hi >> (c.shift - 64) : (lo >> c.shift) | (c.shift == 0 ? 0 : hi << (64 - c.shift));
     return uint32_t(v & ((uint64_t(1) << c.bits) - 1));
   }
   return (load_le<uint32_t>(rec + (c.word == 1 ? 10 : 14)) >> c.shift) & ((1u << c.bits) - 1);

@@ -89,12 +89,11 @@ LeafFrame RoundedFrame::frame() const {
 
 RoundedFrame round_frame_outward(const LeafFrame& f) {
   const float largest = std::max({std::abs(f.center.x), std::abs(f.center.y), std::abs(f.center.z)});
-  int e = std::max({ilogb_or_min(f.radius) - kFrameGridBits, ilogb_or_min(largest) - kFrameCenterBits,
-                    kMinFrameExponent});
+  int e =
+      std::max({ilogb_or_min(f.radius) - kFrameGridBits, ilogb_or_min(largest) - kFrameCenterBits, kMinFrameExponent});
   for (;; ++e) {
     if (e > kMaxFrameExponent) {
-      throw InvalidArgument("a leaf frame of radius " + std::to_string(f.radius) +
-                            " is too large for a rounded frame");
+      throw InvalidArgument("a leaf frame of radius " + std::to_string(f.radius) + " is too large for a rounded frame");
     }
     RoundedFrame r;
     r.exponent = e;
@@ -173,16 +172,16 @@ bool read_sphere(const uint8_t* in, LeafFrame& f) {
 }  // namespace
 
 void write_compact_link_record(uint32_t page, const tree::Node& n, uint8_t* out) {
-  store_le<uint32_t>(out, page);             // 0
+  store_le<uint32_t>(out, page);                // 0
   write_sphere({n.center, n.radius}, out + 4);  // 4
   uint32_t axis = 0;
   uint16_t one_minus_cos = 0;
   if (!tree::cone_code({n.cone_axis, n.cone_cos}, axis, one_minus_cos)) {
     throw Error("internal: a link record for a cone that is not rounded");
   }
-  store_le<uint32_t>(out + 16, axis);            // 16
-  store_le<uint16_t>(out + 20, one_minus_cos);   // 20
-  store_le<float>(out + 22, n.area);             // 22
+  store_le<uint32_t>(out + 16, axis);           // 16
+  store_le<uint16_t>(out + 20, one_minus_cos);  // 20
+  store_le<float>(out + 22, n.area);            // 22
 }
 
 bool read_compact_link_record(const uint8_t* in, uint32_t& page, tree::Node& n) {

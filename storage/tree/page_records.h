@@ -97,8 +97,8 @@ void read_leaf_record(const uint8_t* in, LeafFrame& f, uint32_t& surfel_count);
 // the tree is defined with rounded frames (leaf_quantizer.h quantizes the
 // surfels in them), so records hold the tree exactly and a page set
 // still equals the in-memory tree bit for bit.
-inline constexpr uint32_t kMaxRoundedFrameRadius = 4095;   // m: 12 bits
-inline constexpr uint32_t kMaxCompactLeafSurfels = 4096;   // BuildOptions: leaf_size <= 4096
+inline constexpr uint32_t kMaxRoundedFrameRadius = 4095;  // m: 12 bits
+inline constexpr uint32_t kMaxCompactLeafSurfels = 4096;  // BuildOptions: leaf_size <= 4096
 inline constexpr int kMinFrameExponent = -126;
 inline constexpr int kMaxFrameExponent = 115;  // m 2^e stays a finite float
 struct RoundedFrame {

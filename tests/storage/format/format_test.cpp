@@ -610,14 +610,14 @@ TEST(PageRecords, RoundedFrameContainsTheSphereWithinItsBound) {
   std::uniform_real_distribution<float> u(-1.f, 1.f);
   double worst_growth = 0;
   for (int i = 0; i < 200000; ++i) {
-    const float scale = std::pow(10.f, 5.f * u(rng));   // centres 1e-5 .. 1e5
+    const float scale = std::pow(10.f, 5.f * u(rng));                   // centres 1e-5 .. 1e5
     const float radius = std::pow(10.f, -4.f + 3.5f * (u(rng) + 1.f));  // 1e-4 .. 1e3
     const LeafFrame f{{scale * u(rng), scale * u(rng), scale * u(rng)}, i % 1000 == 0 ? 0.f : radius};
     const RoundedFrame r = round_frame_outward(f);
     const LeafFrame g = r.frame();
-    const double moved = std::sqrt(std::pow(double(g.center.x) - f.center.x, 2) +
-                                   std::pow(double(g.center.y) - f.center.y, 2) +
-                                   std::pow(double(g.center.z) - f.center.z, 2));
+    const double moved =
+        std::sqrt(std::pow(double(g.center.x) - f.center.x, 2) + std::pow(double(g.center.y) - f.center.y, 2) +
+                  std::pow(double(g.center.z) - f.center.z, 2));
     ASSERT_LE(moved + f.radius, double(g.radius)) << i;  // contains
     const double largest = std::max({std::abs(f.center.x), std::abs(f.center.y), std::abs(f.center.z)});
     const double step = std::ldexp(1.0, r.exponent);
@@ -639,7 +639,6 @@ TEST(PageRecords, RoundedFrameContainsTheSphereWithinItsBound) {
   EXPECT_FALSE(to_rounded_frame({{std::nanf(""), 0.f, 0.f}, 1.f}, r));
   EXPECT_THROW(round_frame_outward({{0.f, 0.f, 0.f}, 3e38f}), InvalidArgument);
 }
-
 
 }  // namespace
 }  // namespace pbgi::storage

@@ -50,7 +50,8 @@ TEST(LeafSection, RoundTripsExactly) {
   size_t bytes = 0, leaves = 0;
   for (int page = 0; page < 2000; ++page) {
     const float scale = std::pow(10.f, 4.f * u(rng));
-    const auto l = neighbours(1 + rng() % 8, std::pow(10.f, 3.f * u(rng)), scale * Imath::V3f(u(rng), u(rng), u(rng)), rng);
+    const auto l =
+        neighbours(1 + rng() % 8, std::pow(10.f, 3.f * u(rng)), scale * Imath::V3f(u(rng), u(rng), u(rng)), rng);
     expect_round_trip(l);
     std::vector<uint8_t> out;
     encode_leaf_section(l, out);

@@ -90,10 +90,10 @@ TEST(PageEncoding, CompactAndRelativePagesDecodeWhatTheBuildDecoded) {
     encode_page(t, 0, *codec, bytes);
     const uint32_t version = layout == SurfelRecords::kCompact ? kPageFormatV8 : kPageFormatV4;
     EXPECT_EQ(read_page_header(bytes.data()).format_version, version);
-    const size_t body = layout == SurfelRecords::kCompact
-                            ? kCompactPageHeaderBytes + 1 /*shape, not padded*/ + leaf_section_bytes(t) +
-                                  surfel_section_bytes(t)
-                            : kPageHeaderBytes + 4 /*shape, padded*/ + kLeafRecordBytes + 4 * surfel_record_bytes(layout);
+    const size_t body =
+        layout == SurfelRecords::kCompact
+            ? kCompactPageHeaderBytes + 1 /*shape, not padded*/ + leaf_section_bytes(t) + surfel_section_bytes(t)
+            : kPageHeaderBytes + 4 /*shape, padded*/ + kLeafRecordBytes + 4 * surfel_record_bytes(layout);
     EXPECT_EQ(bytes.size(), body + t.emission.size() + kPageTrailerBytes);
     const auto page = decode(bytes, version);
     ASSERT_EQ(page->surfels.size(), surfels.size());
@@ -280,9 +280,8 @@ TEST(PageEncoding, LinkPayloadsAreTheChildRootsExactly) {
   ASSERT_FALSE(sink.treelets[root].links.empty());
   // The root page has no leaves (its treelet is the upper levels).
   ASSERT_TRUE(sink.treelets[root].leaf_records.empty());
-  const size_t payload_at =
-      kCompactPageHeaderBytes + (sink.treelets[root].shapes.size() + 1) / 2 +
-      sink.treelets[root].links.size() * kCompactLinkRecordBytes;
+  const size_t payload_at = kCompactPageHeaderBytes + (sink.treelets[root].shapes.size() + 1) / 2 +
+                            sink.treelets[root].links.size() * kCompactLinkRecordBytes;
   const size_t links_at = kCompactPageHeaderBytes + (sink.treelets[root].shapes.size() + 1) / 2;
   auto expect_corrupt = [&](std::vector<uint8_t> bad, const std::string& what) {
     seal_page(bad);

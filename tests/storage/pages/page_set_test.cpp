@@ -125,7 +125,8 @@ TEST_F(PageSetTest, SharedAlbedoPagesEqualTheInMemoryTree) {
   EXPECT_LT(m.stats.file_bytes + 2 * surfels.size(), manifest_.stats.file_bytes);
   // V8 pages never carry V6's shared-albedo flag.
   const auto bytes = read_file(dir / kPagesFileName);
-  for (const PageExtent& e : m.pages) EXPECT_EQ(read_page_header(bytes.data() + e.offset).flags & kPageFlagSharedAlbedo, 0u);
+  for (const PageExtent& e : m.pages)
+    EXPECT_EQ(read_page_header(bytes.data() + e.offset).flags & kPageFlagSharedAlbedo, 0u);
 }
 
 TEST_F(PageSetTest, InspectionAgreesWithTheManifest) {
@@ -418,8 +419,7 @@ TEST(PageSet, HalfLeafFormatRoundTrip) {
   // V8 page sets have V5 manifests, which state the leaf format either way.
   const auto manifest_bytes = read_file(tmp.path() / "half" / kManifestFileName);
   EXPECT_EQ(unframe_manifest(manifest_bytes, "m").version, kManifestFormatV5);
-  EXPECT_EQ(unframe_manifest(read_file(tmp.path() / "relative" / kManifestFileName), "m").version,
-            kManifestFormatV5);
+  EXPECT_EQ(unframe_manifest(read_file(tmp.path() / "relative" / kManifestFileName), "m").version, kManifestFormatV5);
 
   PageSetReader reader(tmp.path() / "half", nullptr);
   EXPECT_EQ(reader.manifest().options.leaf_format, LeafFormat::kHalf);

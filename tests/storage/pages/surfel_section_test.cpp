@@ -68,7 +68,7 @@ TEST(SurfelSection, WhatNoWriterProducesIsRefused) {
   // The first column (x, 14 bits): its smallest value 16383 and a width
   // of 1 put a value past the field.
   auto bad = good;
-  bad[0] = 0xff, bad[1] = 0x3f;             // min 16383
+  bad[0] = 0xff, bad[1] = 0x3f;                                      // min 16383
   bad[1] = uint8_t(bad[1] | 0x40), bad[2] = uint8_t(bad[2] & 0xfc);  // width 1
   expect_corrupt(bad, "a value past its field");
   bad = good;

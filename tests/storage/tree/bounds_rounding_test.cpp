@@ -23,7 +23,8 @@ Imath::V3d random_unit(std::mt19937& rng) {
 // A unit vector at `angle` from the unit vector `a`, towards `towards`.
 Imath::V3d at_angle(const Imath::V3d& a, const Imath::V3d& towards, double angle) {
   Imath::V3d p = towards - a * a.dot(towards);
-  p = p.length() > 1e-9 ? p.normalized() : (std::abs(a.x) < 0.9 ? Imath::V3d(1, 0, 0) : Imath::V3d(0, 1, 0)).cross(a).normalized();
+  p = p.length() > 1e-9 ? p.normalized()
+                        : (std::abs(a.x) < 0.9 ? Imath::V3d(1, 0, 0) : Imath::V3d(0, 1, 0)).cross(a).normalized();
   return a * std::cos(angle) + p * std::sin(angle);
 }
 
@@ -87,7 +88,7 @@ TEST(BoundsRounding, EveryRoundedConeHasACode) {
   }
   // One the build met (a city's wall cone), and axis-aligned axes.
   for (const Imath::V3f& a : {Imath::V3f(-1.18200023e-05f, -0.999639213f, -0.0268580001f), Imath::V3f(0, 0, -1),
-                             Imath::V3f(0, -1, 0), Imath::V3f(-1, 0, 0), Imath::V3f(0, 0, 1)}) {
+                              Imath::V3f(0, -1, 0), Imath::V3f(-1, 0, 0), Imath::V3f(0, 0, 1)}) {
     uint32_t axis_code = 0;
     uint16_t s = 0;
     EXPECT_TRUE(cone_code(round_cone_outward({a, 1.f}), axis_code, s)) << a.x << " " << a.y << " " << a.z;

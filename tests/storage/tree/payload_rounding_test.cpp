@@ -7,8 +7,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <vector>
 #include <random>
+#include <vector>
 
 namespace pbgi::tree {
 namespace {
@@ -93,7 +93,7 @@ TEST(PayloadRounding, CompactFormHoldsRoundedPayloadsExactly) {
   size_t total = 0;
   for (int k = 0; k < 100000; ++k) {
     Node r = random_payload(rng);
-    if (k % 3 == 0) std::fill(block(r, k % 4), block(r, k % 4) + 9, 0.f);        // a dark channel
+    if (k % 3 == 0) std::fill(block(r, k % 4), block(r, k % 4) + 9, 0.f);            // a dark channel
     if (k % 5 == 0) block(r, 1)[4] = block(r, 1)[7] = 0.f, block(r, 1)[8] *= 1e-4f;  // small higher bands
     round_payload(r);
     std::vector<uint8_t> bytes;
@@ -115,7 +115,7 @@ TEST(PayloadRounding, CompactFormHoldsRoundedPayloadsExactly) {
 
   Node one;
   one.coverage_sh[0] = 1.f;
-  one.coverage_sh[3] = 0.25f;  // q = 8192: an i16
+  one.coverage_sh[3] = 0.25f;     // q = 8192: an i16
   one.coverage_sh[5] = 0x1p-13f;  // q = 2: an i8
   round_payload(one);
   std::vector<uint8_t> good;
