@@ -101,7 +101,7 @@ PageHeader open_page(std::span<const uint8_t> page, const PageLocation& where,
                           std::to_string(where.offset + body) + ": expected " +
                           checksum_hex(expected) + ", found " + checksum_hex(found));
   }
-  const uint32_t magic = load_le<uint32_t>(page.data());
+  const auto magic = load_le<uint32_t>(page.data());
   if (magic != kPageMagic) {
     throw CorruptionError(at + ": bad magic: expected " + hex32(kPageMagic) + " ('PBGP'), found " + hex32(magic));
   }

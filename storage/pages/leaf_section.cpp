@@ -80,7 +80,7 @@ void encode_leaf_section(std::span<const LeafRecord> leaves, std::vector<uint8_t
   for (size_t i = 0; i < leaves.size(); ++i) {
     if (i == 0) {
       w.put(uint32_t(r[0].exponent + kExponentBias), kExponentBits);
-      for (int a = 0; a < 3; ++a) put(w, uint32_t(r[0].k[a]) & 0xffffffu, kCenterBits);
+      for (const auto k : r[0].k) put(w, uint32_t(k) & 0xffffffu, kCenterBits);
     } else {
       w.put(uint32_t(zigzag(r[i].exponent - r[i - 1].exponent)), e_bits);
       for (int a = 0; a < 3; ++a) {
@@ -136,7 +136,7 @@ size_t decode_leaf_section(std::span<const uint8_t> bytes, size_t leaf_count, st
     for (int a = 0; a < 3; ++a) {
       double k;
       if (i == 0 || absolute) {
-        const uint32_t u = uint32_t(get(r, kCenterBits));
+        const auto u = uint32_t(get(r, kCenterBits));
         k = double(int32_t(u ^ 0x800000u) - 0x800000);
       } else {
         k = base_of(out[i - 1].frame.center[a], f.exponent) + double(unzigzag(get(r, delta_bits)));
@@ -151,7 +151,7 @@ size_t decode_leaf_section(std::span<const uint8_t> bytes, size_t leaf_count, st
     const Imath::V3f& c = out[i].frame.center;
     if (!std::isfinite(c.x) || !std::isfinite(c.y) || !std::isfinite(c.z)) throw bad("a centre");
   }
-  const size_t pad_bits = size_t((8 - bits % 8) % 8);
+  const auto pad_bits = size_t((8 - bits % 8) % 8);
   if (pad_bits > 0 && (bytes[size - 1] >> (8 - pad_bits)) != 0) throw corrupt("padding bits are not zero");
   return size_t(size);
 }

@@ -176,7 +176,7 @@ Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path)
     if (v5) {
       uint64_t bytes = 0;
       for (int shift = 0;; shift += 7) {
-        const uint8_t b = r.get<uint8_t>("page.bytes");
+        const auto b = r.get<uint8_t>("page.bytes");
         if (shift == 28 && b > 0x0fu)
           throw corrupt("page table entry " + std::to_string(i) + " at offset " + std::to_string(at) +
                         " is not a u32 varint");

@@ -8,6 +8,7 @@
 #include "storage/tree/page_records.h"
 #include "storage/tree/payload_rounding.h"
 
+#include <cstddef>
 #include <limits>
 #include <string>
 
@@ -49,7 +50,7 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
   if (compact_frame) {
     for (size_t i = 0; i < n; ++i) out[header_bytes + i / 2] |= uint8_t(t.shapes[i] << (4 * (i % 2)));
   } else {
-    std::copy(t.shapes.begin(), t.shapes.end(), out.begin() + header_bytes);
+    std::copy(t.shapes.begin(), t.shapes.end(), out.begin() + std::ptrdiff_t(header_bytes));
   }
   if (compact_frame) {
     // The builder's frames are rounded (leaf_quantizer.h): the leaf

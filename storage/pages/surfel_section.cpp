@@ -28,7 +28,7 @@ static_assert(kCompactSurfelRecordBytes == 18);
 
 uint32_t field(const uint8_t* rec, const Column& c) {
   if (c.word == 0) {
-    const uint64_t lo = load_le<uint64_t>(rec);
+    const auto lo = load_le<uint64_t>(rec);
     const uint64_t hi = load_le<uint16_t>(rec + 8);
     const uint64_t v =
         c.shift >= 64 ? hi >> (c.shift - 64) : (lo >> c.shift) | (c.shift == 0 ? 0 : hi << (64 - c.shift));
@@ -107,7 +107,7 @@ size_t decode_surfel_section(std::span<const uint8_t> bytes, size_t surfel_count
     uint8_t buf[8] = {};
     const uint64_t byte = bit / 8;
     std::memcpy(buf, data + byte, size_t(std::min<uint64_t>(8, size - byte)));
-    const uint64_t word = load_le<uint64_t>(buf);
+    const auto word = load_le<uint64_t>(buf);
     return uint32_t((word >> (bit % 8)) & ((uint64_t(1) << w) - 1));
   };
   for (size_t i = 0; i < surfel_count; ++i) {
@@ -134,7 +134,7 @@ size_t decode_surfel_section(std::span<const uint8_t> bytes, size_t surfel_count
     store_le<uint32_t>(rec + 10, v[7] | v[8] << 9 | v[9] << 18 | v[10] << 27);
     store_le<uint32_t>(rec + 14, v[11] | v[12] << 9 | v[13] << 18 | v[14] << 27);
   }
-  const uint32_t pad = uint32_t((8 - bits % 8) % 8);
+  const auto pad = uint32_t((8 - bits % 8) % 8);
   if (pad > 0 && (bytes[size - 1] >> (8 - pad)) != 0) throw corrupt("padding bits are not zero");
   return size_t(size);
 }

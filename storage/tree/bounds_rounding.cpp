@@ -35,7 +35,7 @@ uint16_t half_at_least(double x) {
 // is exact in double: s has 11 significant bits and an exponent >= -24).
 float cos_of(uint16_t s_bits) {
   const double c = 1.0 - double(half_value(s_bits));
-  float f = float(c);
+  auto f = float(c);
   if (double(f) > c) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
   return f;
 }

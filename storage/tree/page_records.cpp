@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstddef>
 
 namespace pbgi::storage {
 
@@ -153,7 +154,7 @@ void write_sphere(const LeafFrame& f, uint8_t* out) {
   RoundedFrame r;
   if (!to_rounded_frame(f, r)) throw Error("internal: a link record for a sphere that is not rounded");
   out[0] = uint8_t(r.exponent + kFrameExponentBias);
-  for (int a = 0; a < 3; ++a) put_i24(out + 1 + 3 * a, r.k[a]);
+  for (int a = 0; a < 3; ++a) put_i24(out + 1 + 3 * std::ptrdiff_t(a), r.k[a]);
   store_le<uint16_t>(out + 10, uint16_t(r.m));
 }
 bool read_sphere(const uint8_t* in, LeafFrame& f) {
@@ -161,7 +162,7 @@ bool read_sphere(const uint8_t* in, LeafFrame& f) {
   r.exponent = int(in[0]) - kFrameExponentBias;
   if (r.exponent < kMinFrameExponent || r.exponent > kMaxFrameExponent) return false;
   for (int a = 0; a < 3; ++a) {
-    r.k[a] = get_i24(in + 1 + 3 * a);
+    r.k[a] = get_i24(in + 1 + 3 * std::ptrdiff_t(a));
     if (std::abs(r.k[a]) > kMaxRoundedFrameCenter) return false;
   }
   r.m = load_le<uint16_t>(in + 10);
@@ -190,7 +191,7 @@ bool read_compact_link_record(const uint8_t* in, uint32_t& page, tree::Node& n) 
   if (!read_sphere(in + 4, sphere)) return false;
   tree::NormalCone cone;
   if (!tree::cone_of_code(load_le<uint32_t>(in + 16), load_le<uint16_t>(in + 20), cone)) return false;
-  const float area = load_le<float>(in + 22);
+  const auto area = load_le<float>(in + 22);
   if (!(area >= 0.f) || !std::isfinite(area)) return false;
   n.center = sphere.center;
   n.radius = sphere.radius;

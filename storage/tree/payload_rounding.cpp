@@ -132,7 +132,8 @@ size_t read_compact_payload(std::span<const uint8_t> in, Node& n) {
       int q = 0;
       if (c == 1) {
         if (at + 1 > in.size()) return 0;
-        q = int8_t(in[at++]);
+        q = int(in[at]) - (in[at] >= 128u ? 256 : 0);  // two's complement byte
+        ++at;
         if (q == 0) return 0;
       } else if (c == 2) {
         if (at + 2 > in.size()) return 0;

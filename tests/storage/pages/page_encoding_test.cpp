@@ -132,7 +132,7 @@ TEST(PageEncoding, SharedAlbedoIsStoredOnce) {
     if (layout == SurfelRecords::kCompact) {
       // 4 surfels of one albedo against 4 of different ones: the 27 bits
       // of mantissas a surfel (less the differences' widths) are gone.
-      EXPECT_LE(bytes.size() + 4 * 2, varied_bytes.size());
+      EXPECT_LE(bytes.size() + 4 * size_t{2}, varied_bytes.size());
     } else {
       EXPECT_EQ(bytes.size(), varied_bytes.size());
     }
