@@ -32,11 +32,13 @@ void decode(std::span<const uint8_t> bytes, uint32_t page_id) {
   if (bytes.size() >= kPageVersionPrefixBytes) {
     const uint32_t v = load_le<uint16_t>(bytes.data() + 4);
     if (is_known_page_format(v)) version = v;
-  }
-  if (bytes.size() >= page_header_bytes(version)) {
-    const PageHeader h = read_page_header(bytes.data());
-    if (is_known_payload_codec(h.codec) && !codec_needs_state(h.codec)) codec_id = h.codec;
-    if (h.flags & kPageFlagHalfLeaves) leaf_format = LeafFormat::kHalf;
+    // read_page_header reads the header of the version the bytes name
+    // (32 bytes for one it does not know), not of the one chosen above.
+    if (bytes.size() >= page_header_bytes(v)) {
+      const PageHeader h = read_page_header(bytes.data());
+      if (is_known_payload_codec(h.codec) && !codec_needs_state(h.codec)) codec_id = h.codec;
+      if (h.flags & kPageFlagHalfLeaves) leaf_format = LeafFormat::kHalf;
+    }
   }
   static const auto codec0 = make_payload_codec(0);
   const auto codec = codec_id == 0 ? codec0 : make_payload_codec(codec_id);
