@@ -293,12 +293,12 @@ TEST(GatherPageSet, AttachedViewFreesThePagesDecodedContent) {
 
 // What a cached page costs against its bytes on disk, on a page set shaped
 // like the daemon's (a generated city at default build options: cut-shaped
-// V4 pages of ~9 nodes and ~13 surfels). The page cache's budget is set in
+// pages of ~9 nodes and ~13 surfels). The page cache's budget is set in
 // bytes on disk (1/8 of the page set), so this ratio is how much of a
 // budget's worth of pages the cache can hold. Issue 19 asks for 2x; the
 // view reaches kMaxDecodedOverDisk (docs/out-of-core.md: what is left is
 // the page's fixed costs, the Page, its attachment and the cache's entry,
-// ~330 bytes, and 32-byte nodes, 16-byte looks and 18-byte surfels).
+// ~330 bytes, and 32-byte nodes, 16-byte looks and 20-byte surfels).
 // 7.7x before the view freed the page's decoded nodes; 5.2x with float
 // records in the view over V6 pages; 3.1x with packed ones; 5.0x with
 // packed ones over V8 pages (the same views, ~35 % fewer bytes on disk:
