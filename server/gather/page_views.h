@@ -98,8 +98,9 @@ struct HotNode {
 
 // A node as the view keeps it: half a cache line. Bounds and cone are the
 // node's floats; the axis is 16-bit fixed point per coordinate (within
-// 2.6e-5 of the node's, not renormalized: a normalization per node visited
-// cost ~7% of a gather), and the cone is not widened by that (a cull
+// 2.6e-5 of the node's, not renormalized: with an octahedral code, the
+// division normalizing it held a fifth of walk_receiver's profile samples),
+// and the cone is not widened by that (a cull
 // decided by 3e-5 rad of a normal cone concerns light from within 3e-5 rad
 // of grazing). Flags and child or surfel count share 16 bits: 6 bits of
 // HotNode flags, 10 of count; a view with a leaf of more surfels
