@@ -1,6 +1,7 @@
 #include "storage/cache/page_cache.h"
 
 #include "common/errors.h"
+#include "storage/cache/frequency_sketch.h"
 
 #include <algorithm>
 #include <future>
@@ -8,6 +9,7 @@
 #include <mutex>
 #include <optional>
 #include <unordered_map>
+#include <vector>
 
 namespace pbgi::storage {
 
@@ -27,25 +29,36 @@ struct KeyHash {
   }
 };
 
+// Where a held page is (W-TinyLFU's three LRU lists, page_cache.h).
+enum class Segment : uint8_t { kWindow, kProbation, kProtected };
+
 struct Entry {
   tree::PagePtr page;
   uint64_t bytes = 0;
-  bool hot = false;                 // in `hot` (LRU), else in `fresh` (FIFO)
+  Segment segment = Segment::kWindow;
   std::list<Key>::iterator pos;
 };
 
-// What holding a page costs the cache itself, charged with the page: the
-// node of `held` (its link, key, entry and cached hash), its bucket and
-// the page's node in `fresh` or `hot` (two links and the key), as heap
-// blocks. About 136 bytes: a fifth of a cut-shaped page's bytes on disk.
-constexpr uint64_t kEntryBytes = tree::heap_block_bytes(sizeof(void*) + sizeof(std::pair<const Key, Entry>) +
-                                                        sizeof(size_t)) +
-                                 sizeof(void*) + tree::heap_block_bytes(2 * sizeof(void*) + sizeof(Key));
+// The frequency sketch's share of a held page: it is kept at most 8
+// counters of 4 bits per item for at most twice the pages held (see
+// fit_sketch()), 8 bytes a page, rounded up to a power of two: 16.
+constexpr uint64_t kSketchBytesPerPage = 16;
 
-// Ghosts remembered: enough to recognise a page coming back after every
-// page of a long scan went through, at a few dozen bytes each.
-constexpr size_t kMinGhosts = 1024;
-constexpr size_t kGhostsPerHeldPage = 8;
+// What holding a page costs the cache itself, charged with the page: the
+// node of `held` (its link, key, entry and cached hash), its bucket, the
+// page's node in its list (two links and the key), as heap blocks, and its
+// share of the frequency sketch. About 150 bytes: a half of a cut-shaped
+// page's bytes on disk.
+constexpr uint64_t kEntryBytes =
+    tree::heap_block_bytes(sizeof(void*) + sizeof(std::pair<const Key, Entry>) + sizeof(size_t)) + sizeof(void*) +
+    tree::heap_block_bytes(2 * sizeof(void*) + sizeof(Key)) + kSketchBytesPerPage;
+
+// The window's share of the budget (TinyLFU's 1%): a page used twice in
+// quick succession is not judged by its frequency.
+constexpr uint64_t kWindowShare = 100;
+// The protected list's share of the main part (Caffeine's 80%).
+constexpr uint64_t kProtectedPercent = 80;
+
 // Departed pages remembered (pages evicted while in use): each keeps the
 // control block of its shared_ptr (sizeof(tree::Page)) alive, so their
 // number is bounded by the pages held.
@@ -61,32 +74,49 @@ struct Departed {
 struct PageCache::Impl {
   uint64_t budget;  // guarded by mu (set_budget)
   mutable std::mutex mu;
-  std::list<Key> fresh;  // first-time pages, front = newest (FIFO)
-  std::list<Key> hot;    // pages loaded again, front = most recently used (LRU)
-  std::list<Key> ghosts; // keys evicted from `fresh`, front = newest
-  std::unordered_map<Key, std::list<Key>::iterator, KeyHash> ghost_index;
+  // Front = most recently used, in each list.
+  std::list<Key> window;     // pages that just came
+  std::list<Key> probation;  // admitted, used once since
+  std::list<Key> protect;    // admitted and used again
+  uint64_t window_bytes = 0, protect_bytes = 0;
+  FrequencySketch sketch;
   // Pages evicted while someone still held them (a gather's pins), front =
   // newest: a miss of such a page takes it back if it is still alive,
   // instead of loading and decoding a second copy of it.
   std::list<Departed> departed;
   std::unordered_map<Key, std::list<Departed>::iterator, KeyHash> departed_index;
-  uint64_t fresh_bytes = 0;
   std::unordered_map<Key, Entry, KeyHash> held;
   std::unordered_map<Key, std::shared_future<tree::PagePtr>, KeyHash> loading;
   CacheCounters counters;
   std::atomic<uint64_t> next_owner{1};
+  // Pages dropped under the lock, released by the caller after unlocking:
+  // the last reference to a page frees its view, which must not lengthen
+  // the critical section that every fetch of every gather goes through.
+  std::vector<tree::PagePtr> released;
 
   explicit Impl(uint64_t b) : budget(b) {}
 
-  // Requires mu.
-  void remember_ghost(const Key& key) {
-    ghosts.push_front(key);
-    ghost_index[key] = ghosts.begin();
-    const size_t cap = std::max(kMinGhosts, kGhostsPerHeldPage * held.size());
-    while (ghosts.size() > cap) {
-      ghost_index.erase(ghosts.back());
-      ghosts.pop_back();
-    }
+  // Requires mu. The pages dropped since the last call, to be destroyed
+  // once the lock is released.
+  std::vector<tree::PagePtr> take_released() {
+    std::vector<tree::PagePtr> out;
+    out.swap(released);
+    return out;
+  }
+
+  static uint64_t hash(const Key& key) { return KeyHash{}(key); }
+  std::list<Key>& list_of(Segment s) {
+    return s == Segment::kWindow ? window : s == Segment::kProbation ? probation : protect;
+  }
+
+  // Requires mu. The sketch sized for twice the pages held, resized (its
+  // counts forgotten) only when the holdings outgrow it or fall below a
+  // quarter of it, so that it stays within 16 bytes a page held (8 after
+  // growing, up to 32 only while holdings shrink) and is not reset by the
+  // ups and downs of a full cache.
+  void fit_sketch() {
+    const size_t n = held.size();
+    if (n > sketch.items() || (n >= 8 && 4 * n < sketch.items())) sketch.resize(2 * n);
   }
 
   // Requires mu.
@@ -115,36 +145,94 @@ struct PageCache::Impl {
     return page;
   }
 
-  // Requires mu. Drops one page: from the new pages while they hold more
-  // than a quarter of the budget (or nothing is hot), else the least
-  // recently used hot page.
-  void evict_one() {
-    const bool from_fresh = !fresh.empty() && (fresh_bytes > budget / 4 || hot.empty());
-    std::list<Key>& list = from_fresh ? fresh : hot;
-    const Key victim = list.back();
-    list.pop_back();
-    auto it = held.find(victim);
-    counters.bytes_held -= it->second.bytes;
-    // Still used (the cache's reference is not the only one): remembered.
-    if (it->second.page.use_count() > 1) remember_departed(victim, it->second.page);
-    if (from_fresh) {
-      fresh_bytes -= it->second.bytes;
-      remember_ghost(victim);
+  // Requires mu. Drops the held page `key`; `evicted`: counted, and
+  // remembered if still in use.
+  void drop(const Key& key, bool evicted) {
+    auto it = held.find(key);
+    Entry& e = it->second;
+    list_of(e.segment).erase(e.pos);
+    if (e.segment == Segment::kWindow) window_bytes -= e.bytes;
+    if (e.segment == Segment::kProtected) protect_bytes -= e.bytes;
+    counters.bytes_held -= e.bytes;
+    if (evicted) {
+      // Still used (the cache's reference is not the only one): remembered.
+      if (e.page.use_count() > 1) remember_departed(key, e.page);
+      ++counters.evictions;
     }
+    released.push_back(std::move(e.page));
     held.erase(it);
-    ++counters.evictions;
   }
 
-  // Requires mu. Holds `page` if it fits the budget.
-  void hold(const Key& key, const tree::PagePtr& page, bool was_ghost) {
+  // Requires mu. Moves a held page to the front of `to`.
+  void move(Entry& e, Segment to) {
+    std::list<Key>& dst = list_of(to);
+    dst.splice(dst.begin(), list_of(e.segment), e.pos);
+    if (e.segment == Segment::kWindow) window_bytes -= e.bytes;
+    if (e.segment == Segment::kProtected) protect_bytes -= e.bytes;
+    if (to == Segment::kWindow) window_bytes += e.bytes;
+    if (to == Segment::kProtected) protect_bytes += e.bytes;
+    e.segment = to;
+  }
+
+  uint64_t window_budget() const { return budget / kWindowShare; }
+  uint64_t protect_budget() const { return (budget - window_budget()) / 100 * kProtectedPercent; }
+
+  // Requires mu. A hit: a page used again in probation is protected; the
+  // protected pages beyond their share go back to probation, least
+  // recently used first.
+  void on_hit(Entry& e) {
+    if (e.segment == Segment::kProbation) {
+      move(e, Segment::kProtected);
+      while (protect_bytes > protect_budget() && protect.size() > 1) {
+        move(held.find(protect.back())->second, Segment::kProbation);
+      }
+    } else {
+      std::list<Key>& l = list_of(e.segment);
+      l.splice(l.begin(), l, e.pos);
+    }
+  }
+
+  // Requires mu. Drops one page, for a smaller budget: the least recently
+  // used of probation, else of the protected pages, else of the window.
+  void evict_one() {
+    const std::list<Key>& from = !probation.empty() ? probation : !protect.empty() ? protect : window;
+    drop(from.back(), true);
+  }
+
+  // Requires mu. The pages the window holds beyond its share leave it,
+  // oldest first, as candidates for the main part: a candidate is admitted
+  // while the budget has room, or by evicting the main part's least
+  // recently used page if the candidate is used more often than it; else
+  // the candidate is evicted. The window keeps at least its newest page.
+  void admit_from_window() {
+    while (window_bytes > window_budget() && window.size() > 1) {
+      const Key candidate = window.back();
+      move(held.find(candidate)->second, Segment::kProbation);
+      while (counters.bytes_held > budget) {
+        const bool other_on_probation = probation.back() != candidate;
+        if (!other_on_probation && protect.empty()) break;
+        const Key victim = other_on_probation ? probation.back() : protect.back();
+        if (sketch.estimate(hash(candidate)) > sketch.estimate(hash(victim))) {
+          drop(victim, true);
+        } else {
+          drop(candidate, true);
+          break;
+        }
+      }
+    }
+    while (counters.bytes_held > budget) evict_one();
+  }
+
+  // Requires mu. Holds `page` (in the window) if it fits the budget.
+  void hold(const Key& key, const tree::PagePtr& page) {
     const uint64_t bytes = page->memory_bytes() + kEntryBytes;
     if (bytes > budget || held.count(key)) return;
-    while (counters.bytes_held + bytes > budget) evict_one();
-    std::list<Key>& list = was_ghost ? hot : fresh;
-    list.push_front(key);
-    held.emplace(key, Entry{page, bytes, was_ghost, list.begin()});
+    window.push_front(key);
+    held.emplace(key, Entry{page, bytes, Segment::kWindow, window.begin()});
+    window_bytes += bytes;
     counters.bytes_held += bytes;
-    if (!was_ghost) fresh_bytes += bytes;
+    fit_sketch();
+    admit_from_window();
   }
 };
 
@@ -159,12 +247,12 @@ tree::PagePtr PageCache::get(uint64_t owner, uint32_t page_id,
   // Made only on a miss: a hit (every page of every gather, once the cache
   // is warm) allocates nothing.
   std::optional<std::promise<tree::PagePtr>> promise;
-  bool was_ghost = false;
   {
     std::unique_lock lock(impl_->mu);
+    impl_->sketch.add(Impl::hash(key));
     if (auto it = impl_->held.find(key); it != impl_->held.end()) {
       ++impl_->counters.hits;
-      if (it->second.hot) impl_->hot.splice(impl_->hot.begin(), impl_->hot, it->second.pos);
+      impl_->on_hit(it->second);
       return it->second.page;
     }
     if (auto it = impl_->loading.find(key); it != impl_->loading.end()) {
@@ -173,23 +261,16 @@ tree::PagePtr PageCache::get(uint64_t owner, uint32_t page_id,
       lock.unlock();
       return pending.get();
     }
-    // Evicted while in use and still alive: taken back, no load (a hit).
-    // Such a page is in the working set of the gathers in flight: hot.
+    // Evicted while in use and still alive: taken back, no load (a hit),
+    // and held again as a page that just came.
     if (tree::PagePtr back = impl_->take_departed(key)) {
       ++impl_->counters.hits;
-      if (auto g = impl_->ghost_index.find(key); g != impl_->ghost_index.end()) {
-        impl_->ghosts.erase(g->second);
-        impl_->ghost_index.erase(g);
-      }
-      impl_->hold(key, back, true);
+      impl_->hold(key, back);
+      const std::vector<tree::PagePtr> dropped = impl_->take_released();
+      lock.unlock();
       return back;
     }
     ++impl_->counters.misses;
-    if (auto g = impl_->ghost_index.find(key); g != impl_->ghost_index.end()) {
-      was_ghost = true;
-      impl_->ghosts.erase(g->second);
-      impl_->ghost_index.erase(g);
-    }
     promise.emplace();
     impl_->loading.emplace(key, promise->get_future().share());
   }
@@ -207,10 +288,12 @@ tree::PagePtr PageCache::get(uint64_t owner, uint32_t page_id,
     promise->set_exception(std::current_exception());
     throw;
   }
+  std::vector<tree::PagePtr> dropped;  // released after the lock
   {
     std::lock_guard lock(impl_->mu);
     impl_->loading.erase(key);
-    impl_->hold(key, page, was_ghost);
+    impl_->hold(key, page);
+    dropped = impl_->take_released();
   }
   promise->set_value(page);
   return page;
@@ -232,29 +315,24 @@ uint64_t PageCache::budget() const {
 }
 
 void PageCache::set_budget(uint64_t budget_bytes) {
+  std::vector<tree::PagePtr> dropped;  // released after the lock
   std::lock_guard lock(impl_->mu);
   impl_->budget = budget_bytes;
   while (impl_->counters.bytes_held > impl_->budget) impl_->evict_one();
+  impl_->fit_sketch();
+  dropped = impl_->take_released();
 }
 
 uint64_t PageCache::new_owner() { return impl_->next_owner.fetch_add(1); }
 
 void PageCache::forget(uint64_t owner) {
+  std::vector<tree::PagePtr> dropped;  // released after the lock
   std::lock_guard lock(impl_->mu);
-  for (auto it = impl_->held.begin(); it != impl_->held.end();) {
-    if (it->first.owner == owner) {
-      impl_->counters.bytes_held -= it->second.bytes;
-      if (it->second.hot) {
-        impl_->hot.erase(it->second.pos);
-      } else {
-        impl_->fresh_bytes -= it->second.bytes;
-        impl_->fresh.erase(it->second.pos);
-      }
-      it = impl_->held.erase(it);
-    } else {
-      ++it;
-    }
+  std::vector<Key> keys;
+  for (const auto& [key, entry] : impl_->held) {
+    if (key.owner == owner) keys.push_back(key);
   }
+  for (const Key& key : keys) impl_->drop(key, false);
   for (auto it = impl_->departed.begin(); it != impl_->departed.end();) {
     if (it->key.owner == owner) {
       impl_->departed_index.erase(it->key);
@@ -263,14 +341,8 @@ void PageCache::forget(uint64_t owner) {
       ++it;
     }
   }
-  for (auto it = impl_->ghosts.begin(); it != impl_->ghosts.end();) {
-    if (it->owner == owner) {
-      impl_->ghost_index.erase(*it);
-      it = impl_->ghosts.erase(it);
-    } else {
-      ++it;
-    }
-  }
+  impl_->fit_sketch();
+  dropped = impl_->take_released();
 }
 
 }  // namespace pbgi::storage

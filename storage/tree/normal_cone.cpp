@@ -47,11 +47,13 @@ NormalCone cone_of_normals(std::span<const Surfel> surfels) {
 NormalCone merge_cones(const NormalCone& a_in, const NormalCone& b_in) {
   if (a_in.is_wide()) return a_in;
   if (b_in.is_wide()) return b_in;
-  // Let a be the wider cone.
-  const bool swap = angle_of(a_in.cos_half_angle) < angle_of(b_in.cos_half_angle);
+  // Let a be the wider cone. (Each angle is taken once: an acos per cone
+  // is a good part of deriving a page's nodes when it loads.)
+  const double t_in[2] = {angle_of(a_in.cos_half_angle), angle_of(b_in.cos_half_angle)};
+  const bool swap = t_in[0] < t_in[1];
   const NormalCone& a = swap ? b_in : a_in;
   const NormalCone& b = swap ? a_in : b_in;
-  const double ta = angle_of(a.cos_half_angle), tb = angle_of(b.cos_half_angle);
+  const double ta = t_in[swap ? 1 : 0], tb = t_in[swap ? 0 : 1];
   const Imath::V3d aa = to_d(a.axis).normalized(), ab = to_d(b.axis).normalized();
   const double cos_d = std::clamp(aa.dot(ab), -1.0, 1.0);
   const double td = std::acos(cos_d);
