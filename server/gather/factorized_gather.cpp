@@ -1,6 +1,7 @@
 #include "server/gather/factorized_gather.h"
 
 #include "server/gather/volume_fragments.h"
+#include "storage/tree/morton.h"
 
 #include <algorithm>
 
@@ -28,6 +29,17 @@ FactorizedGather::FactorizedGather(CutWalker& walker)
   near_.reserve(1024);
 }
 
+void FactorizedGather::visit_in_space_order(const std::vector<ReceiverCluster>& clusters) {
+  Imath::Box3f box;
+  for (const ReceiverCluster& c : clusters) box.extendBy(c.frame.p);
+  const tree::MortonFrame frame(box);
+  keyed_.resize(clusters.size());
+  for (size_t i = 0; i < clusters.size(); ++i) keyed_[i] = {frame.code(clusters[i].frame.p), uint32_t(i)};
+  std::sort(keyed_.begin(), keyed_.end());
+  order_.resize(clusters.size());
+  for (size_t i = 0; i < clusters.size(); ++i) order_[i] = keyed_[i].second;
+}
+
 void FactorizedGather::gather(std::span<const Receiver> rs, std::span<GatherResult> results,
                               GatherCounters& counters, GlossyGather* glossy, const VolumePoints* fog) {
   const GatherOptions& o = walker_.options();
@@ -46,7 +58,10 @@ void FactorizedGather::gather(std::span<const Receiver> rs, std::span<GatherResu
   const HoldPinsInScope hold{pins};
 
   const std::vector<uint32_t>& members = clusters_.members();
-  for (const ReceiverCluster& c : clusters_.clusters()) {
+  const std::vector<ReceiverCluster>& all = clusters_.clusters();
+  visit_in_space_order(all);
+  for (const uint32_t ci : order_) {
+    const ReceiverCluster& c = all[ci];
     // 1-2. The cluster's coarse cut and far content.
     far_.begin();
     near_.clear();

