@@ -62,10 +62,11 @@ void print_json(const std::string& dir, const storage::Manifest& m,
   out += fmt::format("  \"root\": {{\"page\": {}, \"index\": {}}},\n", m.root.page, m.root.index);
   out += fmt::format(
       "  \"bytes\": {{\"per_surfel\": {}, \"per_node\": {}, \"topology_per_node\": {}, "
-      "\"payload_per_node\": {}, \"surfel_record\": {}, \"decoded_node\": {}, \"decoded_surfel\": {}}},\n",
+      "\"payload_per_node\": {}, \"surfel_record\": {}, \"packed_sections\": {}, \"decoded_node\": {}, "
+      "\"decoded_surfel\": {}}},\n",
       json_number(per(s.file_bytes, s.surfel_count)), json_number(per(s.file_bytes, s.node_count)),
-      r.topology_bytes_per_node, r.payload_bytes_per_node, r.surfel_record_bytes, sizeof(tree::Node),
-      sizeof(Surfel));
+      json_number(r.topology_bytes_per_node), r.payload_bytes_per_node, r.surfel_record_bytes,
+      r.packed_sections ? "true" : "false", sizeof(tree::Node), sizeof(Surfel));
   out += fmt::format(
       "  \"pages\": {{\"count\": {}, \"page_bytes\": {}, \"padding_bytes\": {}, \"fill_mean\": {}, "
       "\"fill_min\": {}, \"fill_max\": {}}}",
@@ -107,9 +108,17 @@ void print_text(const std::string& dir, const storage::Manifest& m, const storag
   fmt::print("root          page {}, index {}\n", m.root.page, m.root.index);
   fmt::print("file          {} bytes ({:.2f} MiB), {:.1f} bytes/surfel, {:.1f} bytes/node\n", s.file_bytes,
              s.file_bytes / 1048576.0, per(s.file_bytes, s.surfel_count), per(s.file_bytes, s.node_count));
-  fmt::print("records       node {} B (topology {} + payload {}), surfel {} B; decoded node {} B, surfel {} B\n",
-             r.topology_bytes_per_node + r.payload_bytes_per_node, r.topology_bytes_per_node,
-             r.payload_bytes_per_node, r.surfel_record_bytes, sizeof(tree::Node), sizeof(Surfel));
+  if (r.packed_sections) {
+    fmt::print(
+        "records       node {} B (topology {} + payload {}), surfel {} B before packing; leaf frames, "
+        "surfel records and link payloads bit-packed per page; decoded node {} B, surfel {} B\n",
+        r.topology_bytes_per_node + double(r.payload_bytes_per_node), r.topology_bytes_per_node,
+        r.payload_bytes_per_node, r.surfel_record_bytes, sizeof(tree::Node), sizeof(Surfel));
+  } else {
+    fmt::print("records       node {} B (topology {} + payload {}), surfel {} B; decoded node {} B, surfel {} B\n",
+               r.topology_bytes_per_node + double(r.payload_bytes_per_node), r.topology_bytes_per_node,
+               r.payload_bytes_per_node, r.surfel_record_bytes, sizeof(tree::Node), sizeof(Surfel));
+  }
   fmt::print("pages         {} pages, fill mean {:.1f}% (min {:.1f}%, max {:.1f}%), padding {} bytes\n",
              s.page_count, 100 * r.fill_mean, 100 * r.fill_min, 100 * r.fill_max, r.padding_bytes);
   if (!r.walked) {

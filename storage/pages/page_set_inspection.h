@@ -18,12 +18,16 @@ struct PageSetInspection {
   // at load, so no per-node payload is stored (V3: every node stores one,
   // links none).
   bool node_payloads = false;
-  uint64_t topology_bytes_per_node = 0;  // the shape byte
+  // V8/V9 pages: the shapes are nibbles, and the leaf frames, the surfel
+  // records and the linked children's payloads are bit-packed per page, so
+  // their sizes vary from page to page (FORMAT.md).
+  bool packed_sections = false;
+  double topology_bytes_per_node = 0;    // the shape byte (a nibble when packed)
   uint64_t payload_bytes_per_node = 0;   // 0: derived, or variable (kmeans-sh)
-  uint64_t surfel_record_bytes = 0;
-  uint64_t leaf_record_bytes = 0;
+  uint64_t surfel_record_bytes = 0;      // before packing, when packed
+  uint64_t leaf_record_bytes = 0;        // 0: packed
   uint64_t link_record_bytes = 0;        // without the payload
-  uint64_t link_payload_bytes = 0;       // codec bytes per link
+  uint64_t link_payload_bytes = 0;       // codec bytes per link; 0: packed (varies)
   std::string codec_name;
 
   // Page table.

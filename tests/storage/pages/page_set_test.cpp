@@ -143,8 +143,12 @@ TEST_F(PageSetTest, InspectionAgreesWithTheManifest) {
   EXPECT_GT(r.fill_min, 0.0);
   EXPECT_LE(r.fill_max, 1.0);
   EXPECT_EQ(r.payload_bytes_per_node, 0u);  // derived at load
-  EXPECT_EQ(r.surfel_record_bytes, 18u);    // compact records (V6 pages)
-  EXPECT_EQ(r.link_payload_bytes, 76u);     // rounded payloads
+  EXPECT_EQ(r.surfel_record_bytes, 18u);    // compact records, before packing
+  // V8 pages: shapes in nibbles, leaves, surfels and link payloads packed.
+  EXPECT_TRUE(r.packed_sections);
+  EXPECT_EQ(r.topology_bytes_per_node, 0.5);
+  EXPECT_EQ(r.leaf_record_bytes, 0u);
+  EXPECT_EQ(r.link_payload_bytes, 0u);
   // 18-byte surfels (and 4 bytes per emitting one: a tenth here), leaf
   // records, and per page of a few levels a frame, a table
   // entry and its parent's link with a 76-byte payload (FORMAT.md, "Why
