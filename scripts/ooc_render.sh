@@ -11,6 +11,8 @@
 # e.g. scripts/ooc_render.sh /work/tmp/city/city.usda /work/tmp/city/cache 0.05 8MiB 64 48 fpbgi
 # BUDGET "0" means unlimited (the daemon's default budget is not used).
 # JOBS (environment, default 4 as `pbgi render`): tile requests in flight.
+# RENDER_ARGS (environment): more `pbgi render` flags, word-split (e.g.
+# "--upper-page-levels 10": a build option, so another page set).
 # CACHE_ONLY=1 (environment): BUDGET is the page cache's budget alone
 # (--page-cache-limit under an unbounded --memory-budget), whatever the
 # scene is charged: "1/8 of the page set" means a page cache of 1/8 of its
@@ -45,7 +47,7 @@ for _ in $(seq 100); do [ -S "$SOCK" ] && break; sleep 0.1; done
 cpu_ticks() { awk '{print $14 + $15}' "/proc/$daemon/stat"; }
 render() {
   "$PBGI" render --server "unix:$SOCK" "$SCENE" --camera /World/Camera --surfel-spacing "$SPACING" \
-    --width "$WIDTH" --height "$HEIGHT" --method "$METHOD" --jobs "${JOBS:-4}" -q -o "$CACHE/ooc-$1.exr" >/dev/null
+    --width "$WIDTH" --height "$HEIGHT" --method "$METHOD" --jobs "${JOBS:-4}" ${RENDER_ARGS:-} -q -o "$CACHE/ooc-$1.exr" >/dev/null
 }
 render cold
 # The cache counters after the cold render (warm = final - these).
