@@ -52,7 +52,9 @@ bool stable_axis(const Imath::V3f& axis, Imath::V3f& out) {
   for (int round = 0; round < 4; ++round) {
     out = decode_axis(code);
     const uint32_t again = storage::encode_octahedral_bits(out, kAxisBits);
-    if (decode_axis(again) == out) return true;
+    // The same code decodes to `out` again: no second decode (the common
+    // case; every node a page derives rounds its cone here).
+    if (again == code || decode_axis(again) == out) return true;
     code = again;
   }
   return false;
