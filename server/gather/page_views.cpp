@@ -285,16 +285,56 @@ T* copy_to(std::byte* base, size_t offset, const std::vector<T>& v) {
 
 }  // namespace
 
+namespace {
+// build()'s arrays, kept by each thread from view to view (a cache miss
+// builds the view of a page of ~10 nodes; allocating them each time showed
+// in its profile). A view of a large page (an in-memory tree is one page
+// of all its nodes) grows them to its size: arrays above kMaxKeptBytes are
+// freed when that view is built, so what a thread keeps between views, and
+// the budget does not count, is at most 7 x 256 KiB.
+struct ViewScratch {
+  ViewParts parts;
+  std::vector<tree::NodeRef> refs;
+  std::vector<PackedNode> nodes;
+  std::vector<PackedLook> looks;
+  std::vector<PackedWide> packed_wide;
+
+  static constexpr size_t kMaxKeptBytes = size_t(256) << 10;
+  template <class T>
+  static void trim(std::vector<T>& v) {
+    if (v.capacity() * sizeof(T) > kMaxKeptBytes) std::vector<T>().swap(v);
+  }
+  template <class T>
+  static size_t bytes_of(const std::vector<T>& v) {
+    return v.capacity() * sizeof(T);
+  }
+  void trim() {
+    trim(parts.nodes);
+    trim(parts.full);
+    trim(parts.bipolar);
+    trim(refs);
+    trim(nodes);
+    trim(looks);
+    trim(packed_wide);
+  }
+  size_t bytes() const {
+    return bytes_of(parts.nodes) + bytes_of(parts.full) + bytes_of(parts.bipolar) + bytes_of(refs) + bytes_of(nodes) +
+           bytes_of(looks) + bytes_of(packed_wide);
+  }
+};
+thread_local ViewScratch view_scratch;
+
+// Trims the thread's scratch when build() ends, also by an exception.
+struct TrimScratchOnExit {
+  ~TrimScratchOnExit() { view_scratch.trim(); }
+};
+}  // namespace
+
+size_t PageView::thread_scratch_bytes() { return view_scratch.bytes(); }
+
 PageView::Ptr PageView::build(const tree::Page& page) {
-  // Scratch arrays of this thread, reused from view to view.
-  struct Scratch {
-    ViewParts parts;
-    std::vector<tree::NodeRef> refs;
-    std::vector<PackedNode> nodes;
-    std::vector<PackedLook> looks;
-    std::vector<PackedWide> packed_wide;
-  };
-  thread_local Scratch scratch;
+  ViewScratch& scratch = view_scratch;
+  const TrimScratchOnExit trim_on_exit;
   ViewParts& parts = scratch.parts;
   derive_parts(page, parts);
   PageView header;

@@ -319,6 +319,9 @@ struct alignas(64) PageView {
   // above tree::Node::kMaxChildren, a link to a missing node of the same
   // page or a leaf's surfel range outside the page.
   static Ptr build(const tree::Page& page);
+  // Bytes of the scratch arrays the calling thread keeps between build()s
+  // (reused from view to view; those a large page grew are freed after it).
+  static size_t thread_scratch_bytes();
 
   PageView(const PageView&) = delete;
   PageView& operator=(const PageView&) = delete;

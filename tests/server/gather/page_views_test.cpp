@@ -100,5 +100,35 @@ TEST(PageView, ChildrenOfAPageOfMoreThan32768NodesAndInOtherPages) {
   }
 }
 
+// The arrays build() keeps per thread between views: a large page (an
+// in-memory tree is one page of all its nodes) grows them to its size, and
+// they are freed once its view is built instead of staying with the thread,
+// outside every budget (~10 MiB for this page of 40,001 nodes).
+TEST(PageView, ScratchOfALargePageIsNotKeptAfterItsView) {
+  constexpr uint32_t kInternal = 20000;
+  tree::Page page;
+  page.id = 1;
+  for (uint32_t i = 0; i < kInternal; ++i)
+    page.nodes.push_back(internal(V3f(0.f), 2.f, {1, 2 * i + 1}, {1, 2 * i + 2}));
+  for (uint32_t i = 0; i <= kInternal; ++i) {
+    Surfel s;
+    s.position = V3f(0.f);
+    s.normal = V3f(0, 0, 1);
+    s.radius = 0.01f;
+    page.surfels.push_back(s);
+    page.nodes.push_back(leaf(V3f(0.f), 0.01f, i, 1));
+  }
+  const PageView::Ptr view = PageView::build(page);
+  EXPECT_EQ(view->node_count, page.nodes.size());
+  EXPECT_LE(PageView::thread_scratch_bytes(), size_t(7) * (256u << 10));
+  // A small page's arrays are kept for the next view.
+  tree::Page small;
+  small.id = 2;
+  small.surfels.push_back(page.surfels[0]);
+  small.nodes.push_back(leaf(V3f(0.f), 0.01f, 0, 1));
+  PageView::build(small);
+  EXPECT_GT(PageView::thread_scratch_bytes(), 0u);
+}
+
 }  // namespace
 }  // namespace pbgi::gather
