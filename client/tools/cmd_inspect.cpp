@@ -108,17 +108,12 @@ void print_text(const std::string& dir, const storage::Manifest& m, const storag
   fmt::print("root          page {}, index {}\n", m.root.page, m.root.index);
   fmt::print("file          {} bytes ({:.2f} MiB), {:.1f} bytes/surfel, {:.1f} bytes/node\n", s.file_bytes,
              s.file_bytes / 1048576.0, per(s.file_bytes, s.surfel_count), per(s.file_bytes, s.node_count));
-  if (r.packed_sections) {
-    fmt::print(
-        "records       node {} B (topology {} + payload {}), surfel {} B before packing; leaf frames, "
-        "surfel records and link payloads bit-packed per page; decoded node {} B, surfel {} B\n",
-        r.topology_bytes_per_node + double(r.payload_bytes_per_node), r.topology_bytes_per_node,
-        r.payload_bytes_per_node, r.surfel_record_bytes, sizeof(tree::Node), sizeof(Surfel));
-  } else {
-    fmt::print("records       node {} B (topology {} + payload {}), surfel {} B; decoded node {} B, surfel {} B\n",
-               r.topology_bytes_per_node + double(r.payload_bytes_per_node), r.topology_bytes_per_node,
-               r.payload_bytes_per_node, r.surfel_record_bytes, sizeof(tree::Node), sizeof(Surfel));
-  }
+  const char* packing = r.packed_sections ? " before packing (leaf frames, surfel records and link payloads are "
+                                            "bit-packed per page)"
+                                          : "";
+  fmt::print("records       node {} B (topology {} + payload {}), surfel {} B{}; decoded node {} B, surfel {} B\n",
+             r.topology_bytes_per_node + double(r.payload_bytes_per_node), r.topology_bytes_per_node,
+             r.payload_bytes_per_node, r.surfel_record_bytes, packing, sizeof(tree::Node), sizeof(Surfel));
   fmt::print("pages         {} pages, fill mean {:.1f}% (min {:.1f}%, max {:.1f}%), padding {} bytes\n",
              s.page_count, 100 * r.fill_mean, 100 * r.fill_min, 100 * r.fill_max, r.padding_bytes);
   if (!r.walked) {

@@ -39,9 +39,10 @@ struct Entry {
   std::list<Key>::iterator pos;
 };
 
-// The frequency sketch's share of a held page: it is kept at most 8
-// counters of 4 bits per item for at most twice the pages held (see
-// fit_sketch()), 8 bytes a page, rounded up to a power of two: 16.
+// The frequency sketch's share of a held page. The sketch has fewer than 8
+// bytes an item (8 counters of 4 bits, rounded up to a power of two) and
+// is sized for twice the pages held when it is resized (fit_sketch()):
+// under 16 bytes a page then, less as the holdings grow.
 constexpr uint64_t kSketchBytesPerPage = 16;
 
 // What holding a page costs the cache itself, charged with the page: the
@@ -111,9 +112,9 @@ struct PageCache::Impl {
 
   // Requires mu. The sketch sized for twice the pages held, resized (its
   // counts forgotten) only when the holdings outgrow it or fall below a
-  // quarter of it, so that it stays within 16 bytes a page held (8 after
-  // growing, up to 32 only while holdings shrink) and is not reset by the
-  // ups and downs of a full cache.
+  // quarter of it: under 16 bytes a page held after a resize, under 8 once
+  // the holdings have doubled, up to 32 while they shrink to a quarter;
+  // and not reset by the ups and downs of a full cache.
   void fit_sketch() {
     const size_t n = held.size();
     if (n > sketch.items() || (n >= 8 && 4 * n < sketch.items())) sketch.resize(2 * n);

@@ -21,9 +21,8 @@ PageSetInspection inspect_page_set(const PageSetReader& reader, bool walk) {
   r.payload_bytes_per_node = m.node_payloads ? codec->bytes_per_node() : 0;
   r.surfel_record_bytes =
       surfel_record_bytes(surfel_records_of(m.options.leaf_format, page_format_has_compact_records(m.page_format)));
-  r.leaf_record_bytes =
-      page_format_has_compact_frame(m.page_format) ? 0 : kLeafRecordBytes;  // 0: a bit-packed leaf section
-  r.link_record_bytes = page_format_has_compact_frame(m.page_format) ? kCompactLinkRecordBytes : kLinkRecordBytes;
+  r.leaf_record_bytes = r.packed_sections ? 0 : kLeafRecordBytes;  // 0: a bit-packed leaf section
+  r.link_record_bytes = r.packed_sections ? kCompactLinkRecordBytes : kLinkRecordBytes;
   r.link_payload_bytes = m.node_payloads || r.packed_sections         ? 0
                          : page_format_rounds_payloads(m.page_format) ? tree::kRoundedPayloadBytes
                                                                       : codec->bytes_per_node();
