@@ -174,11 +174,11 @@ void derive_parts(const tree::Page& page, ViewParts& parts) {
 // without their library call: a view is built on every page cache miss).
 int16_t snorm16(float x) {
   const float t = std::clamp(x, -1.f, 1.f) * 32767.f;
-  return t >= 0.f ? int16_t(t + 0.5f) : t < 0.f ? int16_t(-int(-t + 0.5f)) : int16_t(0);
+  return t >= 0.f ? int16_t(round_half_up(t)) : t < 0.f ? int16_t(-int(round_half_up(-t))) : int16_t(0);
 }
 uint16_t unorm16(float x) {
   const float t = std::clamp(x, 0.f, 1.f) * 65535.f;
-  return t >= 0.f ? uint16_t(t + 0.5f) : uint16_t(0);
+  return t >= 0.f ? uint16_t(round_half_up(t)) : uint16_t(0);
 }
 
 // Packs the nodes. Children in other pages without proxies (and every

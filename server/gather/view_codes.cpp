@@ -21,20 +21,20 @@ Rgb48 encode_rgb48(const Imath::C3f& c) {
     const float maxc = std::max(r, std::max(g, b));
     if (maxc > 0.f) {
       // maxc < 2^e2 (frexp's exponent, from the bits for a normal float).
-      const uint32_t bits = std::bit_cast<uint32_t>(maxc);
+      const auto bits = std::bit_cast<uint32_t>(maxc);
       int e2 = int(bits >> 23) - 126;
       if ((bits >> 23) == 0) std::frexp(maxc, &e2);
       // maxc * 2^(46 - e) < 2^14 for e = e2 + 32; one more if rounding
-      // carries. Scaling by a power of two is exact; so is adding 0.5 below
-      // 2^23: the mantissas round to nearest, ties up.
+      // carries. Scaling by a power of two is exact; the mantissas round to
+      // nearest, ties up.
       int e = std::clamp(e2 + 32, 0, kRgb48NanExponent - 1);
       auto pow2 = [](int k) { return std::bit_cast<float>(uint32_t(k + 127) << 23); };
       float scale = pow2(46 - e);
-      if (uint32_t(maxc * scale + 0.5f) >= 16384u) {
+      if (round_half_up(maxc * scale) >= 16384u) {
         ++e;
         scale = pow2(46 - e);
       }
-      auto mant = [&](float x) { return uint64_t(std::min(uint32_t(x * scale + 0.5f), 16383u)); };
+      auto mant = [&](float x) { return uint64_t(std::min(round_half_up(x * scale), 16383u)); };
       v = mant(r) | mant(g) << 14 | mant(b) << 28 | uint64_t(e) << 42;
     }
   }

@@ -32,6 +32,14 @@ inline constexpr int kRgb48NanExponent = 63;
 // Negative channels become 0, infinite ones the largest value.
 Rgb48 encode_rgb48(const Imath::C3f& c);
 
+// t in [0, 2^23) rounded to the nearest integer, ties up, without a
+// library call (views are built on every page cache miss). Exact: unlike
+// uint32_t(t + 0.5f), which takes 0.5 - 2^-25 to 1 (the sum rounds up).
+inline uint32_t round_half_up(float t) {
+  const auto i = uint32_t(t);
+  return i + (t - float(i) >= 0.5f ? 1u : 0u);
+}
+
 namespace detail {
 // 2^(e - 46) for e in [0, 62] (normal floats, built from their bits); NaN for 63.
 struct Rgb48Scales {

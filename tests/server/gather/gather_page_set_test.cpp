@@ -343,6 +343,7 @@ TEST(GatherPageSet, ResultsIdenticalWhateverTheBudget) {
     for (uint32_t p = 0; p < probe.manifest().stats.page_count; ++p) decoded += probe.page(p)->memory_bytes();
   }
   std::vector<Receiver> receivers;
+  receivers.reserve(64);
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> u(-1.f, 1.f);
   for (int i = 0; i < 64; ++i) {

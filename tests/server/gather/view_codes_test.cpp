@@ -60,5 +60,18 @@ TEST(Rgb48, EdgeValues) {
   EXPECT_TRUE(std::isnan(nan.x) && std::isnan(nan.y) && std::isnan(nan.z));
 }
 
+// The codes' rounding: to nearest, ties up, exact below 2^23. The cast of
+// t + 0.5f it replaced took the float just below 0.5 to 1 (the sum rounds
+// to 1.0).
+TEST(RoundHalfUp, NearestTiesUpExact) {
+  EXPECT_EQ(round_half_up(0.f), 0u);
+  EXPECT_EQ(round_half_up(std::nextafter(0.5f, 0.f)), 0u);
+  EXPECT_EQ(round_half_up(0.5f), 1u);
+  EXPECT_EQ(round_half_up(2.5f), 3u);
+  EXPECT_EQ(round_half_up(std::nextafter(16383.5f, 0.f)), 16383u);
+  EXPECT_EQ(round_half_up(16383.5f), 16384u);
+  EXPECT_EQ(round_half_up(8388607.f), 8388607u);
+}
+
 }  // namespace
 }  // namespace pbgi::gather
