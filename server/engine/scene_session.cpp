@@ -1,5 +1,7 @@
 #include "server/engine/scene_session.h"
 
+#include "server/scene/air_regions.h"
+
 #include "server/engine/cache_cleanup.h"
 #include "server/engine/scene_fog.h"
 #include "server/surfels/surfel_samplers.h"
@@ -19,6 +21,7 @@
 #include "storage/pages/cache_files.h"
 
 #include <spdlog/spdlog.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <chrono>
@@ -114,13 +117,38 @@ std::unique_ptr<storage::PageSetReader> build_page_sets(
       // Glossy senders' lobes are lit while their pages are written.
       const SceneGlossyShader glossy(*session.rays, options.surfels.light_samples, options.surfels.seed);
       builder.set_glossy_shader(&glossy);
-      const SurfelGenerationStats generated =
-          generate_surfels(scene, *session.rays, options.surfels,
-                           [&](std::span<const Surfel> batch) {
-                             guard.count(batch.size());
-                             builder.add(batch);
-                           },
-                           [&](const char* s, float f) { report(s, f); });
+      // 4a. Air regions: the closed parts of the scene's empty space; each
+      //     surfel goes to the one its front faces (docs/gather.md, section 11).
+      tree::RegionGrid regions;
+      if (options.tree.air_region_resolution != 0) {
+        report("air regions", 0.f);
+        regions = build_air_regions(scene, *session.rays, options.tree.air_region_resolution);
+        report("air regions", 1.f);
+        if (regions.region_count() > 1) {
+          spdlog::info("scene {}: {} air regions on a {}x{}x{} grid of {} voxels", scene.source_path,
+                       regions.region_count(), regions.dims().x, regions.dims().y, regions.dims().z, regions.voxel());
+        } else {
+          regions = {};
+        }
+      }
+      std::vector<Surfel> located;
+      const SurfelGenerationStats generated = generate_surfels(
+          scene, *session.rays, options.surfels,
+          [&](std::span<const Surfel> batch) {
+            guard.count(batch.size());
+            if (regions.empty()) {
+              builder.add(batch);
+              return;
+            }
+            located.assign(batch.begin(), batch.end());
+            tbb::parallel_for(size_t(0), located.size(), [&](size_t i) {
+              Surfel& s = located[i];
+              s.region = locate_region(regions, *session.rays, s.position, s.normal, true);
+            });
+            builder.add(located);
+          },
+          [&](const char* s, float f) { report(s, f); });
+      if (!regions.empty()) builder.set_regions(std::move(regions));
       // 5. Tree pages, published atomically into the cache directory.
       const storage::Manifest built = builder.finish([&](float f) {
         guard.check_cancelled();

@@ -2,6 +2,7 @@
 
 #include "common/errors.h"
 #include "server/gather/node_appearance.h"
+#include "server/scene/air_regions.h"
 
 #include <algorithm>
 #include <cmath>
@@ -161,43 +162,74 @@ void CutWalker::begin_receiver(const Imath::V3f& p, const Imath::V3f& n) {
   caps_.clear();  // walk_receiver() casts them; cluster walks draw none
 }
 
-void CutWalker::push_root() {
+uint32_t CutWalker::locate(const Imath::V3f& p, const Imath::V3f& n) const {
+  const tree::RegionGrid* grid = tree_.regions();
+  if (!grid || !rays_) return tree::kAnyRegion;
+  return locate_region(*grid, *rays_, p, n);
+}
+
+void CutWalker::push_root(uint32_t region) {
+  if (hdr_threshold_ < 0.f) hdr_threshold_ = scene_hdr_threshold();
+  const std::span<const tree::RegionRoot> roots = tree_.region_roots();
+  if (region == tree::kAnyRegion || roots.empty()) {
+    push_node(tree_.root(), "tree root");
+    return;
+  }
+  // The region's subtree, and that of surfels whose region was not found
+  // (none unless the build could not place some), which every region sees.
+  for (const tree::RegionRoot& r : roots) {
+    if (r.region == region || r.region == tree::kAnyRegion) push_node(r.root, "region root");
+  }
+}
+
+void CutWalker::push_node(const tree::NodeRef& ref, const char* what) {
+  const tree::Page* page = nullptr;
+  const PageView* view = nullptr;
+  const uint32_t pin = pins_.acquire(ref.page, page, view);
+  if (ref.index >= view->node_count) {
+    pins_.release(pin);
+    throw CorruptionError(std::string(what) + ": page " + std::to_string(ref.page) + " has no node " +
+                          std::to_string(ref.index));
+  }
+  stack_.push_back({view, ref.index, pin});
+}
+
+float CutWalker::scene_hdr_threshold() {
+  // The scene's mean radiance: the root's area-weighted mean (DC ratio).
+  // The view keeps node 0's DC terms (a page's node 0 is its treelet's
+  // root, pre-order); a root elsewhere is read from its node.
   const tree::NodeRef root = tree_.root();
   const tree::Page* page = nullptr;
   const PageView* view = nullptr;
   const uint32_t pin = pins_.acquire(root.page, page, view);
+  struct Release {
+    PagePins& pins;
+    uint32_t pin;
+    ~Release() { pins.release(pin); }
+  } const release{pins_, pin};
   if (root.index >= view->node_count) {
-    pins_.release(pin);
     throw CorruptionError("tree root: page " + std::to_string(root.page) + " has no node " +
                           std::to_string(root.index));
   }
-  if (hdr_threshold_ < 0.f) {
-    // The scene's mean radiance: the root's area-weighted mean (DC ratio).
-    // The view keeps node 0's DC terms (a page's node 0 is its treelet's
-    // root, pre-order); a root elsewhere is read from its node.
-    float dc[4] = {0.f, 0.f, 0.f, 0.f};
-    if (root.index == 0) {
-      std::copy(view->cold->node0_dc, view->cold->node0_dc + 4, dc);
-    } else {
-      WideNode own;
-      const WideNode* full = view->full_node(root.index, own) ? &own : nullptr;
-      if (!full && root.index < page->nodes.size()) full = &(own = wide_node(page->nodes[root.index]));
-      if (!full) {
-        pins_.release(pin);
-        throw CorruptionError("tree root: page " + std::to_string(root.page) + " node " + std::to_string(root.index) +
-                              " has no payload");
-      }
-      dc[0] = full->radiance_sh.r[0];
-      dc[1] = full->radiance_sh.g[0];
-      dc[2] = full->radiance_sh.b[0];
-      dc[3] = full->coverage_sh[0];
+  float dc[4] = {0.f, 0.f, 0.f, 0.f};
+  if (root.index == 0) {
+    std::copy(view->cold->node0_dc, view->cold->node0_dc + 4, dc);
+  } else {
+    WideNode own;
+    const WideNode* full = view->full_node(root.index, own) ? &own : nullptr;
+    if (!full && root.index < page->nodes.size()) full = &(own = wide_node(page->nodes[root.index]));
+    if (!full) {
+      throw CorruptionError("tree root: page " + std::to_string(root.page) + " node " + std::to_string(root.index) +
+                            " has no payload");
     }
-    const float mean = dc[3] > 0.f ? luminance(Imath::C3f(dc[0], dc[1], dc[2])) / dc[3] : 0.f;
-    hdr_threshold_ = options_.hdr_refine > 0.f && mean > 0.f && std::isfinite(mean)
-                         ? options_.hdr_refine * kPi * mean
-                         : std::numeric_limits<float>::infinity();
+    dc[0] = full->radiance_sh.r[0];
+    dc[1] = full->radiance_sh.g[0];
+    dc[2] = full->radiance_sh.b[0];
+    dc[3] = full->coverage_sh[0];
   }
-  stack_.push_back({view, root.index, pin});
+  const float mean = dc[3] > 0.f ? luminance(Imath::C3f(dc[0], dc[1], dc[2])) / dc[3] : 0.f;
+  return options_.hdr_refine > 0.f && mean > 0.f && std::isfinite(mean) ? options_.hdr_refine * kPi * mean
+                                                                        : std::numeric_limits<float>::infinity();
 }
 
 // True when no surfel below the node can be seen from the receiver: the
@@ -506,9 +538,8 @@ void CutWalker::walk_lobe(const LobeRefinement& lobe) {
   walk([&lobe](const Imath::V3f& v, float d2, float r) { return lobe.cut(v, d2, r); });
 }
 
-void CutWalker::walk_cluster(const ClusterFrame& c, FarBuffer& far,
-                             std::vector<StackEntry>& near) {
-  push_root();
+void CutWalker::walk_cluster(const ClusterFrame& c, uint32_t region, FarBuffer& far, std::vector<StackEntry>& near) {
+  push_root(region);
   walk_cluster_stack(c, options_.effective_epsilon(), false, far, near);
 }
 

@@ -23,6 +23,7 @@
 #include "server/gather/page_views.h"
 #include "server/gather/rasterizer.h"
 #include "server/gather/ray_depth_caps.h"
+#include "storage/tree/region_grid.h"
 
 #include <Imath/ImathVec.h>
 
@@ -69,9 +70,14 @@ class CutWalker {
 
   // Starts a receiver: empty microbuffer for its hemisphere.
   void begin_receiver(const Imath::V3f& p, const Imath::V3f& n);
-  // Pushes the root (acquiring its page) / an entry whose pin the caller
-  // holds a reference on (it is retained for the stack).
-  void push_root();
+  // The air region (storage/tree/region_grid.h) the front of (p, n) faces:
+  // tree::kAnyRegion when the tree keeps none apart or no ray scene is set.
+  uint32_t locate(const Imath::V3f& p, const Imath::V3f& n) const;
+  // Pushes the root of what a receiver in `region` sees (acquiring its
+  // page): that region's subtree, or the whole tree for kAnyRegion / an
+  // entry whose pin the caller holds a reference on (it is retained for
+  // the stack).
+  void push_root(uint32_t region = tree::kAnyRegion);
   void push(const StackEntry& e) {
     pins_.retain(e.pin);
     stack_.push_back(e);
@@ -88,10 +94,11 @@ class CutWalker {
     return buffer_.resolve(options_.ao_max_distance, far, gain, light);
   }
 
-  // Walks a cluster's coarse cut from the root: far nodes go into `far`
-  // (begun by the caller), near nodes are appended to `near` (each holding
-  // a pin reference the caller releases).
-  void walk_cluster(const ClusterFrame& c, FarBuffer& far, std::vector<StackEntry>& near);
+  // Walks a cluster's coarse cut from the root of `region` (every member's,
+  // or kAnyRegion): far nodes go into `far` (begun by the caller), near
+  // nodes are appended to `near` (each holding a pin reference the caller
+  // releases).
+  void walk_cluster(const ClusterFrame& c, uint32_t region, FarBuffer& far, std::vector<StackEntry>& near);
   // The same from `from` (entries whose pins the caller holds references
   // on, e.g. a larger cluster's near nodes; pushed on top of whatever the
   // stack holds, e.g. push_root()) instead of the root, with the far/near
@@ -130,7 +137,10 @@ class CutWalker {
   // Adds what glossy node e shows towards unit w (node to receiver) to
   // `radiance`, for a node that shows the projected-area fraction `coverage`.
   static void add_glossy(const StackEntry& e, const Imath::V3f& w, float coverage, Imath::C3f& radiance);
-  float hdr_threshold();
+  // Pushes node `ref` (`what` names it in errors).
+  void push_node(const tree::NodeRef& ref, const char* what);
+  // The HDR cut's threshold from the whole tree's mean radiance.
+  float scene_hdr_threshold();
 
   const tree::TreeSource& tree_;
   const GatherOptions options_;

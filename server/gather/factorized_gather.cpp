@@ -62,10 +62,15 @@ void FactorizedGather::gather(std::span<const Receiver> rs, std::span<GatherResu
   visit_in_space_order(all);
   for (const uint32_t ci : order_) {
     const ReceiverCluster& c = all[ci];
-    // 1-2. The cluster's coarse cut and far content.
+    // 1-2. The cluster's coarse cut and far content, from the root of its
+    //      members' air region (the whole tree if they differ).
+    uint32_t region = walker_.locate(rs[members[c.first]].position, rs[members[c.first]].normal);
+    for (uint32_t m = c.first + 1; m < c.first + c.count && region != tree::kAnyRegion; ++m) {
+      if (walker_.locate(rs[members[m]].position, rs[members[m]].normal) != region) region = tree::kAnyRegion;
+    }
     far_.begin();
     near_.clear();
-    walker_.walk_cluster(c.frame, far_, near_);
+    walker_.walk_cluster(c.frame, region, far_, near_);
     far_.resolve(o.ao_max_distance);
     // 3. Each member refines the near nodes.
     for (uint32_t m = c.first; m < c.first + c.count; ++m) {
@@ -81,7 +86,7 @@ void FactorizedGather::gather(std::span<const Receiver> rs, std::span<GatherResu
       results[i].ao = r.ao;
       if (o.bent_normal) results[i].bent_normal = walker_.buffer().bent_normal(r);
       if (lobe) {
-        results[i].glossy = r.reflected + glossy->refined(rs[i], counters, fog);
+        results[i].glossy = r.reflected + glossy->refined(rs[i], region, counters, fog);
         ++counters.glossy_receivers;
       }
       ++counters.receivers;

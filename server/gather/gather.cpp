@@ -89,8 +89,9 @@ GatherResult Gatherer::gather_pinned(const Receiver& r) {
   if (w.pins().pinned() == 0) w.views().trim();  // no view is in use
   w.begin_receiver(r.position, r.normal);
 
-  // 2. Traversal.
-  w.push_root();
+  // 2. Traversal of what the receiver's air region sees.
+  const uint32_t region = w.locate(r.position, r.normal);
+  w.push_root(region);
   w.walk_receiver();
   ++counters_.receivers;
 
@@ -113,7 +114,7 @@ GatherResult Gatherer::gather_pinned(const Receiver& r) {
   out.irradiance = res.irradiance;
   out.ao = res.ao;
   if (w.options().bent_normal) out.bent_normal = w.buffer().bent_normal(res);
-  out.glossy = res.reflected + glossy.refined(r, counters_, impl_->fog.get());
+  out.glossy = res.reflected + glossy.refined(r, region, counters_, impl_->fog.get());
   ++counters_.glossy_receivers;
   return out;
 }

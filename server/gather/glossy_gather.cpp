@@ -32,12 +32,13 @@ Resolved GlossyGather::resolve(const Receiver& r, CutWalker& walker, const FarBu
   return out;
 }
 
-Imath::C3f GlossyGather::refined(const Receiver& r, GatherCounters& counters, const VolumePoints* fog) {
+Imath::C3f GlossyGather::refined(const Receiver& r, uint32_t region, GatherCounters& counters,
+                                 const VolumePoints* fog) {
   if (!fine_ || !lobe_.refined()) return Imath::C3f(0, 0, 0);
   const ClearPinsOnExit unpin{fine_->pins()};
   if (fine_->pins().pinned() == 0) fine_->views().trim();
   fine_->begin_receiver(r.position, r.normal);
-  fine_->push_root();
+  fine_->push_root(region);
   const uint64_t visited = fine_counters_.nodes_visited;
   fine_->walk_lobe(lobe_);
   // The fog in front of the refined pixels, as in the coarse buffer.

@@ -38,7 +38,8 @@ class GlossyGather {
   // pages pinned only during the call. Adds its node visits to
   // counters.glossy_nodes_visited and its page fetches to
   // counters.pages_fetched.
-  Imath::C3f refined(const Receiver& r, GatherCounters& counters, const VolumePoints* fog);
+  // `region`: the receiver's air region (CutWalker::locate).
+  Imath::C3f refined(const Receiver& r, uint32_t region, GatherCounters& counters, const VolumePoints* fog);
 
  private:
   LobeRefinement lobe_;

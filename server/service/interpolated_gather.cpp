@@ -61,9 +61,8 @@ std::vector<uint32_t> morton_order(const std::vector<Receiver>& receivers, const
 }  // namespace
 
 GatherBatch gather_interpolated(const tree::TreeSource& tree, const std::vector<Receiver>& receivers,
-                                const GatherOptions& options, float tolerance,
-                                const std::function<bool()>& cancelled,
-                                std::shared_ptr<const VolumePoints> fog) {
+                                const GatherOptions& options, float tolerance, const std::function<bool()>& cancelled,
+                                std::shared_ptr<const VolumePoints> fog, const RayScene* rays) {
   const auto start = std::chrono::steady_clock::now();
   IrradianceCache cache(tolerance);  // checks the tolerance
 
@@ -78,7 +77,7 @@ GatherBatch gather_interpolated(const tree::TreeSource& tree, const std::vector<
 
   GatherBatch batch;
   batch.results.resize(receivers.size());
-  GatherPool pool(tree, options, cancelled, std::move(fog));
+  GatherPool pool(tree, options, cancelled, std::move(fog), rays);
   std::vector<float> radius(receivers.size(), 0.f);
   std::vector<uint8_t> found;
   std::vector<uint32_t> gather, misses;

@@ -37,6 +37,6 @@ namespace pbgi::service {
 GatherBatch gather_interpolated(const tree::TreeSource& tree, const std::vector<Receiver>& receivers,
                                 const GatherOptions& options, float tolerance,
                                 const std::function<bool()>& cancelled = {},
-                                std::shared_ptr<const VolumePoints> fog = nullptr);
+                                std::shared_ptr<const VolumePoints> fog = nullptr, const RayScene* rays = nullptr);
 
 }  // namespace pbgi::service

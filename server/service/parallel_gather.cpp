@@ -13,9 +13,9 @@
 
 namespace pbgi::service {
 
-GatherPool::GatherPool(const tree::TreeSource& tree, const GatherOptions& options,
-                       std::function<bool()> cancelled, std::shared_ptr<const VolumePoints> fog)
-    : tree_(tree), options_(options), cancelled_(std::move(cancelled)), fog_(std::move(fog)) {}
+GatherPool::GatherPool(const tree::TreeSource& tree, const GatherOptions& options, std::function<bool()> cancelled,
+                       std::shared_ptr<const VolumePoints> fog, const RayScene* rays)
+    : tree_(tree), options_(options), cancelled_(std::move(cancelled)), fog_(std::move(fog)), rays_(rays) {}
 
 namespace {
 
@@ -53,6 +53,7 @@ void GatherPool::for_each(size_t n, const std::function<void(Gatherer&, size_t)>
     if (!gatherer) {
       gatherer = std::make_unique<Gatherer>(tree_, options_);
       gatherer->set_volume_points(fog_);  // the scene's fog, if any
+      gatherer->set_ray_scene(rays_);
     }
     for (size_t i = range.begin(); i != range.end(); ++i) body(*gatherer, i);
   });
@@ -74,13 +75,12 @@ GatherCounters GatherPool::counters() const {
 }
 
 GatherBatch gather_receivers(const tree::TreeSource& tree, const std::vector<Receiver>& receivers,
-                             const GatherOptions& options,
-                             const std::function<bool()>& cancelled,
-                             std::shared_ptr<const VolumePoints> fog) {
+                             const GatherOptions& options, const std::function<bool()>& cancelled,
+                             std::shared_ptr<const VolumePoints> fog, const RayScene* rays) {
   const auto start = std::chrono::steady_clock::now();
   GatherBatch batch;
   batch.results.resize(receivers.size());
-  GatherPool pool(tree, options, cancelled, std::move(fog));
+  GatherPool pool(tree, options, cancelled, std::move(fog), rays);
   pool.for_each(receivers.size(), [&](Gatherer& gatherer, size_t i) {
     batch.results[i] = gatherer.gather(receivers[i]);
   });

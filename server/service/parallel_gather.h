@@ -24,8 +24,10 @@ struct GatherBatch {
 // `tree` concurrently); everything else from one thread.
 class GatherPool {
  public:
-  GatherPool(const tree::TreeSource& tree, const GatherOptions& options,
-             std::function<bool()> cancelled, std::shared_ptr<const VolumePoints> fog);
+  // `rays`: the scene's geometry (the receivers' air regions, depth caps;
+  // Gatherer::set_ray_scene), or null.
+  GatherPool(const tree::TreeSource& tree, const GatherOptions& options, std::function<bool()> cancelled,
+             std::shared_ptr<const VolumePoints> fog, const RayScene* rays = nullptr);
 
   // Calls body(gatherer, i) for i in [0, n) over all cores, in blocks; a
   // Gatherer is made lazily per worker thread. Polls `cancelled` between
@@ -43,6 +45,7 @@ class GatherPool {
   GatherOptions options_;
   std::function<bool()> cancelled_;
   std::shared_ptr<const VolumePoints> fog_;
+  const RayScene* rays_;
   tbb::enumerable_thread_specific<std::unique_ptr<Gatherer>> gatherers_;
 };
 
@@ -51,8 +54,7 @@ class GatherPool {
 // returns true the batch stops and pbgi::Cancelled is thrown. Errors of the
 // tree (IoError, CorruptionError) propagate.
 GatherBatch gather_receivers(const tree::TreeSource& tree, const std::vector<Receiver>& receivers,
-                             const GatherOptions& options,
-                             const std::function<bool()>& cancelled = {},
-                             std::shared_ptr<const VolumePoints> fog = nullptr);
+                             const GatherOptions& options, const std::function<bool()>& cancelled = {},
+                             std::shared_ptr<const VolumePoints> fog = nullptr, const RayScene* rays = nullptr);
 
 }  // namespace pbgi::service

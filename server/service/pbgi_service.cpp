@@ -346,9 +346,9 @@ grpc::Status PbgiService::Gather(grpc::ServerContext* context, const v1::GatherR
     const AdmissionGate::Ticket slot = gate_.enter(context->deadline(), cancelled);
     const GatherBatch batch =
         interpolation.mode == InterpolationMode::kOff
-            ? gather_receivers(*session->tree, receivers, options, cancelled, session->fog)
-            : gather_interpolated(*session->tree, receivers, options, interpolation.tolerance, cancelled,
-                                  session->fog);
+            ? gather_receivers(*session->tree, receivers, options, cancelled, session->fog, session->rays.get())
+            : gather_interpolated(*session->tree, receivers, options, interpolation.tolerance, cancelled, session->fog,
+                                  session->rays.get());
 
     // 3. Packed results.
     std::vector<float> ao(receivers.size());

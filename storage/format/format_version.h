@@ -113,10 +113,15 @@ inline constexpr uint32_t kManifestFormatV3 = 3;
 //       each other from offset 0 without gaps, so the offsets are the
 //       sizes' prefix sums (2 bytes a page instead of 12). Written with
 //       V8/V9 pages, and only with them.
+//   V6: V5 + air regions (storage/tree/region_grid.h): the region grid
+//       (origin, voxel size, dimensions, region count, runs along x as
+//       varint pairs) and each region's subtree root. Written only when
+//       the tree keeps regions apart, so other page sets stay V5.
 inline constexpr uint32_t kManifestFormatV4 = 4;
 inline constexpr uint32_t kManifestFormatV5 = 5;
-inline constexpr uint32_t kManifestFormatCurrent = kManifestFormatV5;  // what this build writes
-inline constexpr uint32_t kManifestFormatLatest = kManifestFormatV5;   // the newest this build reads
+inline constexpr uint32_t kManifestFormatV6 = 6;
+inline constexpr uint32_t kManifestFormatCurrent = kManifestFormatV6;  // what this build writes
+inline constexpr uint32_t kManifestFormatLatest = kManifestFormatV6;   // the newest this build reads
 
 // Version of a page set as a whole (manifest + pages + codec set). Build keys
 // hash it, so bumping it makes every daemon rebuild its cached page sets.
@@ -131,7 +136,10 @@ inline constexpr uint32_t kManifestFormatLatest = kManifestFormatV5;   // the ne
 //      shared albedo, rounded node payloads (76-byte link payloads).
 //   6: V8/V9 pages (rounded node bounds and leaf frames, compact page
 //      frame) and V5 manifests (page sizes).
-inline constexpr uint32_t kPageSetFormatVersion = 6;
+//   7: air regions: a scene whose empty space falls apart into closed
+//      regions keeps each region's surfels in a subtree of its own (V6
+//      manifest); the pages are unchanged.
+inline constexpr uint32_t kPageSetFormatVersion = 7;
 
 // Ingested-scene entry versions (server/ingest/scene_entry.h).
 //   1-3 (refused): no frame -- the bare SceneChunk stream, dependencies in a
@@ -173,6 +181,6 @@ constexpr bool page_format_rounds_payloads(uint32_t v) { return v >= kPageFormat
 // padding) and 13-byte leaf records of rounded frames (page_frame.h,
 // page_records.h).
 constexpr bool page_format_has_compact_frame(uint32_t v) { return v == kPageFormatV8 || v == kPageFormatV9; }
-constexpr bool is_known_manifest_format(uint32_t v) { return v >= kManifestFormatV1 && v <= kManifestFormatV5; }
+constexpr bool is_known_manifest_format(uint32_t v) { return v >= kManifestFormatV1 && v <= kManifestFormatV6; }
 
 }  // namespace pbgi::storage

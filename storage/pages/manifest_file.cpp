@@ -24,10 +24,102 @@ void put_varint(ByteWriter& w, uint32_t v) {
   }
   w.put<uint8_t>(uint8_t(v));
 }
+
+// Reads a u32 LEB128 varint; CorruptionError for one that is not.
+uint32_t get_varint(ByteReader& r, const char* field, const std::string& path) {
+  const uint64_t at = r.file_offset();
+  uint64_t v = 0;
+  for (int shift = 0;; shift += 7) {
+    const auto b = r.get<uint8_t>(field);
+    if (shift == 28 && b > 0x0fu)
+      throw CorruptionError(path + ": " + field + " at offset " + std::to_string(at) + " is not a u32 varint");
+    v |= uint64_t(b & 0x7fu) << shift;
+    if ((b & 0x80u) == 0) {
+      if (b == 0 && shift > 0) {
+        throw CorruptionError(path + ": " + field + " at offset " + std::to_string(at) +
+                              " has a redundant varint byte");
+      }
+      return uint32_t(v);
+    }
+  }
+}
+
+// V6: the region grid and the regions' roots.
+void put_regions(ByteWriter& w, const Manifest& m) {
+  const tree::RegionGrid& g = m.regions;
+  w.put<uint32_t>(g.region_count());
+  w.put<float>(g.origin().x);
+  w.put<float>(g.origin().y);
+  w.put<float>(g.origin().z);
+  w.put<float>(g.voxel());
+  w.put<uint32_t>(uint32_t(g.dims().x));
+  w.put<uint32_t>(uint32_t(g.dims().y));
+  w.put<uint32_t>(uint32_t(g.dims().z));
+  w.put<uint32_t>(uint32_t(g.runs().size()));
+  for (const tree::RegionRun& r : g.runs()) {
+    put_varint(w, r.end_x);
+    put_varint(w, r.label);
+  }
+  w.put<uint32_t>(uint32_t(m.region_roots.size()));
+  for (const tree::RegionRoot& r : m.region_roots) {
+    w.put<uint32_t>(r.region);
+    w.put<uint32_t>(r.root.page);
+    w.put<uint32_t>(r.root.index);
+  }
+}
+
+void get_regions(ByteReader& r, Manifest& m, const std::string& path) {
+  const uint32_t count = r.get<uint32_t>("regions.count");
+  Imath::V3f origin;
+  origin.x = r.get<float>("regions.origin");
+  origin.y = r.get<float>("regions.origin");
+  origin.z = r.get<float>("regions.origin");
+  const float voxel = r.get<float>("regions.voxel");
+  Imath::V3i dims;
+  dims.x = int(r.get<uint32_t>("regions.dims"));
+  dims.y = int(r.get<uint32_t>("regions.dims"));
+  dims.z = int(r.get<uint32_t>("regions.dims"));
+  const uint32_t run_count = r.get<uint32_t>("regions.runs");
+  if (uint64_t(run_count) * 2 > r.remaining()) {
+    throw CorruptionError(path + ": " + std::to_string(run_count) + " region runs do not fit the " +
+                          std::to_string(r.remaining()) + " bytes left");
+  }
+  std::vector<tree::RegionRun> runs(run_count);
+  for (tree::RegionRun& run : runs) {
+    run.end_x = get_varint(r, "regions.run.end", path);
+    run.label = get_varint(r, "regions.run.label", path);
+  }
+  try {
+    m.regions = tree::RegionGrid::from_runs(origin, voxel, dims, count, std::move(runs));
+  } catch (const InvalidArgument& e) {
+    throw CorruptionError(path + ": " + e.what());
+  }
+  const uint32_t roots = r.get<uint32_t>("regions.roots");
+  if (uint64_t(roots) * 12 > r.remaining()) {
+    throw CorruptionError(path + ": " + std::to_string(roots) + " region roots do not fit the " +
+                          std::to_string(r.remaining()) + " bytes left");
+  }
+  m.region_roots.resize(roots);
+  uint32_t prev = 0;
+  for (uint32_t i = 0; i < roots; ++i) {
+    tree::RegionRoot& root = m.region_roots[i];
+    root.region = r.get<uint32_t>("regions.root.region");
+    root.root.page = r.get<uint32_t>("regions.root.page");
+    root.root.index = r.get<uint32_t>("regions.root.index");
+    if ((i > 0 && root.region <= prev) || root.region > count || root.root.page >= m.stats.page_count) {
+      throw CorruptionError(path + ": region root " + std::to_string(i) + " (region " + std::to_string(root.region) +
+                            ", page " + std::to_string(root.root.page) + ") is out of order or outside the " +
+                            std::to_string(count) + " regions and " + std::to_string(m.stats.page_count) + " pages");
+    }
+    prev = root.region;
+  }
+}
 }  // namespace
 
 uint32_t manifest_format_of(const Manifest& m) {
-  if (page_format_has_compact_frame(m.page_format)) return kManifestFormatV5;
+  if (page_format_has_compact_frame(m.page_format)) {
+    return m.region_roots.empty() ? kManifestFormatV5 : kManifestFormatV6;
+  }
   if (m.options.leaf_format != LeafFormat::kRelative) return kManifestFormatV4;
   return m.glossy_resolution != 0 ? kManifestFormatV3 : kManifestFormatV2;
 }
@@ -57,7 +149,7 @@ std::vector<uint8_t> encode_manifest(const Manifest& m) {
   w.put<uint32_t>(m.root.index);
   w.put<uint32_t>(static_cast<uint32_t>(m.pages.size()));
   const uint32_t version = manifest_format_of(m);
-  if (version == kManifestFormatV5) {
+  if (version >= kManifestFormatV5) {
     // Sizes alone: the pages lie back to back from offset 0.
     uint64_t at = 0;
     for (const PageExtent& e : m.pages) {
@@ -71,7 +163,9 @@ std::vector<uint8_t> encode_manifest(const Manifest& m) {
     w.put<uint32_t>(m.glossy_resolution);
     w.put<float>(m.options.wavelet_threshold);
     w.put<uint32_t>(static_cast<uint32_t>(m.options.leaf_format));
-    return frame_manifest(body, kManifestFormatV5);
+    if (version == kManifestFormatV5) return frame_manifest(body, kManifestFormatV5);
+    put_regions(w, m);
+    return frame_manifest(body, kManifestFormatV6);
   }
   for (const PageExtent& e : m.pages) {
     w.put<uint64_t>(e.offset);
@@ -225,6 +319,7 @@ Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path)
     }
     m.options.leaf_format = static_cast<LeafFormat>(leaf_format);
   }
+  if (framed.version >= kManifestFormatV6) get_regions(r, m, path);
   r.expect_end();
 
   if (m.stats.page_count == 0 || m.root.page >= m.stats.page_count) {

@@ -13,6 +13,7 @@
 #include "storage/format/format_version.h"
 #include "storage/tree/build_options.h"
 #include "storage/tree/node.h"
+#include "storage/tree/region_grid.h"
 #include "storage/tree/surfel.h"
 
 #include <Imath/ImathBox.h>
@@ -64,6 +65,11 @@ struct Manifest {
   // 0 when no page stores any (V2 manifest). Pages that do carry
   // kPageFlagGlossy.
   uint32_t glossy_resolution = 0;
+  // Air regions (storage/tree/region_grid.h; V6 manifest): the grid and
+  // each region's subtree, or both empty when the tree does not keep
+  // regions apart.
+  tree::RegionGrid regions;
+  std::vector<tree::RegionRoot> region_roots;
 };
 
 // What a build measured (not stored; for logs and benchmarks).
@@ -126,6 +132,10 @@ class PageSetBuilder {
   // Appends surfels in arrival order (copied). Throws InvalidArgument for
   // an invalid surfel, naming its arrival index (storage/tree/surfel_checks.h).
   void add(std::span<const Surfel> surfels);
+  // Air regions (storage/tree/region_grid.h): the grid the surfels'
+  // regions were looked up in, stored with the page set when the tree
+  // keeps more than one region apart. Call before finish().
+  void set_regions(tree::RegionGrid grid);
   // Codes glossy senders' outgoing radiance into the pages, lit by
   // `shader` (storage/codecs/glossy_pages.h; null, the default: glossy
   // surfels keep only their diffuse radiance). Call before finish(); the
@@ -185,6 +195,8 @@ class PageSetReader : public tree::TreeSource {
   // Throws CorruptionError / VersionError / IoError naming the file and
   // page; InvalidArgument for an id >= page count.
   tree::PagePtr page(uint32_t id) const override;
+  const tree::RegionGrid* regions() const override;
+  std::span<const tree::RegionRoot> region_roots() const override;
   const Manifest& manifest() const;
   const std::filesystem::path& directory() const;
 

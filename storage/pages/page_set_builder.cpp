@@ -138,6 +138,7 @@ struct PageSetBuilder::Impl {
   std::optional<LutSampleCollector> lut_sample;  // kmeans-sh / auto: the LUT's sample
   const GlossyShader* glossy_shader = nullptr;   // glossy senders' lobes (null: none coded)
   uint64_t glossy_surfels = 0;                   // added surfels with a specular lobe
+  tree::RegionGrid regions;                      // set_regions(): stored if the tree keeps regions apart
 
   Impl(const tree::BuildOptions& o, std::string key, const fs::path& dir, const Imath::Box3f& bounds)
       : options(o), build_key(std::move(key)), frame(bounds), staging(checked(o, build_key, dir)) {
@@ -254,6 +255,11 @@ struct PageSetBuilder::Impl {
     m.codec_state = codec->state();
     m.page_format = node_payloads ? kPageFormatNodePayloads : kPageFormatCurrent;
     m.root = stats.root;
+    if (!stats.region_roots.empty()) {
+      if (regions.empty()) throw InvalidArgument("page set builder: surfels of several air regions but no region grid");
+      m.regions = std::move(regions);
+      m.region_roots = stats.region_roots;
+    }
     if (glossy && glossy->stats().pages > 0) {
       m.glossy_resolution = options.glossy_resolution;
       report.glossy = glossy->stats();
@@ -292,6 +298,8 @@ PageSetBuilder::~PageSetBuilder() = default;
 void PageSetBuilder::add(std::span<const Surfel> surfels) { impl_->add(surfels); }
 
 void PageSetBuilder::set_glossy_shader(const GlossyShader* shader) { impl_->glossy_shader = shader; }
+
+void PageSetBuilder::set_regions(tree::RegionGrid grid) { impl_->regions = std::move(grid); }
 
 void PageSetBuilder::set_staging_quota(std::shared_ptr<StagingQuota> quota) {
   if (impl_->staging.usage().held() > 0) {

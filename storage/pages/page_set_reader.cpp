@@ -55,6 +55,12 @@ PageSetReader::~PageSetReader() {
 
 tree::NodeRef PageSetReader::root() const { return impl_->manifest.root; }
 
+const tree::RegionGrid* PageSetReader::regions() const {
+  return impl_->manifest.region_roots.empty() ? nullptr : &impl_->manifest.regions;
+}
+
+std::span<const tree::RegionRoot> PageSetReader::region_roots() const { return impl_->manifest.region_roots; }
+
 tree::PagePtr PageSetReader::page(uint32_t id) const {
   if (id >= impl_->manifest.stats.page_count) {
     throw InvalidArgument(impl_->pages.path() + ": page " + std::to_string(id) +

@@ -21,19 +21,28 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// What a run holds per surfel; compared by (code, index). Plain floats
-// (Imath types are not trivially copyable) so that blocks are raw bytes.
+// What a run holds per surfel; compared by (region, code, index). Plain
+// floats (Imath types are not trivially copyable) so that blocks are raw
+// bytes. The region shares a word with the arrival index (< 2^40).
+constexpr int kRegionShift = 40;
+constexpr uint64_t kIndexMask = (uint64_t(1) << kRegionShift) - 1;
+
 struct Record {
   uint64_t code;
-  uint64_t index;  // arrival order: breaks ties, so the order is total
-  float f[20];     // position, normal, radius, albedo, emission, radiance, gloss
+  uint64_t region_index;  // region << 40 | arrival order (breaks ties, so the order is total)
+  float f[20];            // position, normal, radius, albedo, emission, radiance, gloss
 
-  bool operator<(const Record& o) const { return code != o.code ? code < o.code : index < o.index; }
+  uint64_t region() const { return region_index >> kRegionShift; }
+  bool operator<(const Record& o) const {
+    if (region() != o.region()) return region() < o.region();
+    return code != o.code ? code < o.code : region_index < o.region_index;
+  }
 
   static Record of(uint64_t code, uint64_t index, const Surfel& s) {
-    return {code, index,
-            {s.position.x, s.position.y, s.position.z, s.normal.x, s.normal.y, s.normal.z, s.radius,
-             s.albedo.x, s.albedo.y, s.albedo.z, s.emission.x, s.emission.y, s.emission.z, s.radiance.x,
+    return {code,
+            uint64_t(s.region) << kRegionShift | (index & kIndexMask),
+            {s.position.x, s.position.y, s.position.z,  s.normal.x,   s.normal.y,   s.normal.z,   s.radius,
+             s.albedo.x,   s.albedo.y,   s.albedo.z,    s.emission.x, s.emission.y, s.emission.z, s.radiance.x,
              s.radiance.y, s.radiance.z, s.gloss.alpha, s.gloss.f0.x, s.gloss.f0.y, s.gloss.f0.z}};
   }
   Surfel surfel() const {
@@ -46,6 +55,7 @@ struct Record {
     s.radiance = {f[13], f[14], f[15]};
     s.gloss.alpha = f[16];
     s.gloss.f0 = {f[17], f[18], f[19]};
+    s.region = uint32_t(region());
     return s;
   }
 };
@@ -205,6 +215,10 @@ struct SurfelSorter::Impl {
       note_peak(buffer.capacity() * sizeof(Record));
     }
     for (const Surfel& s : surfels) {
+      if (s.region > kMaxSortedRegion) {
+        throw InvalidArgument("surfel " + std::to_string(stats.surfels) + ": air region " + std::to_string(s.region) +
+                              " is above " + std::to_string(kMaxSortedRegion));
+      }
       if (buffer.size() == capacity) spill();
       buffer.push_back(Record::of(frame.code(s.position), stats.surfels++, s));
     }
@@ -217,13 +231,17 @@ struct SurfelSorter::Impl {
     std::vector<std::unique_ptr<RunReader>> readers;
     for (const Run& r : inputs) readers.push_back(std::make_unique<RunReader>(r.path, r.records, block_records));
     struct Head {
-      uint64_t code, index;
+      uint64_t code, region_index;
       uint32_t reader;
-      bool operator>(const Head& o) const { return code != o.code ? code > o.code : index > o.index; }
+      bool operator>(const Head& o) const {
+        const uint64_t a = region_index >> kRegionShift, b = o.region_index >> kRegionShift;
+        if (a != b) return a > b;
+        return code != o.code ? code > o.code : region_index > o.region_index;
+      }
     };
     std::priority_queue<Head, std::vector<Head>, std::greater<>> heap;
     for (uint32_t i = 0; i < readers.size(); ++i) {
-      if (const Record* r = readers[i]->peek()) heap.push({r->code, r->index, i});
+      if (const Record* r = readers[i]->peek()) heap.push({r->code, r->region_index, i});
     }
     while (!heap.empty()) {
       const uint32_t i = heap.top().reader;
@@ -231,7 +249,7 @@ struct SurfelSorter::Impl {
       const Record* r = readers[i]->peek();
       out(*r);
       readers[i]->pop();
-      if (const Record* next = readers[i]->peek()) heap.push({next->code, next->index, i});
+      if (const Record* next = readers[i]->peek()) heap.push({next->code, next->region_index, i});
       tick();
     }
     readers.clear();

@@ -1,6 +1,8 @@
-// External sort of surfels by (Morton code, arrival index) under a hard
-// memory bound, so that a page set of any size is built from a sorted
-// stream (storage/tree/streaming_tree_builder.h).
+// External sort of surfels by (air region, Morton code, arrival index)
+// under a hard memory bound, so that a page set of any size is built from a
+// sorted stream (storage/tree/streaming_tree_builder.h). Regions
+// (storage/tree/region_grid.h) sort first so that each region's surfels
+// form one run of the stream, and so one subtree.
 //
 // Surfels are copied into a run buffer of memory_bytes; a full buffer is
 // sorted and written to a run file in `run_dir`. drain() streams the sorted
@@ -32,6 +34,8 @@ class StagingUsage;
 
 // Runs merged at once unless a caller asks for fewer.
 inline constexpr uint32_t kDefaultSortFanIn = 64;
+// Regions share a 64-bit word with the arrival index (< 2^40).
+inline constexpr uint32_t kMaxSortedRegion = (1u << 24) - 1;
 
 struct SortStats {
   uint64_t surfels = 0;
@@ -54,10 +58,11 @@ class SurfelSorter {
   SurfelSorter(const SurfelSorter&) = delete;
   SurfelSorter& operator=(const SurfelSorter&) = delete;
 
-  // Appends surfels in arrival order (already checked). Spills full runs.
+  // Appends surfels in arrival order (already checked; regions below
+  // kMaxSortedRegion). Spills full runs.
   void add(std::span<const Surfel> surfels);
 
-  // Calls `emit(surfel, code)` for every surfel in (code, arrival) order;
+  // Calls `emit(surfel, code)` for every surfel in (region, code, arrival) order;
   // `progress(fraction)` after each percent of the surfels of every merge
   // pass, the passes splitting [0, 1] by their data. The sorter is spent
   // afterwards. Exceptions of the callbacks propagate.

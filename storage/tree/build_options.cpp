@@ -45,6 +45,10 @@ void BuildOptions::validate() const {
         ", tree.upper_page_levels = " + std::to_string(upper_page_levels) +
         ": must satisfy 1 <= page_levels <= upper_page_levels <= " + std::to_string(storage::kMaxPageLevels));
   }
+  if (air_region_resolution != 0 && (air_region_resolution < 8 || air_region_resolution > 1024)) {
+    throw InvalidArgument("tree.air_region_resolution = " + std::to_string(air_region_resolution) +
+                          ": must be 0 (off) or in [8, 1024]");
+  }
   constexpr uint64_t kMinSortMemory = 64 * 1024;
   if (sort_memory_bytes < kMinSortMemory) {
     throw InvalidArgument("tree.sort_memory_bytes = " + std::to_string(sort_memory_bytes) +

@@ -80,6 +80,12 @@ struct BuildOptions {
   // (the paper's format B, 24 B per surfel, the default) or half (format
   // A, 38 B: float32 positions, half-float colours).
   storage::LeafFormat leaf_format = storage::LeafFormat::kRelative;
+  // Air regions (region_grid.h, docs/gather.md section 11): voxels along
+  // the scene's longest side of the grid that finds the closed parts of its
+  // empty space (rooms no opening joins to the outside), whose surfels the
+  // tree keeps apart so that no light passes their walls. 0 = off; else
+  // 8..1024. Openings narrower than about a voxel count as closed.
+  uint32_t air_region_resolution = 128;
 
   void validate() const;  // throws pbgi::InvalidArgument
 };
@@ -141,6 +147,13 @@ inline constexpr auto kTreeOptionTable = options::table(
         {27,
          {"--upper-page-levels", "most tree levels a page of the upper tree holds (>= --page-levels) [4]",
           options::range(1, 16)},
+         options::KeyMember::kIfNotDefault}),
+    options::field<&BuildOptions::air_region_resolution>(
+        "air_region_resolution",
+        {28,
+         {"--air-regions",
+          "voxels along the scene's longest side of the grid that keeps closed rooms' light apart; 0 = off [128]",
+          options::range(0, 1024)},
          options::KeyMember::kIfNotDefault}));
 
 }  // namespace pbgi::tree

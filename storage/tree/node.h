@@ -15,6 +15,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <vector>
 
 namespace pbgi::storage {
@@ -109,6 +110,16 @@ struct Page {
 
 using PagePtr = std::shared_ptr<const Page>;
 
+class RegionGrid;  // storage/tree/region_grid.h
+
+// The subtree of one air region's surfels (region_grid.h): a page's root
+// (streaming_tree_builder.h).
+struct RegionRoot {
+  uint32_t region = 0;
+  NodeRef root;
+  bool operator==(const RegionRoot&) const = default;
+};
+
 // Read access to a tree whose pages may live on disk. Implementations are
 // thread-safe: many gathers traverse one tree concurrently.
 class TreeSource {
@@ -119,6 +130,11 @@ class TreeSource {
   // pbgi::CorruptionError, VersionError or IoError (common/errors.h)
   // naming the page on failure.
   virtual PagePtr page(uint32_t id) const = 0;
+  // Air regions (region_grid.h): the grid receivers are looked up in and
+  // each region's subtree, by increasing region; null and empty when the
+  // tree does not keep regions apart (a receiver then walks root()).
+  virtual const RegionGrid* regions() const { return nullptr; }
+  virtual std::span<const RegionRoot> region_roots() const { return {}; }
 };
 
 }  // namespace pbgi::tree

@@ -52,6 +52,12 @@ inline int separator_level(uint64_t prev_code, uint64_t code, uint64_t index) {
   return 63 - std::countl_zero((index - 1) ^ index);
 }
 
+// Separators between regions lie above every Morton and index level.
+constexpr int kRegionLevel0 = 128;
+inline int region_separator_level(uint32_t prev_region, uint32_t region) {
+  return kRegionLevel0 + (31 - std::countl_zero(prev_region ^ region));
+}
+
 }  // namespace
 
 struct StreamingTreeBuilder::Impl {
@@ -75,6 +81,7 @@ struct StreamingTreeBuilder::Impl {
   std::vector<Open> stack;
   uint32_t current = kNone;  // the subtree left of the next separator
   uint64_t prev_code = 0;
+  uint32_t prev_region = 0;
   bool finished = false;
 
   StreamingTreeStats stats;
@@ -322,19 +329,39 @@ struct StreamingTreeBuilder::Impl {
     return id;
   }
 
+  // `current` is the whole subtree of prev_region: it becomes a page of
+  // its own, the region's root.
+  void close_region() {
+    if (page_bytes == 0) throw InvalidArgument("tree builder: several air regions need pages (page_bytes > 0)");
+    if (arena[current].candidate) close_leaf(current);
+    if (!arena[current].written()) write_page(current);
+    stats.region_roots.push_back({prev_region, {arena[current].page, 0}});
+  }
+
   void add(const Surfel& s, uint64_t code) {
     if (finished) throw InvalidArgument("tree builder: add() after finish()");
     const uint64_t index = stats.surfel_count;
-    if (index > 0 && code < prev_code) {
-      throw InvalidArgument("tree builder: surfel " + std::to_string(index) + " has Morton code " +
-                            std::to_string(code) + ", below its predecessor's " + std::to_string(prev_code) +
-                            " (the stream must be sorted)");
+    if (index > 0 && (s.region < prev_region || (s.region == prev_region && code < prev_code))) {
+      throw InvalidArgument("tree builder: surfel " + std::to_string(index) + " has region " +
+                            std::to_string(s.region) + " and Morton code " + std::to_string(code) +
+                            ", below its predecessor's " + std::to_string(prev_region) + " and " +
+                            std::to_string(prev_code) + " (the stream must be sorted)");
     }
     constexpr uint64_t kMaxSurfels = uint64_t(1) << 40;
     if (index >= kMaxSurfels) throw InvalidArgument("tree builder: more than 2^40 surfels");
     const uint32_t leaf = new_candidate(s);
     if (index > 0) {
-      const int level = separator_level(prev_code, code, index);
+      const bool new_region = s.region != prev_region;
+      const int level =
+          new_region ? region_separator_level(prev_region, s.region) : separator_level(prev_code, code, index);
+      // A new region closes every open subtree of the previous one first
+      // (their separators lie below any region's).
+      while (!stack.empty() && stack.back().level < std::min(level, kRegionLevel0)) {
+        const uint32_t left = stack.back().node;
+        stack.pop_back();
+        current = join(left, current);
+      }
+      if (new_region) close_region();
       while (!stack.empty() && stack.back().level < level) {
         const uint32_t left = stack.back().node;
         stack.pop_back();
@@ -344,6 +371,7 @@ struct StreamingTreeBuilder::Impl {
     }
     current = leaf;
     prev_code = code;
+    prev_region = s.region;
     ++stats.surfel_count;
   }
 
@@ -351,6 +379,15 @@ struct StreamingTreeBuilder::Impl {
     if (finished) throw InvalidArgument("tree builder: finish() called twice");
     finished = true;
     if (stats.surfel_count == 0) throw InvalidArgument("cannot build a tree over 0 surfels");
+    if (!stats.region_roots.empty()) {
+      // The last region's subtree, as add() closes the others.
+      while (!stack.empty() && stack.back().level < kRegionLevel0) {
+        const uint32_t left = stack.back().node;
+        stack.pop_back();
+        current = join(left, current);
+      }
+      close_region();
+    }
     while (!stack.empty()) {
       const uint32_t left = stack.back().node;
       stack.pop_back();

@@ -24,6 +24,12 @@
 // full, and a top-down walk crosses few pages. A page links only to pages
 // written before it; the root's page is the last.
 //
+// Air regions (region_grid.h). The stream is sorted by region first; the
+// separator between two regions lies above every Morton level, so each
+// region's surfels form one subtree, which is written as a page of its own
+// (its root is that page's node 0) and listed in the stats' region_roots.
+// A stream of one region builds the same tree as before regions existed.
+//
 // Leaves are quantized when they are closed (leaf_quantizer.h) and every
 // summary is computed from the decoded surfels, as a reader will.
 //
@@ -39,11 +45,13 @@
 #include "storage/tree/build_options.h"
 #include "storage/tree/node.h"
 #include "storage/tree/node_payload_sizer.h"
+#include "storage/tree/region_grid.h"
 #include "storage/tree/surfel.h"
 #include "storage/tree/treelet.h"
 
 #include <cstdint>
 #include <memory>
+#include <vector>
 
 namespace pbgi::tree {
 
@@ -63,6 +71,9 @@ struct StreamingTreeStats {
   uint32_t page_count = 0;
   NodeRef root;                   // {last page, 0}
   uint64_t peak_pending_bytes = 0;  // most memory held by nodes not yet written
+  // Each region's subtree, by increasing region, when the stream held more
+  // than one region (empty otherwise).
+  std::vector<RegionRoot> region_roots;
 };
 
 class StreamingTreeBuilder {
@@ -81,8 +92,9 @@ class StreamingTreeBuilder {
   StreamingTreeBuilder& operator=(const StreamingTreeBuilder&) = delete;
 
   // Appends the next surfel of the stream (valid: finite, unit normal,
-  // radius >= 0, colours >= 0) with its Morton code. Codes must not
-  // decrease: InvalidArgument otherwise.
+  // radius >= 0, colours >= 0) with its Morton code. (region, code) must
+  // not decrease: InvalidArgument otherwise; several regions need pages
+  // (page_bytes > 0).
   void add(const Surfel& s, uint64_t code);
 
   // Closes the tree and writes the remaining pages. InvalidArgument if no

@@ -7,6 +7,8 @@
 #include <Imath/ImathColor.h>
 #include <Imath/ImathVec.h>
 
+#include <cstdint>
+
 namespace pbgi {
 
 // A glossy sender's specular lobe (server/surfels/surfel_material.h): GGX
@@ -28,6 +30,11 @@ struct Surfel {
   // Carried through the build's sort, not stored in page records: pages
   // keep the lobe's outgoing radiance (wavelet cube maps) instead.
   SurfelGloss gloss;
+  // The air region its front faces (region_grid.h; kAnyRegion = 0: the
+  // scene has one, or none is known). Carried through the build's sort,
+  // which keeps each region's surfels in a subtree of their own; not
+  // stored in page records (a page's surfels are all its subtree's region).
+  uint32_t region = 0;
 
   float area() const { return 3.14159265358979f * radius * radius; }
 };

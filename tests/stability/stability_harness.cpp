@@ -56,6 +56,7 @@ PbgiScene::PbgiScene(const Scene& scene, const RenderSettings& s)
   open.surfels.target_surfels = s.target_surfels;
   open.surfels.sampler = s.sampler;
   open.bounce.bounces = s.bounces;
+  open.tree.air_region_resolution = s.air_region_resolution;
   EngineContext ctx;
   ctx.cache_dir = dir_.path();
   ctx.cache = std::make_shared<storage::PageCache>(1ull << 30);

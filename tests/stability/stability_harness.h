@@ -7,6 +7,7 @@
 #include "server/render/gather_lattice.h"
 #include "server/scene/scene.h"
 #include "server/surfels/surfel_options.h"
+#include "storage/tree/build_options.h"
 
 #include <cstdint>
 #include <filesystem>
@@ -38,6 +39,8 @@ struct RenderSettings {
   uint64_t reference_seed = 7;
   // Light bounces the PBGI build puts into the surfels (BounceOptions).
   uint32_t bounces = 1;
+  // The build's air regions (tree::BuildOptions; 0 = off).
+  uint32_t air_region_resolution = tree::BuildOptions{}.air_region_resolution;
   // The bounds of the cases are those of one gather per camera sample (the
   // gather's own stability). Every render is also made with the
   // interpolating renderer (the product's default), whose indirect layer

@@ -308,6 +308,7 @@ Scene closed_room(const ClosedRoom& room) {
   if (room.shells == 2)
     shell(b, {-2 - t, 0, -2 - t}, {2 + t, 4 + 2 * t, 2 + t}, false, white, "/room/outer",
           room.double_sided);
+  if (room.lamp) b.rect_light({0.5f, 3.9f + t, 0.5f}, {0, -1, 0}, 0.6f, 0.6f, {20, 20, 20});
   b.distant_light(kOutdoorSunDirection, {kOutdoorSunIrradiance, kOutdoorSunIrradiance,
                                          kOutdoorSunIrradiance});
   b.dome_light({kOutdoorSkyRadiance, kOutdoorSkyRadiance, kOutdoorSkyRadiance});

@@ -97,6 +97,7 @@ struct ClosedRoom {
   float thickness = 0.02f;
   int shells = 2;
   bool double_sided = false;
+  bool lamp = false;  // a rect light under the ceiling, facing down
 };
 Scene closed_room(const ClosedRoom& room);
 // The sun and the sky of closed_room(), and the radiance of its ground

@@ -124,12 +124,12 @@ TEST(BuildKey, LeafFormatChangesTheKeyButItsDefaultDoesNot) {
 // Keys computed by the build key code before the options tables existed
 // (main at 1833fb7), re-pinned when kPageSetFormatVersion became 4 (page
 // format V4: every key changed on purpose, so V2 page sets are rebuilt)
-// 5 (V6 pages: compact records, rounded payloads) and 6 (V8 pages:
-// rounded bounds, compact page frame):
+// 5 (V6 pages: compact records, rounded payloads), 6 (V8 pages:
+// rounded bounds, compact page frame) and 7 (air regions):
 // cached page sets keep their keys, byte for byte.
 TEST(BuildKey, KeysOfExistingOptionsArePinned) {
   const std::string scene = "0123456789abcdef";
-  EXPECT_EQ(page_set_build_key(scene, OpenOptions()), "1d9b33893703ba420ff3d293764cdf57");
+  EXPECT_EQ(page_set_build_key(scene, OpenOptions()), "f10f68e132ee5e0dd0efc37b5a3ff36b");
   OpenOptions a;
   a.surfels.spacing = 0.013f;
   a.surfels.target_surfels = 12345;
@@ -137,7 +137,7 @@ TEST(BuildKey, KeysOfExistingOptionsArePinned) {
   a.surfels.seed = 42;
   a.tree.leaf_size = 8;
   a.tree.page_size = 32768;
-  EXPECT_EQ(page_set_build_key(scene, a), "2a27e129e84321db18f0fc16ff28ffce");
+  EXPECT_EQ(page_set_build_key(scene, a), "39b89227342e20f9b01a3f547de299ed");
   OpenOptions b;
   b.surfels.sampler = SurfelSampler::kPoisson;
   b.surfels.camera = "/World/Camera";
@@ -148,7 +148,7 @@ TEST(BuildKey, KeysOfExistingOptionsArePinned) {
   b.tree.glossy_resolution = 32;
   b.tree.wavelet_threshold = 0.05f;
   b.tree.leaf_format = storage::LeafFormat::kHalf;
-  EXPECT_EQ(page_set_build_key(scene, b), "32d58acdf64c7410dcff8257f0fd798b");
+  EXPECT_EQ(page_set_build_key(scene, b), "4e309562dd7ae334821b702227a89b9c");
   OpenOptions c;
   c.tree.payload_codec = tree::PayloadCodecOption::kQuantizedSh;
   c.tree.lut_entries = 1000;
@@ -159,7 +159,7 @@ TEST(BuildKey, KeysOfExistingOptionsArePinned) {
   c.bounce.receiver_stride = 4;
   c.bounce.gather.microbuffer_resolution = 16;
   c.bounce.gather.max_solid_angle = 0.05f;
-  EXPECT_EQ(page_set_build_key(scene, c), "0fa4742bb5f1d19d0ae47d48de093d53");
+  EXPECT_EQ(page_set_build_key(scene, c), "4d9df8c7e6ebb52790fd9985ffc9a201");
   // Fog and the default lights are not in the page set (the lights reach
   // it through the scene's content hash).
   OpenOptions e;
@@ -169,7 +169,7 @@ TEST(BuildKey, KeysOfExistingOptionsArePinned) {
   e.bounce.receiver_stride = 1;
   e.default_light = true;
   e.fog.extinction_per_density = 3.f;
-  EXPECT_EQ(page_set_build_key(scene, e), "07918b6471b366c30bc8ef6269e91212");
+  EXPECT_EQ(page_set_build_key(scene, e), "d5ee653a54212bff61facb66425ddda5");
 }
 
 // Build-key membership is what the tables say: every option marked as a

@@ -1,0 +1,94 @@
+// The Gather RPC's receivers and air regions (docs/gather.md, section 15):
+// given the scene's rays, a receiver inside a closed box walks only the
+// inside's subtree and sees none of the light of the box's lit outside;
+// without rays (or regions) it walks the whole tree, as before.
+#include "server/scene/air_regions.h"
+#include "server/service/interpolated_gather.h"
+#include "server/service/parallel_gather.h"
+#include "storage/cache/page_cache.h"
+#include "storage/pages/page_set.h"
+#include "storage/tree/tree_builder.h"
+#include "tests/server/scene/test_scenes.h"
+#include "tests/server/service/temp_dir.h"
+
+#include <gtest/gtest.h>
+
+namespace pbgi::service {
+namespace {
+
+// Surfels on a grid over the quad corner + [0,1] u + [0,1] v, facing n.
+void add_surfels(std::vector<Surfel>& out, const V3f& corner, const V3f& u, const V3f& v, const V3f& n,
+                 const C3f& radiance, int per_side) {
+  const float r = 0.6f * std::max(u.length(), v.length()) / float(per_side);
+  for (int j = 0; j < per_side; ++j) {
+    for (int i = 0; i < per_side; ++i) {
+      Surfel s;
+      s.position = corner + u * ((float(i) + 0.5f) / float(per_side)) + v * ((float(j) + 0.5f) / float(per_side));
+      s.normal = n;
+      s.radius = r;
+      s.albedo = C3f(0.5f);
+      s.radiance = radiance;
+      out.push_back(s);
+    }
+  }
+}
+
+TEST(RegionGather, AReceiverInsideAClosedBoxSeesNothingOfItsLitOutside) {
+  // A 2 m box of two shells 2 cm apart: inner faces dark, outer faces lit.
+  Scene scene;
+  scene.source_path = "box";
+  const uint32_t m = test::add_material(scene, {0.5f, 0.5f, 0.5f});
+  std::vector<Surfel> surfels;
+  for (const float half : {1.f, 1.02f}) {
+    const bool outer = half > 1.f;
+    const C3f radiance = outer ? C3f(1.f) : C3f(0.f);
+    for (int axis = 0; axis < 3; ++axis) {
+      for (const float sign : {-1.f, 1.f}) {
+        V3f n(0.f), u(0.f), v(0.f);
+        n[axis] = sign;
+        u[(axis + 1) % 3] = 2 * half;
+        v[(axis + 2) % 3] = 2 * half;
+        const V3f corner = n * half - (u + v) * 0.5f;
+        const V3f facing = outer ? n : -n;
+        // The quad's winding faces `facing`.
+        if ((u.cross(v)).dot(facing) > 0) test::add_quad(scene, corner, corner + u, corner + u + v, corner + v, m);
+        else test::add_quad(scene, corner, corner + v, corner + u + v, corner + u, m);
+        add_surfels(surfels, corner, u, v, facing, radiance, 24);
+      }
+    }
+  }
+  const RayScene rays(scene);
+  const tree::RegionGrid grid = build_air_regions(scene, rays, 32);
+  ASSERT_GE(grid.region_count(), 2u);
+  for (Surfel& s : surfels) s.region = locate_region(grid, rays, s.position, s.normal, true);
+
+  testing::TempDir tmp;
+  tree::BuildOptions o;
+  o.page_size = 8192;
+  storage::PageSetBuilder b(o, "box", tmp.path() / "set", tree::surfel_bounds(surfels));
+  b.add(surfels);
+  b.set_regions(grid);
+  ASSERT_EQ(b.finish().region_roots.size(), 2u);
+  const storage::PageSetReader tree(tmp.path() / "set", std::make_shared<storage::PageCache>(uint64_t(64) << 20));
+
+  // Receivers on the inner floor, facing up; one on the outer floor's
+  // ground side would see the lit outside.
+  std::vector<Receiver> inside;
+  for (int i = 0; i < 16; ++i) inside.push_back({{-0.8f + 0.1f * float(i), -1.f, 0.3f}, {0, 1, 0}});
+  GatherOptions options;
+  const GatherBatch with = gather_receivers(tree, inside, options, {}, nullptr, &rays);
+  const GatherBatch without = gather_receivers(tree, inside, options, {}, nullptr, nullptr);
+  const GatherBatch interpolated = gather_interpolated(tree, inside, options, 0.1f, {}, nullptr, &rays);
+  for (size_t i = 0; i < inside.size(); ++i) {
+    EXPECT_EQ(with.results[i].irradiance, C3f(0.f)) << i;
+    EXPECT_EQ(interpolated.results[i].irradiance, C3f(0.f)) << i;
+  }
+  // The inside's walls still occlude: the receivers see a closed room
+  // (accessibility 0).
+  for (const GatherResult& r : with.results) EXPECT_LT(r.ao, 0.05f);
+  // Without rays the whole tree is walked: the outside's nodes too.
+  EXPECT_LT(with.counters.nodes_visited, without.counters.nodes_visited);
+}
+
+}  // namespace
+}  // namespace pbgi::service

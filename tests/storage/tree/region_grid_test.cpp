@@ -1,0 +1,56 @@
+// The air-region grid (storage/tree/region_grid.h): runs along x that
+// answer the dense labels they were made from, and stored runs that do not
+// tile the grid refused.
+#include "storage/tree/region_grid.h"
+#include "common/errors.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+namespace pbgi::tree {
+namespace {
+
+TEST(RegionGrid, RunsAnswerTheDenseLabels) {
+  const Imath::V3i dims(7, 5, 3);
+  std::vector<uint32_t> labels(size_t(dims.x * dims.y * dims.z));
+  std::mt19937 rng(3);
+  for (uint32_t& l : labels) l = rng() % 4 == 0 ? kSolidVoxel : 1 + rng() % 3;
+  const RegionGrid g = RegionGrid::from_dense({1, 2, 3}, 0.5f, dims, labels);
+  EXPECT_LE(g.region_count(), 3u);
+  for (int z = 0; z < dims.z; ++z) {
+    for (int y = 0; y < dims.y; ++y) {
+      for (int x = 0; x < dims.x; ++x) {
+        EXPECT_EQ(g.label({x, y, z}), labels[size_t(x + dims.x * (y + dims.y * z))]) << x << " " << y << " " << z;
+      }
+    }
+  }
+  // The same runs, as a manifest stores them, make the same grid.
+  EXPECT_EQ(RegionGrid::from_runs(g.origin(), g.voxel(), dims, g.region_count(), g.runs()), g);
+}
+
+TEST(RegionGrid, VoxelOfAPointInsideAndOutside) {
+  const RegionGrid g = RegionGrid::from_dense({0, 0, 0}, 1.f, {2, 2, 2}, std::vector<uint32_t>(8, 1));
+  EXPECT_EQ(g.voxel_of({1.5f, 0.5f, 0.2f}), Imath::V3i(1, 0, 0));
+  EXPECT_EQ(g.center({1, 0, 0}), Imath::V3f(1.5f, 0.5f, 0.5f));
+  EXPECT_FALSE(g.voxel_of({-0.1f, 0.5f, 0.5f}));
+  EXPECT_FALSE(g.voxel_of({0.5f, 2.f, 0.5f}));
+  EXPECT_FALSE(g.voxel_of({0.5f, std::nanf(""), 0.5f}));
+  EXPECT_FALSE(RegionGrid().voxel_of({0, 0, 0}));
+}
+
+TEST(RegionGrid, StoredRunsThatDoNotTileTheGridAreRefused) {
+  const Imath::V3i dims(4, 1, 2);  // two rows of 4
+  const std::vector<RegionRun> good = {{4, 1}, {2, 1}, {4, 2}};
+  EXPECT_NO_THROW(RegionGrid::from_runs({0, 0, 0}, 1.f, dims, 2, good));
+  // A row left short, one row missing, a run going back, a label above the count, too many rows.
+  EXPECT_THROW(RegionGrid::from_runs({0, 0, 0}, 1.f, dims, 2, {{4, 1}, {3, 1}}), InvalidArgument);
+  EXPECT_THROW(RegionGrid::from_runs({0, 0, 0}, 1.f, dims, 2, {{4, 1}}), InvalidArgument);
+  EXPECT_THROW(RegionGrid::from_runs({0, 0, 0}, 1.f, dims, 2, {{4, 1}, {2, 1}, {2, 2}, {4, 2}}), InvalidArgument);
+  EXPECT_THROW(RegionGrid::from_runs({0, 0, 0}, 1.f, dims, 1, good), InvalidArgument);
+  EXPECT_THROW(RegionGrid::from_runs({0, 0, 0}, 1.f, dims, 2, {{4, 1}, {4, 1}, {4, 1}}), InvalidArgument);
+  EXPECT_THROW(RegionGrid::from_runs({0, 0, 0}, 0.f, dims, 2, good), InvalidArgument);
+}
+
+}  // namespace
+}  // namespace pbgi::tree
