@@ -122,11 +122,14 @@ std::unique_ptr<storage::PageSetReader> build_page_sets(
       tree::RegionGrid regions;
       if (options.tree.air_region_resolution != 0) {
         report("air regions", 0.f);
+        const auto t0 = std::chrono::steady_clock::now();
         regions = build_air_regions(scene, *session.rays, options.tree.air_region_resolution);
+        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         report("air regions", 1.f);
         if (regions.region_count() > 1) {
-          spdlog::info("scene {}: {} air regions on a {}x{}x{} grid of {} voxels", scene.source_path,
-                       regions.region_count(), regions.dims().x, regions.dims().y, regions.dims().z, regions.voxel());
+          spdlog::info("scene {}: {} air regions on a {}x{}x{} grid of {} voxels ({:.2f} s)", scene.source_path,
+                       regions.region_count(), regions.dims().x, regions.dims().y, regions.dims().z, regions.voxel(),
+                       seconds);
         } else {
           regions = {};
         }

@@ -69,17 +69,17 @@ void put_regions(ByteWriter& w, const Manifest& m) {
 }
 
 void get_regions(ByteReader& r, Manifest& m, const std::string& path) {
-  const uint32_t count = r.get<uint32_t>("regions.count");
+  const auto count = r.get<uint32_t>("regions.count");
   Imath::V3f origin;
   origin.x = r.get<float>("regions.origin");
   origin.y = r.get<float>("regions.origin");
   origin.z = r.get<float>("regions.origin");
-  const float voxel = r.get<float>("regions.voxel");
+  const auto voxel = r.get<float>("regions.voxel");
   Imath::V3i dims;
   dims.x = int(r.get<uint32_t>("regions.dims"));
   dims.y = int(r.get<uint32_t>("regions.dims"));
   dims.z = int(r.get<uint32_t>("regions.dims"));
-  const uint32_t run_count = r.get<uint32_t>("regions.runs");
+  const auto run_count = r.get<uint32_t>("regions.runs");
   if (uint64_t(run_count) * 2 > r.remaining()) {
     throw CorruptionError(path + ": " + std::to_string(run_count) + " region runs do not fit the " +
                           std::to_string(r.remaining()) + " bytes left");
@@ -94,7 +94,7 @@ void get_regions(ByteReader& r, Manifest& m, const std::string& path) {
   } catch (const InvalidArgument& e) {
     throw CorruptionError(path + ": " + e.what());
   }
-  const uint32_t roots = r.get<uint32_t>("regions.roots");
+  const auto roots = r.get<uint32_t>("regions.roots");
   if (uint64_t(roots) * 12 > r.remaining()) {
     throw CorruptionError(path + ": " + std::to_string(roots) + " region roots do not fit the " +
                           std::to_string(r.remaining()) + " bytes left");

@@ -60,7 +60,7 @@ RegionGrid RegionGrid::from_runs(const Imath::V3f& origin, float voxel, const Im
   g.dims_ = dims;
   g.region_count_ = region_count;
   g.row_begin_.reserve(row_count(dims) + 1);
-  uint32_t prev_end = uint32_t(dims.x);  // a row starts after a run that ended at dims.x
+  auto prev_end = uint32_t(dims.x);  // a row starts after a run that ended at dims.x
   for (size_t i = 0; i < runs.size(); ++i) {
     const RegionRun& r = runs[i];
     if (prev_end == uint32_t(dims.x)) {

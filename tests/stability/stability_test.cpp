@@ -114,10 +114,12 @@ TEST(Stability, ThinWallDoesNotLeakLight) {
   ASSERT_GT(lit_mean, 0.0);
   const double leak_mean = mean_value(dark.indirect) / lit_mean;
   const double leak_max = *std::max_element(dark.indirect.begin(), dark.indirect.end()) / lit_mean;
-  report("thin wall: dark/lit mean indirect", leak_mean, 0.003);
-  report("thin wall: dark max / lit mean indirect", leak_max, 0.015);
-  EXPECT_LE(leak_mean, 0.003);
-  EXPECT_LE(leak_max, 0.015);
+  // Measured 0 and 0: the rooms are air regions apart (docs/gather.md,
+  // section 15); 0.14% and 1.2% before them.
+  report("thin wall: dark/lit mean indirect", leak_mean, 1e-4);
+  report("thin wall: dark max / lit mean indirect", leak_max, 1e-3);
+  EXPECT_LE(leak_mean, 1e-4);
+  EXPECT_LE(leak_max, 1e-3);
   EXPECT_EQ(mean_value(dark.direct), 0.0) << "direct light crossed the wall";
 
   const double err = relative_rmse(lit.indirect, lit_ref.indirect);

@@ -74,6 +74,7 @@ TEST(RegionGather, AReceiverInsideAClosedBoxSeesNothingOfItsLitOutside) {
   // Receivers on the inner floor, facing up; one on the outer floor's
   // ground side would see the lit outside.
   std::vector<Receiver> inside;
+  inside.reserve(16);
   for (int i = 0; i < 16; ++i) inside.push_back({{-0.8f + 0.1f * float(i), -1.f, 0.3f}, {0, 1, 0}});
   GatherOptions options;
   const GatherBatch with = gather_receivers(tree, inside, options, {}, nullptr, &rays);
