@@ -45,6 +45,13 @@ storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
   // page is read once.
   const storage::PageSetReader receivers(direct.directory(), nullptr);
   const uint32_t pages = direct.manifest().stats.page_count;
+  // Air regions: the direct set's, kept. Each region's pages precede its
+  // root's page (the streaming build closes a region's subtree before the
+  // next region's first surfel), so a page's surfels are of the first
+  // region whose root page is not before it.
+  const std::span<const tree::RegionRoot> roots = direct.region_roots();
+  if (!roots.empty()) builder.set_regions(*direct.regions());
+  size_t next_root = 0;
   BounceGatherStats gathered;
   auto flush = [&](uint32_t pages_done) {
     if (batch.empty()) return;
@@ -60,8 +67,11 @@ storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
   };
   for (uint32_t id = 0; id < pages; ++id) {
     const tree::PagePtr page = receivers.page(id);
+    while (next_root < roots.size() && roots[next_root].root.page < id) ++next_root;
+    const uint32_t region = next_root < roots.size() ? roots[next_root].region : tree::kAnyRegion;
     for (const Surfel& s : page->surfels) {
       batch.push_back(s);
+      batch.back().region = roots.empty() ? tree::kAnyRegion : region;
       radiance.push_back(s.radiance);
     }
     if (batch.size() >= kSurfelsPerPass) flush(id + 1);

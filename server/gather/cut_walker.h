@@ -73,6 +73,10 @@ class CutWalker {
   // The air region (storage/tree/region_grid.h) the front of (p, n) faces:
   // tree::kAnyRegion when the tree keeps none apart or no ray scene is set.
   uint32_t locate(const Imath::V3f& p, const Imath::V3f& n) const;
+  // The receiver's region: its own if known, else locate().
+  uint32_t region_of(const Receiver& r) const {
+    return r.region != tree::kAnyRegion ? r.region : locate(r.position, r.normal);
+  }
   // Pushes the root of what a receiver in `region` sees (acquiring its
   // page): that region's subtree, or the whole tree for kAnyRegion / an
   // entry whose pin the caller holds a reference on (it is retained for

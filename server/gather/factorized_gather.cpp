@@ -64,9 +64,9 @@ void FactorizedGather::gather(std::span<const Receiver> rs, std::span<GatherResu
     const ReceiverCluster& c = all[ci];
     // 1-2. The cluster's coarse cut and far content, from the root of its
     //      members' air region (the whole tree if they differ).
-    uint32_t region = walker_.locate(rs[members[c.first]].position, rs[members[c.first]].normal);
+    uint32_t region = walker_.region_of(rs[members[c.first]]);
     for (uint32_t m = c.first + 1; m < c.first + c.count && region != tree::kAnyRegion; ++m) {
-      if (walker_.locate(rs[members[m]].position, rs[members[m]].normal) != region) region = tree::kAnyRegion;
+      if (walker_.region_of(rs[members[m]]) != region) region = tree::kAnyRegion;
     }
     far_.begin();
     near_.clear();

@@ -90,7 +90,7 @@ GatherResult Gatherer::gather_pinned(const Receiver& r) {
   w.begin_receiver(r.position, r.normal);
 
   // 2. Traversal of what the receiver's air region sees.
-  const uint32_t region = w.locate(r.position, r.normal);
+  const uint32_t region = w.region_of(r);
   w.push_root(region);
   w.walk_receiver();
   ++counters_.receivers;

@@ -34,6 +34,10 @@ struct Receiver {
   Imath::V3f position;
   Imath::V3f normal;   // unit
   GlossyLobe glossy{};
+  // The air region its front faces (storage/tree/region_grid.h) when the
+  // caller knows it (build-time bounces: the surfel's own); kAnyRegion (0):
+  // looked up through the Gatherer's ray scene, or the whole tree.
+  uint32_t region = 0;
 };
 
 struct GatherResult {

@@ -133,7 +133,10 @@ BounceGatherStats gather_bounce(const tree::TreeSource& tree, std::span<Surfel> 
     // Gathers at surfels[run[at[k]]] into w.gathered[k].
     const auto gather_at = [&](std::span<const uint32_t> at) {
       w.receivers.clear();
-      for (uint32_t j : at) w.receivers.push_back({surfels[w.run[j]].position, surfels[w.run[j]].normal});
+      for (uint32_t j : at) {
+        const Surfel& s = surfels[w.run[j]];
+        w.receivers.push_back({s.position, s.normal, {}, s.region});
+      }
       w.results.resize(w.receivers.size());
       if (w.view) {
         w.view->gather(w.receivers, w.results);

@@ -75,9 +75,22 @@ void ViewTreeGather::gather(std::span<const Receiver> receivers, std::span<Gathe
     throw InvalidArgument("view-tree gather: " + std::to_string(receivers.size()) + " receivers but " +
                           std::to_string(results.size()) + " results");
   }
+  // Each run of receivers of one air region walks that region's subtree
+  // (receivers arrive sorted by region, as a page set's surfels are).
+  size_t first = 0;
+  for (size_t i = 1; i <= receivers.size(); ++i) {
+    if (i < receivers.size() && walker_.region_of(receivers[i]) == walker_.region_of(receivers[first])) continue;
+    gather_region(receivers.subspan(first, i - first), results.subspan(first, i - first),
+                  walker_.region_of(receivers[first]), first);
+    first = i;
+  }
+}
+
+void ViewTreeGather::gather_region(std::span<const Receiver> receivers, std::span<GatherResult> results,
+                                   uint32_t region, size_t offset) {
   receivers_.clear();
   for (size_t i = 0; i < receivers.size(); ++i) {
-    Receiver r = checked_receiver(receivers[i], i);
+    Receiver r = checked_receiver(receivers[i], offset + i);
     r.glossy = {};
     receivers_.push_back(r);
   }
@@ -97,7 +110,7 @@ void ViewTreeGather::gather(std::span<const Receiver> receivers, std::span<Gathe
   }
   walker_.views().trim();
   const HoldPinsInScope hold{pins};
-  walker_.push_root();
+  walker_.push_root(region);
   gather_node(0, uint32_t(receivers_.size()), 0, {}, results);
   counters_.pages_fetched += pins.take_fetches();
 }

@@ -73,11 +73,17 @@ class ViewTreeGather {
   // InvalidArgument if the spans differ in size or a receiver has a
   // non-finite position or a zero normal (naming its index), and what the
   // TreeSource throws.
+  // Receivers of different air regions (Receiver::region) are gathered
+  // run by run, each from its region's subtree.
   void gather(std::span<const Receiver> receivers, std::span<GatherResult> results);
 
   const GatherCounters& counters() const { return counters_; }
 
  private:
+  // gather() for receivers of one region (`offset`: the first one's index,
+  // for errors).
+  void gather_region(std::span<const Receiver> receivers, std::span<GatherResult> results, uint32_t region,
+                     size_t offset);
   // Receiver node: receivers_[first, first + count) at depth `level`,
   // starting from the sender nodes `from` (level 0: the root).
   void gather_node(uint32_t first, uint32_t count, uint32_t level, std::span<const StackEntry> from,

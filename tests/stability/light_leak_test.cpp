@@ -70,9 +70,10 @@ RenderSettings leak_settings() {
   return s;
 }
 
-Leak inside_leak(const RoomCase& c, bool ray_depth_caps = false, bool air_regions = true) {
+Leak inside_leak(const RoomCase& c, bool ray_depth_caps = false, bool air_regions = true, uint32_t bounces = 1) {
   const Scene scene = closed_room(c.room);
   RenderSettings settings = leak_settings();
+  settings.bounces = bounces;
   settings.gather.ray_depth_caps = ray_depth_caps;
   if (!air_regions) settings.air_region_resolution = 0;
   const Aovs inside = render_pbgi(scene, "/Inside", settings);
@@ -80,7 +81,8 @@ Leak inside_leak(const RoomCase& c, bool ray_depth_caps = false, bool air_region
   const Leak leak{mean_value(inside.indirect) / level, max_value(inside.indirect) / level};
   EXPECT_EQ(max_value(inside.direct), 0.0) << c.name << ": direct light got in";
   const std::string name = std::string("closed room, ") + c.name + (ray_depth_caps ? ", depth caps" : "") +
-                           (air_regions ? "" : ", no air regions");
+                           (air_regions ? "" : ", no air regions") +
+                           (bounces > 1 ? ", " + std::to_string(bounces) + " bounces" : "");
   report(name + ": interior mean / exterior", leak.mean, 1e-3, "goal");
   report(name + ": interior max / exterior", leak.max, 1e-2, "goal");
   return leak;
@@ -107,6 +109,16 @@ TEST(LightLeak, ClosedRoomReferenceIsBlackInside) {
 TEST(LightLeak, ClosedRoomsStayDark) {
   for (const RoomCase& c : kRooms) {
     const Leak leak = inside_leak(c);
+    EXPECT_LE(leak.mean, 1e-3) << c.name;
+    EXPECT_LE(leak.max, 1e-2) << c.name;
+  }
+}
+
+// With bounces built into the surfels: the bounce sets keep the direct
+// set's regions, and their gathers at surfels walk only their regions.
+TEST(LightLeak, ClosedRoomsStayDarkWithBounces) {
+  for (const RoomCase& c : {kRooms[0], kRooms[3]}) {
+    const Leak leak = inside_leak(c, false, true, 3);
     EXPECT_LE(leak.mean, 1e-3) << c.name;
     EXPECT_LE(leak.max, 1e-2) << c.name;
   }
