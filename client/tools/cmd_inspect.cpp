@@ -60,6 +60,18 @@ void print_json(const std::string& dir, const storage::Manifest& m,
       "\"file_bytes\": {}}},\n",
       s.surfel_count, s.node_count, s.leaf_count, s.page_count, s.max_depth, s.file_bytes);
   out += fmt::format("  \"root\": {{\"page\": {}, \"index\": {}}},\n", m.root.page, m.root.index);
+  {
+    const tree::RegionGrid& g = m.regions;
+    std::string roots;
+    for (const tree::RegionRoot& root : m.region_roots) {
+      roots += fmt::format("{}{{\"region\": {}, \"page\": {}, \"index\": {}}}", roots.empty() ? "" : ", ", root.region,
+                           root.root.page, root.root.index);
+    }
+    out += fmt::format(
+        "  \"air_regions\": {{\"count\": {}, \"dims\": [{}, {}, {}], \"voxel\": {}, \"runs\": {}, "
+        "\"roots\": [{}]}},\n",
+        g.region_count(), g.dims().x, g.dims().y, g.dims().z, json_number(g.voxel()), g.unique_runs(), roots);
+  }
   out += fmt::format(
       "  \"bytes\": {{\"per_surfel\": {}, \"per_node\": {}, \"topology_per_node\": {}, "
       "\"payload_per_node\": {}, \"surfel_record\": {}, \"packed_sections\": {}, \"decoded_node\": {}, "
@@ -106,6 +118,15 @@ void print_text(const std::string& dir, const storage::Manifest& m, const storag
   fmt::print("nodes         {} ({} leaves, {} internal)\n", s.node_count, s.leaf_count,
              s.node_count - s.leaf_count);
   fmt::print("root          page {}, index {}\n", m.root.page, m.root.index);
+  if (m.region_roots.empty()) {
+    fmt::print("air regions   one (the tree keeps none apart)\n");
+  } else {
+    const tree::RegionGrid& g = m.regions;
+    fmt::print("air regions   {} on a {}x{}x{} grid of {} voxels ({} runs); subtrees of {} of them:", g.region_count(),
+               g.dims().x, g.dims().y, g.dims().z, g.voxel(), g.unique_runs(), m.region_roots.size());
+    for (const tree::RegionRoot& root : m.region_roots) fmt::print(" {} (page {})", root.region, root.root.page);
+    fmt::print("\n");
+  }
   fmt::print("file          {} bytes ({:.2f} MiB), {:.1f} bytes/surfel, {:.1f} bytes/node\n", s.file_bytes,
              s.file_bytes / 1048576.0, per(s.file_bytes, s.surfel_count), per(s.file_bytes, s.node_count));
   const char* packing = r.packed_sections ? " before packing (leaf frames, surfel records and link payloads are "

@@ -119,6 +119,8 @@ GatherResult Gatherer::gather_pinned(const Receiver& r) {
   return out;
 }
 
+uint32_t Gatherer::region_of(const Receiver& r) const { return impl_->walker.region_of(r); }
+
 float Gatherer::harmonic_mean_distance() const {
   return impl_->walker.buffer().harmonic_mean_distance();
 }

@@ -152,6 +152,9 @@ class Gatherer {
   // may be carried to neighbours (irradiance_cache.h). Infinity if it saw
   // nothing. Meaningless after gather_tile() or a glossy receiver.
   float harmonic_mean_distance() const;
+  // The air region `r` faces (Receiver::region, else looked up through the
+  // ray scene; tree::kAnyRegion without one or without regions).
+  uint32_t region_of(const Receiver& r) const;
 
  private:
   // gather() without unpinning the receiver's pages afterwards; `r` checked.

@@ -88,7 +88,7 @@ int32_t IrradianceCache::build_node(uint32_t begin, uint32_t end) {
   return index;
 }
 
-std::optional<GatherResult> IrradianceCache::interpolate(const V3f& p, const V3f& n) const {
+std::optional<GatherResult> IrradianceCache::interpolate(const V3f& p, const V3f& n, uint32_t region) const {
   if (nodes_.empty()) return std::nullopt;
   // (record index, weight) of the valid records.
   std::vector<std::pair<uint32_t, float>> valid;
@@ -108,6 +108,7 @@ std::optional<GatherResult> IrradianceCache::interpolate(const V3f& p, const V3f
       continue;
     }
     for (uint32_t i = node.begin; i < node.end; ++i) {
+      if (records_[order_[i]].region != region) continue;
       const std::optional<float> e = ward_error(records_[order_[i]], p, n);
       if (e && *e < tolerance_) valid.emplace_back(order_[i], 1.f / std::max(*e, floor) - 1.f / tolerance_);
     }

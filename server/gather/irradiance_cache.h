@@ -37,6 +37,10 @@ struct IrradianceRecord {
   Imath::V3f normal;  // unit
   float radius = 0;   // R_i: harmonic mean distance, > 0 (infinity: saw nothing)
   GatherResult result;
+  // The air region the receiver faced (Gatherer::region_of): a record is
+  // never taken in another region (one that saw nothing, inside a closed
+  // box, would otherwise reach everywhere).
+  uint32_t region = 0;
 };
 
 // Ward's error estimate of taking `record`'s value at (p, n) (n unit), or
@@ -61,7 +65,8 @@ class IrradianceCache {
   // The mix of the indexed records valid at (p, n) (n unit), or nullopt if
   // none is. Glossy radiance is not interpolated (it depends on the view):
   // the result's glossy is 0.
-  std::optional<GatherResult> interpolate(const Imath::V3f& p, const Imath::V3f& n) const;
+  // Only records of `region` are taken.
+  std::optional<GatherResult> interpolate(const Imath::V3f& p, const Imath::V3f& n, uint32_t region = 0) const;
 
  private:
   struct Node {

@@ -79,6 +79,9 @@ GatherBatch gather_interpolated(const tree::TreeSource& tree, const std::vector<
   batch.results.resize(receivers.size());
   GatherPool pool(tree, options, cancelled, std::move(fog), rays);
   std::vector<float> radius(receivers.size(), 0.f);
+  // Each receiver's air region: records are taken only within one.
+  std::vector<uint32_t> region(receivers.size(), 0);
+  pool.for_each(receivers.size(), [&](Gatherer& gatherer, size_t i) { region[i] = gatherer.region_of(checked[i]); });
   std::vector<uint8_t> found;
   std::vector<uint32_t> gather, misses;
   for (size_t round = 0; round < kRoundStrides.size(); ++round) {
@@ -88,7 +91,7 @@ GatherBatch gather_interpolated(const tree::TreeSource& tree, const std::vector<
       found.assign(pending.size(), 0);
       pool.for_each(pending.size(), [&](size_t j) {
         const Receiver& r = checked[pending[j]];
-        if (std::optional<GatherResult> mix = cache.interpolate(r.position, r.normal)) {
+        if (std::optional<GatherResult> mix = cache.interpolate(r.position, r.normal, region[pending[j]])) {
           batch.results[pending[j]] = *mix;
           found[j] = 1;
         }
@@ -118,7 +121,7 @@ GatherBatch gather_interpolated(const tree::TreeSource& tree, const std::vector<
     });
     for (size_t j = first_diffuse; j < gather.size(); ++j) {
       const uint32_t i = gather[j];
-      cache.add({checked[i].position, checked[i].normal, radius[i], batch.results[i]});
+      cache.add({checked[i].position, checked[i].normal, radius[i], batch.results[i], region[i]});
     }
     cache.build();
   }

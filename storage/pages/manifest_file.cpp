@@ -55,10 +55,19 @@ void put_regions(ByteWriter& w, const Manifest& m) {
   w.put<uint32_t>(uint32_t(g.dims().x));
   w.put<uint32_t>(uint32_t(g.dims().y));
   w.put<uint32_t>(uint32_t(g.dims().z));
-  w.put<uint32_t>(uint32_t(g.runs().size()));
-  for (const tree::RegionRun& r : g.runs()) {
-    put_varint(w, r.end_x);
-    put_varint(w, r.label);
+  // Per row: varint 0 = the previous row's runs again, else the run count,
+  // then the runs.
+  for (uint64_t r = 0; r < g.row_count(); ++r) {
+    if (g.same_as_previous(r)) {
+      put_varint(w, 0);
+      continue;
+    }
+    const std::span<const tree::RegionRun> row = g.row(r);
+    put_varint(w, uint32_t(row.size()));
+    for (const tree::RegionRun& run : row) {
+      put_varint(w, run.end_x);
+      put_varint(w, run.label);
+    }
   }
   w.put<uint32_t>(uint32_t(m.region_roots.size()));
   for (const tree::RegionRoot& r : m.region_roots) {
@@ -79,18 +88,28 @@ void get_regions(ByteReader& r, Manifest& m, const std::string& path) {
   dims.x = int(r.get<uint32_t>("regions.dims"));
   dims.y = int(r.get<uint32_t>("regions.dims"));
   dims.z = int(r.get<uint32_t>("regions.dims"));
-  const auto run_count = r.get<uint32_t>("regions.runs");
-  if (uint64_t(run_count) * 2 > r.remaining()) {
-    throw CorruptionError(path + ": " + std::to_string(run_count) + " region runs do not fit the " +
-                          std::to_string(r.remaining()) + " bytes left");
-  }
-  std::vector<tree::RegionRun> runs(run_count);
-  for (tree::RegionRun& run : runs) {
-    run.end_x = get_varint(r, "regions.run.end", path);
-    run.label = get_varint(r, "regions.run.label", path);
-  }
   try {
-    m.regions = tree::RegionGrid::from_runs(origin, voxel, dims, count, std::move(runs));
+    m.regions = tree::RegionGrid::with_no_rows(origin, voxel, dims, count);
+    std::vector<tree::RegionRun> row;
+    for (uint64_t i = 0; i < uint64_t(dims.y) * uint64_t(dims.z); ++i) {
+      const uint32_t n = get_varint(r, "regions.row", path);
+      if (n == 0) {
+        m.regions.repeat_row();
+        continue;
+      }
+      if (n > uint32_t(dims.x) || uint64_t(n) * 2 > r.remaining()) {
+        throw CorruptionError(path + ": region grid row " + std::to_string(i) + " of " + std::to_string(n) +
+                              " runs (at most " + std::to_string(dims.x) + ", " + std::to_string(r.remaining()) +
+                              " bytes left)");
+      }
+      row.resize(n);
+      for (tree::RegionRun& run : row) {
+        run.end_x = get_varint(r, "regions.run.end", path);
+        run.label = get_varint(r, "regions.run.label", path);
+      }
+      m.regions.append_row(row);
+    }
+    m.regions.check_complete();
   } catch (const InvalidArgument& e) {
     throw CorruptionError(path + ": " + e.what());
   }

@@ -11,7 +11,8 @@
 // (server/scene/air_regions.h) and stored with the page set (the manifest,
 // storage/format/FORMAT.md), so that the regions a receiver is looked up in
 // are the ones the tree was built with. Stored as runs along x per (y, z)
-// row: rooms and the outside are large boxes of one label.
+// row, a row equal to the one before it sharing its runs: rooms and the
+// outside are large boxes of one label, walls repeat row after row.
 //
 // Thread-safety: an immutable value once built.
 #pragma once
@@ -22,9 +23,13 @@
 
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <vector>
 
 namespace pbgi::tree {
+
+// The most voxels along a side (resolution 1024 and the padding).
+inline constexpr int kMaxRegionGridSide = 1032;
 
 // Label 0: solid (a surface passes through the voxel); 1..count: regions.
 inline constexpr uint32_t kSolidVoxel = 0;
@@ -43,18 +48,33 @@ class RegionGrid {
   // From labels of nx*ny*nz voxels, x fastest. `voxel` > 0.
   static RegionGrid from_dense(const Imath::V3f& origin, float voxel, const Imath::V3i& dims,
                                const std::vector<uint32_t>& labels);
-  // From stored runs (the manifest): row by row, each row's runs ending at
-  // dims.x. Throws InvalidArgument if they do not tile the grid or name a
-  // label above `region_count`.
+  // From runs (the manifest's, repeats expanded): row by row ((y, z), y
+  // fastest), each row's runs ending at dims.x. Throws InvalidArgument if
+  // they do not tile the grid or name a label above `region_count`.
   static RegionGrid from_runs(const Imath::V3f& origin, float voxel, const Imath::V3i& dims, uint32_t region_count,
-                              std::vector<RegionRun> runs);
+                              const std::vector<RegionRun>& runs);
+  // Row by row (the manifest reader: nothing is expanded, so memory is
+  // bounded by what was read): a grid with no rows yet, then append_row()
+  // or repeat_row() per row, then check_complete(). All throw
+  // InvalidArgument for what does not tile the grid.
+  static RegionGrid with_no_rows(const Imath::V3f& origin, float voxel, const Imath::V3i& dims, uint32_t region_count);
+  void append_row(std::span<const RegionRun> runs);
+  void repeat_row();
+  void check_complete() const;
 
-  bool empty() const { return runs_.empty(); }
+  bool empty() const { return rows_.empty(); }
   const Imath::V3f& origin() const { return origin_; }
   float voxel() const { return voxel_; }
   const Imath::V3i& dims() const { return dims_; }
   uint32_t region_count() const { return region_count_; }
-  const std::vector<RegionRun>& runs() const { return runs_; }
+  uint64_t row_count() const { return rows_.size(); }
+  // The runs of row (y, z) = y + dims.y * z; a row equal to the one before
+  // it shares its runs (same_as_previous()).
+  std::span<const RegionRun> row(uint64_t r) const {
+    return {runs_.data() + rows_[r].begin, size_t(rows_[r].end - rows_[r].begin)};
+  }
+  bool same_as_previous(uint64_t r) const { return r > 0 && rows_[r].begin == rows_[r - 1].begin; }
+  size_t unique_runs() const { return runs_.size(); }
 
   // The voxel holding p, or nothing outside the grid.
   std::optional<Imath::V3i> voxel_of(const Imath::V3f& p) const;
@@ -63,21 +83,22 @@ class RegionGrid {
   Imath::V3f center(const Imath::V3i& v) const {
     return origin_ + voxel_ * Imath::V3f(float(v.x) + 0.5f, float(v.y) + 0.5f, float(v.z) + 0.5f);
   }
-  size_t memory_bytes() const {
-    return runs_.capacity() * sizeof(RegionRun) + row_begin_.capacity() * sizeof(uint32_t);
-  }
-  bool operator==(const RegionGrid& o) const {
-    return origin_ == o.origin_ && voxel_ == o.voxel_ && dims_ == o.dims_ && region_count_ == o.region_count_ &&
-           runs_ == o.runs_;
-  }
+  size_t memory_bytes() const { return runs_.capacity() * sizeof(RegionRun) + rows_.capacity() * sizeof(Row); }
+  bool operator==(const RegionGrid& o) const;
 
  private:
+  struct Row {
+    uint32_t begin = 0, end = 0;  // its runs in runs_
+  };
+  // Appends a row's runs, or shares the previous row's when equal.
+  void add_row(std::span<const RegionRun> runs);
+
   Imath::V3f origin_{0, 0, 0};
   float voxel_ = 0.f;
   Imath::V3i dims_{0, 0, 0};
   uint32_t region_count_ = 0;
   std::vector<RegionRun> runs_;
-  std::vector<uint32_t> row_begin_;  // per (y, z) row, its first run; one more at the end
+  std::vector<Row> rows_;  // per (y, z) row
 };
 
 }  // namespace pbgi::tree

@@ -91,5 +91,77 @@ TEST(RegionGather, AReceiverInsideAClosedBoxSeesNothingOfItsLitOutside) {
   EXPECT_LT(with.counters.nodes_visited, without.counters.nodes_visited);
 }
 
+// A closed block standing inside a lit room: receivers on the floor under
+// it see nothing (their records would be valid everywhere in the floor's
+// plane); interpolation must not carry them to the lit floor around it.
+TEST(RegionGather, InterpolationDoesNotCrossRegions) {
+  Scene scene;
+  scene.source_path = "room-and-block";
+  const uint32_t m = test::add_material(scene, {0.5f, 0.5f, 0.5f});
+  std::vector<Surfel> surfels;
+  // The room [-1, 1]^3, faces inward, lit walls; the block [-0.3, 0.3] x
+  // [-1, -0.6] x [-0.3, 0.3], faces outward, dark (no surfel faces into it:
+  // only the floor under it does).
+  auto face = [&](const V3f& corner, const V3f& u, const V3f& v, const V3f& facing, const C3f& radiance, int n) {
+    if ((u.cross(v)).dot(facing) > 0) test::add_quad(scene, corner, corner + u, corner + u + v, corner + v, m);
+    else test::add_quad(scene, corner, corner + v, corner + u + v, corner + u, m);
+    add_surfels(surfels, corner, u, v, facing, radiance, n);
+  };
+  for (int axis = 0; axis < 3; ++axis) {
+    for (const float sign : {-1.f, 1.f}) {
+      V3f n(0.f), u(0.f), v(0.f);
+      n[axis] = sign;
+      u[(axis + 1) % 3] = 2.f;
+      v[(axis + 2) % 3] = 2.f;
+      face(n - (u + v) * 0.5f, u, v, -n, axis == 1 && sign < 0 ? C3f(0.2f) : C3f(1.f), 32);
+    }
+  }
+  const V3f lo(-0.3f, -1.f, -0.3f), size(0.6f, 0.4f, 0.6f);
+  for (int axis = 0; axis < 3; ++axis) {
+    for (const float sign : {-1.f, 1.f}) {
+      if (axis == 1 && sign < 0) continue;  // it stands on the floor
+      V3f n(0.f), u(0.f), v(0.f);
+      n[axis] = sign;
+      u[(axis + 1) % 3] = size[(axis + 1) % 3];
+      v[(axis + 2) % 3] = size[(axis + 2) % 3];
+      V3f corner = lo;
+      if (sign > 0) corner[axis] += size[axis];
+      face(corner, u, v, n, C3f(0.f), 8);
+    }
+  }
+  const RayScene rays(scene);
+  const tree::RegionGrid grid = build_air_regions(scene, rays, 64);
+  for (Surfel& s : surfels) s.region = locate_region(grid, rays, s.position, s.normal, true);
+  testing::TempDir tmp;
+  tree::BuildOptions o;
+  o.page_size = 8192;
+  storage::PageSetBuilder b(o, "room-and-block", tmp.path() / "set", tree::surfel_bounds(surfels));
+  b.add(surfels);
+  b.set_regions(grid);
+  ASSERT_GE(b.finish().region_roots.size(), 2u);
+  const storage::PageSetReader tree(tmp.path() / "set", std::make_shared<storage::PageCache>(uint64_t(64) << 20));
+
+  // A row of receivers on the floor across the block, facing up.
+  std::vector<Receiver> row;
+  row.reserve(64);
+  for (int i = 0; i < 64; ++i) row.push_back({{-0.9f + 1.8f * (float(i) + 0.5f) / 64.f, -0.999f, 0.05f}, {0, 1, 0}});
+  GatherOptions options;
+  const GatherBatch full = gather_receivers(tree, row, options, {}, nullptr, &rays);
+  const GatherBatch interpolated = gather_interpolated(tree, row, options, 0.1f, {}, nullptr, &rays);
+  int under = 0;
+  for (size_t i = 0; i < row.size(); ++i) {
+    const bool inside = std::abs(row[i].position.x) < 0.3f;
+    under += inside;
+    if (inside) {
+      EXPECT_EQ(full.results[i].irradiance, C3f(0.f)) << i;
+    } else {
+      // Lit by the room's walls, interpolated or not.
+      EXPECT_GT(full.results[i].irradiance.x, 0.1f) << i;
+      EXPECT_GT(interpolated.results[i].irradiance.x, 0.5f * full.results[i].irradiance.x) << i;
+    }
+  }
+  EXPECT_GT(under, 0);
+}
+
 }  // namespace
 }  // namespace pbgi::service

@@ -25,8 +25,25 @@ TEST(RegionGrid, RunsAnswerTheDenseLabels) {
       }
     }
   }
-  // The same runs, as a manifest stores them, make the same grid.
-  EXPECT_EQ(RegionGrid::from_runs(g.origin(), g.voxel(), dims, g.region_count(), g.runs()), g);
+  // The same runs, row by row, make the same grid.
+  std::vector<RegionRun> runs;
+  for (uint64_t r = 0; r < g.row_count(); ++r) runs.insert(runs.end(), g.row(r).begin(), g.row(r).end());
+  EXPECT_EQ(RegionGrid::from_runs(g.origin(), g.voxel(), dims, g.region_count(), runs), g);
+}
+
+TEST(RegionGrid, EqualRowsShareTheirRuns) {
+  // Every row the same but the last: two rows' worth of runs are kept.
+  const Imath::V3i dims(6, 4, 4);
+  std::vector<uint32_t> labels(size_t(dims.x * dims.y * dims.z), 1);
+  for (size_t r = 0; r < 16; ++r) labels[r * 6 + 2] = kSolidVoxel;
+  labels[15 * 6 + 4] = 2;
+  const RegionGrid g = RegionGrid::from_dense({0, 0, 0}, 1.f, dims, labels);
+  EXPECT_EQ(g.unique_runs(), 3u + 5u);
+  EXPECT_TRUE(g.same_as_previous(1));
+  EXPECT_FALSE(g.same_as_previous(15));
+  EXPECT_EQ(g.label({4, 3, 3}), 2u);
+  EXPECT_EQ(g.label({4, 2, 3}), 1u);
+  EXPECT_EQ(g.label({2, 0, 0}), kSolidVoxel);
 }
 
 TEST(RegionGrid, VoxelOfAPointInsideAndOutside) {
