@@ -64,7 +64,7 @@ void print_json(const std::string& dir, const storage::Manifest& m,
     const tree::RegionGrid& g = m.regions;
     std::string roots;
     for (const tree::RegionRoot& root : m.region_roots) {
-      roots += fmt::format("{}{{\"region\": {}, \"page\": {}, \"index\": {}}}", roots.empty() ? "" : ", ", root.region,
+      roots += fmt::format(R"({}{{"region": {}, "page": {}, "index": {}}})", roots.empty() ? "" : ", ", root.region,
                            root.root.page, root.root.index);
     }
     out += fmt::format(
