@@ -33,6 +33,30 @@ void add_surfels(std::vector<Surfel>& out, const V3f& corner, const V3f& u, cons
   }
 }
 
+// Gives each surfel its region in `scene`'s grid and builds their page set
+// in `dir` (8 KiB pages); `subtrees` gets the number of region subtrees.
+std::unique_ptr<storage::PageSetReader> open_with_regions(const Scene& scene, const RayScene& rays, uint32_t resolution,
+                                                          std::vector<Surfel>& surfels,
+                                                          const std::filesystem::path& dir, size_t& subtrees) {
+  const tree::RegionGrid grid = build_air_regions(scene, rays, resolution);
+  for (Surfel& s : surfels) s.region = locate_region(grid, rays, s.position, s.normal, true);
+  tree::BuildOptions o;
+  o.page_size = 8192;
+  storage::PageSetBuilder b(o, "regions", dir, tree::surfel_bounds(surfels));
+  b.add(surfels);
+  b.set_regions(grid);
+  subtrees = b.finish().region_roots.size();
+  return std::make_unique<storage::PageSetReader>(dir, std::make_shared<storage::PageCache>(uint64_t(64) << 20));
+}
+
+// n receivers facing up along x from x0 to x1 at height y, depth z.
+std::vector<Receiver> floor_row(int n, float x0, float x1, float y, float z) {
+  std::vector<Receiver> row;
+  row.reserve(size_t(n));
+  for (int i = 0; i < n; ++i) row.push_back({{x0 + (x1 - x0) * (float(i) + 0.5f) / float(n), y, z}, {0, 1, 0}});
+  return row;
+}
+
 TEST(RegionGather, AReceiverInsideAClosedBoxSeesNothingOfItsLitOutside) {
   // A 2 m box of two shells 2 cm apart: inner faces dark, outer faces lit.
   Scene scene;
@@ -58,28 +82,16 @@ TEST(RegionGather, AReceiverInsideAClosedBoxSeesNothingOfItsLitOutside) {
     }
   }
   const RayScene rays(scene);
-  const tree::RegionGrid grid = build_air_regions(scene, rays, 32);
-  ASSERT_GE(grid.region_count(), 2u);
-  for (Surfel& s : surfels) s.region = locate_region(grid, rays, s.position, s.normal, true);
-
   testing::TempDir tmp;
-  tree::BuildOptions o;
-  o.page_size = 8192;
-  storage::PageSetBuilder b(o, "box", tmp.path() / "set", tree::surfel_bounds(surfels));
-  b.add(surfels);
-  b.set_regions(grid);
-  ASSERT_EQ(b.finish().region_roots.size(), 2u);
-  const storage::PageSetReader tree(tmp.path() / "set", std::make_shared<storage::PageCache>(uint64_t(64) << 20));
-
-  // Receivers on the inner floor, facing up; one on the outer floor's
-  // ground side would see the lit outside.
-  std::vector<Receiver> inside;
-  inside.reserve(16);
-  for (int i = 0; i < 16; ++i) inside.push_back({{-0.8f + 0.1f * float(i), -1.f, 0.3f}, {0, 1, 0}});
+  size_t subtrees = 0;
+  const auto tree = open_with_regions(scene, rays, 32, surfels, tmp.path() / "set", subtrees);
+  ASSERT_EQ(subtrees, 2u);
+  // Receivers on the inner floor, facing up.
+  const std::vector<Receiver> inside = floor_row(16, -0.85f, 0.75f, -1.f, 0.3f);
   GatherOptions options;
-  const GatherBatch with = gather_receivers(tree, inside, options, {}, nullptr, &rays);
-  const GatherBatch without = gather_receivers(tree, inside, options, {}, nullptr, nullptr);
-  const GatherBatch interpolated = gather_interpolated(tree, inside, options, 0.1f, {}, nullptr, &rays);
+  const GatherBatch with = gather_receivers(*tree, inside, options, {}, nullptr, &rays);
+  const GatherBatch without = gather_receivers(*tree, inside, options, {}, nullptr, nullptr);
+  const GatherBatch interpolated = gather_interpolated(*tree, inside, options, 0.1f, {}, nullptr, &rays);
   for (size_t i = 0; i < inside.size(); ++i) {
     EXPECT_EQ(with.results[i].irradiance, C3f(0.f)) << i;
     EXPECT_EQ(interpolated.results[i].irradiance, C3f(0.f)) << i;
@@ -130,24 +142,15 @@ TEST(RegionGather, InterpolationDoesNotCrossRegions) {
     }
   }
   const RayScene rays(scene);
-  const tree::RegionGrid grid = build_air_regions(scene, rays, 64);
-  for (Surfel& s : surfels) s.region = locate_region(grid, rays, s.position, s.normal, true);
   testing::TempDir tmp;
-  tree::BuildOptions o;
-  o.page_size = 8192;
-  storage::PageSetBuilder b(o, "room-and-block", tmp.path() / "set", tree::surfel_bounds(surfels));
-  b.add(surfels);
-  b.set_regions(grid);
-  ASSERT_GE(b.finish().region_roots.size(), 2u);
-  const storage::PageSetReader tree(tmp.path() / "set", std::make_shared<storage::PageCache>(uint64_t(64) << 20));
-
+  size_t subtrees = 0;
+  const auto tree = open_with_regions(scene, rays, 64, surfels, tmp.path() / "set", subtrees);
+  ASSERT_GE(subtrees, 2u);
   // A row of receivers on the floor across the block, facing up.
-  std::vector<Receiver> row;
-  row.reserve(64);
-  for (int i = 0; i < 64; ++i) row.push_back({{-0.9f + 1.8f * (float(i) + 0.5f) / 64.f, -0.999f, 0.05f}, {0, 1, 0}});
+  const std::vector<Receiver> row = floor_row(64, -0.9f, 0.9f, -0.999f, 0.05f);
   GatherOptions options;
-  const GatherBatch full = gather_receivers(tree, row, options, {}, nullptr, &rays);
-  const GatherBatch interpolated = gather_interpolated(tree, row, options, 0.1f, {}, nullptr, &rays);
+  const GatherBatch full = gather_receivers(*tree, row, options, {}, nullptr, &rays);
+  const GatherBatch interpolated = gather_interpolated(*tree, row, options, 0.1f, {}, nullptr, &rays);
   int under = 0;
   for (size_t i = 0; i < row.size(); ++i) {
     const bool inside = std::abs(row[i].position.x) < 0.3f;

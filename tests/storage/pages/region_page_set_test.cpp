@@ -48,15 +48,20 @@ std::vector<Surfel> surfels_below(const tree::TreeSource& src, const tree::NodeR
   return test::walk(rooted).surfels;
 }
 
+// The page set of `surfels` in `dir` with two_region_grid(), 4 KiB pages.
+Manifest build_with_regions(const std::vector<Surfel>& surfels, const std::filesystem::path& dir) {
+  tree::BuildOptions o;
+  o.page_size = 4096;
+  PageSetBuilder b(o, "regions", dir, tree::surfel_bounds(surfels));
+  b.add(surfels);
+  b.set_regions(two_region_grid());
+  return b.finish();
+}
+
 TEST(RegionPageSet, EachRegionIsASubtreeOfItsOwn) {
   test::TempDir tmp;
   const std::vector<Surfel> surfels = wall_surfels(20000);
-  tree::BuildOptions o;
-  o.page_size = 4096;
-  PageSetBuilder b(o, "regions", tmp.path() / "set", tree::surfel_bounds(surfels));
-  b.add(surfels);
-  b.set_regions(two_region_grid());
-  const Manifest m = b.finish();
+  const Manifest m = build_with_regions(surfels, tmp.path() / "set");
   ASSERT_EQ(m.region_roots.size(), 2u);
   EXPECT_EQ(m.region_roots[0].region, 1u);
   EXPECT_EQ(m.region_roots[1].region, 2u);
@@ -106,13 +111,7 @@ TEST(RegionPageSet, SurfelsOfSeveralRegionsNeedTheGrid) {
 
 TEST(RegionPageSet, DamagedRegionSectionsAreRefused) {
   test::TempDir tmp;
-  const std::vector<Surfel> surfels = wall_surfels(4000);
-  tree::BuildOptions o;
-  o.page_size = 4096;
-  PageSetBuilder b(o, "damaged", tmp.path() / "set", tree::surfel_bounds(surfels));
-  b.add(surfels);
-  b.set_regions(two_region_grid());
-  Manifest m = b.finish();
+  const Manifest m = build_with_regions(wall_surfels(4000), tmp.path() / "set");
   EXPECT_EQ(manifest_format_of(m), kManifestFormatV6);
   const Manifest back = decode_manifest(encode_manifest(m), "manifest");
   EXPECT_EQ(back.regions, m.regions);
