@@ -45,9 +45,9 @@ void BuildOptions::validate() const {
         ", tree.upper_page_levels = " + std::to_string(upper_page_levels) +
         ": must satisfy 1 <= page_levels <= upper_page_levels <= " + std::to_string(storage::kMaxPageLevels));
   }
-  if (air_region_resolution != 0 && (air_region_resolution < 8 || air_region_resolution > 1024)) {
+  if (air_region_resolution != 0 && (air_region_resolution < 8 || air_region_resolution > 256)) {
     throw InvalidArgument("tree.air_region_resolution = " + std::to_string(air_region_resolution) +
-                          ": must be 0 (off) or in [8, 1024]");
+                          ": must be 0 (off) or in [8, 256]");
   }
   constexpr uint64_t kMinSortMemory = 64 * 1024;
   if (sort_memory_bytes < kMinSortMemory) {

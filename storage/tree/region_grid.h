@@ -28,7 +28,8 @@
 
 namespace pbgi::tree {
 
-// The most voxels along a side (resolution 1024 and the padding).
+// The most voxels along a side a stored grid may have (the build's at most
+// 256 and its padding, with room to raise it).
 inline constexpr int kMaxRegionGridSide = 1032;
 
 // Label 0: solid (a surface passes through the voxel); 1..count: regions.
