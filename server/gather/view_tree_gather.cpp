@@ -78,11 +78,13 @@ void ViewTreeGather::gather(std::span<const Receiver> receivers, std::span<Gathe
   // Each run of receivers of one air region walks that region's subtree
   // (receivers arrive sorted by region, as a page set's surfels are).
   size_t first = 0;
+  uint32_t region = receivers.empty() ? tree::kAnyRegion : walker_.region_of(receivers[0]);
   for (size_t i = 1; i <= receivers.size(); ++i) {
-    if (i < receivers.size() && walker_.region_of(receivers[i]) == walker_.region_of(receivers[first])) continue;
-    gather_region(receivers.subspan(first, i - first), results.subspan(first, i - first),
-                  walker_.region_of(receivers[first]), first);
+    const uint32_t next = i < receivers.size() ? walker_.region_of(receivers[i]) : region;
+    if (i < receivers.size() && next == region) continue;
+    gather_region(receivers.subspan(first, i - first), results.subspan(first, i - first), region, first);
     first = i;
+    region = next;
   }
 }
 

@@ -113,20 +113,6 @@ void RegionGrid::check_complete() const {
   }
 }
 
-RegionGrid RegionGrid::from_runs(const Imath::V3f& origin, float voxel, const Imath::V3i& dims, uint32_t region_count,
-                                 const std::vector<RegionRun>& runs) {
-  RegionGrid g = with_no_rows(origin, voxel, dims, region_count);
-  size_t row_start = 0;
-  for (size_t i = 0; i < runs.size(); ++i) {
-    if (runs[i].end_x >= uint32_t(dims.x) || i + 1 == runs.size()) {
-      g.append_row({runs.data() + row_start, i + 1 - row_start});
-      row_start = i + 1;
-    }
-  }
-  g.check_complete();
-  return g;
-}
-
 bool RegionGrid::operator==(const RegionGrid& o) const {
   if (origin_ != o.origin_ || voxel_ != o.voxel_ || dims_ != o.dims_ || region_count_ != o.region_count_ ||
       rows_.size() != o.rows_.size()) {

@@ -49,11 +49,6 @@ class RegionGrid {
   // From labels of nx*ny*nz voxels, x fastest. `voxel` > 0.
   static RegionGrid from_dense(const Imath::V3f& origin, float voxel, const Imath::V3i& dims,
                                const std::vector<uint32_t>& labels);
-  // From runs (the manifest's, repeats expanded): row by row ((y, z), y
-  // fastest), each row's runs ending at dims.x. Throws InvalidArgument if
-  // they do not tile the grid or name a label above `region_count`.
-  static RegionGrid from_runs(const Imath::V3f& origin, float voxel, const Imath::V3i& dims, uint32_t region_count,
-                              const std::vector<RegionRun>& runs);
   // Row by row (the manifest reader: nothing is expanded, so memory is
   // bounded by what was read): a grid with no rows yet, then append_row()
   // or repeat_row() per row, then check_complete(). All throw

@@ -11,6 +11,22 @@
 namespace pbgi::tree {
 namespace {
 
+// A grid from runs given row by row, each row ending at dims.x, as the
+// manifest reader appends them.
+RegionGrid from_runs(const Imath::V3f& origin, float voxel, const Imath::V3i& dims, uint32_t region_count,
+                     const std::vector<RegionRun>& runs) {
+  RegionGrid g = RegionGrid::with_no_rows(origin, voxel, dims, region_count);
+  size_t row_start = 0;
+  for (size_t i = 0; i < runs.size(); ++i) {
+    if (runs[i].end_x >= uint32_t(dims.x) || i + 1 == runs.size()) {
+      g.append_row({runs.data() + row_start, i + 1 - row_start});
+      row_start = i + 1;
+    }
+  }
+  g.check_complete();
+  return g;
+}
+
 TEST(RegionGrid, RunsAnswerTheDenseLabels) {
   const Imath::V3i dims(7, 5, 3);
   std::vector<uint32_t> labels(size_t(dims.x * dims.y * dims.z));
@@ -28,7 +44,7 @@ TEST(RegionGrid, RunsAnswerTheDenseLabels) {
   // The same runs, row by row, make the same grid.
   std::vector<RegionRun> runs;
   for (uint64_t r = 0; r < g.row_count(); ++r) runs.insert(runs.end(), g.row(r).begin(), g.row(r).end());
-  EXPECT_EQ(RegionGrid::from_runs(g.origin(), g.voxel(), dims, g.region_count(), runs), g);
+  EXPECT_EQ(from_runs(g.origin(), g.voxel(), dims, g.region_count(), runs), g);
 }
 
 TEST(RegionGrid, EqualRowsShareTheirRuns) {
@@ -44,6 +60,19 @@ TEST(RegionGrid, EqualRowsShareTheirRuns) {
   EXPECT_EQ(g.label({4, 3, 3}), 2u);
   EXPECT_EQ(g.label({4, 2, 3}), 1u);
   EXPECT_EQ(g.label({2, 0, 0}), kSolidVoxel);
+  // Read back as a manifest stores it: repeated rows as repeats.
+  RegionGrid read = RegionGrid::with_no_rows(g.origin(), g.voxel(), dims, g.region_count());
+  for (uint64_t r = 0; r < g.row_count(); ++r) {
+    if (g.same_as_previous(r)) {
+      read.repeat_row();
+    } else {
+      read.append_row(g.row(r));
+    }
+  }
+  read.check_complete();
+  EXPECT_EQ(read, g);
+  EXPECT_EQ(read.unique_runs(), g.unique_runs());
+  EXPECT_THROW(read.repeat_row(), InvalidArgument);  // past the last row
 }
 
 TEST(RegionGrid, VoxelOfAPointInsideAndOutside) {
@@ -59,14 +88,14 @@ TEST(RegionGrid, VoxelOfAPointInsideAndOutside) {
 TEST(RegionGrid, StoredRunsThatDoNotTileTheGridAreRefused) {
   const Imath::V3i dims(4, 1, 2);  // two rows of 4
   const std::vector<RegionRun> good = {{4, 1}, {2, 1}, {4, 2}};
-  EXPECT_NO_THROW(RegionGrid::from_runs({0, 0, 0}, 1.f, dims, 2, good));
+  EXPECT_NO_THROW(from_runs({0, 0, 0}, 1.f, dims, 2, good));
   // A row left short, one row missing, a run going back, a label above the count, too many rows.
-  EXPECT_THROW(RegionGrid::from_runs({0, 0, 0}, 1.f, dims, 2, {{4, 1}, {3, 1}}), InvalidArgument);
-  EXPECT_THROW(RegionGrid::from_runs({0, 0, 0}, 1.f, dims, 2, {{4, 1}}), InvalidArgument);
-  EXPECT_THROW(RegionGrid::from_runs({0, 0, 0}, 1.f, dims, 2, {{4, 1}, {2, 1}, {2, 2}, {4, 2}}), InvalidArgument);
-  EXPECT_THROW(RegionGrid::from_runs({0, 0, 0}, 1.f, dims, 1, good), InvalidArgument);
-  EXPECT_THROW(RegionGrid::from_runs({0, 0, 0}, 1.f, dims, 2, {{4, 1}, {4, 1}, {4, 1}}), InvalidArgument);
-  EXPECT_THROW(RegionGrid::from_runs({0, 0, 0}, 0.f, dims, 2, good), InvalidArgument);
+  EXPECT_THROW(from_runs({0, 0, 0}, 1.f, dims, 2, {{4, 1}, {3, 1}}), InvalidArgument);
+  EXPECT_THROW(from_runs({0, 0, 0}, 1.f, dims, 2, {{4, 1}}), InvalidArgument);
+  EXPECT_THROW(from_runs({0, 0, 0}, 1.f, dims, 2, {{4, 1}, {2, 1}, {2, 2}, {4, 2}}), InvalidArgument);
+  EXPECT_THROW(from_runs({0, 0, 0}, 1.f, dims, 1, good), InvalidArgument);
+  EXPECT_THROW(from_runs({0, 0, 0}, 1.f, dims, 2, {{4, 1}, {4, 1}, {4, 1}}), InvalidArgument);
+  EXPECT_THROW(from_runs({0, 0, 0}, 0.f, dims, 2, good), InvalidArgument);
 }
 
 }  // namespace
