@@ -247,6 +247,47 @@ TEST(PageCache, ConcurrentMissesLoadOnce) {
   for (const auto& p : got) EXPECT_EQ(p.get(), got[0].get());
 }
 
+// The callers waiting on a load that fails get its exception, and the page
+// is loaded again by the next caller.
+TEST(PageCache, ConcurrentMissesShareAFailedLoad) {
+  PageCache cache(uint64_t(1) << 20);
+  std::atomic<int> loads{0};
+  std::promise<void> release;
+  std::shared_future<void> released = release.get_future().share();
+  constexpr int kThreads = 6;
+  std::atomic<int> failed{0};
+  std::vector<std::thread> threads;
+  for (int i = 0; i < kThreads; ++i) {
+    threads.emplace_back([&] {
+      try {
+        cache.get(1, 7, [&]() -> tree::PagePtr {
+          ++loads;
+          released.wait();
+          throw CorruptionError("page 7 is damaged");
+        });
+      } catch (const CorruptionError& e) {
+        if (std::string(e.what()).find("page 7") != std::string::npos) ++failed;
+      }
+    });
+  }
+  while (true) {
+    const CacheCounters c = cache.counters();
+    if (c.hits + c.misses == kThreads) break;
+    std::this_thread::yield();
+  }
+  release.set_value();
+  for (auto& t : threads) t.join();
+  EXPECT_EQ(loads.load(), 1);
+  EXPECT_EQ(failed.load(), kThreads);
+  EXPECT_EQ(cache.counters().bytes_held, 0u);
+  const auto page = cache.get(1, 7, [&] {
+    ++loads;
+    return make_page(7, 3);
+  });
+  EXPECT_EQ(loads.load(), 2);
+  EXPECT_EQ(page->nodes.size(), 3u);
+}
+
 class CacheOverPageSet : public ::testing::Test {
  protected:
   void SetUp() override {
