@@ -11,6 +11,8 @@
 #include <cstddef>
 #include <limits>
 #include <string>
+#include <type_traits>
+#include <vector>
 
 namespace pbgi::storage {
 
@@ -135,12 +137,51 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
   seal_page(out);
 }
 
+namespace {
+
+// The arrays decode_page() fills and drops for every page, kept per thread
+// between calls: a page cache miss decodes one page, and allocating and
+// freeing them anew was a tenth of a small page's load. Arrays that a large
+// page grew are freed after it (trim()).
+struct DecodeScratch {
+  std::vector<uint8_t> unpacked, unpacked_records;
+  std::vector<LeafRecord> leaf_section;
+  std::vector<tree::Node> compact_payloads, linked, stored;
+  std::vector<tree::TreeletLink> link;
+
+  void trim() {
+    constexpr size_t kKeep = size_t(256) << 10;  // bytes an array keeps
+    auto fit = [](auto& v) {
+      if (v.capacity() * sizeof(v[0]) > kKeep) std::remove_reference_t<decltype(v)>().swap(v);
+    };
+    fit(unpacked);
+    fit(unpacked_records);
+    fit(leaf_section);
+    fit(compact_payloads);
+    fit(linked);
+    fit(stored);
+    fit(link);
+  }
+};
+
+DecodeScratch& decode_scratch() {
+  thread_local DecodeScratch scratch;
+  return scratch;
+}
+
+}  // namespace
+
 std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const PageLocation& where,
                                         uint32_t expected_version, const PayloadCodec& codec, uint32_t page_count,
                                         bool glossy_allowed, LeafFormat leaf_format, PageParts* parts) {
   PageHeader h = open_page(bytes, where, expected_version);
   const std::string at = where.describe();
   auto corrupt = [&](const std::string& msg) { return CorruptionError(at + ": " + msg); };
+  DecodeScratch& scratch = decode_scratch();
+  struct Trim {
+    DecodeScratch& s;
+    ~Trim() { s.trim(); }
+  } trim{scratch};
 
   if (h.codec != codec.id()) {
     throw corrupt("payload codec " + std::to_string(h.codec) + " differs from the manifest's " +
@@ -178,7 +219,7 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
     throw corrupt(std::to_string(h.node_count) + " shapes do not fit the page");
   }
   // V8/V9 shapes are nibbles: unpacked, one byte a node, for the parse.
-  std::vector<uint8_t> unpacked;
+  std::vector<uint8_t>& unpacked = scratch.unpacked;
   std::span<const uint8_t> shapes;
   if (!compact_frame) {
     shapes = bytes.subspan(header_bytes, h.node_count);
@@ -198,14 +239,16 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   const uint64_t leaves_at = compact_frame ? header_bytes + shape_bytes : padded(header_bytes + h.node_count);
   const size_t link_record_bytes = compact_frame ? kCompactLinkRecordBytes : kLinkRecordBytes;
   // V8/V9: the leaf section, decoded first (its size depends on its widths).
-  std::vector<LeafRecord> leaf_section;
+  std::vector<LeafRecord>& leaf_section = scratch.leaf_section;
+  leaf_section.clear();
   const uint64_t leaf_bytes =
       compact_frame ? decode_leaf_section(bytes.subspan(leaves_at, bytes.size() - kPageTrailerBytes - leaves_at),
                                           leaves, leaf_section, at)
                     : leaves * kLeafRecordBytes;
   const uint64_t links_at = leaves_at + leaf_bytes;
   const uint64_t payload_at = links_at + links * link_record_bytes;
-  std::vector<tree::Node> compact_payloads;
+  std::vector<tree::Node>& compact_payloads = scratch.compact_payloads;
+  compact_payloads.clear();
   if (compact_frame) {
     // V8/V9 headers do not store the surfel count (the leaves' counts add
     // up to it) nor, in V8, the payload array's size (its compact payloads
@@ -224,7 +267,7 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
     h.surfel_count = uint32_t(surfels);
     if (!node_payloads) {
       // V8: the linked children's compact payloads, back to back.
-      compact_payloads.resize(links);
+      compact_payloads.assign(links, tree::Node{});
       uint64_t used = 0;
       const auto rest = bytes.subspan(payload_at, bytes.size() - kPageTrailerBytes - payload_at);
       for (uint64_t i = 0; i < links; ++i) {
@@ -241,7 +284,7 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   const uint64_t surfels_at = albedo_at + (shared_albedo ? 4 : 0);
   // V8/V9 compact records: decoded from the surfel section (its size
   // follows from its column widths) into `unpacked_records`.
-  std::vector<uint8_t> unpacked_records;
+  std::vector<uint8_t>& unpacked_records = scratch.unpacked_records;
   std::span<const uint8_t> record_span;
   uint64_t surfel_bytes = uint64_t(h.surfel_count) * record_bytes;
   if (surfel_section) {
@@ -281,8 +324,10 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
 
   // 2. Links and the payloads: the linked children's (V2) or every
   //    node's (V3).
-  std::vector<tree::TreeletLink> link(links);
-  std::vector<tree::Node> linked(links);
+  std::vector<tree::TreeletLink>& link = scratch.link;
+  std::vector<tree::Node>& linked = scratch.linked;
+  link.assign(links, tree::TreeletLink{});
+  linked.assign(links, tree::Node{});
   for (uint64_t i = 0; i < links; ++i) {
     const uint8_t* record = bytes.data() + links_at + i * link_record_bytes;
     if (!compact_frame) {
@@ -295,10 +340,11 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
                     " outside the " + std::to_string(page_count) + " pages");
     }
   }
-  std::vector<tree::Node> stored;
+  std::vector<tree::Node>& stored = scratch.stored;
+  stored.clear();
   const bool rounded = page_format_rounds_payloads(h.format_version);
   if (node_payloads) {
-    stored.resize(h.node_count);
+    stored.assign(h.node_count, tree::Node{});
     codec.decode(bytes.subspan(payload_at, h.payload_bytes), stored, at);
   } else if (compact_frame) {
     for (uint64_t i = 0; i < links; ++i) {

@@ -103,11 +103,16 @@ size_t decode_surfel_section(std::span<const uint8_t> bytes, size_t surfel_count
   auto get = [&](uint64_t bit, uint32_t w) -> uint32_t {
     if (w == 0) return 0;
     // Up to 8 bytes from bit / 8, never past the section (w <= 14: the
-    // value lies in the first 3).
-    uint8_t buf[8] = {};
+    // value lies in the first 3); a whole word where the section has one.
     const uint64_t byte = bit / 8;
-    std::memcpy(buf, data + byte, size_t(std::min<uint64_t>(8, size - byte)));
-    const auto word = load_le<uint64_t>(buf);
+    uint64_t word = 0;
+    if (byte + 8 <= size) {
+      word = load_le<uint64_t>(data + byte);
+    } else {
+      uint8_t buf[8] = {};
+      std::memcpy(buf, data + byte, size_t(size - byte));
+      word = load_le<uint64_t>(buf);
+    }
     return uint32_t((word >> (bit % 8)) & ((uint64_t(1) << w) - 1));
   };
   for (size_t i = 0; i < surfel_count; ++i) {

@@ -6,6 +6,8 @@
 #include "storage/tree/page_records.h"
 
 #include <array>
+#include <type_traits>
+#include <vector>
 
 namespace pbgi::tree {
 
@@ -16,6 +18,35 @@ void copy_payload(const Node& from, Node& to) {
   to.radiance_sh = from.radiance_sh;
   to.coverage_sh = from.coverage_sh;
 }
+}  // namespace
+
+namespace {
+
+// Parse state of expand_treelet(), kept per thread between calls (pages
+// are expanded on every page cache miss); arrays a large page grew are
+// freed after it.
+struct ExpandScratch {
+  std::vector<storage::NodeShape> shape;
+  std::vector<std::array<uint32_t, 2>> link_of;
+  std::vector<storage::LeafFrame> frame;
+  struct Open {
+    uint32_t node;
+    uint32_t slot;  // the next child slot to visit
+  };
+  std::vector<Open> stack;
+
+  void trim() {
+    constexpr size_t kKeep = size_t(256) << 10;  // bytes an array keeps
+    auto fit = [](auto& v) {
+      if (v.capacity() * sizeof(v[0]) > kKeep) std::remove_reference_t<decltype(v)>().swap(v);
+    };
+    fit(shape);
+    fit(link_of);
+    fit(frame);
+    fit(stack);
+  }
+};
+
 }  // namespace
 
 void Treelet::clear() {
@@ -53,14 +84,19 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
 
   // 1. Structure: parse the shapes in pre-order with an explicit stack (a
   //    damaged page must not be able to recurse deeply).
-  std::vector<NodeShape> shape(n);
-  std::vector<std::array<uint32_t, 2>> link_of(n);  // link index per external slot
-  std::vector<LeafFrame> frame(leaves);
-  struct Open {
-    uint32_t node;
-    uint32_t slot;
-  };
-  std::vector<Open> stack;
+  thread_local ExpandScratch scratch;
+  struct Trim {
+    ExpandScratch& s;
+    ~Trim() { s.trim(); }
+  } trim{scratch};
+  std::vector<storage::NodeShape>& shape = scratch.shape;
+  shape.assign(n, storage::NodeShape{});
+  std::vector<std::array<uint32_t, 2>>& link_of = scratch.link_of;  // link index per external slot
+  link_of.assign(n, {});
+  std::vector<LeafFrame>& frame = scratch.frame;
+  frame.assign(leaves, LeafFrame{});
+  std::vector<ExpandScratch::Open>& stack = scratch.stack;
+  stack.clear();
   size_t next = 0, leaf = 0, link = 0;
   uint64_t first_surfel = 0;
   auto open = [&](uint32_t i) {
@@ -99,7 +135,7 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
   };
   open(static_cast<uint32_t>(next++));
   while (!stack.empty()) {
-    const Open top = stack.back();
+    const ExpandScratch::Open top = stack.back();
     if (top.slot == shape[top.node].child_count) {
       stack.pop_back();
       continue;
