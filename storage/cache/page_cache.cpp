@@ -5,10 +5,10 @@
 
 #include <algorithm>
 #include <condition_variable>
+#include <deque>
 #include <exception>
-#include <list>
+#include <limits>
 #include <mutex>
-#include <optional>
 #include <unordered_map>
 #include <vector>
 
@@ -30,14 +30,32 @@ struct KeyHash {
   }
 };
 
-// Where a held page is (W-TinyLFU's three LRU lists, page_cache.h).
-enum class Segment : uint8_t { kWindow, kProbation, kProtected };
+constexpr uint32_t kNil = ~0u;
 
-struct Entry {
-  tree::PagePtr page;
-  uint64_t bytes = 0;
-  Segment segment = Segment::kWindow;
-  std::list<Key>::iterator pos;
+// The lists a slot can be on: W-TinyLFU's three (page_cache.h) for held
+// pages, and the pages evicted while in use.
+enum List : uint8_t { kWindow, kProbation, kProtected, kDeparted, kLists, kFree = kLists };
+
+// One page the cache knows of: held, or departed (evicted while a gather
+// still held it, remembered by a weak reference). Slots live in a deque,
+// addressed by index, and link into their list by index: a held page costs
+// the cache one slot and its share of the index, instead of a hash node, a
+// bucket and a list node as separate heap blocks.
+struct Slot {
+  Key key{};
+  uint32_t prev = kNil, next = kNil;  // in its list; next: the free list's link when free
+  uint32_t bytes = 0;                 // charged, while held (a page of 4 GiB or more is not held)
+  List list = kFree;
+  tree::PagePtr page;  // held
+  std::weak_ptr<const tree::Page> departed;
+};
+static_assert(sizeof(Slot) <= 64, "a slot a cache line");
+
+// A doubly linked list of slots, front = most recently used.
+struct SlotList {
+  uint32_t head = kNil, tail = kNil;
+  size_t size = 0;
+  bool empty() const { return size == 0; }
 };
 
 // The frequency sketch's share of a held page. The sketch has fewer than 8
@@ -45,15 +63,15 @@ struct Entry {
 // is sized for twice the pages held when it is resized (fit_sketch()):
 // under 16 bytes a page then, less as the holdings grow.
 constexpr uint64_t kSketchBytesPerPage = 16;
+// The index's share: 4 bytes a bucket, grown to twice its size when more
+// than half full, so at most 16 bytes a slot.
+constexpr uint64_t kIndexBytesPerPage = 16;
 
-// What holding a page costs the cache itself, charged with the page: the
-// node of `held` (its link, key, entry and cached hash), its bucket, the
-// page's node in its list (two links and the key), as heap blocks, and its
-// share of the frequency sketch. About 150 bytes: a half of a cut-shaped
-// page's bytes on disk.
-constexpr uint64_t kEntryBytes =
-    tree::heap_block_bytes(sizeof(void*) + sizeof(std::pair<const Key, Entry>) + sizeof(size_t)) + sizeof(void*) +
-    tree::heap_block_bytes(2 * sizeof(void*) + sizeof(Key)) + kSketchBytesPerPage;
+// What holding a page costs the cache itself, charged with the page: its
+// slot (the deque allocates slots in blocks) and its shares of the index
+// and of the frequency sketch. 96 bytes, a third of a V8 page's bytes on
+// disk (docs/out-of-core.md).
+constexpr uint64_t kEntryBytes = sizeof(Slot) + kIndexBytesPerPage + kSketchBytesPerPage;
 
 // The window's share of the budget (TinyLFU's 1%): a page used twice in
 // quick succession is not judged by its frequency.
@@ -65,11 +83,6 @@ constexpr uint64_t kProtectedPercent = 80;
 // control block of its shared_ptr (sizeof(tree::Page)) alive, so their
 // number is bounded by the pages held.
 constexpr size_t kMinDeparted = 256;
-
-struct Departed {
-  Key key;
-  std::weak_ptr<const tree::Page> page;
-};
 
 // A load in flight, which the callers that miss the same page wait for.
 // Not a std::promise: its set_value() goes through pthread_once, which
@@ -87,18 +100,15 @@ struct Pending {
 struct PageCache::Impl {
   uint64_t budget;  // guarded by mu (set_budget)
   mutable std::mutex mu;
-  // Front = most recently used, in each list.
-  std::list<Key> window;     // pages that just came
-  std::list<Key> probation;  // admitted, used once since
-  std::list<Key> protect;    // admitted and used again
+  std::deque<Slot> slots;
+  uint32_t free_slots = kNil;  // chained through Slot::next
+  // Open addressing with linear probing: slot indices by key hash, kNil
+  // where empty; a power of two in size, at most half full.
+  std::vector<uint32_t> index = std::vector<uint32_t>(16, kNil);
+  size_t indexed = 0;
+  SlotList lists[kLists];
   uint64_t window_bytes = 0, protect_bytes = 0;
   FrequencySketch sketch;
-  // Pages evicted while someone still held them (a gather's pins), front =
-  // newest: a miss of such a page takes it back if it is still alive,
-  // instead of loading and decoding a second copy of it.
-  std::list<Departed> departed;
-  std::unordered_map<Key, std::list<Departed>::iterator, KeyHash> departed_index;
-  std::unordered_map<Key, Entry, KeyHash> held;
   std::unordered_map<Key, std::shared_ptr<Pending>, KeyHash> loading;
   // Notified when a load that callers wait for ends.
   std::condition_variable loaded;
@@ -122,8 +132,97 @@ struct PageCache::Impl {
   }
 
   static uint64_t hash(const Key& key) { return KeyHash{}(key); }
-  std::list<Key>& list_of(Segment s) {
-    return s == Segment::kWindow ? window : s == Segment::kProbation ? probation : protect;
+  size_t held_count() const { return lists[kWindow].size + lists[kProbation].size + lists[kProtected].size; }
+
+  // --- index ---
+  // Requires mu. The bucket of `key`'s slot, or of the empty bucket where
+  // it would go.
+  size_t bucket_of(const Key& key) const {
+    const size_t mask = index.size() - 1;
+    for (size_t b = hash(key) & mask;; b = (b + 1) & mask) {
+      if (index[b] == kNil || slots[index[b]].key == key) return b;
+    }
+  }
+  // Requires mu. `key`'s slot, or kNil.
+  uint32_t find(const Key& key) const { return index[bucket_of(key)]; }
+  void index_insert(uint32_t slot) {
+    if (2 * (indexed + 1) > index.size()) {
+      std::vector<uint32_t> old(2 * index.size(), kNil);
+      old.swap(index);
+      for (uint32_t s : old) {
+        if (s != kNil) index[bucket_of(slots[s].key)] = s;
+      }
+    }
+    index[bucket_of(slots[slot].key)] = slot;
+    ++indexed;
+  }
+  // Backward-shift deletion: the buckets after the hole that a probe from
+  // their home would not reach across it move back into it.
+  void index_erase(const Key& key) {
+    const size_t mask = index.size() - 1;
+    size_t hole = bucket_of(key);
+    for (size_t b = (hole + 1) & mask; index[b] != kNil; b = (b + 1) & mask) {
+      const size_t home = hash(slots[index[b]].key) & mask;
+      // Movable when home is not in the cyclic range (hole, b].
+      if (((b - home) & mask) >= ((b - hole) & mask)) {
+        index[hole] = index[b];
+        hole = b;
+      }
+    }
+    index[hole] = kNil;
+    --indexed;
+  }
+
+  // --- slots and lists ---
+  uint32_t new_slot(const Key& key) {
+    uint32_t s = free_slots;
+    if (s != kNil) {
+      free_slots = slots[s].next;
+    } else {
+      s = static_cast<uint32_t>(slots.size());
+      slots.emplace_back();
+    }
+    slots[s] = Slot{};
+    slots[s].key = key;
+    index_insert(s);
+    return s;
+  }
+  void free_slot(uint32_t s) {
+    index_erase(slots[s].key);
+    Slot& slot = slots[s];
+    if (slot.page) released.push_back(std::move(slot.page));
+    slot = Slot{};
+    slot.next = free_slots;
+    free_slots = s;
+  }
+  void push_front(uint32_t s, List to) {
+    Slot& slot = slots[s];
+    SlotList& l = lists[to];
+    slot.list = to;
+    slot.prev = kNil;
+    slot.next = l.head;
+    if (l.head != kNil) slots[l.head].prev = s;
+    l.head = s;
+    if (l.tail == kNil) l.tail = s;
+    ++l.size;
+    if (to == kWindow) window_bytes += slot.bytes;
+    if (to == kProtected) protect_bytes += slot.bytes;
+  }
+  void unlink(uint32_t s) {
+    Slot& slot = slots[s];
+    SlotList& l = lists[slot.list];
+    (slot.prev != kNil ? slots[slot.prev].next : l.head) = slot.next;
+    (slot.next != kNil ? slots[slot.next].prev : l.tail) = slot.prev;
+    --l.size;
+    if (slot.list == kWindow) window_bytes -= slot.bytes;
+    if (slot.list == kProtected) protect_bytes -= slot.bytes;
+    slot.list = kFree;
+    slot.prev = slot.next = kNil;
+  }
+  // Requires mu. Moves a slot to the front of `to`.
+  void move(uint32_t s, List to) {
+    unlink(s);
+    push_front(s, to);
   }
 
   // Requires mu. The sketch sized for twice the pages held, resized (its
@@ -132,63 +231,37 @@ struct PageCache::Impl {
   // the holdings have doubled, up to 32 while they shrink to a quarter;
   // and not reset by the ups and downs of a full cache.
   void fit_sketch() {
-    const size_t n = held.size();
+    const size_t n = held_count();
     if (n > sketch.items() || (n >= 8 && 4 * n < sketch.items())) sketch.resize(2 * n);
   }
 
-  // Requires mu.
-  void remember_departed(const Key& key, const tree::PagePtr& page) {
-    if (auto d = departed_index.find(key); d != departed_index.end()) {
-      departed.erase(d->second);
-      departed_index.erase(d);
-    }
-    departed.push_front({key, page});
-    departed_index[key] = departed.begin();
-    const size_t cap = std::max(kMinDeparted, held.size());
-    while (departed.size() > cap) {
-      departed_index.erase(departed.back().key);
-      departed.pop_back();
+  // Requires mu. Forgets departed pages beyond their bound, oldest first.
+  void trim_departed() {
+    const size_t cap = std::max(kMinDeparted, held_count());
+    while (lists[kDeparted].size > cap) {
+      const uint32_t s = lists[kDeparted].tail;
+      unlink(s);
+      free_slot(s);
     }
   }
 
-  // Requires mu. The page `key` if it departed and is still alive
-  // (forgotten either way), else null.
-  tree::PagePtr take_departed(const Key& key) {
-    auto d = departed_index.find(key);
-    if (d == departed_index.end()) return nullptr;
-    tree::PagePtr page = d->second->page.lock();
-    departed.erase(d->second);
-    departed_index.erase(d);
-    return page;
-  }
-
-  // Requires mu. Drops the held page `key`; `evicted`: counted, and
-  // remembered if still in use.
-  void drop(const Key& key, bool evicted) {
-    auto it = held.find(key);
-    Entry& e = it->second;
-    list_of(e.segment).erase(e.pos);
-    if (e.segment == Segment::kWindow) window_bytes -= e.bytes;
-    if (e.segment == Segment::kProtected) protect_bytes -= e.bytes;
-    counters.bytes_held -= e.bytes;
-    if (evicted) {
-      // Still used (the cache's reference is not the only one): remembered.
-      if (e.page.use_count() > 1) remember_departed(key, e.page);
-      ++counters.evictions;
+  // Requires mu. Drops the held page in slot `s`; `evicted`: counted, and
+  // remembered (the slot stays, departed) if still in use.
+  void drop(uint32_t s, bool evicted) {
+    Slot& slot = slots[s];
+    unlink(s);
+    counters.bytes_held -= slot.bytes;
+    slot.bytes = 0;
+    if (evicted) ++counters.evictions;
+    // Still used (the cache's reference is not the only one): remembered.
+    if (evicted && slot.page.use_count() > 1) {
+      slot.departed = slot.page;
+      released.push_back(std::move(slot.page));
+      push_front(s, kDeparted);
+      trim_departed();
+      return;
     }
-    released.push_back(std::move(e.page));
-    held.erase(it);
-  }
-
-  // Requires mu. Moves a held page to the front of `to`.
-  void move(Entry& e, Segment to) {
-    std::list<Key>& dst = list_of(to);
-    dst.splice(dst.begin(), list_of(e.segment), e.pos);
-    if (e.segment == Segment::kWindow) window_bytes -= e.bytes;
-    if (e.segment == Segment::kProtected) protect_bytes -= e.bytes;
-    if (to == Segment::kWindow) window_bytes += e.bytes;
-    if (to == Segment::kProtected) protect_bytes += e.bytes;
-    e.segment = to;
+    free_slot(s);
   }
 
   uint64_t window_budget() const { return budget / kWindowShare; }
@@ -197,23 +270,22 @@ struct PageCache::Impl {
   // Requires mu. A hit: a page used again in probation is protected; the
   // protected pages beyond their share go back to probation, least
   // recently used first.
-  void on_hit(Entry& e) {
-    if (e.segment == Segment::kProbation) {
-      move(e, Segment::kProtected);
-      while (protect_bytes > protect_budget() && protect.size() > 1) {
-        move(held.find(protect.back())->second, Segment::kProbation);
+  void on_hit(uint32_t s) {
+    if (slots[s].list == kProbation) {
+      move(s, kProtected);
+      while (protect_bytes > protect_budget() && lists[kProtected].size > 1) {
+        move(lists[kProtected].tail, kProbation);
       }
     } else {
-      std::list<Key>& l = list_of(e.segment);
-      l.splice(l.begin(), l, e.pos);
+      move(s, slots[s].list);
     }
   }
 
   // Requires mu. Drops one page, for a smaller budget: the least recently
   // used of probation, else of the protected pages, else of the window.
   void evict_one() {
-    const std::list<Key>& from = !probation.empty() ? probation : !protect.empty() ? protect : window;
-    drop(from.back(), true);
+    const List from = !lists[kProbation].empty() ? kProbation : !lists[kProtected].empty() ? kProtected : kWindow;
+    drop(lists[from].tail, true);
   }
 
   // Requires mu. The pages the window holds beyond its share leave it,
@@ -222,14 +294,14 @@ struct PageCache::Impl {
   // recently used page if the candidate is used more often than it; else
   // the candidate is evicted. The window keeps at least its newest page.
   void admit_from_window() {
-    while (window_bytes > window_budget() && window.size() > 1) {
-      const Key candidate = window.back();
-      move(held.find(candidate)->second, Segment::kProbation);
+    while (window_bytes > window_budget() && lists[kWindow].size > 1) {
+      const uint32_t candidate = lists[kWindow].tail;
+      move(candidate, kProbation);
       while (counters.bytes_held > budget) {
-        const bool other_on_probation = probation.back() != candidate;
-        if (!other_on_probation && protect.empty()) break;
-        const Key victim = other_on_probation ? probation.back() : protect.back();
-        if (sketch.estimate(hash(candidate)) > sketch.estimate(hash(victim))) {
+        const bool other_on_probation = lists[kProbation].tail != candidate;
+        if (!other_on_probation && lists[kProtected].empty()) break;
+        const uint32_t victim = other_on_probation ? lists[kProbation].tail : lists[kProtected].tail;
+        if (sketch.estimate(hash(slots[candidate].key)) > sketch.estimate(hash(slots[victim].key))) {
           drop(victim, true);
         } else {
           drop(candidate, true);
@@ -240,13 +312,22 @@ struct PageCache::Impl {
     while (counters.bytes_held > budget) evict_one();
   }
 
-  // Requires mu. Holds `page` (in the window) if it fits the budget.
+  // Requires mu. Holds `page` (in the window) if it fits the budget; the
+  // key's slot, if it has one, is departed.
   void hold(const Key& key, const tree::PagePtr& page) {
     const uint64_t bytes = page->memory_bytes() + kEntryBytes;
-    if (bytes > budget || held.count(key)) return;
-    window.push_front(key);
-    held.emplace(key, Entry{page, bytes, Segment::kWindow, window.begin()});
-    window_bytes += bytes;
+    if (bytes > budget || bytes > std::numeric_limits<uint32_t>::max()) return;
+    uint32_t s = find(key);
+    if (s != kNil && slots[s].list != kDeparted) return;  // held already
+    if (s != kNil) {
+      unlink(s);
+      slots[s].departed.reset();
+    } else {
+      s = new_slot(key);
+    }
+    slots[s].page = page;
+    slots[s].bytes = bytes;
+    push_front(s, kWindow);
     counters.bytes_held += bytes;
     fit_sketch();
     admit_from_window();
@@ -267,10 +348,11 @@ tree::PagePtr PageCache::get(uint64_t owner, uint32_t page_id,
   {
     std::unique_lock lock(impl_->mu);
     impl_->sketch.add(Impl::hash(key));
-    if (auto it = impl_->held.find(key); it != impl_->held.end()) {
+    const uint32_t slot = impl_->find(key);
+    if (slot != kNil && impl_->slots[slot].list != kDeparted) {
       ++impl_->counters.hits;
-      impl_->on_hit(it->second);
-      return it->second.page;
+      impl_->on_hit(slot);
+      return impl_->slots[slot].page;
     }
     if (auto it = impl_->loading.find(key); it != impl_->loading.end()) {
       ++impl_->counters.hits;
@@ -283,12 +365,16 @@ tree::PagePtr PageCache::get(uint64_t owner, uint32_t page_id,
     }
     // Evicted while in use and still alive: taken back, no load (a hit),
     // and held again as a page that just came.
-    if (tree::PagePtr back = impl_->take_departed(key)) {
-      ++impl_->counters.hits;
-      impl_->hold(key, back);
-      const std::vector<tree::PagePtr> dropped = impl_->take_released();
-      lock.unlock();
-      return back;
+    if (slot != kNil) {
+      if (tree::PagePtr back = impl_->slots[slot].departed.lock()) {
+        ++impl_->counters.hits;
+        impl_->hold(key, back);
+        const std::vector<tree::PagePtr> dropped = impl_->take_released();
+        lock.unlock();
+        return back;
+      }
+      impl_->unlink(slot);  // departed and died: forgotten
+      impl_->free_slot(slot);
     }
     ++impl_->counters.misses;
     pending = std::make_shared<Pending>();
@@ -351,17 +437,14 @@ uint64_t PageCache::new_owner() { return impl_->next_owner.fetch_add(1); }
 void PageCache::forget(uint64_t owner) {
   std::vector<tree::PagePtr> dropped;  // released after the lock
   std::lock_guard lock(impl_->mu);
-  std::vector<Key> keys;
-  for (const auto& [key, entry] : impl_->held) {
-    if (key.owner == owner) keys.push_back(key);
-  }
-  for (const Key& key : keys) impl_->drop(key, false);
-  for (auto it = impl_->departed.begin(); it != impl_->departed.end();) {
-    if (it->key.owner == owner) {
-      impl_->departed_index.erase(it->key);
-      it = impl_->departed.erase(it);
+  for (uint32_t s = 0; s < impl_->slots.size(); ++s) {
+    Slot& slot = impl_->slots[s];
+    if (slot.list == kFree || slot.key.owner != owner) continue;
+    if (slot.list == kDeparted) {
+      impl_->unlink(s);
+      impl_->free_slot(s);
     } else {
-      ++it;
+      impl_->drop(s, false);
     }
   }
   impl_->fit_sketch();

@@ -19,7 +19,7 @@
 //
 // One mutex; the critical section is hash lookups and list splices, never
 // I/O or decoding. The bytes of a page are Page::memory_bytes() plus what
-// holding it costs the cache (entry_bytes(): its hash and list nodes and
+// holding it costs the cache (entry_bytes(): its slot, its share of the index and
 // its share of the frequency sketch); the cache
 // never holds more than budget() bytes (a page larger than the budget is
 // returned but not held; budget 0 holds nothing). Concurrent misses of one

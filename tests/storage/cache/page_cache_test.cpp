@@ -288,6 +288,69 @@ TEST(PageCache, ConcurrentMissesShareAFailedLoad) {
   EXPECT_EQ(page->nodes.size(), 3u);
 }
 
+// Forgetting some owners' pages (deletions from the cache's index) keeps
+// every other page findable: fetching them again loads nothing. Page ids
+// are scattered so that keys collide in the index.
+TEST(PageCache, ForgettingOwnersKeepsTheOthersPagesFound) {
+  PageCache cache(uint64_t(1) << 30);
+  std::vector<uint64_t> owners;
+  for (int o = 0; o < 8; ++o) owners.push_back(cache.new_owner());
+  std::vector<uint32_t> ids;
+  uint64_t state = 99;
+  for (int i = 0; i < 300; ++i) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    ids.push_back(uint32_t(state >> 32));
+  }
+  int loads = 0;
+  auto fetch_all = [&](uint64_t owner) {
+    for (uint32_t id : ids) {
+      const tree::PagePtr p = cache.get(owner, id, [&] {
+        ++loads;
+        return make_page(id, 1);
+      });
+      ASSERT_EQ(p->id, id);
+    }
+  };
+  for (uint64_t o : owners) fetch_all(o);
+  ASSERT_EQ(loads, 2400);
+  for (int o = 0; o < 8; o += 2) cache.forget(owners[o]);
+  for (int o = 1; o < 8; o += 2) fetch_all(owners[o]);
+  EXPECT_EQ(loads, 2400);
+  for (int o = 0; o < 8; o += 2) fetch_all(owners[o]);
+  EXPECT_EQ(loads, 3600);
+}
+
+// Random fetches of three owners' pages through a budget of a few dozen
+// pages, with owners forgotten now and then: every fetch returns the page
+// it names (the index finds the right slot after its deletions shift
+// entries), and the holdings stay within the budget.
+TEST(PageCache, RandomFetchesReturnThePagesTheyName) {
+  PageCache cache(40 * kPageBytes);
+  uint64_t owners[3] = {cache.new_owner(), cache.new_owner(), cache.new_owner()};
+  uint64_t state = 12345;
+  auto next = [&] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return uint32_t(state >> 33);
+  };
+  std::vector<tree::PagePtr> pinned;  // some pages stay in use, so some evictions are remembered
+  for (int i = 0; i < 20000; ++i) {
+    const int o = int(next() % 3);
+    const uint32_t id = next() % 300;
+    const tree::PagePtr p = cache.get(owners[o], id, [&] { return make_page(id + 1000u * uint32_t(o), 10); });
+    ASSERT_EQ(p->id, id + 1000u * uint32_t(o)) << "fetch " << i;
+    if (next() % 8 == 0) pinned.push_back(p);
+    if (pinned.size() > 30) pinned.erase(pinned.begin());
+    ASSERT_LE(cache.counters().bytes_held, cache.budget());
+    if (i % 5000 == 4999) {
+      cache.forget(owners[o]);
+      owners[o] = cache.new_owner();
+    }
+  }
+  const CacheCounters c = cache.counters();
+  EXPECT_GT(c.hits, 0u);
+  EXPECT_GT(c.evictions, 0u);
+}
+
 class CacheOverPageSet : public ::testing::Test {
  protected:
   void SetUp() override {
