@@ -496,11 +496,11 @@ struct AttachedView final : tree::PageAttachment {
 
 void attach_view(tree::Page& page) {
   page.attachment = std::make_shared<AttachedView>(page);
-  // Freed, not only emptied: `page.nodes = {}` assigns an empty list and
-  // keeps the capacity (and the cache's charge) of every decoded node.
-  std::vector<tree::Node>().swap(page.nodes);
-  std::vector<tree::PageLink>().swap(page.links);
-  std::vector<Surfel>().swap(page.surfels);
+  // Emptied: the reader returns a page without them and reuses their
+  // memory for the next page it decodes (storage/pages/page_set.h).
+  page.nodes.clear();
+  page.links.clear();
+  page.surfels.clear();
 }
 
 const PageView& PageViews::get(const tree::Page& page) {

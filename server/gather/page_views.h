@@ -347,10 +347,11 @@ static_assert(sizeof(PageView) == 64, "one line; nodes 0 and 1 are the next, in 
 // reuses it for as long as the page cache keeps the page, and the cache's
 // budget pays for it. The view holds what a gather reads of the page's
 // nodes, links and surfels, so the page drops them (Page::nodes,
-// Page::links and Page::surfels come back empty, their memory freed): a
-// page in the cache costs its view, not two copies of its content. Install it as the
-// PageSetReader's page decorator (storage/pages/page_set.h) of readers
-// whose pages only gathers read. Throws as PageView's constructor.
+// Page::links and Page::surfels come back empty; the reader returns a page
+// without their memory and reuses it for the next page it decodes): a page
+// in the cache costs its view, not two copies of its content. Install it
+// as the PageSetReader's page decorator (storage/pages/page_set.h) of
+// readers whose pages only gathers read. Throws as PageView's constructor.
 void attach_view(tree::Page& page);
 
 // Views by page id: the one attached to the page (attach_view) or else built

@@ -17,14 +17,16 @@
 // 46% of fetches hit with 2Q, 60% in a replay of the same fetches through
 // W-TinyLFU; docs/out-of-core.md).
 //
-// One mutex; the critical section is hash lookups and list splices, never
-// I/O or decoding. The bytes of a page are Page::memory_bytes() plus what
-// holding it costs the cache (entry_bytes(): its slot, its share of the index and
-// its share of the frequency sketch); the cache
-// never holds more than budget() bytes (a page larger than the budget is
-// returned but not held; budget 0 holds nothing). Concurrent misses of one
-// page call `load` once: the other callers wait for that load and share its
-// result (or its exception).
+// One mutex; the critical section is an index probe and list relinks,
+// never I/O or decoding. Pages are kept in slots (a deque, linked into the
+// lists by index) found through an open-addressing index, so holding a
+// page costs the cache no heap block of its own. The bytes of a page are
+// Page::memory_bytes() plus what holding it costs the cache (entry_bytes():
+// its slot and its shares of the index and of the frequency sketch, 96
+// bytes); the cache never holds more than budget() bytes (a page larger
+// than the budget is returned but not held; budget 0 holds nothing).
+// Concurrent misses of one page call `load` once: the other callers wait
+// for that load and share its result (or its exception).
 //
 // A page evicted while still in use (a gather holds it pinned) is
 // remembered by a weak reference: a later miss of it takes that page back

@@ -174,6 +174,16 @@ DecodeScratch& decode_scratch() {
 std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const PageLocation& where,
                                         uint32_t expected_version, const PayloadCodec& codec, uint32_t page_count,
                                         bool glossy_allowed, LeafFormat leaf_format, PageParts* parts) {
+  auto page = std::make_shared<tree::Page>();
+  decode_page_into(bytes, where, expected_version, codec, page_count, glossy_allowed, leaf_format, parts, *page);
+  return page;
+}
+
+void decode_page_into(std::span<const uint8_t> bytes, const PageLocation& where, uint32_t expected_version,
+                      const PayloadCodec& codec, uint32_t page_count, bool glossy_allowed, LeafFormat leaf_format,
+                      PageParts* parts, tree::Page& out) {
+  out.glossy.reset();
+  out.glossy_bytes = 0;
   PageHeader h = open_page(bytes, where, expected_version);
   const std::string at = where.describe();
   auto corrupt = [&](const std::string& msg) { return CorruptionError(at + ": " + msg); };
@@ -383,20 +393,18 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
   view.max_levels = kMaxPageLevels;
   view.rounded_payloads = rounded;
   view.rounded_bounds = compact_frame;
-  auto page = std::make_shared<tree::Page>();
-  tree::expand_treelet(view, h.page_id, at, *page);
+  tree::expand_treelet(view, h.page_id, at, out);
   // Link records carry a linked child's exact summary only when its
   // payload is stored with it (derived payloads) and no glossy radiance is
   // shown that the record lacks: otherwise a reader must load the child.
-  if (node_payloads || glossy) std::vector<tree::PageLink>().swap(page->links);  // freed, not only emptied
+  if (node_payloads || glossy) std::vector<tree::PageLink>().swap(out.links);  // freed, not only emptied
   if (glossy) {
     std::vector<float> link_areas(links);
     for (uint64_t i = 0; i < links; ++i) link_areas[i] = link[i].summary.area;
     const auto section = bytes.subspan(glossy_at, bytes.size() - need);
-    page->glossy = GlossyNodes::decode(section, *page, link_areas, at);
-    page->glossy_bytes = page->glossy->memory_bytes();
+    out.glossy = GlossyNodes::decode(section, out, link_areas, at);
+    out.glossy_bytes = out.glossy->memory_bytes();
   }
-  return page;
 }
 
 }  // namespace pbgi::storage

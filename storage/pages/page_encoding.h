@@ -49,5 +49,12 @@ std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const Pa
                                         uint32_t expected_version, const PayloadCodec& codec, uint32_t page_count,
                                         bool glossy_allowed = false, LeafFormat leaf_format = LeafFormat::kRelative,
                                         PageParts* parts = nullptr);
+// The same into `out`, whose arrays are reused (a reader that decodes page
+// after page into one scratch page allocates nothing once they are large
+// enough). Everything in `out` is replaced except its attachment, which
+// must be null.
+void decode_page_into(std::span<const uint8_t> bytes, const PageLocation& where, uint32_t expected_version,
+                      const PayloadCodec& codec, uint32_t page_count, bool glossy_allowed, LeafFormat leaf_format,
+                      PageParts* parts, tree::Page& out);
 
 }  // namespace pbgi::storage

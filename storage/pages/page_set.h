@@ -173,8 +173,12 @@ Manifest build_page_set(std::vector<Surfel> surfels, const tree::BuildOptions& o
 
 // Called on each page a PageSetReader loads, after decoding and before the
 // page is cached or shared, to attach what the caller derives from it
-// (tree::PageAttachment). Must be thread-safe (concurrent loads); what it
-// throws fails the page() call and nothing is cached.
+// (tree::PageAttachment). It may empty the page's arrays (nodes, surfels,
+// links) it has no more use for: the page the reader returns holds only
+// what is left (the reader decodes into a scratch page per thread and
+// reuses the emptied arrays for the next page). Must be thread-safe
+// (concurrent loads); what it throws fails the page() call and nothing is
+// cached.
 using PageDecorator = std::function<void(tree::Page&)>;
 
 // Reads a published page set; pages are loaded on demand through `cache`

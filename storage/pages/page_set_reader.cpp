@@ -6,6 +6,8 @@
 #include "storage/pages/page_encoding.h"
 #include "storage/pages/page_set.h"
 
+#include <type_traits>
+
 namespace pbgi::storage {
 
 struct PageSetReader::Impl {
@@ -37,10 +39,42 @@ struct PageSetReader::Impl {
     std::vector<uint8_t> bytes(e.bytes);
     pages.pread_exact(bytes, e.offset);
     if (cache) cache->note_bytes_read(bytes.size());
-    std::shared_ptr<tree::Page> page = decode_page(bytes, {pages.path(), id, e.offset},
-                                                   manifest.page_format, *codec, manifest.stats.page_count,
-                                                   manifest.glossy_resolution != 0, manifest.options.leaf_format);
-    if (decorate) decorate(*page);
+    const PageLocation where{pages.path(), id, e.offset};
+    if (!decorate) {
+      return decode_page(bytes, where, manifest.page_format, *codec, manifest.stats.page_count,
+                         manifest.glossy_resolution != 0, manifest.options.leaf_format);
+    }
+    // Decoded into this thread's scratch page, whose arrays the decorator
+    // empties once it has derived what it keeps: the page it returns holds
+    // only that, and the next load reuses the arrays, still in the core's
+    // caches, instead of allocating and touching new memory (a page cache
+    // miss decodes one page).
+    thread_local tree::Page scratch;
+    struct Reset {
+      tree::Page& p;
+      ~Reset() {
+        p.attachment.reset();
+        p.glossy.reset();
+        constexpr size_t kKeep = size_t(256) << 10;  // bytes an array keeps
+        auto fit = [](auto& v) {
+          if (v.capacity() * sizeof(v[0]) > kKeep) std::remove_reference_t<decltype(v)>().swap(v);
+        };
+        fit(p.nodes);
+        fit(p.surfels);
+        fit(p.links);
+      }
+    } reset{scratch};
+    decode_page_into(bytes, where, manifest.page_format, *codec, manifest.stats.page_count,
+                     manifest.glossy_resolution != 0, manifest.options.leaf_format, nullptr, scratch);
+    decorate(scratch);
+    auto page = std::make_shared<tree::Page>();
+    page->id = scratch.id;
+    page->attachment = std::move(scratch.attachment);
+    page->glossy = std::move(scratch.glossy);
+    page->glossy_bytes = scratch.glossy_bytes;
+    if (!scratch.nodes.empty()) page->nodes = std::move(scratch.nodes);
+    if (!scratch.surfels.empty()) page->surfels = std::move(scratch.surfels);
+    if (!scratch.links.empty()) page->links = std::move(scratch.links);
     return page;
   }
 };

@@ -78,7 +78,7 @@ void expand_treelet(const TreeletView& t, uint32_t page_id, const std::string& w
   }
   out.id = page_id;
   out.nodes.assign(n, Node{});
-  out.surfels.resize(surfels);
+  out.surfels.assign(surfels, Surfel{});
   out.links.clear();
   out.links.reserve(t.links.size());
 

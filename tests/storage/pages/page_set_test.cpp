@@ -375,6 +375,48 @@ TEST_F(PageSetTest, DecoratorAttachmentsAreBuiltOncePerLoadAndCharged) {
   EXPECT_GT(small->counters().evictions, 0u);
 }
 
+// A decorated reader decodes page after page into one scratch page per
+// thread: a decorator that keeps the content gets the same pages as an
+// undecorated reader, in any order, and one that empties the arrays gets
+// each page whole (nothing left from the page before) and returns a page
+// without them.
+TEST_F(PageSetTest, DecoratedPagesHoldWhatTheDecoratorLeaves) {
+  const PageSetReader plain(dir_, nullptr);
+  const PageSetReader keeping(dir_, nullptr, [](tree::Page& p) { p.attachment = std::make_shared<Blob>(1); });
+  test::expect_same_walk(test::walk(keeping), test::walk(plain));
+
+  // The surfels and nodes each page had, as the decorator saw them.
+  struct Seen final : tree::PageAttachment {
+    size_t nodes = 0, surfels = 0;
+    float first_x = 0.f;
+    size_t memory_bytes() const override { return sizeof(Seen); }
+  };
+  const PageSetReader emptying(dir_, nullptr, [](tree::Page& p) {
+    auto seen = std::make_shared<Seen>();
+    seen->nodes = p.nodes.size();
+    seen->surfels = p.surfels.size();
+    seen->first_x = p.surfels.empty() ? 0.f : p.surfels[0].position.x;
+    p.attachment = seen;
+    p.nodes.clear();
+    p.surfels.clear();
+    p.links.clear();
+  });
+  const uint32_t pages = manifest_.stats.page_count;
+  for (uint32_t k = 0; k < 2 * pages; ++k) {
+    const uint32_t id = (k * 7919u) % pages;  // large and small pages in turn
+    const tree::PagePtr want = plain.page(id);
+    const tree::PagePtr got = emptying.page(id);
+    ASSERT_EQ(got->id, id);
+    EXPECT_TRUE(got->nodes.empty() && got->surfels.empty() && got->links.empty());
+    EXPECT_EQ(got->nodes.capacity() + got->surfels.capacity() + got->links.capacity(), 0u) << "page " << id;
+    const auto* seen = dynamic_cast<const Seen*>(got->attachment.get());
+    ASSERT_NE(seen, nullptr);
+    EXPECT_EQ(seen->nodes, want->nodes.size()) << "page " << id;
+    EXPECT_EQ(seen->surfels, want->surfels.size()) << "page " << id;
+    EXPECT_EQ(seen->first_x, want->surfels.empty() ? 0.f : want->surfels[0].position.x) << "page " << id;
+  }
+}
+
 TEST_F(PageSetTest, AThrowingDecoratorFailsTheLoadAndCachesNothing) {
   auto cache = std::make_shared<PageCache>(uint64_t(1) << 30);
   bool fail = true;
