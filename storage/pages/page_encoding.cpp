@@ -7,11 +7,11 @@
 #include "storage/pages/surfel_section.h"
 #include "storage/tree/page_records.h"
 #include "storage/tree/payload_rounding.h"
+#include "storage/tree/scratch_arrays.h"
 
 #include <cstddef>
 #include <limits>
 #include <string>
-#include <type_traits>
 #include <vector>
 
 namespace pbgi::storage {
@@ -140,9 +140,7 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
 namespace {
 
 // The arrays decode_page() fills and drops for every page, kept per thread
-// between calls: a page cache miss decodes one page, and allocating and
-// freeing them anew was a tenth of a small page's load. Arrays that a large
-// page grew are freed after it (trim()).
+// between calls (storage/tree/scratch_arrays.h).
 struct DecodeScratch {
   std::vector<uint8_t> unpacked, unpacked_records;
   std::vector<LeafRecord> leaf_section;
@@ -150,17 +148,13 @@ struct DecodeScratch {
   std::vector<tree::TreeletLink> link;
 
   void trim() {
-    constexpr size_t kKeep = size_t(256) << 10;  // bytes an array keeps
-    auto fit = [](auto& v) {
-      if (v.capacity() * sizeof(v[0]) > kKeep) std::remove_reference_t<decltype(v)>().swap(v);
-    };
-    fit(unpacked);
-    fit(unpacked_records);
-    fit(leaf_section);
-    fit(compact_payloads);
-    fit(linked);
-    fit(stored);
-    fit(link);
+    tree::trim_scratch(unpacked);
+    tree::trim_scratch(unpacked_records);
+    tree::trim_scratch(leaf_section);
+    tree::trim_scratch(compact_payloads);
+    tree::trim_scratch(linked);
+    tree::trim_scratch(stored);
+    tree::trim_scratch(link);
   }
 };
 

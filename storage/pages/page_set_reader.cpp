@@ -5,8 +5,7 @@
 #include "storage/pages/manifest_file.h"
 #include "storage/pages/page_encoding.h"
 #include "storage/pages/page_set.h"
-
-#include <type_traits>
+#include "storage/tree/scratch_arrays.h"
 
 namespace pbgi::storage {
 
@@ -55,13 +54,9 @@ struct PageSetReader::Impl {
       ~Reset() {
         p.attachment.reset();
         p.glossy.reset();
-        constexpr size_t kKeep = size_t(256) << 10;  // bytes an array keeps
-        auto fit = [](auto& v) {
-          if (v.capacity() * sizeof(v[0]) > kKeep) std::remove_reference_t<decltype(v)>().swap(v);
-        };
-        fit(p.nodes);
-        fit(p.surfels);
-        fit(p.links);
+        tree::trim_scratch(p.nodes);
+        tree::trim_scratch(p.surfels);
+        tree::trim_scratch(p.links);
       }
     } reset{scratch};
     decode_page_into(bytes, where, manifest.page_format, *codec, manifest.stats.page_count,

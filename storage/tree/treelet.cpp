@@ -4,9 +4,9 @@
 #include "storage/format/packed_values.h"
 #include "storage/tree/node_summary.h"
 #include "storage/tree/page_records.h"
+#include "storage/tree/scratch_arrays.h"
 
 #include <array>
-#include <type_traits>
 #include <vector>
 
 namespace pbgi::tree {
@@ -36,14 +36,10 @@ struct ExpandScratch {
   std::vector<Open> stack;
 
   void trim() {
-    constexpr size_t kKeep = size_t(256) << 10;  // bytes an array keeps
-    auto fit = [](auto& v) {
-      if (v.capacity() * sizeof(v[0]) > kKeep) std::remove_reference_t<decltype(v)>().swap(v);
-    };
-    fit(shape);
-    fit(link_of);
-    fit(frame);
-    fit(stack);
+    trim_scratch(shape);
+    trim_scratch(link_of);
+    trim_scratch(frame);
+    trim_scratch(stack);
   }
 };
 

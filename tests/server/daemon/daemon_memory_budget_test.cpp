@@ -244,7 +244,8 @@ TEST_F(DaemonMemoryBudget, TheWholeDaemonStaysWithinBudgetUnderConcurrentGathers
   EXPECT_EQ(errors.load(), 0) << daemon->log();
   EXPECT_GT(tiles.load(), kClients) << "too little load to mean anything";
   const v1::GetStatusResponse status = client::PbgiClient(daemon->address()).status();
-  EXPECT_GT(status.cache().evictions(), 1000u) << "the cache was not under pressure: " << status.cache().ShortDebugString();
+  EXPECT_GT(status.cache().evictions(), 1000u)
+      << "the cache was not under pressure: " << status.cache().ShortDebugString();
   const uint64_t peak = proc_status_bytes(daemon->pid(), "VmHWM");
   const uint64_t bound = idle + budget + kSlack;
   EXPECT_LE(peak, bound) << "peak RSS " << peak / kMiB << " MiB over idle " << idle / kMiB << " MiB + budget "

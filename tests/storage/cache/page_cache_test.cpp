@@ -29,6 +29,16 @@ tree::PagePtr make_page(uint32_t id, size_t nodes) {
 // What the cache charges for holding such a page: its bytes and the cache's own.
 const uint64_t kPageBytes = make_page(0, 10)->memory_bytes() + PageCache::entry_bytes();
 
+// Waits until `callers` fetches are counted (one miss, the others hits
+// waiting on its load): every caller has asked before the load goes on.
+void wait_for_callers(const PageCache& cache, uint64_t callers) {
+  while (true) {
+    const CacheCounters c = cache.counters();
+    if (c.hits + c.misses == callers) return;
+    std::this_thread::yield();
+  }
+}
+
 TEST(PageCache, HoldsWithinBudgetAndAdmitsPagesUsedMoreOften) {
   PageCache cache(3 * kPageBytes + kPageBytes / 2);  // room for 3 pages
   int loads = 0;
@@ -234,13 +244,7 @@ TEST(PageCache, ConcurrentMissesLoadOnce) {
       });
     });
   }
-  // Every caller is counted (one miss, the others hits waiting on it)
-  // before it blocks.
-  while (true) {
-    const CacheCounters c = cache.counters();
-    if (c.hits + c.misses == kThreads) break;
-    std::this_thread::yield();
-  }
+  wait_for_callers(cache, kThreads);
   release.set_value();
   for (auto& t : threads) t.join();
   EXPECT_EQ(loads.load(), 1);
@@ -257,6 +261,7 @@ TEST(PageCache, ConcurrentMissesShareAFailedLoad) {
   constexpr int kThreads = 6;
   std::atomic<int> failed{0};
   std::vector<std::thread> threads;
+  threads.reserve(kThreads);
   for (int i = 0; i < kThreads; ++i) {
     threads.emplace_back([&] {
       try {
@@ -270,11 +275,7 @@ TEST(PageCache, ConcurrentMissesShareAFailedLoad) {
       }
     });
   }
-  while (true) {
-    const CacheCounters c = cache.counters();
-    if (c.hits + c.misses == kThreads) break;
-    std::this_thread::yield();
-  }
+  wait_for_callers(cache, kThreads);
   release.set_value();
   for (auto& t : threads) t.join();
   EXPECT_EQ(loads.load(), 1);
@@ -293,8 +294,8 @@ TEST(PageCache, ConcurrentMissesShareAFailedLoad) {
 // are scattered so that keys collide in the index.
 TEST(PageCache, ForgettingOwnersKeepsTheOthersPagesFound) {
   PageCache cache(uint64_t(1) << 30);
-  std::vector<uint64_t> owners;
-  for (int o = 0; o < 8; ++o) owners.push_back(cache.new_owner());
+  std::vector<uint64_t> owners(8);
+  for (uint64_t& o : owners) o = cache.new_owner();
   std::vector<uint32_t> ids;
   uint64_t state = 99;
   for (int i = 0; i < 300; ++i) {
