@@ -38,10 +38,11 @@ else
   tail -30 "$ASAN_BUILD/fuzz/reliability.build.log"; failed=1
 fi
 
-# 2. TSan: the service under concurrent requests.
+# 2. TSan: the service under concurrent requests, and the page cache that
+#    concurrent gathers share.
 TSAN_BUILD="${PBGI_TSAN_BUILD_DIR:-$ROOT/build-tsan}"
 mkdir -p "$TSAN_BUILD"
-log "TSan: service tests (build-tsan)"
+log "TSan: service and page cache tests (build-tsan)"
 if [ ! -f "$TSAN_BUILD/build.ninja" ]; then
   TSAN="-fsanitize=thread -fno-omit-frame-pointer"
   cmake -S "$ROOT" -B "$TSAN_BUILD" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
@@ -51,11 +52,13 @@ if [ ! -f "$TSAN_BUILD/build.ninja" ]; then
     -DPBGI_BUILD_BENCHMARKS=OFF -DPBGI_PYTHON="$ROOT/.venv/bin/python3" \
     > "$TSAN_BUILD/configure.log" 2>&1 || { cat "$TSAN_BUILD/configure.log"; exit 2; }
 fi
-if cmake --build "$TSAN_BUILD" -j "$JOBS" --target test_server_service > "$TSAN_BUILD/build.log" 2>&1; then
+if cmake --build "$TSAN_BUILD" -j "$JOBS" --target test_server_service test_storage_cache > "$TSAN_BUILD/build.log" 2>&1; then
   # TBB's scheduler is not instrumented: its own hand-offs are suppressed
   # (tests/sanitizers/tsan.supp); races in pbgi code are not.
-  TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:suppressions=$ROOT/tests/sanitizers/tsan.supp" \
-    "$TSAN_BUILD/tests/test_server_service" --gtest_brief=1 || failed=1
+  for t in test_server_service test_storage_cache; do
+    TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:suppressions=$ROOT/tests/sanitizers/tsan.supp" \
+      "$TSAN_BUILD/tests/$t" --gtest_brief=1 || failed=1
+  done
 else
   grep -m5 -B2 -A8 'error:' "$TSAN_BUILD/build.log" || tail -30 "$TSAN_BUILD/build.log"; failed=1
 fi
