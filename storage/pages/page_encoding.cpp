@@ -158,11 +158,6 @@ struct DecodeScratch {
   }
 };
 
-DecodeScratch& decode_scratch() {
-  thread_local DecodeScratch scratch;
-  return scratch;
-}
-
 }  // namespace
 
 std::shared_ptr<tree::Page> decode_page(std::span<const uint8_t> bytes, const PageLocation& where,
@@ -181,7 +176,7 @@ void decode_page_into(std::span<const uint8_t> bytes, const PageLocation& where,
   PageHeader h = open_page(bytes, where, expected_version);
   const std::string at = where.describe();
   auto corrupt = [&](const std::string& msg) { return CorruptionError(at + ": " + msg); };
-  DecodeScratch& scratch = decode_scratch();
+  thread_local DecodeScratch scratch;
   struct Trim {
     DecodeScratch& s;
     ~Trim() { s.trim(); }
