@@ -4,6 +4,7 @@
 #include "server/scene/direct_lighting.h"
 #include "server/scene/rng.h"
 #include "server/scene/sample_patterns.h"
+#include "storage/tree/page_records.h"
 
 #include <bit>
 #include <cstring>
@@ -29,7 +30,8 @@ void SceneGlossyShader::add_lobe(const Surfel& s, const SurfelGloss& g, const st
                                  float weight, std::span<float> cube) const {
   const uint64_t id = hash_ids(seed_, kGlossDomain, position_id(s.position));
   thread_local std::vector<IncidentSample> light;
-  incident_light(rays_, s.position, s.normal, light_samples_, id, light);
+  const V3f lit = s.position + s.normal * (storage::kDecodedPositionSlack * s.radius);
+  incident_light(rays_, lit, s.normal, light_samples_, id, light);
   if (light.empty()) return;
   BrdfLobes lobes;
   lobes.f0 = g.f0;

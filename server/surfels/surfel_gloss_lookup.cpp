@@ -2,6 +2,7 @@
 
 #include "server/scene/surface_colors.h"
 #include "server/surfels/surfel_material.h"
+#include "storage/tree/page_records.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>
@@ -31,10 +32,11 @@ GlossLookupStats restore_surfel_gloss(const RayScene& rays, float glossy_roughne
       Surfel& s = surfels[i];
       s.gloss = {};
       if (!(glossy_roughness > 0.f)) continue;
-      // From just above the surfel (its rounding box, as a ray leaving it)
-      // down the normal, as far again below it.
+      // From just above the surfel (its rounding box, as a ray leaving it,
+      // and how far decoding may have moved it off its surface:
+      // storage/tree/page_records.h) down the normal, as far again below it.
       const V3f err = rays.point_error(s.position);
-      const float offset = 4.f * std::max({err.x, err.y, err.z}) + 1e-3f * s.radius;
+      const float offset = 4.f * std::max({err.x, err.y, err.z}) + storage::kDecodedPositionSlack * s.radius;
       const V3f origin = s.position + s.normal * offset;
       // The surfel's own triangle faces its way (its winding normal is the
       // surfel's, or the opposite for the back of a double-sided mesh): a

@@ -13,6 +13,7 @@
 namespace pbgi::storage {
 
 uint64_t checksum64(const void* data, size_t size) { return XXH3_64bits(data, size); }
+uint64_t checksum64(const void* data, size_t size, uint64_t seed) { return XXH3_64bits_withSeed(data, size, seed); }
 
 Checksum64Stream::Checksum64Stream() : state_(XXH3_createState()) {
   if (!state_) throw std::bad_alloc();

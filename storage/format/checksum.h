@@ -10,6 +10,8 @@
 namespace pbgi::storage {
 
 uint64_t checksum64(const void* data, size_t size);
+// The same seeded with `seed` (V10/V11 pages: their page id).
+uint64_t checksum64(const void* data, size_t size, uint64_t seed);
 
 // checksum64 of bytes that arrive in pieces (a file streamed through a
 // buffer): digest() equals checksum64 over all of them concatenated.

@@ -56,6 +56,14 @@ inline constexpr uint32_t kSceneEntryMagic = fourcc("PBGS");  // <cache>/ingeste
 //       them exactly. Derived payloads. Always with a V5 manifest.
 //   V9: V8 with every node's payload stored (V7's payload array, its size
 //       in a u32 after the header).
+//   V10: V8 in a smaller frame and section (FORMAT.md "Page formats V10
+//       and V11"): a 9-byte header (no codec, no page id) and a 4-byte
+//       trailer whose checksum is seeded with the page id; surfel
+//       positions on a grid of 10 bits of the leaf frame (14 before),
+//       stored in 10 bits; radius codes stored as the difference to the
+//       previous surfel's radius in this surfel's leaf frame. ~3 bytes
+//       a surfel fewer than V8. Derived payloads.
+//   V11: V10 with every node's payload stored (as V9).
 inline constexpr uint32_t kPageFormatV1 = 1;
 inline constexpr uint32_t kPageFormatV2 = 2;
 inline constexpr uint32_t kPageFormatV3 = 3;
@@ -65,9 +73,11 @@ inline constexpr uint32_t kPageFormatV6 = 6;
 inline constexpr uint32_t kPageFormatV7 = 7;
 inline constexpr uint32_t kPageFormatV8 = 8;
 inline constexpr uint32_t kPageFormatV9 = 9;
+inline constexpr uint32_t kPageFormatV10 = 10;
+inline constexpr uint32_t kPageFormatV11 = 11;
 // What this build writes: derived payloads, and every node's payload stored.
-inline constexpr uint32_t kPageFormatCurrent = kPageFormatV8;  // derived payloads
-inline constexpr uint32_t kPageFormatNodePayloads = kPageFormatV9;
+inline constexpr uint32_t kPageFormatCurrent = kPageFormatV10;  // derived payloads
+inline constexpr uint32_t kPageFormatNodePayloads = kPageFormatV11;
 
 // Most levels of the tree one V4/V5 page may hold (root to deepest leaf of
 // its treelet, counted in nodes). Readers check it; the build chooses fewer
@@ -139,7 +149,9 @@ inline constexpr uint32_t kManifestFormatLatest = kManifestFormatV6;   // the ne
 //   7: air regions: a scene whose empty space falls apart into closed
 //      regions keeps each region's surfels in a subtree of its own (V6
 //      manifest); the pages are unchanged.
-inline constexpr uint32_t kPageSetFormatVersion = 7;
+//   8: V10/V11 pages: a smaller frame, surfel positions on a 10-bit grid of
+//      the leaf frame, radius codes stored against a prediction.
+inline constexpr uint32_t kPageSetFormatVersion = 8;
 
 // Ingested-scene entry versions (server/ingest/scene_entry.h).
 //   1-3 (refused): no frame -- the bare SceneChunk stream, dependencies in a
@@ -164,23 +176,28 @@ constexpr bool is_known_scene_entry_format(uint32_t v) { return v == kSceneEntry
 // no longer match, so a daemon rebuilds them, but a page set opened by
 // path (pbgi inspect, benchmarks) reads as before.
 // V6/V7 pages (kPageSetFormatVersion 5) likewise.
-constexpr bool is_known_page_format(uint32_t v) { return v >= kPageFormatV4 && v <= kPageFormatV9; }
+// V8/V9 pages (kPageSetFormatVersion 6, 7) likewise.
+constexpr bool is_known_page_format(uint32_t v) { return v >= kPageFormatV4 && v <= kPageFormatV11; }
 constexpr bool is_retired_page_format(uint32_t v) { return v >= kPageFormatV1 && v <= kPageFormatV3; }
 // Whether pages of format `v` store every node's payload.
 constexpr bool page_format_stores_node_payloads(uint32_t v) {
-  return v == kPageFormatV5 || v == kPageFormatV7 || v == kPageFormatV9;
+  return v == kPageFormatV5 || v == kPageFormatV7 || v == kPageFormatV9 || v == kPageFormatV11;
 }
 // Whether pages of format `v` hold compact surfel records (leaf format
 // relative) and an emission section.
-constexpr bool page_format_has_compact_records(uint32_t v) { return v >= kPageFormatV6 && v <= kPageFormatV9; }
+constexpr bool page_format_has_compact_records(uint32_t v) { return v >= kPageFormatV6 && v <= kPageFormatV11; }
 // Whether the nodes of pages of format `v` have rounded payloads
 // (storage/tree/payload_rounding.h), which derived pages' links store in
 // 76 bytes instead of the codec's 144.
-constexpr bool page_format_rounds_payloads(uint32_t v) { return v >= kPageFormatV6 && v <= kPageFormatV9; }
+constexpr bool page_format_rounds_payloads(uint32_t v) { return v >= kPageFormatV6 && v <= kPageFormatV11; }
 // Whether pages of format `v` have the compact frame (14-byte header, no
 // padding) and 13-byte leaf records of rounded frames (page_frame.h,
 // page_records.h).
-constexpr bool page_format_has_compact_frame(uint32_t v) { return v == kPageFormatV8 || v == kPageFormatV9; }
+constexpr bool page_format_has_compact_frame(uint32_t v) { return v >= kPageFormatV8 && v <= kPageFormatV11; }
+// Whether pages of format `v` have the small frame (9-byte header without
+// codec and page id, 4-byte trailer of a checksum seeded with the page id)
+// and the V10 surfel section (10-bit positions, predicted radius codes).
+constexpr bool page_format_has_small_frame(uint32_t v) { return v == kPageFormatV10 || v == kPageFormatV11; }
 constexpr bool is_known_manifest_format(uint32_t v) { return v >= kManifestFormatV1 && v <= kManifestFormatV6; }
 
 }  // namespace pbgi::storage

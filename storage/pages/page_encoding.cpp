@@ -54,13 +54,13 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
   } else {
     std::copy(t.shapes.begin(), t.shapes.end(), out.begin() + std::ptrdiff_t(header_bytes));
   }
+  // The builder's frames are rounded (leaf_quantizer.h): the leaf
+  // section holds them exactly.
+  std::vector<LeafRecord> leaves(compact_frame ? t.leaf_records.size() / kLeafRecordBytes : 0);
+  for (size_t i = 0; i < leaves.size(); ++i) {
+    read_leaf_record(t.leaf_records.data() + i * kLeafRecordBytes, leaves[i].frame, leaves[i].surfel_count);
+  }
   if (compact_frame) {
-    // The builder's frames are rounded (leaf_quantizer.h): the leaf
-    // section holds them exactly.
-    std::vector<LeafRecord> leaves(t.leaf_records.size() / kLeafRecordBytes);
-    for (size_t i = 0; i < leaves.size(); ++i) {
-      read_leaf_record(t.leaf_records.data() + i * kLeafRecordBytes, leaves[i].frame, leaves[i].surfel_count);
-    }
     encode_leaf_section(leaves, out);
   } else {
     out.insert(out.end(), t.leaf_records.begin(), t.leaf_records.end());
@@ -114,13 +114,13 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
                   out.data() + albedo_at + 4 + k * kCompactSharedAlbedoRecordBytes);
     }
   } else if (surfel_section) {
-    encode_surfel_section(t.surfel_records, out);
+    encode_surfel_section(t.surfel_records, leaves, version, out);
   } else {
     out.insert(out.end(), t.surfel_records.begin(), t.surfel_records.end());
   }
   out.insert(out.end(), t.emission.begin(), t.emission.end());
   out.insert(out.end(), glossy.begin(), glossy.end());
-  out.resize(out.size() + kPageTrailerBytes);
+  out.resize(out.size() + page_trailer_bytes(version));
 
   PageHeader h;
   h.format_version = static_cast<uint16_t>(version);
@@ -134,7 +134,7 @@ void encode_page(const tree::Treelet& t, uint32_t page_id, const PayloadCodec& c
   h.payload_bytes = static_cast<uint32_t>(payload_bytes);
   h.page_bytes = static_cast<uint32_t>(out.size());
   write_page_header(h, out.data());
-  seal_page(out);
+  seal_page(out, page_id);
 }
 
 namespace {
@@ -182,7 +182,8 @@ void decode_page_into(std::span<const uint8_t> bytes, const PageLocation& where,
     ~Trim() { s.trim(); }
   } trim{scratch};
 
-  if (h.codec != codec.id()) {
+  // V10/V11 headers leave the codec to the manifest.
+  if (!page_format_has_small_frame(h.format_version) && h.codec != codec.id()) {
     throw corrupt("payload codec " + std::to_string(h.codec) + " differs from the manifest's " +
                   std::to_string(codec.id()));
   }
@@ -210,9 +211,10 @@ void decode_page_into(std::span<const uint8_t> bytes, const PageLocation& where,
   if (h.node_count == 0) throw corrupt("page has no nodes");
   const bool compact_frame = page_format_has_compact_frame(h.format_version);
   const size_t header_bytes = page_header_bytes(h.format_version);
+  const size_t trailer_bytes = page_trailer_bytes(h.format_version);
   // 1. Sizes. Leaf and link counts follow from the shapes (each byte is
   //    checked when the treelet is parsed).
-  const uint64_t body = bytes.size() - header_bytes - kPageTrailerBytes;
+  const uint64_t body = bytes.size() - header_bytes - trailer_bytes;
   const uint64_t shape_bytes = compact_frame ? (uint64_t(h.node_count) + 1) / 2 : h.node_count;
   if (shape_bytes > body) {
     throw corrupt(std::to_string(h.node_count) + " shapes do not fit the page");
@@ -241,7 +243,7 @@ void decode_page_into(std::span<const uint8_t> bytes, const PageLocation& where,
   std::vector<LeafRecord>& leaf_section = scratch.leaf_section;
   leaf_section.clear();
   const uint64_t leaf_bytes =
-      compact_frame ? decode_leaf_section(bytes.subspan(leaves_at, bytes.size() - kPageTrailerBytes - leaves_at),
+      compact_frame ? decode_leaf_section(bytes.subspan(leaves_at, bytes.size() - trailer_bytes - leaves_at),
                                           leaves, leaf_section, at)
                     : leaves * kLeafRecordBytes;
   const uint64_t links_at = leaves_at + leaf_bytes;
@@ -252,10 +254,10 @@ void decode_page_into(std::span<const uint8_t> bytes, const PageLocation& where,
     // V8/V9 headers do not store the surfel count (the leaves' counts add
     // up to it) nor, in V8, the payload array's size (its compact payloads
     // say theirs).
-    if (payload_at + kPageTrailerBytes > bytes.size()) {
+    if (payload_at + trailer_bytes > bytes.size()) {
       throw corrupt("header, shapes and leaves (" + std::to_string(h.node_count) + " nodes, " + std::to_string(leaves) +
                     " leaves, " + std::to_string(links) + " links) need at least " +
-                    std::to_string(payload_at + kPageTrailerBytes) + " bytes, page has " +
+                    std::to_string(payload_at + trailer_bytes) + " bytes, page has " +
                     std::to_string(bytes.size()));
     }
     uint64_t surfels = 0;
@@ -268,7 +270,7 @@ void decode_page_into(std::span<const uint8_t> bytes, const PageLocation& where,
       // V8: the linked children's compact payloads, back to back.
       compact_payloads.assign(links, tree::Node{});
       uint64_t used = 0;
-      const auto rest = bytes.subspan(payload_at, bytes.size() - kPageTrailerBytes - payload_at);
+      const auto rest = bytes.subspan(payload_at, bytes.size() - trailer_bytes - payload_at);
       for (uint64_t i = 0; i < links; ++i) {
         const size_t n = tree::read_compact_payload(rest.subspan(used), compact_payloads[i]);
         if (n == 0) {
@@ -287,15 +289,15 @@ void decode_page_into(std::span<const uint8_t> bytes, const PageLocation& where,
   std::span<const uint8_t> record_span;
   uint64_t surfel_bytes = uint64_t(h.surfel_count) * record_bytes;
   if (surfel_section) {
-    if (surfels_at + kPageTrailerBytes > bytes.size()) {
+    if (surfels_at + trailer_bytes > bytes.size()) {
       throw corrupt("the payload array (" + std::to_string(h.payload_bytes) + " bytes) runs past the page");
     }
-    surfel_bytes = decode_surfel_section(bytes.subspan(surfels_at, bytes.size() - kPageTrailerBytes - surfels_at),
-                                         h.surfel_count, unpacked_records, at);
+    surfel_bytes = decode_surfel_section(bytes.subspan(surfels_at, bytes.size() - trailer_bytes - surfels_at),
+                                         leaf_section, h.format_version, unpacked_records, at);
     record_span = unpacked_records;
   }
   const uint64_t emission_at = surfels_at + surfel_bytes;
-  if (!surfel_section && emission_at + kPageTrailerBytes <= bytes.size()) {
+  if (!surfel_section && emission_at + trailer_bytes <= bytes.size()) {
     record_span = bytes.subspan(surfels_at, surfel_bytes);
   }
   // Compact records: one emission entry per record that emits (counted
@@ -307,11 +309,11 @@ void decode_page_into(std::span<const uint8_t> bytes, const PageLocation& where,
     }
   }
   const uint64_t glossy_at = emission_at + emitting * kEmissionEntryBytes;
-  const uint64_t need = glossy_at + kPageTrailerBytes;
+  const uint64_t need = glossy_at + trailer_bytes;
   if (parts) {
     *parts = {header_bytes, leaves_at, links_at,
               payload_at,   albedo_at, surfels_at,
-              emission_at,  glossy_at, bytes.size() - kPageTrailerBytes};
+              emission_at,  glossy_at, bytes.size() - trailer_bytes};
   }
   // A glossy section fills what lies between the surfels and the trailer.
   if (glossy ? need >= bytes.size() : need != bytes.size()) {

@@ -7,14 +7,25 @@
 // the field's smallest value and the width of the differences to it.
 // Lossless: the decoded records are the build's, bit for bit.
 //
-// Why: a page's ~14 surfels lie on one or two surfaces, so their normals,
-// radii (uniform sampling) and colours vary little; a shared albedo (V6's
-// kPageFlagSharedAlbedo) is the case of an albedo column of width 0.
-// Measured: 14.2 -> 8.3 bytes a surfel on the Cornell box, 14.0 -> 9.5 on
-// a generated city (docs/measurements/2026-11-27-compact-v8.md).
+// V10/V11 pages (page_format_has_small_frame) code two fields anew, still
+// losslessly:
+//  * positions: the build puts a leaf's position codes on a grid of 2^s
+//    codes when its surfels' radii allow (page_records.h
+//    position_grid_shift: s = 4, 10 bits, on a surface sampled evenly), so
+//    the section stores the page's common s (3 bits) and each code in
+//    14 - s bits;
+//  * the radius: as the difference to a prediction, the previous surfel's
+//    radius code rescaled from its leaf's frame to this surfel's
+//    (surfels of a page have about one radius in the world, but leaves of
+//    several sizes): the first surfel's code in full, then each
+//    difference, the column's smallest difference and width in its header.
+// Measured on a generated city: 10.7 -> 8.1 bytes a surfel
+// (docs/measurements/2026-11-28-page-format-v10.md).
 //
 // Thread-safety: pure functions.
 #pragma once
+
+#include "storage/tree/page_records.h"
 
 #include <cstddef>
 #include <cstdint>
@@ -25,15 +36,19 @@
 namespace pbgi::storage {
 
 // Appends the section of `records` (a whole number of compact records;
-// none: nothing) to `out`.
-void encode_surfel_section(std::span<const uint8_t> records, std::vector<uint8_t>& out);
+// none: nothing) to `out`, in the coding of page format `format` (V8-V11).
+// `leaves` are the page's leaves, whose counts add up to the records (V10
+// and V11 predict radii with their frames).
+void encode_surfel_section(std::span<const uint8_t> records, std::span<const LeafRecord> leaves, uint32_t format,
+                           std::vector<uint8_t>& out);
 
-// Decodes the section of `surfel_count` records at the start of `bytes`
-// into `records` (replaced: surfel_count compact records) and returns its
+// Decodes the section of the records of `leaves` (their counts' sum) at the
+// start of `bytes` into `records` (replaced: that many compact records), in
+// the coding of page format `format`, and returns its
 // size. Throws CorruptionError, prefixed with `what`, for a section that
 // does not fit `bytes` or holds what no writer produces (a width beyond
 // its field's, a value past its field, padding bits that are not zero).
-size_t decode_surfel_section(std::span<const uint8_t> bytes, size_t surfel_count, std::vector<uint8_t>& records,
-                             const std::string& what);
+size_t decode_surfel_section(std::span<const uint8_t> bytes, std::span<const LeafRecord> leaves, uint32_t format,
+                             std::vector<uint8_t>& records, const std::string& what);
 
 }  // namespace pbgi::storage

@@ -2,6 +2,7 @@
 
 #include "storage/tree/bounding_sphere.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -33,18 +34,23 @@ storage::LeafFrame quantize_leaf(storage::SurfelRecords format, std::span<const 
   // position R/65534 per axis, radius R/131070, normal 1e-4 rad times
   // r <= R; half: radius R/4096, normal 1e-3 rad times r; compact: up to
   // ~1.4e-3 R, position R/16382 per axis, radius R/16382, normal 1.2e-3
-  // rad times r, though most normals move far less): a 2^-11 margin mostly
-  // suffices the first time, and the loop below widens otherwise.
+  // rad times r, though most normals move far less; positions on a coarser
+  // grid, page_records.h position_grid_shift, up to 16 R/8191 per axis): a
+  // 2^-11 margin mostly suffices the first time, and the loop below widens
+  // otherwise.
   f.radius = tight.radius * (1.f + 0x1p-11f);
   // The tree's frames are rounded (page_records.h RoundedFrame), so that
   // V8/V9 leaf records hold them exactly: the surfels are quantized in the
   // rounded frame, which contains the sphere it rounds.
-  f = storage::round_frame_outward(f).frame();
+  f = storage::round_frame_outward(f, storage::kLeafFrameGridBits).frame();
+  float smallest = std::numeric_limits<float>::infinity();
+  for (const Surfel& s : surfels) smallest = std::min(smallest, s.radius);
   for (int attempt = 0;; ++attempt) {
+    const int shift = storage::position_grid_shift(f.radius, smallest);
     double farthest = 0;
     for (size_t i = 0; i < surfels.size(); ++i) {
       uint8_t* rec = records + i * record_bytes;
-      storage::encode_surfel_record(format, surfels[i], f, rec);
+      storage::encode_surfel_record(format, surfels[i], f, rec, shift);
       storage::decode_surfel_record(format, rec, f, decoded[i]);
       farthest = std::max(farthest, farthest_disk_distance(
                                         Imath::V3d(f.center.x, f.center.y, f.center.z), decoded[i]));
@@ -57,7 +63,7 @@ storage::LeafFrame quantize_leaf(storage::SurfelRecords format, std::span<const 
     // record changes). Doubling the margin each time ends in a few steps.
     const float grow = 1.f + std::ldexp(1.f, -10 + attempt);
     f.radius = std::max(f.radius * grow, std::nextafter(float(farthest), std::numeric_limits<float>::infinity()));
-    f = storage::round_frame_outward(f).frame();
+    f = storage::round_frame_outward(f, storage::kLeafFrameGridBits).frame();
   }
 }
 

@@ -5,7 +5,8 @@
 // *decoded* disk lies inside it: the tree's bounds are computed from the
 // decoded surfels, so they hold for exactly what a reader gets. The frame
 // radius is at most ~0.05% larger than the tightest sphere of the input,
-// then rounded outward (page_records.h RoundedFrame: up to ~0.15% more),
+// then rounded outward (page_records.h RoundedFrame, on the leaf frames' grid
+// of kLeafFrameGridBits: up to ~1.5% more),
 // so that a V8/V9 page's leaf section holds it exactly.
 //
 // Thread-safety: pure functions.

@@ -66,7 +66,6 @@ namespace {
 // callers' arithmetic, and cheap.
 float pow2f(int e) { return std::bit_cast<float>(uint32_t(e + 127) << 23); }
 constexpr int kFrameExponentBias = 128;
-constexpr int kFrameGridBits = 10;    // step >= radius / 2048
 constexpr int kFrameCenterBits = 21;  // |k| <= 2^22
 int ilogb_or_min(float v) { return v > 0.f ? std::ilogb(v) : kMinFrameExponent; }
 
@@ -88,10 +87,9 @@ LeafFrame RoundedFrame::frame() const {
   return {{float(k[0]) * step, float(k[1]) * step, float(k[2]) * step}, float(m) * step};
 }
 
-RoundedFrame round_frame_outward(const LeafFrame& f) {
+RoundedFrame round_frame_outward(const LeafFrame& f, int grid_bits) {
   const float largest = std::max({std::abs(f.center.x), std::abs(f.center.y), std::abs(f.center.z)});
-  int e =
-      std::max({ilogb_or_min(f.radius) - kFrameGridBits, ilogb_or_min(largest) - kFrameCenterBits, kMinFrameExponent});
+  int e = std::max({ilogb_or_min(f.radius) - grid_bits, ilogb_or_min(largest) - kFrameCenterBits, kMinFrameExponent});
   for (;; ++e) {
     if (e > kMaxFrameExponent) {
       throw InvalidArgument("a leaf frame of radius " + std::to_string(f.radius) + " is too large for a rounded frame");
@@ -264,13 +262,23 @@ constexpr int kCompactPositionBits = 14;
 constexpr int kCompactNormalBits = 12;
 constexpr int kCompactRadiusBits = 13;
 
-void encode_compact(const Surfel& s, const LeafFrame& f, uint8_t* out) {
+// A position coordinate (offset from the frame's centre over its radius) as
+// a 14-bit code on the grid 8191 + 2^shift j, |j| <= 8191 >> shift: shift 0
+// is the 14-bit snorm code; V10/V11 surfel sections store a page's codes in
+// 14 - shift bits when all lie on such a grid (surfel_section.h).
+uint32_t encode_grid_position(float x, int shift) {
+  constexpr int kTop = (1 << (kCompactPositionBits - 1)) - 1;  // 8191
+  const long steps = long(kTop >> shift);
+  const long j = std::clamp(std::lround(std::clamp(x, -1.f, 1.f) * (float(kTop) / float(1 << shift))), -steps, steps);
+  return uint32_t(kTop + (j << shift));
+}
+
+void encode_compact(const Surfel& s, const LeafFrame& f, uint8_t* out, int shift) {
   const float inv = f.radius > 0.f ? 1.f / f.radius : 0.f;
   const Imath::V3f d = (s.position - f.center) * inv;
   const uint64_t oct = encode_octahedral_bits(s.normal, kCompactNormalBits);  // 24 bits
-  const uint64_t lo = uint64_t(encode_snorm_bits(d.x, kCompactPositionBits)) |
-                      uint64_t(encode_snorm_bits(d.y, kCompactPositionBits)) << 14 |
-                      uint64_t(encode_snorm_bits(d.z, kCompactPositionBits)) << 28 | oct << 42;
+  const uint64_t lo = uint64_t(encode_grid_position(d.x, shift)) | uint64_t(encode_grid_position(d.y, shift)) << 14 |
+                      uint64_t(encode_grid_position(d.z, shift)) << 28 | oct << 42;
   const uint32_t hi = uint32_t(oct >> 22) | encode_unorm_bits(s.radius * inv, kCompactRadiusBits) << 2 |
                       (encode_rgb9e5(s.emission) != 0 ? 1u << 15 : 0u);
   store_le<uint64_t>(out, lo);
@@ -350,15 +358,27 @@ void decode_half(const uint8_t* in, const LeafFrame& f, Surfel& s) {
 }
 }  // namespace
 
-void encode_surfel_record(SurfelRecords records, const Surfel& s, const LeafFrame& f, uint8_t* out) {
+int position_grid_shift(float frame_radius, float smallest_radius) {
+  // The largest shift whose step, 2^shift R / 8191, is at most r / 32:
+  // 2^shift 32 R <= 8191 r, in double (exact for these products).
+  int shift = 0;
+  while (shift < kMaxPositionGridShift &&
+         double(1 << (shift + 1)) * kPositionStepsPerRadius * double(frame_radius) <= 8191.0 * double(smallest_radius)) {
+    ++shift;
+  }
+  return shift;
+}
+
+void encode_surfel_record(SurfelRecords records, const Surfel& s, const LeafFrame& f, uint8_t* out,
+                          int position_shift) {
   switch (records) {
     case SurfelRecords::kHalf:
       return encode_half(s, f, out);
     case SurfelRecords::kCompact:
-      return encode_compact(s, f, out);
+      return encode_compact(s, f, out, position_shift);
     case SurfelRecords::kCompactSharedAlbedo: {
       uint8_t full[kCompactSurfelRecordBytes];
-      encode_compact(s, f, full);
+      encode_compact(s, f, full, position_shift);
       return drop_albedo(full, out);
     }
     case SurfelRecords::kRelative:

@@ -26,7 +26,11 @@
 //      fraction of the frame radius) and colours.
 //
 // Precision of a decoded surfel, with R the radius of its leaf's frame.
-// Compact: each position coordinate within R / 16382 (plus float
+// Compact: each position coordinate on a grid of step 2^shift R / 8191
+// (position_grid_shift below: shift 0, the 14-bit code, within R / 16382;
+// a leaf whose smallest surfel radius r allows it, shift up to 4, a step
+// of at most r / 32, within half a step, or a whole one within a step of
+// the frame's edge, where the grid ends) (plus float
 // rounding), radius within R / 16382, normal within kOctahedral12MaxAngle
 // radians, each colour channel within max(r, g, b) / 512 (packed_values.h;
 // emission exactly as RGB9E5 codes it, out of line or not).
@@ -50,6 +54,7 @@
 #include <string>
 
 namespace pbgi::storage {
+
 
 inline constexpr size_t kShapeBytes = 1;
 inline constexpr size_t kLeafRecordBytes = 18;
@@ -108,9 +113,15 @@ struct RoundedFrame {
   LeafFrame frame() const;  // exact: every value is a float
 };
 // The rounded frame containing the sphere (center, radius) (finite, radius
-// >= 0). Throws InvalidArgument when no rounded frame can hold it (a
-// radius beyond ~2^126).
-RoundedFrame round_frame_outward(const LeafFrame& f);
+// >= 0), on a grid of step at least radius / 2^(grid_bits + 1): node
+// spheres take kSphereGridBits (as described above), leaf frames
+// kLeafFrameGridBits since V10 (a step of R/256 to R/128: the frame grows
+// by up to ~1.5% of its radius, and the leaf section stores each leaf in
+// 12 bits fewer, ~0.5 bytes a surfel). Throws InvalidArgument when no
+// rounded frame can hold it (a radius beyond ~2^126).
+inline constexpr int kSphereGridBits = 10;
+inline constexpr int kLeafFrameGridBits = 7;
+RoundedFrame round_frame_outward(const LeafFrame& f, int grid_bits = kSphereGridBits);
 // Whether a compact record can hold `f` exactly (some e with every centre
 // coordinate k 2^e, |k| <= kMaxRoundedFrameCenter, and the radius m 2^e,
 // m <= kMaxRoundedFrameRadius), and that representation (the coarsest).
@@ -152,7 +163,27 @@ bool read_compact_link_record(const uint8_t* in, uint32_t& page, tree::Node& n);
 // its emission entry (write_emission_entry) goes to the page's emission
 // section; decode_surfel_record then sets the emission to zero and the
 // caller reads the entry (read_emission_entry).
-void encode_surfel_record(SurfelRecords records, const Surfel& s, const LeafFrame& f, uint8_t* out);
+// Compact records: positions on the grid of `position_shift` (0 ..
+// kMaxPositionGridShift; other layouts ignore it).
+void encode_surfel_record(SurfelRecords records, const Surfel& s, const LeafFrame& f, uint8_t* out,
+                          int position_shift = 0);
+
+// The grid of a compact leaf's positions: the coarsest (largest shift, at
+// most kMaxPositionGridShift) whose step 2^shift R / 8191 is at most
+// 1/kPositionStepsPerRadius of the leaf's smallest surfel radius (0 for a
+// leaf with a zero radius). Why: positions relative to a frame of ~2
+// surfel radii need far fewer than 14 bits (a step of r/32 moves a disk by
+// ~1.5% of its radius at most), and V10/V11 surfel sections store a page
+// of such leaves in 10 bits a coordinate; a sparse leaf (R >> r) keeps 14.
+inline constexpr int kMaxPositionGridShift = 4;
+inline constexpr double kPositionStepsPerRadius = 32;
+int position_grid_shift(float frame_radius, float smallest_radius);
+// How far from where it was sampled a decoded compact surfel may lie, in
+// its radii: a step of r/32 per coordinate on a coarse grid (sqrt(3)/32 <
+// 1/16), or R/16382 on the finest, less than r/16 for frames up to 1024
+// surfel radii. Whoever looks the surfel's surface up again or casts
+// shadow rays from it (server/surfels) starts this far above it.
+inline constexpr float kDecodedPositionSlack = 1.f / 16.f;
 void decode_surfel_record(SurfelRecords records, const uint8_t* in, const LeafFrame& f, Surfel& s);
 // Whether the record at `in` has an emission entry (compact records with
 // a non-zero RGB9E5 emission; never for other layouts).

@@ -24,10 +24,10 @@ void decode(std::span<const uint8_t> bytes, uint32_t page_id) {
   // The manifest's leaf format is taken from the page's own flag, so that
   // both surfel record formats are reached.
   LeafFormat leaf_format = LeafFormat::kRelative;
-  // The page format too (V4/V6/V8 derived payloads, V5/V7/V9 every
-  // node's payload stored; V6-V9 compact records with an emission section;
-  // V8/V9 the compact header and leaf records), so that every layout's
-  // checks are reached.
+  // The page format too (V4/V6/V8/V10 derived payloads, V5/V7/V9/V11
+  // every node's payload stored; V6-V11 compact records with an emission
+  // section; V8-V11 the compact header and leaf records; V10/V11 the small
+  // frame and surfel section), so that every layout's checks are reached.
   uint32_t version = kPageFormatCurrent;
   if (bytes.size() >= kPageVersionPrefixBytes) {
     const uint32_t v = load_le<uint16_t>(bytes.data() + 4);
@@ -55,19 +55,26 @@ void decode(std::span<const uint8_t> bytes, uint32_t page_id) {
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace pbgi::storage;
   const std::span<const uint8_t> input(data, size);
+  // V10/V11 headers hold no page id: the checksum is seeded with it. The
+  // corpus's small-frame pages are read as page kSmallFrameId.
+  constexpr uint32_t kSmallFrameId = 13;
+  const uint32_t v = size >= kPageVersionPrefixBytes ? load_le<uint16_t>(data + 4) : 0;
+  const bool small = page_format_has_small_frame(v);
   // 1. As stored.
-  decode(input, size >= 12 ? load_le<uint32_t>(data + 8) : 0);
-  // 2. Re-sealed: the page id the header names, the size it has (V4-V7
-  // headers store it), a valid checksum.
-  if (size >= kCompactPageHeaderBytes + kPageTrailerBytes) {
+  decode(input, small ? kSmallFrameId : size >= 12 ? load_le<uint32_t>(data + 8) : 0);
+  // 2. Re-sealed: the page id the header names (V4-V9), the size it has
+  // (V4-V7 headers store it), a valid checksum.
+  if (small ? size >= kMinPageFrameBytes : size >= kCompactPageHeaderBytes + kPageTrailerBytes) {
     std::vector<uint8_t> page(data, data + size);
-    const uint32_t id = load_le<uint32_t>(page.data() + 8) % 4096;
-    store_le<uint32_t>(page.data() + 8, id);
-    const uint32_t v = load_le<uint16_t>(page.data() + 4);
+    uint32_t id = kSmallFrameId;
+    if (!small) {
+      id = load_le<uint32_t>(page.data() + 8) % 4096;
+      store_le<uint32_t>(page.data() + 8, id);
+    }
     if (!page_format_has_compact_frame(v) && size >= kPageHeaderBytes + kPageTrailerBytes) {
       store_le<uint32_t>(page.data() + 24, static_cast<uint32_t>(page.size()));
     }
-    seal_page(page);
+    seal_page(page, id);
     decode(page, id);
   }
   // 3. The same bytes as a manifest, raw and as a re-framed body.

@@ -77,10 +77,10 @@ void pages(const fs::path& dir) {
   fs::remove_all(tmp);
   fs::create_directories(tmp);
   // Both leaf formats (the half one's files suffixed "_half") and both page
-  // formats this build writes: V8 (derived payloads) and V9 (every node's
-  // payload stored, float32-sh; suffixed "_v9"). The V4/V5 and V6/V7 seeds
-  // of older builds stay in the corpus as "v4_*" and "v6_*" (the reader
-  // still reads them).
+  // formats this build writes: V10 (derived payloads) and V11 (every node's
+  // payload stored, float32-sh; suffixed "_v11"). The V4/V5, V6/V7 and
+  // V8/V9 seeds of older builds stay in the corpus as "v4_*", "v6_*" and
+  // "v8_*" (the reader still reads them).
   struct Variant {
     pbgi::storage::LeafFormat leaf;
     pbgi::tree::PayloadCodecOption codec;
@@ -89,7 +89,7 @@ void pages(const fs::path& dir) {
   for (const Variant& v :
        {Variant{pbgi::storage::LeafFormat::kRelative, pbgi::tree::PayloadCodecOption::kDerived, ""},
         Variant{pbgi::storage::LeafFormat::kHalf, pbgi::tree::PayloadCodecOption::kDerived, "_half"},
-        Variant{pbgi::storage::LeafFormat::kRelative, pbgi::tree::PayloadCodecOption::kFloatSh, "_v9"}}) {
+        Variant{pbgi::storage::LeafFormat::kRelative, pbgi::tree::PayloadCodecOption::kFloatSh, "_v11"}}) {
     pbgi::tree::BuildOptions options;
     options.leaf_size = 4;
     options.page_size = 4096;

@@ -183,8 +183,8 @@ TEST(BuildLimits, BuildOverTheStagingQuotaStopsAndCleansUp) {
   const fs::path cache = tmp / "cache";
   auto daemon = start_daemon(tmp, "d", cache, 0, {"--staging-quota", "1MiB"});
   PbgiClient client(daemon->address(), no_retry());
-  // ~32 bytes per surfel of pages: 2 MB.
-  expect_exhausted(client, build_with(60000), "staging_quota of 1048576 bytes");
+  // ~16 bytes per surfel of pages (V10 pages of the Cornell box): 2 MB.
+  expect_exhausted(client, build_with(125000), "staging_quota of 1048576 bytes");
   EXPECT_TRUE(entries_named(cache, ".tmp-").empty()) << "the stopped build removed its staging directory";
   EXPECT_TRUE(published_page_sets(cache).empty());
   // A build that fits is not held back by the one that did not.

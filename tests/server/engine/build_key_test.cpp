@@ -125,11 +125,11 @@ TEST(BuildKey, LeafFormatChangesTheKeyButItsDefaultDoesNot) {
 // (main at 1833fb7), re-pinned when kPageSetFormatVersion became 4 (page
 // format V4: every key changed on purpose, so V2 page sets are rebuilt)
 // 5 (V6 pages: compact records, rounded payloads), 6 (V8 pages:
-// rounded bounds, compact page frame) and 7 (air regions):
+// rounded bounds, compact page frame), 7 (air regions) and 8 (V10 pages):
 // cached page sets keep their keys, byte for byte.
 TEST(BuildKey, KeysOfExistingOptionsArePinned) {
   const std::string scene = "0123456789abcdef";
-  EXPECT_EQ(page_set_build_key(scene, OpenOptions()), "f10f68e132ee5e0dd0efc37b5a3ff36b");
+  EXPECT_EQ(page_set_build_key(scene, OpenOptions()), "36935898b991600f5c5e53f2977e3817");
   OpenOptions a;
   a.surfels.spacing = 0.013f;
   a.surfels.target_surfels = 12345;
@@ -137,7 +137,7 @@ TEST(BuildKey, KeysOfExistingOptionsArePinned) {
   a.surfels.seed = 42;
   a.tree.leaf_size = 8;
   a.tree.page_size = 32768;
-  EXPECT_EQ(page_set_build_key(scene, a), "39b89227342e20f9b01a3f547de299ed");
+  EXPECT_EQ(page_set_build_key(scene, a), "e3aafb0fdbbf7bdd24c533d4f3b452b2");
   OpenOptions b;
   b.surfels.sampler = SurfelSampler::kPoisson;
   b.surfels.camera = "/World/Camera";
@@ -148,7 +148,7 @@ TEST(BuildKey, KeysOfExistingOptionsArePinned) {
   b.tree.glossy_resolution = 32;
   b.tree.wavelet_threshold = 0.05f;
   b.tree.leaf_format = storage::LeafFormat::kHalf;
-  EXPECT_EQ(page_set_build_key(scene, b), "4e309562dd7ae334821b702227a89b9c");
+  EXPECT_EQ(page_set_build_key(scene, b), "b75c285ea4839197c94e24e22c5c990f");
   OpenOptions c;
   c.tree.payload_codec = tree::PayloadCodecOption::kQuantizedSh;
   c.tree.lut_entries = 1000;
@@ -159,7 +159,7 @@ TEST(BuildKey, KeysOfExistingOptionsArePinned) {
   c.bounce.receiver_stride = 4;
   c.bounce.gather.microbuffer_resolution = 16;
   c.bounce.gather.max_solid_angle = 0.05f;
-  EXPECT_EQ(page_set_build_key(scene, c), "4d9df8c7e6ebb52790fd9985ffc9a201");
+  EXPECT_EQ(page_set_build_key(scene, c), "f965971740632aaed313567a885cec57");
   // Fog and the default lights are not in the page set (the lights reach
   // it through the scene's content hash).
   OpenOptions e;
@@ -169,7 +169,7 @@ TEST(BuildKey, KeysOfExistingOptionsArePinned) {
   e.bounce.receiver_stride = 1;
   e.default_light = true;
   e.fog.extinction_per_density = 3.f;
-  EXPECT_EQ(page_set_build_key(scene, e), "d5ee653a54212bff61facb66425ddda5");
+  EXPECT_EQ(page_set_build_key(scene, e), "c02f32d1406a81024ec6b327b2870584");
 }
 
 // Build-key membership is what the tables say: every option marked as a

@@ -16,9 +16,11 @@
 // pbgid built from a USD scene): receivers are picked on the set's own
 // surfels. Either way the results of the two budgets are compared bit for
 // bit (a budget changes speed only).
+#include "common/errors.h"
 #include "server/gather/gather.h"
 #include "server/gather/page_views.h"
 #include "storage/cache/page_cache.h"
+#include "storage/pages/page_encoding.h"
 #include "storage/pages/page_set.h"
 #include "storage/pages/page_set_inspection.h"
 #include "tests/storage/bench/synthetic_city.h"
@@ -33,6 +35,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <optional>
 #include <random>
 #include <span>
@@ -210,6 +213,36 @@ std::vector<Receiver> make_receivers(const storage::PageSetReader& set, uint32_t
   return out;
 }
 
+// Where a page's bytes on disk go, by part (page_encoding.h PageParts),
+// in bytes per surfel: what each part of the format costs.
+void print_disk_parts(const storage::PageSetReader& reader) {
+  const storage::Manifest& m = reader.manifest();
+  const fs::path file = reader.directory() / storage::kPagesFileName;
+  std::ifstream f(file, std::ios::binary);
+  const auto codec = storage::make_payload_codec(m.codec, m.codec_state, reader.directory().string());
+  // header, shapes, leaves, links, payloads, shared albedo, surfels, emission, glossy, trailer
+  double part[10] = {};
+  std::vector<uint8_t> page;
+  for (uint32_t id = 0; id < m.pages.size(); ++id) {
+    const storage::PageExtent& e = m.pages[id];
+    page.resize(e.bytes);
+    f.seekg(std::streamoff(e.offset));
+    f.read(reinterpret_cast<char*>(page.data()), std::streamsize(page.size()));
+    if (!f) throw IoError(file.string() + ": cannot read page " + std::to_string(id));
+    storage::PageParts p;
+    (void)storage::decode_page(page, {file.string(), id, e.offset}, m.page_format, *codec, uint32_t(m.pages.size()),
+                               m.glossy_resolution != 0, m.options.leaf_format, &p);
+    const uint64_t at[] = {0, p.shapes, p.leaves, p.links, p.payloads, p.albedo, p.surfels, p.emission, p.glossy,
+                           p.trailer, page.size()};
+    for (int k = 0; k < 10; ++k) part[k] += double(at[k + 1] - at[k]);
+  }
+  const double n = std::max<double>(1.0, double(m.stats.surfel_count));
+  std::printf("disk parts     header %.2f, shapes %.2f, leaves %.2f, link records %.2f, link payloads %.2f, shared "
+              "albedo %.2f, surfels %.2f, emission %.2f, glossy %.2f, trailer %.2f; bytes a surfel\n",
+              part[0] / n, part[1] / n, part[2] / n, part[3] / n, part[4] / n, part[5] / n, part[6] / n, part[7] / n,
+              part[8] / n, part[9] / n);
+}
+
 // Where a cached page's charged bytes go (Page::memory_bytes(), what the
 // page cache counts), per page on average and against its bytes on disk.
 void print_decoded_parts(const storage::PageSetReader& reader) {
@@ -382,6 +415,7 @@ int run(const Args& a) {
                 m.stats.page_count / s, double(m.stats.file_bytes) / (1 << 20) / s, double(decoded) / (1 << 30),
                 double(decoded) / double(m.stats.file_bytes));
   }
+  print_disk_parts(probe);
   print_decoded_parts(probe);
   if (a.decode_only) return 0;
 

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <numeric>
@@ -97,8 +98,9 @@ TEST(Checksum, StreamedInPiecesEqualsOneShot) {
 
 std::vector<uint8_t> sample_page(uint32_t id, uint16_t version = kPageFormatCurrent) {
   const size_t header = is_known_page_format(version) ? page_header_bytes(version) : kPageHeaderBytes;
-  std::vector<uint8_t> page(header + 100 + kPageTrailerBytes);
-  std::iota(page.begin() + long(header), page.end() - kPageTrailerBytes, uint8_t(1));
+  const size_t trailer = is_known_page_format(version) ? page_trailer_bytes(version) : kPageTrailerBytes;
+  std::vector<uint8_t> page(header + 100 + trailer);
+  std::iota(page.begin() + long(header), page.end() - long(trailer), uint8_t(1));
   PageHeader h;
   h.format_version = version;
   h.page_id = id;
@@ -106,20 +108,21 @@ std::vector<uint8_t> sample_page(uint32_t id, uint16_t version = kPageFormatCurr
   h.payload_bytes = 36;
   h.page_bytes = static_cast<uint32_t>(page.size());
   write_page_header(h, page.data());
-  seal_page(page);
+  seal_page(page, id);
   return page;
 }
 
 TEST(PageFrame, HeaderRoundTrip) {
-  for (const uint16_t version : {uint16_t(kPageFormatV6), uint16_t(kPageFormatV8), uint16_t(kPageFormatV9)}) {
+  for (const uint16_t version : {uint16_t(kPageFormatV6), uint16_t(kPageFormatV8), uint16_t(kPageFormatV9),
+                                 uint16_t(kPageFormatV10), uint16_t(kPageFormatV11)}) {
     const auto page = sample_page(7, version);
     const PageHeader h = open_page(page, {"pages.pbgp", 7, 8192}, version);
     EXPECT_EQ(h.magic, kPageMagic);
     EXPECT_EQ(h.format_version, version);
     EXPECT_EQ(h.page_id, 7u);
     EXPECT_EQ(h.node_count, 1u);
-    // V8 headers do not store the payload array's size (the links give it).
-    EXPECT_EQ(h.payload_bytes, version == kPageFormatV8 ? 0u : 36u) << version;
+    // V8/V10 headers do not store the payload array's size (the links give it).
+    EXPECT_EQ(h.payload_bytes, version == kPageFormatV8 || version == kPageFormatV10 ? 0u : 36u) << version;
     // V8/V9 headers do not store the page's size: open_page takes the table's.
     EXPECT_EQ(h.page_bytes, page.size());
     // The bytes after the header are untouched.
@@ -159,6 +162,37 @@ TEST(PageFrame, CompactHeaderFieldsAtTheirOffsets) {
   h.node_count = 1;
   h.flags = 256;
   EXPECT_THROW(write_page_header(h, b), Error);
+}
+
+// The small header (V10: 9 bytes, V11: 13) at its documented offsets: no
+// codec, no page id (the checksum is seeded with it), and a 4-byte trailer.
+TEST(PageFrame, SmallHeaderFieldsAtTheirOffsets) {
+  EXPECT_EQ(page_header_bytes(kPageFormatV10), 9u);
+  EXPECT_EQ(page_header_bytes(kPageFormatV11), 13u);
+  EXPECT_EQ(page_trailer_bytes(kPageFormatV10), 4u);
+  EXPECT_EQ(page_trailer_bytes(kPageFormatV9), 8u);
+  uint8_t b[13] = {};
+  PageHeader h;
+  h.format_version = kPageFormatV11;
+  h.flags = kPageFlagNodePayloads | kPageFlagGlossy;
+  h.node_count = 65535;
+  h.payload_bytes = 0x0a0b0c0d;
+  write_page_header(h, b);
+  EXPECT_EQ(load_le<uint32_t>(b), kPageMagic);
+  EXPECT_EQ(load_le<uint16_t>(b + 4), kPageFormatV11);
+  EXPECT_EQ(b[6], kPageFlagNodePayloads | kPageFlagGlossy);
+  EXPECT_EQ(load_le<uint16_t>(b + 7), 65535u);
+  EXPECT_EQ(load_le<uint32_t>(b + 9), 0x0a0b0c0du);
+  const PageHeader r = read_page_header(b);
+  EXPECT_EQ(r.flags, h.flags);
+  EXPECT_EQ(r.node_count, 65535u);
+  EXPECT_EQ(r.payload_bytes, h.payload_bytes);
+  h.node_count = 65536;
+  EXPECT_THROW(write_page_header(h, b), Error);
+  // The trailer: the low half of the XXH3-64 seeded with the page id.
+  const auto page = sample_page(7, kPageFormatV10);
+  const size_t body = page.size() - 4;
+  EXPECT_EQ(load_le<uint32_t>(page.data() + body), uint32_t(checksum64(page.data(), body, 7)));
 }
 
 TEST(PageFrame, EveryFlippedByteIsCorruptionNamingThePage) {
@@ -255,6 +289,16 @@ TEST(PageFrame, RetiredVersionIsVersionErrorAskingForARebuild) {
 TEST(PageFrame, WrongPlaceIsCorruption) {
   const auto page = sample_page(3);
   EXPECT_THROW(open_page(page, {"p", 4, 0}, kPageFormatCurrent), CorruptionError);  // page id
+  for (const uint16_t version : {uint16_t(kPageFormatV8), uint16_t(kPageFormatV10)}) {
+    try {
+      open_page(sample_page(3, version), {"/x/pages.pbgp", 4, 0}, version);
+      FAIL() << "page 3 of format " << version << " read as page 4";
+    } catch (const CorruptionError& e) {
+      // V8 names the header's id; V10's checksum, seeded with the id, fails.
+      EXPECT_TRUE(contains(e.what(), version == kPageFormatV8 ? "header names page 3" : "checksum mismatch"))
+          << e.what();
+    }
+  }
   auto short_page = std::vector<uint8_t>(page.begin(), page.begin() + 20);
   EXPECT_THROW(open_page(short_page, {"p", 3, 0}, kPageFormatCurrent), CorruptionError);
   // Sealed and long enough for a V8 header, too short for V6's 32 bytes.
@@ -512,6 +556,39 @@ TEST(PageRecords, CompactSurfelRecordWithinItsStatedPrecision) {
     ASSERT_EQ(read_emission_entry(entry), decode_rgb9e5(encode_rgb9e5(s.emission)));
   }
   std::printf("compact leaf records: worst normal angle %.3g rad\n", worst_normal);
+}
+
+// A leaf's positions on the grid of position_grid_shift: shift 4 (10 bits)
+// where the frame is a few surfel radii, 0 (14 bits) where it is hundreds;
+// every coordinate within half a step, a whole one near the frame's edge,
+// and the codes end in `shift` one bits (what V10 surfel sections store
+// in fewer bits).
+TEST(PageRecords, CompactPositionsOnTheirLeafsGrid) {
+  EXPECT_EQ(position_grid_shift(1.f, 0.5f), 4);
+  EXPECT_EQ(position_grid_shift(1.f, 0.f), 0);
+  EXPECT_EQ(position_grid_shift(300.f, 1.f), 0);
+  EXPECT_EQ(position_grid_shift(32.f, 1.f), 2);  // 2^s 32 R <= 8191 r: s = 2
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  const LeafFrame frame{{1.f, 2.f, -3.f}, 0.25f};
+  for (const int shift : {1, 3, 4}) {
+    const float step = float(1 << shift) * frame.radius / 8191.f;
+    for (int i = 0; i < 20000; ++i) {
+      Surfel s = random_surfel_in(frame, rng);
+      uint8_t rec[kCompactSurfelRecordBytes];
+      encode_surfel_record(SurfelRecords::kCompact, s, frame, rec, shift);
+      Surfel d;
+      decode_surfel_record(SurfelRecords::kCompact, rec, frame, d);
+      const uint64_t g = load_le<uint64_t>(rec);
+      for (int k = 0; k < 3; ++k) {
+        const auto code = uint32_t((g >> (14 * k)) & 0x3fffu);
+        ASSERT_GE(std::countr_one(code), shift) << code;
+        const float offset = std::abs(s.position[k] - frame.center[k]);
+        const float bound = offset > frame.radius - step ? step : step / 2;
+        ASSERT_NEAR(d.position[k], s.position[k], bound * 1.001f + 1e-6f) << shift << " " << offset;
+      }
+    }
+  }
 }
 
 // Emission below RGB9E5's smallest step is zero in every layout: such a

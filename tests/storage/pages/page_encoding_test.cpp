@@ -56,21 +56,26 @@ std::vector<Surfel> leaf_surfels() {
   return s;
 }
 
-// The size of the leaf section of a treelet's leaves (V8/V9 pages).
-size_t leaf_section_bytes(const tree::Treelet& t) {
+// A treelet's leaves, as a page's leaf section holds them.
+std::vector<LeafRecord> leaf_records(const tree::Treelet& t) {
   std::vector<LeafRecord> leaves(t.leaf_records.size() / kLeafRecordBytes);
   for (size_t i = 0; i < leaves.size(); ++i) {
     read_leaf_record(t.leaf_records.data() + i * kLeafRecordBytes, leaves[i].frame, leaves[i].surfel_count);
   }
+  return leaves;
+}
+
+// The size of the leaf section of a treelet's leaves (V8-V11 pages).
+size_t leaf_section_bytes(const tree::Treelet& t) {
   std::vector<uint8_t> out;
-  encode_leaf_section(leaves, out);
+  encode_leaf_section(leaf_records(t), out);
   return out.size();
 }
 
 // The size of the surfel section of a treelet's compact records (V8/V9).
 size_t surfel_section_bytes(const tree::Treelet& t) {
   std::vector<uint8_t> out;
-  encode_surfel_section(t.surfel_records, out);
+  encode_surfel_section(t.surfel_records, leaf_records(t), kPageFormatCurrent, out);
   return out.size();
 }
 
@@ -88,13 +93,13 @@ TEST(PageEncoding, CompactAndRelativePagesDecodeWhatTheBuildDecoded) {
     EXPECT_EQ(t.emission.size(), layout == SurfelRecords::kCompact ? 2 * kEmissionEntryBytes : 0u);
     std::vector<uint8_t> bytes;
     encode_page(t, 0, *codec, bytes);
-    const uint32_t version = layout == SurfelRecords::kCompact ? kPageFormatV8 : kPageFormatV4;
+    const uint32_t version = layout == SurfelRecords::kCompact ? kPageFormatCurrent : kPageFormatV4;
     EXPECT_EQ(read_page_header(bytes.data()).format_version, version);
     const size_t body =
         layout == SurfelRecords::kCompact
-            ? kCompactPageHeaderBytes + 1 /*shape, not padded*/ + leaf_section_bytes(t) + surfel_section_bytes(t)
+            ? kSmallPageHeaderBytes + 1 /*shape, not padded*/ + leaf_section_bytes(t) + surfel_section_bytes(t)
             : kPageHeaderBytes + 4 /*shape, padded*/ + kLeafRecordBytes + 4 * surfel_record_bytes(layout);
-    EXPECT_EQ(bytes.size(), body + t.emission.size() + kPageTrailerBytes);
+    EXPECT_EQ(bytes.size(), body + t.emission.size() + page_trailer_bytes(version));
     const auto page = decode(bytes, version);
     ASSERT_EQ(page->surfels.size(), surfels.size());
     for (size_t i = 0; i < surfels.size(); ++i) {
@@ -103,7 +108,7 @@ TEST(PageEncoding, CompactAndRelativePagesDecodeWhatTheBuildDecoded) {
       EXPECT_EQ(page->surfels[i].emission, decode_rgb9e5(encode_rgb9e5(surfels[i].emission))) << i;
     }
     // A page is read only as the format its manifest declares.
-    const uint32_t other = version == kPageFormatV8 ? kPageFormatV4 : kPageFormatV8;
+    const uint32_t other = version == kPageFormatCurrent ? kPageFormatV4 : kPageFormatCurrent;
     try {
       decode(bytes, other);
       FAIL() << "page format " << version << " read as " << other;
@@ -163,13 +168,13 @@ TEST(PageEncoding, EmissionFlagsAndEntriesMustAgree) {
   const tree::Treelet t = one_leaf(SurfelRecords::kCompact, leaf_surfels(), want);
   std::vector<uint8_t> good;
   encode_page(t, 0, *codec, good);
-  ASSERT_NO_THROW(decode(good, kPageFormatV8));
-  const size_t leaves_at = kCompactPageHeaderBytes + 1;  // one shape nibble, padded
+  ASSERT_NO_THROW(decode(good, kPageFormatCurrent));
+  const size_t leaves_at = kSmallPageHeaderBytes + 1;  // one shape nibble, padded
   const size_t records_at = leaves_at + leaf_section_bytes(t);
   auto expect_corrupt = [&](std::vector<uint8_t> bad, const std::string& what) {
-    seal_page(bad);  // V8 headers do not store the page's size
+    seal_page(bad);  // compact headers do not store the page's size
     try {
-      decode(bad, kPageFormatV8);
+      decode(bad, kPageFormatCurrent);
       FAIL() << what << ": accepted";
     } catch (const CorruptionError& e) {
       EXPECT_TRUE(contains(e.what(), "/x/pages.pbgp: page 0")) << e.what();
@@ -182,24 +187,24 @@ TEST(PageEncoding, EmissionFlagsAndEntriesMustAgree) {
     std::vector<uint8_t> records = t.surfel_records;
     records[surfel * kCompactSurfelRecordBytes + 9] ^= 0x80;
     std::vector<uint8_t> other;
-    encode_surfel_section(records, other);
+    encode_surfel_section(records, leaf_records(t), kPageFormatCurrent, other);
     auto bad = good;
     bad.erase(bad.begin() + long(records_at), bad.begin() + long(records_at + section));
     bad.insert(bad.begin() + long(records_at), other.begin(), other.end());
     expect_corrupt(bad, "flipped emission flag of surfel " + std::to_string(surfel));
   }
   // The surfel section: a column wider than its field (the first column,
-  // x, is 14 bits: its width nibble follows them), or cut short.
+  // x, is 10 bits: its width nibble follows them), or cut short.
   {
     auto bad = good;
-    bad[records_at + 1] |= 0xc0;  // x's width: bits 14-17 of the section
+    bad[records_at + 1] |= 0x3c;  // x's width: bits 10-13 of the section
     bad[records_at + 2] |= 0x03;
     expect_corrupt(bad, "surfel column width 15");
   }
   // V8 shapes are nibbles: the one node's byte has a zero high nibble.
   {
     auto bad = good;
-    bad[kCompactPageHeaderBytes] |= 0x10;
+    bad[kSmallPageHeaderBytes] |= 0x10;
     expect_corrupt(bad, "shape padding nibble");
   }
   // The leaf section's widths out of range; its leaf's count one more or
@@ -222,15 +227,15 @@ TEST(PageEncoding, EmissionFlagsAndEntriesMustAgree) {
   }
   // An entry missing, or one too many.
   auto shorter = good;
-  shorter.erase(shorter.end() - kPageTrailerBytes - kEmissionEntryBytes, shorter.end() - kPageTrailerBytes);
+  shorter.erase(shorter.end() - kSmallPageTrailerBytes - kEmissionEntryBytes, shorter.end() - kSmallPageTrailerBytes);
   expect_corrupt(shorter, "entry missing");
   auto longer = good;
-  longer.insert(longer.end() - kPageTrailerBytes, kEmissionEntryBytes, 0);
+  longer.insert(longer.end() - kSmallPageTrailerBytes, kEmissionEntryBytes, 0);
   expect_corrupt(longer, "entry too many");
   // Truncated, not re-sealed: the checksum (or the size) refuses it.
-  for (const size_t cut : {size_t(1), kPageTrailerBytes + 2, good.size() - 10}) {
+  for (const size_t cut : {size_t(1), kSmallPageTrailerBytes + 2, good.size() - 10}) {
     const std::vector<uint8_t> cut_page(good.begin(), good.end() - cut);
-    EXPECT_THROW(decode(cut_page, kPageFormatV8), CorruptionError) << cut;
+    EXPECT_THROW(decode(cut_page, kPageFormatCurrent), CorruptionError) << cut;
   }
 }
 
@@ -260,7 +265,7 @@ TEST(PageEncoding, LinkPayloadsAreTheChildRootsExactly) {
   size_t links = 0;
   for (uint32_t id = 0; id < pages.size(); ++id) {
     encode_page(sink.treelets[id], id, *codec, pages[id]);
-    decoded.push_back(decode_page(pages[id], {"/x/pages.pbgp", id, 0}, kPageFormatV8, *codec, stats.page_count));
+    decoded.push_back(decode_page(pages[id], {"/x/pages.pbgp", id, 0}, kPageFormatCurrent, *codec, stats.page_count));
     for (const tree::PageLink& l : decoded.back()->links) {
       const tree::Node& root = decoded[l.summary.children[0].page]->nodes[0];
       EXPECT_EQ(l.summary.radiance_sh.r, root.radiance_sh.r);
@@ -280,13 +285,13 @@ TEST(PageEncoding, LinkPayloadsAreTheChildRootsExactly) {
   ASSERT_FALSE(sink.treelets[root].links.empty());
   // The root page has no leaves (its treelet is the upper levels).
   ASSERT_TRUE(sink.treelets[root].leaf_records.empty());
-  const size_t payload_at = kCompactPageHeaderBytes + (sink.treelets[root].shapes.size() + 1) / 2 +
+  const size_t payload_at = kSmallPageHeaderBytes + (sink.treelets[root].shapes.size() + 1) / 2 +
                             sink.treelets[root].links.size() * kCompactLinkRecordBytes;
-  const size_t links_at = kCompactPageHeaderBytes + (sink.treelets[root].shapes.size() + 1) / 2;
+  const size_t links_at = kSmallPageHeaderBytes + (sink.treelets[root].shapes.size() + 1) / 2;
   auto expect_corrupt = [&](std::vector<uint8_t> bad, const std::string& what) {
-    seal_page(bad);
+    seal_page(bad, root);
     try {
-      decode_page(bad, {"/x/pages.pbgp", root, 0}, kPageFormatV8, *codec, stats.page_count);
+      decode_page(bad, {"/x/pages.pbgp", root, 0}, kPageFormatCurrent, *codec, stats.page_count);
       FAIL() << what << ": accepted";
     } catch (const CorruptionError& e) {
       EXPECT_TRUE(contains(e.what(), "/x/pages.pbgp: page " + std::to_string(root))) << e.what();
