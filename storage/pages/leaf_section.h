@@ -1,4 +1,4 @@
-// The leaf section of a V8/V9 page (FORMAT.md): the frames and surfel
+// The leaf section of a V8-V11 page (FORMAT.md): the frames and surfel
 // counts of the page's leaves, in pre-order, bit-packed. The tree's frames
 // are rounded (page_records.h RoundedFrame: k 2^e per centre coordinate,
 // m 2^e radius), so they are stored exactly, as integers: the first

@@ -15,7 +15,7 @@ namespace pbgi::storage {
 // Writes the manifest version manifest_format_of(m) (FORMAT.md).
 std::vector<uint8_t> encode_manifest(const Manifest& m);
 
-// The manifest version encode_manifest writes for `m`: V5 with V8/V9
+// The manifest version encode_manifest writes for `m`: V5 with V8-V11
 // pages; for older page formats V4 for a leaf format other than relative,
 // else V3 exactly when it declares glossy radiance, else V2.
 uint32_t manifest_format_of(const Manifest& m);

@@ -1,7 +1,7 @@
 // A treelet <-> the bytes of one V4-V9 page (layout in FORMAT.md):
 //   header | shapes | pad | leaf records | link records | payload array |
 //   surfel records | emission entries (V6-V9) | glossy section | trailer
-// V8/V9 pages (what this build writes; V4-V7 are read) hold the same
+// V8-V11 pages (V10/V11 what this build writes; V4-V9 are read) hold the same
 // parts in compact forms: nibble shapes, no pad, a leaf section
 // (leaf_section.h), 26-byte link records, compact link payloads
 // (payload_rounding.h), a surfel section (surfel_section.h).

@@ -50,8 +50,9 @@ uint32_t stored_bits(size_t c, bool v10, uint32_t shift) {
 // reader predict alike on any CPU).
 uint32_t predict_radius(uint32_t prev, float prev_r, float r) {
   if (!(prev_r > 0.f) || !(r > 0.f) || prev_r == r) return prev;
-  const long p = std::lround(double(prev) * double(prev_r) / double(r));
-  return uint32_t(std::clamp<long>(p, 0, long(kRadiusMax)));
+  // Clamped before rounding: a ratio of extreme radii must not overflow.
+  const double p = std::min(double(prev) * double(prev_r) / double(r), double(kRadiusMax));
+  return uint32_t(std::lround(p));
 }
 
 uint32_t field(const uint8_t* rec, const Column& c) {

@@ -1,4 +1,4 @@
-// The surfel section of a V8/V9 page of compact records (FORMAT.md): the
+// The surfel section of a V8-V11 page of compact records (FORMAT.md): the
 // page's 18-byte compact surfel records (page_records.h), stored column by
 // column, bit-packed: each field of the record (position x, y, z, the two
 // octahedral normal codes, the radius code, the emits flag, the albedo's

@@ -7,7 +7,7 @@
 // radius is at most ~0.05% larger than the tightest sphere of the input,
 // then rounded outward (page_records.h RoundedFrame, on the leaf frames' grid
 // of kLeafFrameGridBits: up to ~1.5% more),
-// so that a V8/V9 page's leaf section holds it exactly.
+// so that a V8-V11 page's leaf section holds it exactly.
 //
 // Thread-safety: pure functions.
 #pragma once

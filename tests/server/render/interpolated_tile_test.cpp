@@ -188,9 +188,11 @@ TEST(InterpolatedTile, NeverTakesAValueAcrossADepthEdge) {
   for (size_t i = 0; i < off.aovs.ao.size(); ++i) lit_max = std::max(lit_max, luminance(off.aovs.indirect, i));
   // The slab's top gathers nothing: zero up to the rounding noise of senders
   // at grazing angles (1e-20 with the rounded payloads of the trees this
-  // build makes, storage/tree/payload_rounding.h). A value taken across the
-  // edge would be of the floor's order.
-  const float zero = 1e-9f * lit_max;
+  // build makes, storage/tree/payload_rounding.h; up to 1e-7 of the
+  // floor's brightest since decoded positions lie on a leaf's coarse grid,
+  // storage/tree/page_records.h, a step above or below the top's plane). A
+  // value taken across the edge would be of the floor's order.
+  const float zero = 1e-6f * lit_max;
   for (size_t i = 0; i < off.aovs.ao.size(); ++i) {
     if (luminance(off.aovs.indirect, i) <= zero) {
       ++dark;
