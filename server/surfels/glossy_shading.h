@@ -36,7 +36,6 @@ namespace pbgi {
 
 class SceneGlossyShader final : public storage::GlossyShader {
  public:
-
   // `light_samples`: stratified samples per area light (as the diffuse
   // shading); `lobe_samples`: outgoing directions drawn per surfel, shared
   // among its light samples (at least one each).

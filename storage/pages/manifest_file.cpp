@@ -309,8 +309,8 @@ Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path)
       e.offset = r.get<uint64_t>("page.offset");
       e.bytes = r.get<uint32_t>("page.bytes");
     }
-    if (e.bytes < page_header_bytes(m.page_format) + page_trailer_bytes(m.page_format) || e.offset > m.stats.file_bytes ||
-        e.bytes > m.stats.file_bytes - e.offset) {
+    if (e.bytes < page_header_bytes(m.page_format) + page_trailer_bytes(m.page_format) ||
+        e.offset > m.stats.file_bytes || e.bytes > m.stats.file_bytes - e.offset) {
       throw corrupt("page table entry " + std::to_string(i) + " at offset " + std::to_string(at) +
                     " (offset " + std::to_string(e.offset) + ", " + std::to_string(e.bytes) +
                     " bytes) lies outside the " + std::to_string(m.stats.file_bytes) +

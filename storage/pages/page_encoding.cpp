@@ -243,8 +243,8 @@ void decode_page_into(std::span<const uint8_t> bytes, const PageLocation& where,
   std::vector<LeafRecord>& leaf_section = scratch.leaf_section;
   leaf_section.clear();
   const uint64_t leaf_bytes =
-      compact_frame ? decode_leaf_section(bytes.subspan(leaves_at, bytes.size() - trailer_bytes - leaves_at),
-                                          leaves, leaf_section, at)
+      compact_frame ? decode_leaf_section(bytes.subspan(leaves_at, bytes.size() - trailer_bytes - leaves_at), leaves,
+                                          leaf_section, at)
                     : leaves * kLeafRecordBytes;
   const uint64_t links_at = leaves_at + leaf_bytes;
   const uint64_t payload_at = links_at + links * link_record_bytes;
@@ -257,8 +257,7 @@ void decode_page_into(std::span<const uint8_t> bytes, const PageLocation& where,
     if (payload_at + trailer_bytes > bytes.size()) {
       throw corrupt("header, shapes and leaves (" + std::to_string(h.node_count) + " nodes, " + std::to_string(leaves) +
                     " leaves, " + std::to_string(links) + " links) need at least " +
-                    std::to_string(payload_at + trailer_bytes) + " bytes, page has " +
-                    std::to_string(bytes.size()));
+                    std::to_string(payload_at + trailer_bytes) + " bytes, page has " + std::to_string(bytes.size()));
     }
     uint64_t surfels = 0;
     for (const LeafRecord& l : leaf_section) surfels += l.surfel_count;

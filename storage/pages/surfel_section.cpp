@@ -220,8 +220,8 @@ size_t decode_surfel_section(std::span<const uint8_t> bytes, std::span<const Lea
       --left_in_leaf;
       uint32_t code = first_radius;
       if (i > 0) {
-        const int64_t x = int64_t(predict_radius(prev_code, prev_r, leaf_r)) + int64_t(v[kRadiusColumn]) -
-                          int64_t(kRadiusBias);
+        const int64_t x =
+            int64_t(predict_radius(prev_code, prev_r, leaf_r)) + int64_t(v[kRadiusColumn]) - int64_t(kRadiusBias);
         if (x < 0 || x > int64_t(kRadiusMax)) {
           throw corrupt("surfel " + std::to_string(i) + "'s radius is past its field");
         }

@@ -362,8 +362,8 @@ int position_grid_shift(float frame_radius, float smallest_radius) {
   // The largest shift whose step, 2^shift R / 8191, is at most r / 32:
   // 2^shift 32 R <= 8191 r, in double (exact for these products).
   int shift = 0;
-  while (shift < kMaxPositionGridShift &&
-         double(1 << (shift + 1)) * kPositionStepsPerRadius * double(frame_radius) <= 8191.0 * double(smallest_radius)) {
+  while (shift < kMaxPositionGridShift && double(1 << (shift + 1)) * kPositionStepsPerRadius * double(frame_radius) <=
+                                              8191.0 * double(smallest_radius)) {
     ++shift;
   }
   return shift;

@@ -55,7 +55,6 @@
 
 namespace pbgi::storage {
 
-
 inline constexpr size_t kShapeBytes = 1;
 inline constexpr size_t kLeafRecordBytes = 18;
 inline constexpr size_t kLinkRecordBytes = 40;

@@ -232,15 +232,16 @@ void print_disk_parts(const storage::PageSetReader& reader) {
     storage::PageParts p;
     (void)storage::decode_page(page, {file.string(), id, e.offset}, m.page_format, *codec, uint32_t(m.pages.size()),
                                m.glossy_resolution != 0, m.options.leaf_format, &p);
-    const uint64_t at[] = {0, p.shapes, p.leaves, p.links, p.payloads, p.albedo, p.surfels, p.emission, p.glossy,
-                           p.trailer, page.size()};
+    const uint64_t at[] = {0,         p.shapes,   p.leaves, p.links,   p.payloads, p.albedo,
+                           p.surfels, p.emission, p.glossy, p.trailer, page.size()};
     for (int k = 0; k < 10; ++k) part[k] += double(at[k + 1] - at[k]);
   }
   const double n = std::max<double>(1.0, double(m.stats.surfel_count));
-  std::printf("disk parts     header %.2f, shapes %.2f, leaves %.2f, link records %.2f, link payloads %.2f, shared "
-              "albedo %.2f, surfels %.2f, emission %.2f, glossy %.2f, trailer %.2f; bytes a surfel\n",
-              part[0] / n, part[1] / n, part[2] / n, part[3] / n, part[4] / n, part[5] / n, part[6] / n, part[7] / n,
-              part[8] / n, part[9] / n);
+  std::printf(
+      "disk parts     header %.2f, shapes %.2f, leaves %.2f, link records %.2f, link payloads %.2f, shared "
+      "albedo %.2f, surfels %.2f, emission %.2f, glossy %.2f, trailer %.2f; bytes a surfel\n",
+      part[0] / n, part[1] / n, part[2] / n, part[3] / n, part[4] / n, part[5] / n, part[6] / n, part[7] / n,
+      part[8] / n, part[9] / n);
 }
 
 // Where a cached page's charged bytes go (Page::memory_bytes(), what the

@@ -579,7 +579,7 @@ TEST(PageRecords, CompactPositionsOnTheirLeafsGrid) {
       encode_surfel_record(SurfelRecords::kCompact, s, frame, rec, shift);
       Surfel d;
       decode_surfel_record(SurfelRecords::kCompact, rec, frame, d);
-      const uint64_t g = load_le<uint64_t>(rec);
+      const auto g = load_le<uint64_t>(rec);
       for (int k = 0; k < 3; ++k) {
         const auto code = uint32_t((g >> (14 * k)) & 0x3fffu);
         ASSERT_GE(std::countr_one(code), shift) << code;

@@ -38,7 +38,7 @@ std::vector<uint8_t> random_records(size_t n, std::mt19937& rng, uint8_t spread)
 void put_on_grid(std::vector<uint8_t>& records, int shift = 4) {
   const uint64_t ones = (uint64_t(1) << shift) - 1;
   for (size_t at = 0; at < records.size(); at += kCompactSurfelRecordBytes) {
-    uint64_t g = load_le<uint64_t>(records.data() + at);
+    auto g = load_le<uint64_t>(records.data() + at);
     for (int axis = 0; axis < 3; ++axis) g |= ones << (14 * axis);
     store_le<uint64_t>(records.data() + at, g);
   }
@@ -103,7 +103,7 @@ TEST(SurfelSection, RadiiOfOneWorldSizeCostFewBitsInV10) {
     for (size_t k = i; k < i + 3; ++k) {
       const auto code = uint32_t(std::lround(double(r) / double(l.frame.radius) * 8191.0));
       uint8_t* rec = records.data() + k * kCompactSurfelRecordBytes;
-      const uint16_t hi = load_le<uint16_t>(rec + 8);
+      const auto hi = load_le<uint16_t>(rec + 8);
       store_le<uint16_t>(rec + 8, uint16_t((hi & ~(0x1fffu << 2)) | code << 2));  // radius: bits 66-78
     }
   }
