@@ -32,6 +32,7 @@
 #include "storage/pages/page_encoding.h"
 #include "storage/pages/page_set.h"
 #include "storage/tree/tree_builder.h"
+#include "tests/storage/bench/page_parts.h"
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -145,21 +146,8 @@ struct Row {
 // Sum of the payload arrays of every page (decoded: V8 headers do not
 // store their size).
 uint64_t payload_bytes(const fs::path& dir, const storage::Manifest& m) {
-  std::ifstream f(dir / storage::kPagesFileName, std::ios::binary);
-  const auto codec = storage::make_payload_codec(m.codec, m.codec_state, dir.string());
   uint64_t total = 0;
-  std::vector<uint8_t> page;
-  for (uint32_t id = 0; id < m.pages.size(); ++id) {
-    const storage::PageExtent& e = m.pages[id];
-    page.resize(e.bytes);
-    f.seekg(std::streamoff(e.offset));
-    f.read(reinterpret_cast<char*>(page.data()), std::streamsize(page.size()));
-    if (!f) throw IoError(dir.string() + ": cannot read page " + std::to_string(id));
-    storage::PageParts parts;
-    storage::decode_page(page, {(dir / storage::kPagesFileName).string(), id, e.offset}, m.page_format, *codec,
-                         uint32_t(m.pages.size()), m.glossy_resolution != 0, m.options.leaf_format, &parts);
-    total += parts.albedo - parts.payloads;
-  }
+  test::for_each_page_parts(dir, m, [&](const storage::PageParts& p, size_t) { total += p.albedo - p.payloads; });
   return total;
 }
 

@@ -16,13 +16,12 @@
 // pbgid built from a USD scene): receivers are picked on the set's own
 // surfels. Either way the results of the two budgets are compared bit for
 // bit (a budget changes speed only).
-#include "common/errors.h"
 #include "server/gather/gather.h"
 #include "server/gather/page_views.h"
 #include "storage/cache/page_cache.h"
-#include "storage/pages/page_encoding.h"
 #include "storage/pages/page_set.h"
 #include "storage/pages/page_set_inspection.h"
+#include "tests/storage/bench/page_parts.h"
 #include "tests/storage/bench/synthetic_city.h"
 
 #include <sys/resource.h>
@@ -35,7 +34,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <optional>
 #include <random>
 #include <span>
@@ -217,25 +215,13 @@ std::vector<Receiver> make_receivers(const storage::PageSetReader& set, uint32_t
 // in bytes per surfel: what each part of the format costs.
 void print_disk_parts(const storage::PageSetReader& reader) {
   const storage::Manifest& m = reader.manifest();
-  const fs::path file = reader.directory() / storage::kPagesFileName;
-  std::ifstream f(file, std::ios::binary);
-  const auto codec = storage::make_payload_codec(m.codec, m.codec_state, reader.directory().string());
   // header, shapes, leaves, links, payloads, shared albedo, surfels, emission, glossy, trailer
   double part[10] = {};
-  std::vector<uint8_t> page;
-  for (uint32_t id = 0; id < m.pages.size(); ++id) {
-    const storage::PageExtent& e = m.pages[id];
-    page.resize(e.bytes);
-    f.seekg(std::streamoff(e.offset));
-    f.read(reinterpret_cast<char*>(page.data()), std::streamsize(page.size()));
-    if (!f) throw IoError(file.string() + ": cannot read page " + std::to_string(id));
-    storage::PageParts p;
-    (void)storage::decode_page(page, {file.string(), id, e.offset}, m.page_format, *codec, uint32_t(m.pages.size()),
-                               m.glossy_resolution != 0, m.options.leaf_format, &p);
+  test::for_each_page_parts(reader.directory(), m, [&](const storage::PageParts& p, size_t bytes) {
     const uint64_t at[] = {0,         p.shapes,   p.leaves, p.links,   p.payloads, p.albedo,
-                           p.surfels, p.emission, p.glossy, p.trailer, page.size()};
+                           p.surfels, p.emission, p.glossy, p.trailer, bytes};
     for (int k = 0; k < 10; ++k) part[k] += double(at[k + 1] - at[k]);
-  }
+  });
   const double n = std::max<double>(1.0, double(m.stats.surfel_count));
   std::printf(
       "disk parts     header %.2f, shapes %.2f, leaves %.2f, link records %.2f, link payloads %.2f, shared "
