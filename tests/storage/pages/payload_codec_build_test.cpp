@@ -184,17 +184,17 @@ TEST_F(PayloadCodecBuildTest, HdrEmitterNextToDimSurfacesStaysAccurate) {
   }
   // The emitter did not wash out the dim nodes' LUT: their errors are those
   // of a LUT of their own. Measured over seeds 5-9 (~5500 dim nodes): mean
-  // 0.003-0.005, 99th percentile 0.04-0.10, and a few nodes of the LUT's
-  // sparse corners at 0.1-0.6, where which ones land there changes with
-  // 1e-4 changes of the surfels (the LUT is learned from them): the bound
-  // is on the many, and no node is lost.
+  // 0.0018-0.0041, 99th percentile 0.030-0.092, the worst node 0.05-0.15
+  // (0.05-0.40 with every position in 14 bits: which nodes land in the
+  // LUT's sparse corners changes with 1e-4 changes of the surfels, from
+  // which the LUT is learned).
   ASSERT_GT(dim.size(), 1000u);
   std::sort(dim.begin(), dim.end());
   double mean = 0;
   for (double d : dim) mean += d / double(dim.size());
   EXPECT_LT(mean, 0.02);
   EXPECT_LT(dim[dim.size() * 99 / 100], 0.15);
-  EXPECT_LT(dim.back(), 1.0);
+  EXPECT_LT(dim.back(), 0.25);
 }
 
 TEST_F(PayloadCodecBuildTest, AutoPicksDerivedForSmallScenes) {
