@@ -569,7 +569,6 @@ TEST(PageRecords, CompactPositionsOnTheirLeafsGrid) {
   EXPECT_EQ(position_grid_shift(300.f, 1.f), 0);
   EXPECT_EQ(position_grid_shift(32.f, 1.f), 2);  // 2^s 32 R <= 8191 r: s = 2
   std::mt19937 rng(23);
-  std::uniform_real_distribution<float> u(-1.f, 1.f);
   const LeafFrame frame{{1.f, 2.f, -3.f}, 0.25f};
   for (const int shift : {1, 3, 4}) {
     const float step = float(1 << shift) * frame.radius / 8191.f;
