@@ -217,7 +217,7 @@ float CutWalker::scene_hdr_threshold() {
   } else {
     WideNode own;
     const WideNode* full = view->full_node(root.index, own) ? &own : nullptr;
-    if (!full && root.index < page->nodes.size()) full = &(own = wide_node(page->nodes[root.index]));
+    if (!full && page && root.index < page->nodes.size()) full = &(own = wide_node(page->nodes[root.index]));
     if (!full) {
       throw CorruptionError("tree root: page " + std::to_string(root.page) + " node " + std::to_string(root.index) +
                             " has no payload");

@@ -44,16 +44,28 @@ class PagePins {
     Bucket& b = bucket_of(id);
     Slot& slot = slots_[b.slot];
     if (!b.view) {
-      tree::PagePtr p = tree_.page(id);
       ++fetches_;
-      if (!p)
-        throw CorruptionError("tree page " + std::to_string(id) + ": source returned no page");
-      if (p->id != id) {
-        throw CorruptionError("tree page " + std::to_string(id) + ": source returned page " +
-                              std::to_string(p->id));
+      // A source that keeps views alone (a page set reader decorated with
+      // attach_view) pins the view; any other, the page.
+      if (std::shared_ptr<const tree::PageAttachment> a = tree_.attachment(id)) {
+        const auto* v = dynamic_cast<const PageView*>(a.get());
+        if (!v || v->id != id) {
+          throw CorruptionError("tree page " + std::to_string(id) + ": source returned another page's or no view");
+        }
+        slot.view = v;
+        slot.pin = std::move(a);
+        slot.page = nullptr;
+      } else {
+        tree::PagePtr p = tree_.page(id);
+        if (!p) throw CorruptionError("tree page " + std::to_string(id) + ": source returned no page");
+        if (p->id != id) {
+          throw CorruptionError("tree page " + std::to_string(id) + ": source returned page " +
+                                std::to_string(p->id));
+        }
+        slot.view = &views_.get(*p);
+        slot.page = p.get();
+        slot.pin = std::move(p);
       }
-      slot.view = &views_.get(*p);
-      slot.page = std::move(p);
       b.view = slot.view;
       ++pinned_;
     }
@@ -62,15 +74,14 @@ class PagePins {
     view = b.view;
     return b.slot;
   }
-  // The same, with the page.
+  // The same, with the page, or null when the source keeps views alone.
   uint32_t acquire(uint32_t id, const tree::Page*& page, const PageView*& view) {
     const uint32_t s = acquire(id, view);
-    page = slots_[s].page.get();
+    page = slots_[s].page;
     return s;
   }
 
-  // The page and view of a pinned slot.
-  const tree::Page& page(uint32_t s) const { return *slots_[s].page; }
+  // The view of a pinned slot.
   const PageView& view(uint32_t s) const { return *slots_[s].view; }
 
   // Adds a reference to a pinned slot.
@@ -81,7 +92,8 @@ class PagePins {
   void release(uint32_t s) {
     Slot& slot = slots_[s];
     if (--slot.refs == 0 && !hold_) {
-      slot.page.reset();
+      slot.pin.reset();
+      slot.page = nullptr;
       index_[slot.bucket].view = nullptr;
       --pinned_;
     }
@@ -106,7 +118,7 @@ class PagePins {
   // and fetched them all again from the page cache).
   void keep_recent(size_t max_kept) {
     size_t kept = 0;
-    for (const Slot& slot : slots_) kept += slot.page && slot.touched == epoch_;
+    for (const Slot& slot : slots_) kept += slot.pin && slot.touched == epoch_;
     if (kept > max_kept) {
       clear();
       return;
@@ -116,7 +128,7 @@ class PagePins {
     std::fill(index_.begin(), index_.end(), Bucket{});
     pinned_ = 0;
     for (Slot& slot : old) {
-      if (!slot.page || slot.touched != epoch_) continue;
+      if (!slot.pin || slot.touched != epoch_) continue;
       slot.refs = 0;
       slots_.push_back(std::move(slot));
       place(uint32_t(slots_.size() - 1));
@@ -152,7 +164,8 @@ class PagePins {
     uint32_t refs = 0;
     uint32_t bucket = 0;   // its position in index_
     uint32_t touched = 0;  // epoch_ of its last acquire()
-    tree::PagePtr page;    // null when released
+    std::shared_ptr<const void> pin;     // the page or its view; null when released
+    const tree::Page* page = nullptr;    // the pinned page, if pinned as a page
     const PageView* view = nullptr;
   };
   static size_t hash(uint32_t id) { return size_t(id) * 0x9E3779B1u; }
@@ -172,7 +185,7 @@ class PagePins {
       while (index_[b].slot != kNone) b = (b + 1) & mask;
     }
     const uint32_t s = uint32_t(slots_.size());
-    slots_.push_back({id, 0, uint32_t(b), epoch_, nullptr, nullptr});
+    slots_.push_back({id, 0, uint32_t(b), epoch_, nullptr, nullptr, nullptr});
     index_[b] = {id, s, nullptr};
     return index_[b];
   }
@@ -183,7 +196,7 @@ class PagePins {
     const size_t mask = index_.size() - 1;
     size_t b = hash(slot.id) & mask;
     while (index_[b].slot != kNone) b = (b + 1) & mask;
-    index_[b] = {slot.id, s, slot.page ? slot.view : nullptr};
+    index_[b] = {slot.id, s, slot.pin ? slot.view : nullptr};
     slot.bucket = uint32_t(b);
   }
 

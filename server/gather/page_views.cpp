@@ -430,7 +430,7 @@ PageView::Ptr PageView::build(const tree::Page& page) {
   Cold* cold = new (base + cold_at) Cold();
   cold->glossy = page.glossy;
   view->surfel_count = uint32_t(page.surfels.size());
-  view->bytes = uint32_t(tree::heap_block_bytes(bytes));
+  cold->charged = tree::heap_block_bytes(bytes) + page.glossy_bytes;
   view->full_count = uint32_t(parts.full.size());
   view->bipolar_count = uint32_t(parts.bipolar.size());
   std::copy(parts.node0_dc, parts.node0_dc + 4, cold->node0_dc);
@@ -483,21 +483,14 @@ const PageView*& PageViews::slot(uint32_t id) {
   return sparse_[id];
 }
 
-namespace {
-struct AttachedView final : tree::PageAttachment {
-  explicit AttachedView(const tree::Page& page) : view(PageView::build(page)) {}
-  // Its make_shared block, then the view's.
-  size_t memory_bytes() const override {
-    return tree::heap_block_bytes(tree::Page::kSharedControlBytes + sizeof(AttachedView)) + view->memory_bytes();
-  }
-  PageView::Ptr view;
-};
-}  // namespace
-
 void attach_view(tree::Page& page) {
-  page.attachment = std::make_shared<AttachedView>(page);
-  // Emptied: the reader returns a page without them and reuses their
-  // memory for the next page it decodes (storage/pages/page_set.h).
+  PageView::Ptr view = PageView::build(page);
+  // The control block the shared_ptr allocates for a pointer and its
+  // deleter (a vtable pointer, two counts and the pointer).
+  view->cold->charged += tree::heap_block_bytes(3 * sizeof(void*) + 8);
+  page.attachment = std::shared_ptr<const PageView>(view.release(), PageView::Free{});
+  // Emptied: the reader reuses their memory for the next page it decodes
+  // (storage/pages/page_set.h).
   page.nodes.clear();
   page.links.clear();
   page.surfels.clear();
@@ -507,9 +500,7 @@ const PageView& PageViews::get(const tree::Page& page) {
   // An attached view lives exactly as long as its page, which the caller
   // pins: it is never remembered in a slot, which would dangle once the
   // cache evicts the page.
-  if (const auto* attached = dynamic_cast<const AttachedView*>(page.attachment.get())) {
-    return *attached->view;
-  }
+  if (const auto* attached = dynamic_cast<const PageView*>(page.attachment.get())) return *attached;
   const PageView*& s = slot(page.id);
   if (s && s->matches(page)) return *s;
   if (shared_) {

@@ -207,7 +207,11 @@ static_assert(sizeof(PackedWide) == 96);
 // nodes 0 and 1 (the page's root, the node a walk enters by, and its first
 // child) share one 128-byte-aligned pair of lines, which the core fetches
 // together. The header is 64 bytes; build() allocates it 128-byte aligned.
-struct alignas(64) PageView {
+//
+// A view is the page's attachment (attach_view): what a page set reader
+// with the view as its decorator caches and charges, instead of a Page
+// record holding a separate attachment (~190 bytes a page fewer).
+struct alignas(64) PageView final : tree::PageAttachment {
   // In `flags`: children are pairs in refs (a view too large for 15-bit
   // slots: PackedNode::link).
   static constexpr uint32_t kWideLinks = 1u;
@@ -224,15 +228,17 @@ struct alignas(64) PageView {
   // Byte offsets from `this` of the parts after the nodes.
   uint32_t looks_at = 0, surfels_at = 0, refs_at = 0, full_at = 0, bipolar_at = 0;
   uint32_t surfel_count = 0, full_count = 0, bipolar_count = 0;
-  uint32_t bytes = 0;  // the whole allocation's heap block (tree::heap_block_bytes)
-  uint32_t pad_ = 0;   // to one line
   struct Cold;
-  const Cold* cold = nullptr;
+  Cold* cold = nullptr;
 
   // What only rare paths read.
   struct Cold {
     // The page's glossy radiance, or null.
     std::shared_ptr<const storage::GlossyNodes> glossy;
+    // memory_bytes(): the allocation's heap block (tree::heap_block_bytes),
+    // the glossy radiance's bytes and, for an attached view, its
+    // shared_ptr's control block.
+    uint64_t charged = 0;
     // Node 0's DC radiance and coverage (radiance_sh[0], coverage_sh[0]):
     // a tree root's mean radiance, kept apart so that node 0 needs no full
     // copy (most pages' node 0 is narrow).
@@ -325,7 +331,7 @@ struct alignas(64) PageView {
 
   PageView(const PageView&) = delete;
   PageView& operator=(const PageView&) = delete;
-  size_t memory_bytes() const { return bytes; }
+  size_t memory_bytes() const override { return cold->charged; }
   // Whether `page` could be the page this view was built from.
   bool matches(const tree::Page& page) const {
     return page.id == id && page.nodes.size() == page_nodes && page.nodes.size() + page.links.size() == node_count &&
@@ -343,15 +349,14 @@ struct alignas(64) PageView {
 };
 static_assert(sizeof(PageView) == 64, "one line; nodes 0 and 1 are the next, in the same 128-byte pair");
 
-// Builds `page`'s view and attaches it to the page, so that every Gatherer
-// reuses it for as long as the page cache keeps the page, and the cache's
-// budget pays for it. The view holds what a gather reads of the page's
-// nodes, links and surfels, so the page drops them (Page::nodes,
-// Page::links and Page::surfels come back empty; the reader returns a page
-// without their memory and reuses it for the next page it decodes): a page
-// in the cache costs its view, not two copies of its content. Install it
-// as the PageSetReader's page decorator (storage/pages/page_set.h) of
-// readers whose pages only gathers read. Throws as PageView's constructor.
+// Builds `page`'s view and attaches it to the page: installed as a
+// PageSetReader's page decorator (storage/pages/page_set.h), the reader
+// caches the view alone, every Gatherer reuses it for as long as the page
+// cache keeps it, and the cache's budget pays for it. The view holds what
+// a gather reads of the page's nodes, links and surfels, so the page drops
+// them (Page::nodes, Page::links and Page::surfels come back empty; the
+// reader reuses their memory for the next page it decodes). Throws as
+// PageView::build.
 void attach_view(tree::Page& page);
 
 // Views by page id: the one attached to the page (attach_view) or else built

@@ -44,10 +44,10 @@ enum List : uint8_t { kWindow, kProbation, kProtected, kDeparted, kLists, kFree 
 struct Slot {
   Key key{};
   uint32_t prev = kNil, next = kNil;  // in its list; next: the free list's link when free
-  uint32_t bytes = 0;                 // charged, while held (a page of 4 GiB or more is not held)
+  uint32_t bytes = 0;                 // charged while held, kept while departed (a page of 4 GiB or more is not held)
   List list = kFree;
-  tree::PagePtr page;  // held
-  std::weak_ptr<const tree::Page> departed;
+  CachedPtr page;  // held
+  std::weak_ptr<const void> departed;
 };
 static_assert(sizeof(Slot) <= 64, "a slot a cache line");
 
@@ -89,7 +89,7 @@ constexpr size_t kMinDeparted = 256;
 // makes a futex system call whether or not anyone waits, on every miss
 // (two thirds of the gather's futex calls at 1/8 of the 2M city).
 struct Pending {
-  tree::PagePtr page;
+  CachedPtr page;
   std::exception_ptr error;
   bool done = false;  // guarded by PageCache::Impl::mu
   int waiters = 0;    // guarded by PageCache::Impl::mu
@@ -119,14 +119,14 @@ struct PageCache::Impl {
   // Pages dropped under the lock, released by the caller after unlocking:
   // the last reference to a page frees its view, which must not lengthen
   // the critical section that every fetch of every gather goes through.
-  std::vector<tree::PagePtr> released;
+  std::vector<CachedPtr> released;
 
   explicit Impl(uint64_t b) : budget(b) {}
 
   // Requires mu. The pages dropped since the last call, to be destroyed
   // once the lock is released.
-  std::vector<tree::PagePtr> take_released() {
-    std::vector<tree::PagePtr> out;
+  std::vector<CachedPtr> take_released() {
+    std::vector<CachedPtr> out;
     out.swap(released);
     return out;
   }
@@ -250,8 +250,7 @@ struct PageCache::Impl {
   void drop(uint32_t s, bool evicted) {
     Slot& slot = slots[s];
     unlink(s);
-    counters.bytes_held -= slot.bytes;
-    slot.bytes = 0;
+    counters.bytes_held -= slot.bytes;  // a departed slot keeps its charge, for hold() when taken back
     if (evicted) ++counters.evictions;
     // Still used (the cache's reference is not the only one): remembered.
     if (evicted && slot.page.use_count() > 1) {
@@ -312,10 +311,10 @@ struct PageCache::Impl {
     while (counters.bytes_held > budget) evict_one();
   }
 
-  // Requires mu. Holds `page` (in the window) if it fits the budget; the
-  // key's slot, if it has one, is departed.
-  void hold(const Key& key, const tree::PagePtr& page) {
-    const uint64_t bytes = page->memory_bytes() + kEntryBytes;
+  // Requires mu. Holds `page`, charged `page_bytes` (in the window) if it
+  // fits the budget; the key's slot, if it has one, is departed.
+  void hold(const Key& key, const CachedPtr& page, uint64_t page_bytes) {
+    const uint64_t bytes = page_bytes + kEntryBytes;
     if (bytes > budget || bytes > std::numeric_limits<uint32_t>::max()) return;
     uint32_t s = find(key);
     if (s != kNil && slots[s].list != kDeparted) return;  // held already
@@ -339,8 +338,7 @@ uint64_t PageCache::entry_bytes() { return kEntryBytes; }
 PageCache::PageCache(uint64_t budget_bytes) : impl_(std::make_unique<Impl>(budget_bytes)) {}
 PageCache::~PageCache() = default;
 
-tree::PagePtr PageCache::get(uint64_t owner, uint32_t page_id,
-                             const std::function<tree::PagePtr()>& load) {
+CachedPtr PageCache::get_value(uint64_t owner, uint32_t page_id, const std::function<CachedValue()>& load) {
   const Key key{owner, page_id};
   // Made only on a miss: a hit (every page of every gather, once the cache
   // is warm) allocates nothing.
@@ -366,10 +364,11 @@ tree::PagePtr PageCache::get(uint64_t owner, uint32_t page_id,
     // Evicted while in use and still alive: taken back, no load (a hit),
     // and held again as a page that just came.
     if (slot != kNil) {
-      if (tree::PagePtr back = impl_->slots[slot].departed.lock()) {
+      if (CachedPtr back = impl_->slots[slot].departed.lock()) {
         ++impl_->counters.hits;
-        impl_->hold(key, back);
-        const std::vector<tree::PagePtr> dropped = impl_->take_released();
+        const uint64_t bytes = impl_->slots[slot].bytes - kEntryBytes;
+        impl_->hold(key, back, bytes);
+        const std::vector<CachedPtr> dropped = impl_->take_released();
         lock.unlock();
         return back;
       }
@@ -382,31 +381,39 @@ tree::PagePtr PageCache::get(uint64_t owner, uint32_t page_id,
   }
 
   // Load outside the lock: I/O and decoding must not block other pages.
-  tree::PagePtr page;
+  CachedValue page;
   std::exception_ptr error;
   try {
     page = load();
-    if (!page) throw Error("page loader returned no page for page " + std::to_string(page_id));
+    if (!page.value) throw Error("page loader returned no page for page " + std::to_string(page_id));
   } catch (...) {
     error = std::current_exception();
   }
-  std::vector<tree::PagePtr> dropped;  // released after the lock
+  std::vector<CachedPtr> dropped;  // released after the lock
   bool wake = false;
   {
     std::lock_guard lock(impl_->mu);
     impl_->loading.erase(key);
     if (!error) {
-      impl_->hold(key, page);  // nothing is cached for a failed load
+      impl_->hold(key, page.value, page.bytes);  // nothing is cached for a failed load
       dropped = impl_->take_released();
     }
-    pending->page = page;
+    pending->page = page.value;
     pending->error = error;
     pending->done = true;
     wake = pending->waiters > 0;
   }
   if (wake) impl_->loaded.notify_all();
   if (error) std::rethrow_exception(error);
-  return page;
+  return page.value;
+}
+
+tree::PagePtr PageCache::get(uint64_t owner, uint32_t page_id, const std::function<tree::PagePtr()>& load) {
+  return std::static_pointer_cast<const tree::Page>(get_value(owner, page_id, [&]() -> CachedValue {
+    tree::PagePtr page = load();
+    const uint64_t bytes = page ? page->memory_bytes() : 0;
+    return {std::move(page), bytes};
+  }));
 }
 
 void PageCache::note_bytes_read(uint64_t n) { impl_->bytes_read.fetch_add(n, std::memory_order_relaxed); }
@@ -424,7 +431,7 @@ uint64_t PageCache::budget() const {
 }
 
 void PageCache::set_budget(uint64_t budget_bytes) {
-  std::vector<tree::PagePtr> dropped;  // released after the lock
+  std::vector<CachedPtr> dropped;  // released after the lock
   std::lock_guard lock(impl_->mu);
   impl_->budget = budget_bytes;
   while (impl_->counters.bytes_held > impl_->budget) impl_->evict_one();
@@ -435,7 +442,7 @@ void PageCache::set_budget(uint64_t budget_bytes) {
 uint64_t PageCache::new_owner() { return impl_->next_owner.fetch_add(1); }
 
 void PageCache::forget(uint64_t owner) {
-  std::vector<tree::PagePtr> dropped;  // released after the lock
+  std::vector<CachedPtr> dropped;  // released after the lock
   std::lock_guard lock(impl_->mu);
   for (uint32_t s = 0; s < impl_->slots.size(); ++s) {
     Slot& slot = impl_->slots[s];

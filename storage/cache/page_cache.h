@@ -1,4 +1,6 @@
-// Cache of decoded pages with a hard byte budget, shared by all page sets of
+// Cache of decoded pages (or of what a reader keeps of them: a page set
+// reader with a page decorator keeps only the decorator's attachment,
+// storage/pages/page_set.h) with a hard byte budget, shared by all page sets of
 // the daemon. Thread-safe. Pages in use by a gather stay alive through their
 // shared_ptr even if evicted, so the budget bounds the cache's own holdings.
 //
@@ -21,7 +23,8 @@
 // never I/O or decoding. Pages are kept in slots (a deque, linked into the
 // lists by index) found through an open-addressing index, so holding a
 // page costs the cache no heap block of its own. The bytes of a page are
-// Page::memory_bytes() plus what holding it costs the cache (entry_bytes():
+// what its loader says it costs (Page::memory_bytes() for get()) plus what
+// holding it costs the cache (entry_bytes():
 // its slot and its shares of the index and of the frequency sketch, 96
 // bytes); the cache never holds more than budget() bytes (a page larger
 // than the budget is returned but not held; budget 0 holds nothing).
@@ -48,6 +51,15 @@
 
 namespace pbgi::storage {
 
+// What the cache holds for a page: a tree::Page (get()) or whatever else
+// its owner keeps of it (get_value()); one owner keeps one kind.
+using CachedPtr = std::shared_ptr<const void>;
+// A loaded value and the bytes of memory it costs.
+struct CachedValue {
+  CachedPtr value;
+  uint64_t bytes = 0;
+};
+
 struct CacheCounters {
   uint64_t hits = 0, misses = 0, evictions = 0, bytes_read = 0, bytes_held = 0;
 };
@@ -63,6 +75,9 @@ class PageCache {
   // nothing is cached for a failed load.
   tree::PagePtr get(uint64_t owner, uint32_t page_id,
                     const std::function<tree::PagePtr()>& load);
+  // The same for any value: `load` returns it with its bytes. The caller
+  // casts the result back to the type its loads return.
+  CachedPtr get_value(uint64_t owner, uint32_t page_id, const std::function<CachedValue()>& load);
   void note_bytes_read(uint64_t n);
   CacheCounters counters() const;
   uint64_t budget() const;

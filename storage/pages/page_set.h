@@ -171,19 +171,21 @@ Manifest build_page_set(std::vector<Surfel> surfels, const tree::BuildOptions& o
                         const std::function<void(float)>& progress = {},
                         BuildReport* report = nullptr, const GlossyShader* glossy = nullptr);
 
-// Called on each page a PageSetReader loads, after decoding and before the
-// page is cached or shared, to attach what the caller derives from it
-// (tree::PageAttachment). It may empty the page's arrays (nodes, surfels,
-// links) it has no more use for: the page the reader returns holds only
-// what is left (the reader decodes into a scratch page per thread and
-// reuses the emptied arrays for the next page). Must be thread-safe
-// (concurrent loads); what it throws fails the page() call and nothing is
-// cached.
+// Called on each page a PageSetReader loads, after decoding and before
+// anything is cached or shared, to attach what the caller derives from it
+// (tree::PageAttachment, which it must set). A reader with a decorator
+// keeps only that attachment: what it caches and charges is the
+// attachment alone (a gather's view, a few times smaller than the decoded
+// page and its Page record), attachment() returns it, and page() returns a
+// page holding only its id and the attachment. The reader decodes into a
+// scratch page per thread and reuses its arrays for the next page.
+// Must be thread-safe (concurrent loads); what it throws fails the load
+// and nothing is cached.
 using PageDecorator = std::function<void(tree::Page&)>;
 
 // Reads a published page set; pages are loaded on demand through `cache`
 // (nullptr: no caching, every page() call reads and decodes), each passed
-// through `decorate` if given.
+// through `decorate` if given (then the reader keeps attachments only).
 // Thread-safety: all methods may be called concurrently (pread on one fd).
 // page() verifies the page's checksum and structure on every load.
 class PageSetReader : public tree::TreeSource {
@@ -199,6 +201,9 @@ class PageSetReader : public tree::TreeSource {
   // Throws CorruptionError / VersionError / IoError naming the file and
   // page; InvalidArgument for an id >= page count.
   tree::PagePtr page(uint32_t id) const override;
+  // With a decorator: page `id`'s attachment, loaded through the cache.
+  // Without: null. Throws as page().
+  std::shared_ptr<const tree::PageAttachment> attachment(uint32_t id) const override;
   const tree::RegionGrid* regions() const override;
   std::span<const tree::RegionRoot> region_roots() const override;
   const Manifest& manifest() const;

@@ -33,21 +33,32 @@ struct PageSetReader::Impl {
   PageDecorator decorate;
   uint64_t owner = 0;
 
-  tree::PagePtr load(uint32_t id) const {
+  // Reads page `id`'s bytes into this thread's buffer (valid until its
+  // next read; a miss reads one page, and a fresh buffer each time was a
+  // heap block allocated, zeroed and freed per miss).
+  std::span<const uint8_t> read(uint32_t id) const {
+    thread_local std::vector<uint8_t> buffer;
     const PageExtent& e = manifest.pages[id];
-    std::vector<uint8_t> bytes(e.bytes);
-    pages.pread_exact(bytes, e.offset);
-    if (cache) cache->note_bytes_read(bytes.size());
-    const PageLocation where{pages.path(), id, e.offset};
-    if (!decorate) {
-      return decode_page(bytes, where, manifest.page_format, *codec, manifest.stats.page_count,
-                         manifest.glossy_resolution != 0, manifest.options.leaf_format);
-    }
-    // Decoded into this thread's scratch page, whose arrays the decorator
-    // empties once it has derived what it keeps: the page it returns holds
-    // only that, and the next load reuses the arrays, still in the core's
-    // caches, instead of allocating and touching new memory (a page cache
-    // miss decodes one page).
+    // What a large page grew is given back at the next smaller read.
+    constexpr size_t kMaxKeptBytes = size_t(256) << 10;
+    if (buffer.capacity() > kMaxKeptBytes && e.bytes <= kMaxKeptBytes) std::vector<uint8_t>().swap(buffer);
+    buffer.resize(e.bytes);
+    pages.pread_exact(buffer, e.offset);
+    if (cache) cache->note_bytes_read(buffer.size());
+    return buffer;
+  }
+  PageLocation where(uint32_t id) const { return {pages.path(), id, manifest.pages[id].offset}; }
+
+  tree::PagePtr load(uint32_t id) const {
+    return decode_page(read(id), where(id), manifest.page_format, *codec, manifest.stats.page_count,
+                       manifest.glossy_resolution != 0, manifest.options.leaf_format);
+  }
+
+  // With a decorator: the attachment it derives from page `id`. Decoded
+  // into this thread's scratch page, whose arrays the next load reuses,
+  // still in the core's caches, instead of allocating and touching new
+  // memory (a page cache miss decodes one page).
+  std::shared_ptr<const tree::PageAttachment> load_attachment(uint32_t id) const {
     thread_local tree::Page scratch;
     struct Reset {
       tree::Page& p;
@@ -59,18 +70,13 @@ struct PageSetReader::Impl {
         tree::trim_scratch(p.links);
       }
     } reset{scratch};
-    decode_page_into(bytes, where, manifest.page_format, *codec, manifest.stats.page_count,
+    decode_page_into(read(id), where(id), manifest.page_format, *codec, manifest.stats.page_count,
                      manifest.glossy_resolution != 0, manifest.options.leaf_format, nullptr, scratch);
     decorate(scratch);
-    auto page = std::make_shared<tree::Page>();
-    page->id = scratch.id;
-    page->attachment = std::move(scratch.attachment);
-    page->glossy = std::move(scratch.glossy);
-    page->glossy_bytes = scratch.glossy_bytes;
-    if (!scratch.nodes.empty()) page->nodes = std::move(scratch.nodes);
-    if (!scratch.surfels.empty()) page->surfels = std::move(scratch.surfels);
-    if (!scratch.links.empty()) page->links = std::move(scratch.links);
-    return page;
+    if (!scratch.attachment) {
+      throw Error(pages.path() + ": page " + std::to_string(id) + ": the page decorator attached nothing");
+    }
+    return std::move(scratch.attachment);
   }
 };
 
@@ -90,14 +96,38 @@ const tree::RegionGrid* PageSetReader::regions() const {
 
 std::span<const tree::RegionRoot> PageSetReader::region_roots() const { return impl_->manifest.region_roots; }
 
+namespace {
+void check_id(uint32_t id, const Manifest& m, const File& pages) {
+  if (id >= m.stats.page_count) {
+    throw InvalidArgument(pages.path() + ": page " + std::to_string(id) + " requested, the page set has " +
+                          std::to_string(m.stats.page_count));
+  }
+}
+}  // namespace
+
 tree::PagePtr PageSetReader::page(uint32_t id) const {
-  if (id >= impl_->manifest.stats.page_count) {
-    throw InvalidArgument(impl_->pages.path() + ": page " + std::to_string(id) +
-                          " requested, the page set has " +
-                          std::to_string(impl_->manifest.stats.page_count));
+  check_id(id, impl_->manifest, impl_->pages);
+  if (impl_->decorate) {
+    // Not cached: what the cache keeps is the attachment.
+    auto page = std::make_shared<tree::Page>();
+    page->id = id;
+    page->attachment = attachment(id);
+    return page;
   }
   if (!impl_->cache) return impl_->load(id);
   return impl_->cache->get(impl_->owner, id, [this, id] { return impl_->load(id); });
+}
+
+std::shared_ptr<const tree::PageAttachment> PageSetReader::attachment(uint32_t id) const {
+  if (!impl_->decorate) return nullptr;
+  check_id(id, impl_->manifest, impl_->pages);
+  if (!impl_->cache) return impl_->load_attachment(id);
+  return std::static_pointer_cast<const tree::PageAttachment>(
+      impl_->cache->get_value(impl_->owner, id, [this, id]() -> CachedValue {
+        std::shared_ptr<const tree::PageAttachment> a = impl_->load_attachment(id);
+        const uint64_t bytes = a->memory_bytes();
+        return {std::move(a), bytes};
+      }));
 }
 
 const Manifest& PageSetReader::manifest() const { return impl_->manifest; }

@@ -177,21 +177,23 @@ size_t decode_surfel_section(std::span<const uint8_t> bytes, std::span<const Lea
     at += uint64_t(count[c]) * width[c];
   }
   if (v10) start[kRadiusColumn] -= width[kRadiusColumn];
-  const uint8_t* data = bytes.data();
-  auto get = [&](uint64_t bit, uint32_t w) -> uint32_t {
-    if (w == 0) return 0;
-    // Up to 8 bytes from bit / 8, never past the section (w <= 14: the
-    // value lies in the first 3); a whole word where the section has one.
-    const uint64_t byte = bit / 8;
-    uint64_t word = 0;
-    if (byte + 8 <= size) {
-      word = load_le<uint64_t>(data + byte);
-    } else {
-      uint8_t buf[8] = {};
-      std::memcpy(buf, data + byte, size_t(size - byte));
-      word = load_le<uint64_t>(buf);
-    }
-    return uint32_t((word >> (bit % 8)) & ((uint64_t(1) << w) - 1));
+  // The section with 8 zero bytes after it, so that every value is one
+  // 8-byte load however close to the section's end (w <= 14: a value lies
+  // in the 3 bytes from bit / 8); and each column's mask and largest
+  // value, so that the loop below is loads, shifts and one compare a value
+  // (it decodes every surfel of every page a cache miss loads).
+  thread_local std::vector<uint8_t> padded;
+  padded.assign(bytes.begin(), bytes.begin() + ptrdiff_t(size));
+  padded.resize(size_t(size) + 8, 0);
+  const uint8_t* data = padded.data();
+  uint64_t mask[kColumnCount];
+  uint32_t largest[kColumnCount];
+  for (size_t c = 0; c < kColumnCount; ++c) {
+    mask[c] = (uint64_t(1) << width[c]) - 1;
+    largest[c] = (1u << stored_bits(c, v10, shift)) - 1u;
+  }
+  auto get = [&](uint64_t bit, size_t c) -> uint32_t {
+    return uint32_t((load_le<uint64_t>(data + bit / 8) >> (bit % 8)) & mask[c]);
   };
   // V10: the leaf of the current surfel (its frame radius), and the
   // previous surfel's radius code and frame radius.
@@ -201,14 +203,17 @@ size_t decode_surfel_section(std::span<const uint8_t> bytes, std::span<const Lea
   uint32_t prev_code = 0;
   for (size_t i = 0; i < surfel_count; ++i) {
     uint32_t v[kColumnCount];
+    bool past = false;
     for (size_t c = 0; c < kColumnCount; ++c) {
-      if (v10 && c == kRadiusColumn && i == 0) {  // the first code, read above
-        v[c] = kRadiusBias;
-        continue;
-      }
-      v[c] = lo[c] + get(start[c] + i * width[c], width[c]);
-      if (v[c] >> stored_bits(c, v10, shift)) {
-        throw corrupt("surfel " + std::to_string(i) + "'s column " + std::to_string(c) + " is past its field");
+      v[c] = lo[c] + get(start[c] + i * width[c], c);
+      past |= v[c] > largest[c];
+    }
+    if (v10 && i == 0) v[kRadiusColumn] = kRadiusBias;  // the first code, read above; no value of its own
+    if (past) {
+      for (size_t c = 0; c < kColumnCount; ++c) {
+        if (v[c] > largest[c]) {
+          throw corrupt("surfel " + std::to_string(i) + "'s column " + std::to_string(c) + " is past its field");
+        }
       }
     }
     if (v10) {

@@ -130,6 +130,12 @@ class TreeSource {
   // pbgi::CorruptionError, VersionError or IoError (common/errors.h)
   // naming the page on failure.
   virtual PagePtr page(uint32_t id) const = 0;
+  // Page `id`'s attachment (PageAttachment), from a source that keeps only
+  // the attachments its page decorator derives (a PageSetReader with a
+  // decorator, storage/pages/page_set.h): pinning it costs what the
+  // attachment costs, no Page. Null from a source that keeps whole pages:
+  // then call page(). Throws as page().
+  virtual std::shared_ptr<const PageAttachment> attachment(uint32_t /*id*/) const { return nullptr; }
   // Air regions (region_grid.h): the grid receivers are looked up in and
   // each region's subtree, by increasing region; null and empty when the
   // tree does not keep regions apart (a receiver then walks root()).

@@ -230,33 +230,34 @@ void print_disk_parts(const storage::PageSetReader& reader) {
       part[8] / n, part[9] / n);
 }
 
-// Where a cached page's charged bytes go (Page::memory_bytes(), what the
-// page cache counts), per page on average and against its bytes on disk.
+// Where a cached page's charged bytes go (what the page cache counts for a
+// reader decorated with gather::attach_view: the view and the cache's
+// entry), per page on average and against its bytes on disk.
 void print_decoded_parts(const storage::PageSetReader& reader) {
   const uint32_t pages = reader.manifest().stats.page_count;
-  double charged = 0, disk = 0, page_struct = 0, page_vectors = 0, attachment = 0, view = 0;
+  double charged = 0, disk = 0, view = 0, block = 0;
   double hot = 0, looks = 0, leaf_surfels = 0, full = 0, bipolar = 0, surfels = 0, nodes = 0, proxies = 0;
   double full_count = 0;
-  gather::PageViews views;
   for (uint32_t id = 0; id < pages; ++id) {
-    const tree::PagePtr page = reader.page(id);
-    const gather::PageView& v = views.get(*page);
-    charged += double(page->memory_bytes());
+    const auto attached = reader.attachment(id);
+    const auto* v = dynamic_cast<const gather::PageView*>(attached.get());
+    if (!v) throw std::runtime_error("page " + std::to_string(id) + " has no view");
+    charged += double(v->memory_bytes());
     disk += double(reader.manifest().pages[id].bytes);
-    page_struct += double(tree::heap_block_bytes(tree::Page::kSharedControlBytes + sizeof(tree::Page)));
-    page_vectors += double(page->nodes.capacity() * sizeof(tree::Node) + page->surfels.capacity() * sizeof(Surfel) +
-                           page->links.capacity() * sizeof(tree::PageLink));
-    attachment += double(page->attachment ? page->attachment->memory_bytes() : 0);
-    view += double(v.memory_bytes());
-    hot += double(v.node_count * sizeof(gather::PackedNode));
-    looks += double(v.node_count * sizeof(gather::PackedLook));
-    leaf_surfels += double(v.surfel_count * sizeof(gather::PackedSurfel));
-    full += double(v.full_bytes());
-    bipolar += double(v.bipolar_count * sizeof(gather::Bipolar));
-    surfels += double(v.surfel_count);
-    nodes += double(v.page_nodes);
-    proxies += double(v.node_count - v.page_nodes);
-    full_count += double(v.full_count);
+    // The view's own allocation, without the glossy radiance and the
+    // shared_ptr's control block that memory_bytes() adds.
+    const size_t parts = v->bipolar_at + v->bipolar_count * sizeof(gather::Bipolar);
+    block += double(tree::heap_block_bytes(parts + sizeof(gather::PageView::Cold)));
+    view += double(v->memory_bytes());
+    hot += double(v->node_count * sizeof(gather::PackedNode));
+    looks += double(v->node_count * sizeof(gather::PackedLook));
+    leaf_surfels += double(v->surfel_count * sizeof(gather::PackedSurfel));
+    full += double(v->full_bytes());
+    bipolar += double(v->bipolar_count * sizeof(gather::Bipolar));
+    surfels += double(v->surfel_count);
+    nodes += double(v->page_nodes);
+    proxies += double(v->node_count - v->page_nodes);
+    full_count += double(v->full_count);
   }
   const double n = std::max(1.0, double(pages));
   charged += double(storage::PageCache::entry_bytes()) * n;  // as a cache holding every page charges
@@ -264,11 +265,10 @@ void print_decoded_parts(const storage::PageSetReader& reader) {
               "nodes, %.2f surfels a page\n",
               charged / n, disk / n, charged / disk, nodes / n, proxies / n, full_count / n, surfels / n);
   std::printf(
-      "decoded parts  cache entry %.0f, Page block %.0f, Page vectors %.0f, attachment %.0f (view %.0f: "
-      "header+cold+pad %.0f, "
+      "decoded parts  cache entry %.0f, view %.0f (control block and glossy %.0f, header+cold+pad %.0f, "
       "PackedNode %.0f, PackedLook %.0f, PackedSurfel %.0f, full nodes %.0f, bipolar %.0f); bytes a page\n",
-      double(storage::PageCache::entry_bytes()), page_struct / n, page_vectors / n, attachment / n, view / n,
-      (view - hot - looks - leaf_surfels - full - bipolar) / n, hot / n, looks / n, leaf_surfels / n, full / n,
+      double(storage::PageCache::entry_bytes()), view / n, (view - block) / n,
+      (block - hot - looks - leaf_surfels - full - bipolar) / n, hot / n, looks / n, leaf_surfels / n, full / n,
       bipolar / n);
 }
 
@@ -396,7 +396,7 @@ int run(const Args& a) {
   uint64_t decoded = 0;
   {
     const double c0 = thread_cpu_seconds();
-    for (uint32_t id = 0; id < m.stats.page_count; ++id) decoded += probe.page(id)->memory_bytes();
+    for (uint32_t id = 0; id < m.stats.page_count; ++id) decoded += probe.attachment(id)->memory_bytes();
     const double s = thread_cpu_seconds() - c0;
     std::printf("decode         %.0f pages/s, %.0f MiB/s of pages per CPU second; %.2f GiB decoded (%.1fx the page bytes)\n",
                 m.stats.page_count / s, double(m.stats.file_bytes) / (1 << 20) / s, double(decoded) / (1 << 30),

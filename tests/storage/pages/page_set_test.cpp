@@ -340,7 +340,7 @@ TEST_F(PageSetTest, ConcurrentReadersSeeTheSameTree) {
 }
 
 // A consumer's attachment (here a fixed-size blob) is built once per load,
-// charged by the cache with its page, and dropped with it.
+// and what the cache holds and charges is the attachment alone.
 struct Blob final : tree::PageAttachment {
   explicit Blob(size_t n) : bytes(n) {}
   size_t memory_bytes() const override { return sizeof(Blob) + bytes.capacity(); }
@@ -355,64 +355,68 @@ TEST_F(PageSetTest, DecoratorAttachmentsAreBuiltOncePerLoadAndCharged) {
     ++calls;
     p.attachment = std::make_shared<Blob>(kBlob);
   });
-  const tree::PagePtr a = reader.page(0);
-  const tree::PagePtr b = reader.page(0);
+  const std::shared_ptr<const tree::PageAttachment> a = reader.attachment(0);
+  const std::shared_ptr<const tree::PageAttachment> b = reader.attachment(0);
   EXPECT_EQ(calls.load(), 1);
+  ASSERT_NE(a, nullptr);
   EXPECT_EQ(a.get(), b.get());
-  ASSERT_NE(a->attachment, nullptr);
-  EXPECT_GE(a->memory_bytes(), kBlob);
-  EXPECT_EQ(cache->counters().bytes_held, a->memory_bytes() + PageCache::entry_bytes());
-  // Read everything: the cache holds every page with its blob.
-  for (uint32_t i = 0; i < manifest_.stats.page_count; ++i) reader.page(i);
+  EXPECT_EQ(cache->counters().bytes_held, a->memory_bytes() + PageCache::entry_bytes())
+      << "the attachment alone is charged";
+  // page() hands out the cached attachment under the page's id.
+  const tree::PagePtr page = reader.page(0);
+  EXPECT_EQ(calls.load(), 1);
+  EXPECT_EQ(page->id, 0u);
+  EXPECT_EQ(page->attachment.get(), a.get());
+  // Read everything: the cache holds every page's blob.
+  for (uint32_t i = 0; i < manifest_.stats.page_count; ++i) reader.attachment(i);
   EXPECT_EQ(calls.load(), int(manifest_.stats.page_count));
   EXPECT_GE(cache->counters().bytes_held, uint64_t(kBlob) * manifest_.stats.page_count);
 
   // A budget of two blobs: the attachments count, so pages are evicted.
   auto small = std::make_shared<PageCache>(2 * kBlob + 50000);
   PageSetReader tight(dir_, small, [&](tree::Page& p) { p.attachment = std::make_shared<Blob>(kBlob); });
-  for (uint32_t i = 0; i < manifest_.stats.page_count; ++i) tight.page(i);
+  for (uint32_t i = 0; i < manifest_.stats.page_count; ++i) tight.attachment(i);
   EXPECT_LE(small->counters().bytes_held, small->budget());
   EXPECT_GT(small->counters().evictions, 0u);
+
+  // An undecorated reader keeps pages: it has no attachments.
+  const PageSetReader plain(dir_, nullptr);
+  EXPECT_EQ(plain.attachment(0), nullptr);
 }
 
 // A decorated reader decodes page after page into one scratch page per
-// thread: a decorator that keeps the content gets the same pages as an
-// undecorated reader, in any order, and one that empties the arrays gets
-// each page whole (nothing left from the page before) and returns a page
-// without them.
-TEST_F(PageSetTest, DecoratedPagesHoldWhatTheDecoratorLeaves) {
+// thread: the decorator sees each page whole (nothing left from the page
+// before, in any order), and the page the reader returns holds its id and
+// attachment only.
+TEST_F(PageSetTest, ADecoratedReaderKeepsTheAttachmentAlone) {
   const PageSetReader plain(dir_, nullptr);
-  const PageSetReader keeping(dir_, nullptr, [](tree::Page& p) { p.attachment = std::make_shared<Blob>(1); });
-  test::expect_same_walk(test::walk(keeping), test::walk(plain));
-
   // The surfels and nodes each page had, as the decorator saw them.
   struct Seen final : tree::PageAttachment {
-    size_t nodes = 0, surfels = 0;
+    size_t nodes = 0, surfels = 0, links = 0;
     float first_x = 0.f;
     size_t memory_bytes() const override { return sizeof(Seen); }
   };
-  const PageSetReader emptying(dir_, nullptr, [](tree::Page& p) {
+  const PageSetReader seeing(dir_, nullptr, [](tree::Page& p) {
     auto seen = std::make_shared<Seen>();
     seen->nodes = p.nodes.size();
     seen->surfels = p.surfels.size();
+    seen->links = p.links.size();
     seen->first_x = p.surfels.empty() ? 0.f : p.surfels[0].position.x;
     p.attachment = seen;
-    p.nodes.clear();
-    p.surfels.clear();
-    p.links.clear();
+    if (p.surfels.size() > 1) p.surfels.pop_back();  // what the next page must not see
   });
   const uint32_t pages = manifest_.stats.page_count;
   for (uint32_t k = 0; k < 2 * pages; ++k) {
     const uint32_t id = (k * 7919u) % pages;  // large and small pages in turn
     const tree::PagePtr want = plain.page(id);
-    const tree::PagePtr got = emptying.page(id);
+    const tree::PagePtr got = seeing.page(id);
     ASSERT_EQ(got->id, id);
-    EXPECT_TRUE(got->nodes.empty() && got->surfels.empty() && got->links.empty());
     EXPECT_EQ(got->nodes.capacity() + got->surfels.capacity() + got->links.capacity(), 0u) << "page " << id;
     const auto* seen = dynamic_cast<const Seen*>(got->attachment.get());
     ASSERT_NE(seen, nullptr);
     EXPECT_EQ(seen->nodes, want->nodes.size()) << "page " << id;
     EXPECT_EQ(seen->surfels, want->surfels.size()) << "page " << id;
+    EXPECT_EQ(seen->links, want->links.size()) << "page " << id;
     EXPECT_EQ(seen->first_x, want->surfels.empty() ? 0.f : want->surfels[0].position.x) << "page " << id;
   }
 }
@@ -426,7 +430,14 @@ TEST_F(PageSetTest, AThrowingDecoratorFailsTheLoadAndCachesNothing) {
   EXPECT_THROW(reader.page(0), CorruptionError);
   EXPECT_EQ(cache->counters().bytes_held, 0u);
   fail = false;
-  EXPECT_NE(reader.page(0), nullptr);
+  // One that attaches nothing fails the load too, naming the page.
+  try {
+    reader.attachment(0);
+    ADD_FAILURE() << "no attachment, no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("page 0"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(cache->counters().bytes_held, 0u);
 }
 
 TEST(PageSet, DefaultPagesOnLargerInput) {
