@@ -8,7 +8,10 @@
 // for a 200k-surfel tree).
 //
 // Each page entering a traversal also gets its PageView (page_views.h),
-// the compact node data the traversal's hot loop reads.
+// the compact node data the traversal's hot loop reads. From a source
+// that keeps views alone (a page set reader decorated with attach_view:
+// TreeSource::attachment) the pin holds the view itself; from any other,
+// the page, whose view PageViews finds or builds.
 //
 // Slots live in an append-only array (their numbers stay valid while the
 // receiver runs); an open-addressing hash index (linear probing,
@@ -59,8 +62,7 @@ class PagePins {
         tree::PagePtr p = tree_.page(id);
         if (!p) throw CorruptionError("tree page " + std::to_string(id) + ": source returned no page");
         if (p->id != id) {
-          throw CorruptionError("tree page " + std::to_string(id) + ": source returned page " +
-                                std::to_string(p->id));
+          throw CorruptionError("tree page " + std::to_string(id) + ": source returned page " + std::to_string(p->id));
         }
         slot.view = &views_.get(*p);
         slot.page = p.get();
@@ -164,8 +166,8 @@ class PagePins {
     uint32_t refs = 0;
     uint32_t bucket = 0;   // its position in index_
     uint32_t touched = 0;  // epoch_ of its last acquire()
-    std::shared_ptr<const void> pin;     // the page or its view; null when released
-    const tree::Page* page = nullptr;    // the pinned page, if pinned as a page
+    std::shared_ptr<const void> pin;   // the page or its view; null when released
+    const tree::Page* page = nullptr;  // the pinned page, if pinned as a page
     const PageView* view = nullptr;
   };
   static size_t hash(uint32_t id) { return size_t(id) * 0x9E3779B1u; }

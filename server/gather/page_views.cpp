@@ -486,8 +486,8 @@ const PageView*& PageViews::slot(uint32_t id) {
 void attach_view(tree::Page& page) {
   PageView::Ptr view = PageView::build(page);
   // The control block the shared_ptr allocates for a pointer and its
-  // deleter (a vtable pointer, two counts and the pointer).
-  view->cold->charged += tree::heap_block_bytes(3 * sizeof(void*) + 8);
+  // (empty) deleter: a vtable pointer, two counts and the pointer.
+  view->cold->charged += tree::heap_block_bytes(sizeof(void*) + 2 * sizeof(int) + sizeof(PageView*));
   page.attachment = std::shared_ptr<const PageView>(view.release(), PageView::Free{});
   // Emptied: the reader reuses their memory for the next page it decodes
   // (storage/pages/page_set.h).

@@ -210,7 +210,7 @@ static_assert(sizeof(PackedWide) == 96);
 //
 // A view is the page's attachment (attach_view): what a page set reader
 // with the view as its decorator caches and charges, instead of a Page
-// record holding a separate attachment (~190 bytes a page fewer).
+// record holding a separate attachment (~150 bytes a page fewer).
 struct alignas(64) PageView final : tree::PageAttachment {
   // In `flags`: children are pairs in refs (a view too large for 15-bit
   // slots: PackedNode::link).
