@@ -213,7 +213,7 @@ float CutWalker::scene_hdr_threshold() {
   }
   float dc[4] = {0.f, 0.f, 0.f, 0.f};
   if (root.index == 0) {
-    std::copy(view->cold->node0_dc, view->cold->node0_dc + 4, dc);
+    std::copy(view->node0_dc(), view->node0_dc() + 4, dc);
   } else {
     WideNode own;
     const WideNode* full = view->full_node(root.index, own) ? &own : nullptr;

@@ -377,17 +377,22 @@ PageView::Ptr PageView::build(const tree::Page& page) {
   if (!exact) header.flags |= kFloatWide;
   const size_t wide_bytes = exact ? sizeof(PackedWide) : sizeof(WideNode);
   // Header, nodes (half lines), looks (quarter lines), leaf surfels, refs,
-  // wide nodes, bipolar faces, then the cold part.
+  // wide nodes, bipolar faces, then node 0's DC terms and the glossy
+  // radiance's pointer.
   const size_t nodes_at = sizeof(PageView);
   const size_t looks_at = nodes_at + nodes.size() * sizeof(PackedNode);
   const size_t surfels_at = looks_at + looks.size() * sizeof(PackedLook);
   const size_t refs_at = round_up(surfels_at + page.surfels.size() * sizeof(PackedSurfel), alignof(tree::NodeRef));
   const size_t full_at = round_up(refs_at + refs.size() * sizeof(tree::NodeRef), alignof(WideNode));
   const size_t bipolar_at = round_up(full_at + parts.full.size() * wide_bytes, alignof(Bipolar));
-  const size_t cold_at = round_up(bipolar_at + parts.bipolar.size() * sizeof(Bipolar), alignof(Cold));
-  if (cold_at + sizeof(Cold) + 16 > std::numeric_limits<uint32_t>::max()) {
+  const size_t dc_at = node0_dc_at(bipolar_at, parts.bipolar.size());
+  const size_t glossy_at = page.glossy ? round_up(dc_at + 4 * sizeof(float), alignof(GlossyPtr)) : 0;
+  const size_t end = glossy_at ? glossy_at + sizeof(GlossyPtr) : dc_at + 4 * sizeof(float);
+  // What memory_bytes() may add to the block: the glossy radiance and a
+  // control block; all of it must fit the header's 32 bits.
+  if (end + 64 + page.glossy_bytes > std::numeric_limits<uint32_t>::max()) {
     throw CorruptionError("tree page " + std::to_string(page.id) + ": too large for a page view (" +
-                          std::to_string(cold_at) + " bytes)");
+                          std::to_string(end + page.glossy_bytes) + " bytes)");
   }
   // posix_memalign, not aligned operator new: libstdc++'s rounds the size
   // up to the alignment (C11 aligned_alloc's rule), 64 bytes a view on
@@ -396,7 +401,7 @@ PageView::Ptr PageView::build(const tree::Page& page) {
   // which pbgid links, rounds an aligned block to a size class that is a
   // multiple of the alignment either way: the charge is then up to 112
   // bytes short.)
-  const size_t bytes = round_up(cold_at + sizeof(Cold), 16);
+  const size_t bytes = round_up(end, 16);
 
   void* memory = nullptr;
   if (posix_memalign(&memory, kViewAlign, bytes) != 0) throw std::bad_alloc();
@@ -427,14 +432,15 @@ PageView::Ptr PageView::build(const tree::Page& page) {
     const HotNode h = view->node(i);
     if (h.leaf()) pack_surfels(page, h, surfels);
   }
-  Cold* cold = new (base + cold_at) Cold();
-  cold->glossy = page.glossy;
   view->surfel_count = uint32_t(page.surfels.size());
-  cold->charged = tree::heap_block_bytes(bytes) + page.glossy_bytes;
+  view->charged = uint32_t(tree::heap_block_bytes(bytes) + page.glossy_bytes);
   view->full_count = uint32_t(parts.full.size());
   view->bipolar_count = uint32_t(parts.bipolar.size());
-  std::copy(parts.node0_dc, parts.node0_dc + 4, cold->node0_dc);
-  view->cold = cold;
+  std::copy(parts.node0_dc, parts.node0_dc + 4, reinterpret_cast<float*>(base + dc_at));
+  if (glossy_at) {
+    new (base + glossy_at) GlossyPtr(page.glossy);
+    view->glossy_at = uint32_t(glossy_at);
+  }
   return owned;
 }
 
@@ -470,7 +476,10 @@ bool PageView::full_node(uint32_t i, WideNode& out) const {
 
 void PageView::Free::operator()(PageView* v) const {
   if (!v) return;
-  if (v->cold) v->cold->~Cold();
+  if (v->glossy_at) {
+    auto* glossy = reinterpret_cast<GlossyPtr*>(reinterpret_cast<std::byte*>(v) + v->glossy_at);
+    glossy->~GlossyPtr();
+  }
   v->~PageView();
   std::free(static_cast<void*>(v));
 }
@@ -487,7 +496,7 @@ void attach_view(tree::Page& page) {
   PageView::Ptr view = PageView::build(page);
   // The control block the shared_ptr allocates for a pointer and its
   // (empty) deleter: a vtable pointer, two counts and the pointer.
-  view->cold->charged += tree::heap_block_bytes(sizeof(void*) + 2 * sizeof(int) + sizeof(PageView*));
+  view->charged += uint32_t(tree::heap_block_bytes(sizeof(void*) + 2 * sizeof(int) + sizeof(PageView*)));
   page.attachment = std::shared_ptr<const PageView>(view.release(), PageView::Free{});
   // Emptied: the reader reuses their memory for the next page it decodes
   // (storage/pages/page_set.h).

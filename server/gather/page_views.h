@@ -200,7 +200,8 @@ static_assert(sizeof(PackedWide) == 96);
 
 // A page's view is one allocation: its header line (PageView), then its
 // packed nodes, looks, leaf surfels, child references, full nodes and
-// bipolar faces, then the rarely read rest (PageView::Cold). With pages of
+// bipolar faces, then the rarely read rest (node 0's DC terms and, for a
+// page with glossy senders, the pointer to their radiance). With pages of
 // a few levels (formats V4-V7) a walk enters a new view every few nodes,
 // and each entry waited for the view's header and its first node one after
 // the other when they lived in separate allocations; here the header and
@@ -228,22 +229,14 @@ struct alignas(64) PageView final : tree::PageAttachment {
   // Byte offsets from `this` of the parts after the nodes.
   uint32_t looks_at = 0, surfels_at = 0, refs_at = 0, full_at = 0, bipolar_at = 0;
   uint32_t surfel_count = 0, full_count = 0, bipolar_count = 0;
-  struct Cold;
-  Cold* cold = nullptr;
-
-  // What only rare paths read.
-  struct Cold {
-    // The page's glossy radiance, or null.
-    std::shared_ptr<const storage::GlossyNodes> glossy;
-    // memory_bytes(): the allocation's heap block (tree::heap_block_bytes),
-    // the glossy radiance's bytes and, for an attached view, its
-    // shared_ptr's control block.
-    uint64_t charged = 0;
-    // Node 0's DC radiance and coverage (radiance_sh[0], coverage_sh[0]):
-    // a tree root's mean radiance, kept apart so that node 0 needs no full
-    // copy (most pages' node 0 is narrow).
-    float node0_dc[4] = {0.f, 0.f, 0.f, 0.f};
-  };
+  // memory_bytes(): the allocation's heap block (tree::heap_block_bytes),
+  // the glossy radiance's bytes and, for an attached view, its
+  // shared_ptr's control block.
+  uint32_t charged = 0;
+  // Byte offset from `this` of the page's glossy radiance (a GlossyPtr),
+  // 0 when the page shows none: most pages keep no pointer for it.
+  uint32_t glossy_at = 0;
+  using GlossyPtr = std::shared_ptr<const storage::GlossyNodes>;
 
   // The page's nodes (indices below page_nodes), then one proxy per child
   // in another page that the page describes exactly (tree::Page::links):
@@ -254,7 +247,14 @@ struct alignas(64) PageView final : tree::PageAttachment {
   const PackedSurfel* surfels() const { return at<PackedSurfel>(surfels_at); }
   const tree::NodeRef* refs() const { return at<tree::NodeRef>(refs_at); }
   const Bipolar* bipolar() const { return at<Bipolar>(bipolar_at); }
-  const storage::GlossyNodes* glossy() const { return cold->glossy.get(); }
+  const storage::GlossyNodes* glossy() const { return glossy_at ? at<GlossyPtr>(glossy_at)->get() : nullptr; }
+  // Node 0's DC radiance and coverage (radiance_sh[0], coverage_sh[0]): a
+  // tree root's mean radiance, kept apart so that node 0 needs no full
+  // copy (most pages' node 0 is narrow). After the bipolar faces.
+  const float* node0_dc() const { return at<float>(node0_dc_at(bipolar_at, bipolar_count)); }
+  static size_t node0_dc_at(size_t bipolar_at, size_t bipolar_count) {
+    return (bipolar_at + bipolar_count * sizeof(Bipolar) + alignof(float) - 1) / alignof(float) * alignof(float);
+  }
 
   // Node `i` (< node_count) decoded.
   HotNode node(uint32_t i) const {
@@ -331,7 +331,7 @@ struct alignas(64) PageView final : tree::PageAttachment {
 
   PageView(const PageView&) = delete;
   PageView& operator=(const PageView&) = delete;
-  size_t memory_bytes() const override { return cold->charged; }
+  size_t memory_bytes() const override { return charged; }
   // Whether `page` could be the page this view was built from.
   bool matches(const tree::Page& page) const {
     return page.id == id && page.nodes.size() == page_nodes && page.nodes.size() + page.links.size() == node_count &&

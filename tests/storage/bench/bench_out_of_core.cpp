@@ -246,8 +246,9 @@ void print_decoded_parts(const storage::PageSetReader& reader) {
     disk += double(reader.manifest().pages[id].bytes);
     // The view's own allocation, without the glossy radiance and the
     // shared_ptr's control block that memory_bytes() adds.
-    const size_t parts = v->bipolar_at + v->bipolar_count * sizeof(gather::Bipolar);
-    block += double(tree::heap_block_bytes(parts + sizeof(gather::PageView::Cold)));
+    const size_t end = v->glossy_at ? v->glossy_at + sizeof(gather::PageView::GlossyPtr)
+                                    : gather::PageView::node0_dc_at(v->bipolar_at, v->bipolar_count) + 16;
+    block += double(tree::heap_block_bytes((end + 15) / 16 * 16));
     view += double(v->memory_bytes());
     hot += double(v->node_count * sizeof(gather::PackedNode));
     looks += double(v->node_count * sizeof(gather::PackedLook));
@@ -265,7 +266,7 @@ void print_decoded_parts(const storage::PageSetReader& reader) {
               "nodes, %.2f surfels a page\n",
               charged / n, disk / n, charged / disk, nodes / n, proxies / n, full_count / n, surfels / n);
   std::printf(
-      "decoded parts  cache entry %.0f, view %.0f (control block and glossy %.0f, header+cold+pad %.0f, "
+      "decoded parts  cache entry %.0f, view %.0f (control block and glossy %.0f, header+refs+dc+pad %.0f, "
       "PackedNode %.0f, PackedLook %.0f, PackedSurfel %.0f, full nodes %.0f, bipolar %.0f); bytes a page\n",
       double(storage::PageCache::entry_bytes()), view / n, (view - block) / n,
       (block - hot - looks - leaf_surfels - full - bipolar) / n, hot / n, looks / n, leaf_surfels / n, full / n,
