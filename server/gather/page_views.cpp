@@ -496,7 +496,8 @@ void attach_view(tree::Page& page) {
   PageView::Ptr view = PageView::build(page);
   // The control block the shared_ptr allocates for a pointer and its
   // (empty) deleter: a vtable pointer, two counts and the pointer.
-  view->charged += uint32_t(tree::heap_block_bytes(sizeof(void*) + 2 * sizeof(int) + sizeof(PageView*)));
+  constexpr size_t kControlBlock = 2 * sizeof(void*) + 2 * sizeof(int);
+  view->charged += uint32_t(tree::heap_block_bytes(kControlBlock));
   page.attachment = std::shared_ptr<const PageView>(view.release(), PageView::Free{});
   // Emptied: the reader reuses their memory for the next page it decodes
   // (storage/pages/page_set.h).
