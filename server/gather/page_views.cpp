@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <limits>
+#include <malloc.h>
 #include <memory>
 #include <new>
 #include <string>
@@ -397,10 +398,12 @@ PageView::Ptr PageView::build(const tree::Page& page) {
   // posix_memalign, not aligned operator new: libstdc++'s rounds the size
   // up to the alignment (C11 aligned_alloc's rule), 64 bytes a view on
   // average; glibc's posix_memalign returns what precedes the aligned
-  // start to the heap and takes only the block the size needs. (jemalloc,
-  // which pbgid links, rounds an aligned block to a size class that is a
-  // multiple of the alignment either way: the charge is then up to 112
-  // bytes short.)
+  // start to the heap and takes only the block the size needs. jemalloc,
+  // which pbgid links, rounds an aligned block up to a size class that is
+  // a multiple of the alignment either way: the view is charged what the
+  // allocator says the block holds (malloc_usable_size) plus a header
+  // word, not glibc's block for the size asked, which fell up to 112
+  // bytes short of jemalloc's.
   const size_t bytes = round_up(end, 16);
 
   void* memory = nullptr;
@@ -433,7 +436,12 @@ PageView::Ptr PageView::build(const tree::Page& page) {
     if (h.leaf()) pack_surfels(page, h, surfels);
   }
   view->surfel_count = uint32_t(page.surfels.size());
-  view->charged = uint32_t(tree::heap_block_bytes(bytes) + page.glossy_bytes);
+  const size_t block = std::max(tree::heap_block_bytes(bytes), malloc_usable_size(memory) + sizeof(void*));
+  if (block + 64 + page.glossy_bytes > std::numeric_limits<uint32_t>::max()) {
+    throw CorruptionError("tree page " + std::to_string(page.id) + ": too large for a page view (" +
+                          std::to_string(block + page.glossy_bytes) + " bytes)");
+  }
+  view->charged = uint32_t(block + page.glossy_bytes);
   view->full_count = uint32_t(parts.full.size());
   view->bipolar_count = uint32_t(parts.bipolar.size());
   std::copy(parts.node0_dc, parts.node0_dc + 4, reinterpret_cast<float*>(base + dc_at));
