@@ -266,7 +266,8 @@ void print_decoded_parts(const storage::PageSetReader& reader) {
               "nodes, %.2f surfels a page\n",
               charged / n, disk / n, charged / disk, nodes / n, proxies / n, full_count / n, surfels / n);
   std::printf(
-      "decoded parts  cache entry %.0f, view %.0f (control block, glossy and allocator rounding %.0f, header+refs+dc+pad %.0f, "
+      "decoded parts  cache entry %.0f, view %.0f (control block, glossy and allocator rounding %.0f, "
+      "header+refs+dc+pad %.0f, "
       "PackedNode %.0f, PackedLook %.0f, PackedSurfel %.0f, full nodes %.0f, bipolar %.0f); bytes a page\n",
       double(storage::PageCache::entry_bytes()), view / n, (view - block) / n,
       (block - hot - looks - leaf_surfels - full - bipolar) / n, hot / n, looks / n, leaf_surfels / n, full / n,
