@@ -106,14 +106,14 @@ void check_id(uint32_t id, const Manifest& m, const File& pages) {
 }  // namespace
 
 tree::PagePtr PageSetReader::page(uint32_t id) const {
-  check_id(id, impl_->manifest, impl_->pages);
   if (impl_->decorate) {
-    // Not cached: what the cache keeps is the attachment.
+    // Not cached: what the cache keeps is the attachment (which checks `id`).
     auto page = std::make_shared<tree::Page>();
-    page->id = id;
     page->attachment = attachment(id);
+    page->id = id;
     return page;
   }
+  check_id(id, impl_->manifest, impl_->pages);
   if (!impl_->cache) return impl_->load(id);
   return impl_->cache->get(impl_->owner, id, [this, id] { return impl_->load(id); });
 }
