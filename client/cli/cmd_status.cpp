@@ -41,13 +41,14 @@ int run_status(const StatusArgs& args) {
               s.version().c_str(), s.uptime_seconds(), mib(s.rss_bytes()).c_str());
   const v1::CacheStatus& c = s.cache();
   const uint64_t lookups = c.hits() + c.misses();
-  std::printf("cache     %s of %s held, %llu hits, %llu misses (%.1f%% hits), %llu evictions, "
-              "%s read\n",
-              mib(c.bytes_held()).c_str(), mib(c.budget_bytes()).c_str(),
-              static_cast<unsigned long long>(c.hits()),
-              static_cast<unsigned long long>(c.misses()),
-              lookups ? 100.0 * double(c.hits()) / double(lookups) : 0.0,
-              static_cast<unsigned long long>(c.evictions()), mib(c.bytes_read()).c_str());
+  std::printf(
+      "cache     %s of %s held (pinned beyond it %s, at most %s), %llu hits, %llu misses (%.1f%% hits), %llu "
+      "evictions, "
+      "%s read\n",
+      mib(c.bytes_held()).c_str(), mib(c.budget_bytes()).c_str(), mib(c.bytes_pinned()).c_str(),
+      mib(c.bytes_pinned_peak()).c_str(), static_cast<unsigned long long>(c.hits()),
+      static_cast<unsigned long long>(c.misses()), lookups ? 100.0 * double(c.hits()) / double(lookups) : 0.0,
+      static_cast<unsigned long long>(c.evictions()), mib(c.bytes_read()).c_str());
   if (s.has_memory()) {
     const v1::MemoryStatus& m = s.memory();
     std::printf(

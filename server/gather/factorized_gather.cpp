@@ -8,13 +8,15 @@
 namespace pbgi::gather {
 
 namespace {
-// At ~9 nodes and ~13 surfels a page (formats V4/V5), about 20 MiB of
-// decoded pages with their views.
-constexpr size_t kBatchPinnedPages = 4096;
-// Past kBatchPinnedPages, the pages of the last cluster stay pinned if they
-// are at most this many (one receiver's cut of a 2M-surfel city touches
-// ~5000 pages); else all are unpinned.
-constexpr size_t kClusterKeptPages = 2 * kBatchPinnedPages;
+// What a batch keeps pinned between clusters at most: past it, the pages
+// the most recent clusters used stay pinned, down to 3/4 of it
+// (PagePins::trim). ~7,500 views of a 2M-surfel city (~1,100 bytes each),
+// the pages a tile's clusters share. Pinned pages are memory beside the
+// page cache's budget, and a cluster's own pages stay pinned while it runs
+// whatever this bound. Keeping only the last cluster's pages (past 4,096
+// pages) fetched a quarter more pages, with the same peak of pinned pages
+// beyond the cache (docs/measurements/2026-11-28-pinned-pages.md).
+constexpr uint64_t kBatchPinnedBytes = uint64_t(8) << 20;
 }  // namespace
 
 uint32_t cluster_count(uint32_t k_per_1024, size_t n) {
@@ -50,11 +52,9 @@ void FactorizedGather::gather(std::span<const Receiver> rs, std::span<GatherResu
   // walk mostly the same pages, so each is fetched once per batch instead
   // of once per cluster (under a page cache smaller than a tile's pages,
   // each of those fetches was a miss: a 2M-surfel city at 1/8 of its page
-  // set hit 13% of them). Once more than kBatchPinnedPages are pinned,
-  // those the last cluster did not use are unpinned between clusters (all
-  // of them if it used more than kClusterKeptPages), which bounds what a
-  // batch keeps alive beyond the page cache; all are unpinned when the
-  // batch ends (also on errors).
+  // set hit 13% of them). Past kBatchPinnedBytes, the pages the most
+  // recent clusters used stay pinned, down to 3/4 of it, between clusters;
+  // all are unpinned when the batch ends (also on errors).
   const HoldPinsInScope hold{pins};
 
   const std::vector<uint32_t>& members = clusters_.members();
@@ -93,7 +93,8 @@ void FactorizedGather::gather(std::span<const Receiver> rs, std::span<GatherResu
     }
     for (const StackEntry& e : near_) pins.release(e.pin);
     counters.pages_fetched += pins.take_fetches();
-    if (pins.pinned() > kBatchPinnedPages) pins.keep_recent(kClusterKeptPages);
+    pins.next_run();
+    if (pins.pinned_bytes() > kBatchPinnedBytes) pins.trim(kBatchPinnedBytes / 4 * 3);
   }
 }
 

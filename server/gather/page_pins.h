@@ -24,6 +24,7 @@
 #include "server/gather/page_views.h"
 #include "storage/tree/node.h"
 
+#include <algorithm>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -56,6 +57,7 @@ class PagePins {
           throw CorruptionError("tree page " + std::to_string(id) + ": source returned another page's or no view");
         }
         slot.view = v;
+        slot.bytes = uint32_t(std::min<uint64_t>(v->memory_bytes(), UINT32_MAX));
         slot.pin = std::move(a);
         slot.page = nullptr;
       } else {
@@ -66,10 +68,12 @@ class PagePins {
         }
         slot.view = &views_.get(*p);
         slot.page = p.get();
+        slot.bytes = uint32_t(std::min<uint64_t>(p->memory_bytes(), UINT32_MAX));
         slot.pin = std::move(p);
       }
       b.view = slot.view;
       ++pinned_;
+      pinned_bytes_ += slot.bytes;
     }
     ++slot.refs;
     slot.touched = epoch_;
@@ -98,6 +102,7 @@ class PagePins {
       slot.page = nullptr;
       index_[slot.bucket].view = nullptr;
       --pinned_;
+      pinned_bytes_ -= slot.bytes;
     }
   }
 
@@ -107,44 +112,53 @@ class PagePins {
     for (const Slot& slot : slots_) index_[slot.bucket] = Bucket{};
     slots_.clear();
     pinned_ = 0;
+    pinned_bytes_ = 0;
     ++epoch_;
   }
 
   // Between the runs of a batch that holds its pages (no references left):
-  // unpins the pages not acquired since the previous keep_recent() or
-  // clear(), keeps the others pinned (a run's pages are mostly the next
-  // run's), unless they are more than `max_kept`: then clears. So a batch
-  // holds at most the pages of two runs, and fetches again only what the
-  // previous run did not use (a 2M-surfel city with pages of a few levels:
-  // each FPBGI cluster touched ~5000 pages, more than the batch's bound,
-  // and fetched them all again from the page cache).
-  void keep_recent(size_t max_kept) {
-    size_t kept = 0;
-    for (const Slot& slot : slots_) kept += slot.pin && slot.touched == epoch_;
-    if (kept > max_kept) {
-      clear();
-      return;
+  // starts a new run, so that trim() knows which pages the recent runs used.
+  void next_run() { ++epoch_; }
+
+  // Between runs: unpins the pages least recently used (by run) until the
+  // pinned ones cost at most `keep_bytes`. A batch thus keeps the pages
+  // its recent runs used, which the next runs mostly use again, within a
+  // bound in bytes. Pinned pages are memory beside the page cache's
+  // budget (storage/cache/page_cache.h reports them as bytes_pinned).
+  void trim(uint64_t keep_bytes) {
+    if (pinned_bytes_ <= keep_bytes) return;
+    std::vector<uint32_t> order;
+    order.reserve(pinned_);
+    for (uint32_t s = 0; s < slots_.size(); ++s) {
+      if (slots_[s].pin) order.push_back(s);
     }
+    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+      return slots_[a].touched != slots_[b].touched ? slots_[a].touched > slots_[b].touched : a < b;
+    });
     std::vector<Slot> old;
     old.swap(slots_);
     std::fill(index_.begin(), index_.end(), Bucket{});
     pinned_ = 0;
-    for (Slot& slot : old) {
-      if (!slot.pin || slot.touched != epoch_) continue;
+    pinned_bytes_ = 0;
+    for (const uint32_t s : order) {
+      Slot& slot = old[s];
+      if (pinned_bytes_ + slot.bytes > keep_bytes) break;
       slot.refs = 0;
+      pinned_bytes_ += slot.bytes;
       slots_.push_back(std::move(slot));
       place(uint32_t(slots_.size() - 1));
       ++pinned_;
     }
-    ++epoch_;
   }
 
   // While holding, pages stay pinned until clear() even without references:
   // a factorized cluster revisits the same pages for each of its receivers.
   void set_hold(bool hold) { hold_ = hold; }
 
-  // Pages pinned right now.
+  // Pages pinned right now, and their bytes (PageAttachment::memory_bytes
+  // or Page::memory_bytes).
   size_t pinned() const { return pinned_; }
+  uint64_t pinned_bytes() const { return pinned_bytes_; }
   // Pages fetched from the TreeSource since the last take_fetches().
   uint64_t take_fetches() {
     const uint64_t f = fetches_;
@@ -166,6 +180,7 @@ class PagePins {
     uint32_t refs = 0;
     uint32_t bucket = 0;   // its position in index_
     uint32_t touched = 0;  // epoch_ of its last acquire()
+    uint32_t bytes = 0;    // what the pinned page or view costs
     std::shared_ptr<const void> pin;   // the page or its view; null when released
     const tree::Page* page = nullptr;  // the pinned page, if pinned as a page
     const PageView* view = nullptr;
@@ -187,7 +202,7 @@ class PagePins {
       while (index_[b].slot != kNone) b = (b + 1) & mask;
     }
     const uint32_t s = uint32_t(slots_.size());
-    slots_.push_back({id, 0, uint32_t(b), epoch_, nullptr, nullptr, nullptr});
+    slots_.push_back({id, 0, uint32_t(b), epoch_, 0, nullptr, nullptr, nullptr});
     index_[b] = {id, s, nullptr};
     return index_[b];
   }
@@ -212,8 +227,9 @@ class PagePins {
   std::vector<Slot> slots_;
   std::vector<Bucket> index_;
   size_t pinned_ = 0;
+  uint64_t pinned_bytes_ = 0;
   uint64_t fetches_ = 0;
-  uint32_t epoch_ = 0;  // advanced by clear() and keep_recent()
+  uint32_t epoch_ = 0;  // advanced by clear() and next_run()
   bool hold_ = false;
 };
 

@@ -274,6 +274,8 @@ v1::GetStatusResponse PbgiService::status() const {
     cache->set_evictions(c.evictions);
     cache->set_bytes_read(c.bytes_read);
     cache->set_bytes_held(c.bytes_held);
+    cache->set_bytes_pinned(c.bytes_pinned);
+    cache->set_bytes_pinned_peak(c.bytes_pinned_peak);
     cache->set_budget_bytes(runtime_.cache->budget());
   }
   out.set_rss_bytes(resident_memory_bytes());

@@ -76,6 +76,8 @@ std::string prometheus_text(const v1::GetStatusResponse& status,
   w.sample("cache_read_bytes_total", double(c.bytes_read()));
   w.family("cache_bytes", "gauge", "Bytes of pages held by the cache.");
   w.sample("cache_bytes", double(c.bytes_held()));
+  w.family("cache_pinned_bytes", "gauge", "Bytes of pages evicted while gathers pin them (beyond the budget).");
+  w.sample("cache_pinned_bytes", double(c.bytes_pinned()));
   w.family("cache_budget_bytes", "gauge", "Byte budget of the page cache.");
   w.sample("cache_budget_bytes", double(c.budget_bytes()));
   w.family("resident_memory_bytes", "gauge", "Resident set size of pbgid.");

@@ -15,7 +15,8 @@ namespace pbgi::service {
 //   requests_in_flight, requests_queued gauges; requests_rejected_total counter
 //   cache_hits_total, cache_misses_total, cache_evictions_total,
 //   cache_read_bytes_total              counters
-//   cache_bytes, cache_budget_bytes, resident_memory_bytes   gauges
+//   cache_bytes, cache_pinned_bytes, cache_budget_bytes,
+//   resident_memory_bytes                                    gauges
 //   memory_budget_bytes, memory_request_reserve_bytes,
 //   memory_page_cache_floor_bytes                            gauges
 //   memory_charged_bytes{kind="scenes"|"reading"|"builds"}   gauge

@@ -79,10 +79,12 @@ constexpr uint64_t kWindowShare = 100;
 // The protected list's share of the main part (Caffeine's 80%).
 constexpr uint64_t kProtectedPercent = 80;
 
-// Departed pages remembered (pages evicted while in use): each keeps the
-// control block of its shared_ptr (sizeof(tree::Page)) alive, so their
-// number is bounded by the pages held.
-constexpr size_t kMinDeparted = 256;
+// Departed pages looked at per fetch (sweep_departed()): a departed page
+// whose last user let go is forgotten within a few thousand fetches (a
+// pass over a few thousand departed pages); counters() looks at all.
+constexpr size_t kSweepPerFetch = 2;
+// On a miss, which may depart a page more.
+constexpr size_t kSweepPerMiss = 8;
 
 // A load in flight, which the callers that miss the same page wait for.
 // Not a std::promise: its set_value() goes through pthread_once, which
@@ -207,6 +209,10 @@ struct PageCache::Impl {
     ++l.size;
     if (to == kWindow) window_bytes += slot.bytes;
     if (to == kProtected) protect_bytes += slot.bytes;
+    if (to == kDeparted) {
+      counters.bytes_pinned += slot.bytes;
+      counters.bytes_pinned_peak = std::max(counters.bytes_pinned_peak, counters.bytes_pinned);
+    }
   }
   void unlink(uint32_t s) {
     Slot& slot = slots[s];
@@ -216,6 +222,7 @@ struct PageCache::Impl {
     --l.size;
     if (slot.list == kWindow) window_bytes -= slot.bytes;
     if (slot.list == kProtected) protect_bytes -= slot.bytes;
+    if (slot.list == kDeparted) counters.bytes_pinned -= slot.bytes;
     slot.list = kFree;
     slot.prev = slot.next = kNil;
   }
@@ -235,14 +242,25 @@ struct PageCache::Impl {
     if (n > sketch.items() || (n >= 8 && 4 * n < sketch.items())) sketch.resize(2 * n);
   }
 
-  // Requires mu. Forgets departed pages beyond their bound, oldest first.
-  void trim_departed() {
-    const size_t cap = std::max(kMinDeparted, held_count());
-    while (lists[kDeparted].size > cap) {
+  // Requires mu. Looks at up to `n` departed pages, oldest first: one
+  // whose users all let go is forgotten (its bytes leave bytes_pinned),
+  // one still in use goes to the front for a later look.
+  void sweep_departed(size_t n) {
+    for (; n > 0 && !lists[kDeparted].empty(); --n) {
       const uint32_t s = lists[kDeparted].tail;
-      unlink(s);
-      free_slot(s);
+      if (slots[s].departed.expired()) {
+        unlink(s);
+        free_slot(s);
+      } else {
+        move(s, kDeparted);
+      }
     }
+  }
+
+  // Requires mu. Evicts held pages, least valued first, while the budget
+  // is exceeded.
+  void fit_budget() {
+    while (counters.bytes_held > budget) evict_one();
   }
 
   // Requires mu. Drops the held page in slot `s`; `evicted`: counted, and
@@ -257,7 +275,6 @@ struct PageCache::Impl {
       slot.departed = slot.page;
       released.push_back(std::move(slot.page));
       push_front(s, kDeparted);
-      trim_departed();
       return;
     }
     free_slot(s);
@@ -308,7 +325,7 @@ struct PageCache::Impl {
         }
       }
     }
-    while (counters.bytes_held > budget) evict_one();
+    fit_budget();
   }
 
   // Requires mu. Holds `page`, charged `page_bytes` (in the window) if it
@@ -345,6 +362,7 @@ CachedPtr PageCache::get_value(uint64_t owner, uint32_t page_id, const std::func
   std::shared_ptr<Pending> pending;
   {
     std::unique_lock lock(impl_->mu);
+    impl_->sweep_departed(kSweepPerFetch);
     impl_->sketch.add(Impl::hash(key));
     const uint32_t slot = impl_->find(key);
     if (slot != kNil && impl_->slots[slot].list != kDeparted) {
@@ -395,6 +413,7 @@ CachedPtr PageCache::get_value(uint64_t owner, uint32_t page_id, const std::func
     std::lock_guard lock(impl_->mu);
     impl_->loading.erase(key);
     if (!error) {
+      impl_->sweep_departed(kSweepPerMiss);
       impl_->hold(key, page.value, page.bytes);  // nothing is cached for a failed load
       dropped = impl_->take_released();
     }
@@ -419,7 +438,11 @@ tree::PagePtr PageCache::get(uint64_t owner, uint32_t page_id, const std::functi
 void PageCache::note_bytes_read(uint64_t n) { impl_->bytes_read.fetch_add(n, std::memory_order_relaxed); }
 
 CacheCounters PageCache::counters() const {
+  std::vector<CachedPtr> dropped;  // released after the lock
   std::lock_guard lock(impl_->mu);
+  // Every departed page looked at: bytes_pinned is what gathers pin now.
+  impl_->sweep_departed(impl_->lists[kDeparted].size);
+  dropped = impl_->take_released();
   CacheCounters c = impl_->counters;
   c.bytes_read = impl_->bytes_read.load(std::memory_order_relaxed);
   return c;
@@ -434,7 +457,7 @@ void PageCache::set_budget(uint64_t budget_bytes) {
   std::vector<CachedPtr> dropped;  // released after the lock
   std::lock_guard lock(impl_->mu);
   impl_->budget = budget_bytes;
-  while (impl_->counters.bytes_held > impl_->budget) impl_->evict_one();
+  impl_->fit_budget();
   impl_->fit_sketch();
   dropped = impl_->take_released();
 }

@@ -2,7 +2,10 @@
 // reader with a page decorator keeps only the decorator's attachment,
 // storage/pages/page_set.h) with a hard byte budget, shared by all page sets of
 // the daemon. Thread-safe. Pages in use by a gather stay alive through their
-// shared_ptr even if evicted, so the budget bounds the cache's own holdings.
+// shared_ptr even if evicted: the budget bounds the cache's own holdings,
+// and the pages evicted while in use are memory beyond it (bytes_pinned;
+// what a gather pins is bounded by the gather, server/gather/page_pins.h
+// and factorized_gather.cpp).
 //
 // Policy: W-TinyLFU (Einziger, Friedman & Manes 2017, as Caffeine has it).
 // A page that comes enters a small window (1% of the budget, LRU). Pages
@@ -35,11 +38,14 @@
 // remembered by a weak reference: a later miss of it takes that page back
 // (held again, as a page that just came) instead of loading and decoding a second copy, so
 // concurrent gathers whose pinned pages exceed the budget share them.
+// Every fetch looks at a few of these departed pages, oldest first, and
+// forgets those whose last user let go (counters() looks at all).
 //
 // Counters: hits (served without calling load, including waiting on another
 // caller's load and taking back a page evicted while in use), misses (calls of load), evictions (pages dropped to stay
 // within the budget; forget() does not count), bytes_read (as reported by
-// loaders through note_bytes_read), bytes_held (current holdings).
+// loaders through note_bytes_read), bytes_held (current holdings),
+// bytes_pinned (evicted, still in use: beyond the budget) and its peak.
 #pragma once
 
 #include "storage/tree/node.h"
@@ -62,6 +68,9 @@ struct CachedValue {
 
 struct CacheCounters {
   uint64_t hits = 0, misses = 0, evictions = 0, bytes_read = 0, bytes_held = 0;
+  // Pages evicted while a gather still holds them (pinned): memory beyond
+  // the budget until their last user lets go; and the most there was.
+  uint64_t bytes_pinned = 0, bytes_pinned_peak = 0;
 };
 
 class PageCache {

@@ -5,6 +5,7 @@
 
 #include "common/errors.h"
 #include "server/service/prometheus_text.h"
+#include "storage/cache/page_cache.h"
 #include "tests/server/service/fake_sessions.h"
 #include "tests/server/service/temp_dir.h"
 
@@ -554,6 +555,37 @@ TEST(PbgiServiceStatus, ReportsTheMemoryBudgetAndItsChargesByKind) {
   EXPECT_EQ(service.status().memory().reading_bytes(), 0u);
   EXPECT_EQ(service.status().memory().scenes_bytes(), 35 * kMiB);
   EXPECT_EQ(service.status().cache().budget_bytes(), 48 * kMiB);
+}
+
+// GetStatus and the metrics report the pages the cache evicted while a
+// gather pins them (memory beside the cache's budget), now and at most.
+TEST(PbgiServiceStatus, ReportsPagesPinnedBeyondTheCache) {
+  auto page = [](uint32_t id) {
+    auto p = std::make_shared<tree::Page>();
+    p->id = id;
+    p->nodes.resize(10);
+    return p;
+  };
+  const uint64_t bytes = page(0)->memory_bytes() + storage::PageCache::entry_bytes();
+  auto cache = std::make_shared<storage::PageCache>(bytes + bytes / 2);  // room for one page
+  ServiceRuntime runtime;
+  runtime.cache = cache;
+  auto registry = std::make_shared<SceneRegistry>(
+      [](const fs::path& path, const OpenOptions&, const StageSelection&, const StageProgress&,
+         const std::function<bool()>&) { return testing::fake_session(path.string(), "id"); });
+  const PbgiService service(ServiceOptions{}, SceneRoots({}), registry, runtime);
+
+  tree::PagePtr pinned = cache->get(1, 0, [&] { return page(0); });
+  cache->get(1, 1, [&] { return page(1); });  // evicts page 0, still pinned
+  v1::GetStatusResponse status = service.status();
+  EXPECT_EQ(status.cache().bytes_pinned(), bytes);
+  EXPECT_EQ(status.cache().bytes_pinned_peak(), bytes);
+  const std::string text = prometheus_text(status, {});
+  EXPECT_NE(text.find("pbgi_cache_pinned_bytes " + std::to_string(bytes) + "\n"), std::string::npos) << text;
+  pinned.reset();
+  status = service.status();
+  EXPECT_EQ(status.cache().bytes_pinned(), 0u);
+  EXPECT_EQ(status.cache().bytes_pinned_peak(), bytes);
 }
 
 TEST_F(PbgiServiceTest, UnloadSceneAndStatus) {
