@@ -9,7 +9,11 @@ WARM=N ("warm render ... X s daemon CPU" lines and the "cache ..." line
 with the hit rate). Each budget's slowdown is the median warm daemon CPU
 over the median of the same round's unlimited run; one line per round,
 the hit rate printed under each point of the first round, the 1.5x goal
-dashed. Prints the table it plots (markdown). Exits 3 without matplotlib.
+dashed. Where the cache line gives the peak of pages pinned beyond the
+budget ("at most X MiB", pbgi status since 2026-11-28), each round also
+gets the same slowdowns against the cache's budget plus that peak (hollow
+markers): the views the render held at most. Prints the table it plots
+(markdown). Exits 3 without matplotlib.
 """
 import re
 import statistics
@@ -25,7 +29,7 @@ def parse(path):
         m = re.match(r"=== round (\d+) fraction 1/(\d+) budget (\d+)", line)
         if m:
             current = (int(m[1]), int(m[2]))
-            runs[current] = {"cpu": [], "hit": None, "budget": int(m[3])}
+            runs[current] = {"cpu": [], "hit": None, "budget": int(m[3]), "pinned": None}
             continue
         if current is None:
             continue
@@ -35,6 +39,9 @@ def parse(path):
         m = re.match(r"cache .*\(([\d.]+)% hits\)", line)
         if m:
             runs[current]["hit"] = float(m[1])
+            pinned = re.search(r"at most ([\d.]+) MiB", line)
+            if pinned:
+                runs[current]["pinned"] = float(pinned[1]) * 2**20
     return runs
 
 
@@ -54,17 +61,20 @@ def main(argv):
         unlimited = statistics.median(base["cpu"])
         for (rr, f), v in runs.items():
             if rr == r and f != 0 and v["cpu"]:
+                # The views held at most, as a fraction of the set: budget + pinned peak.
+                total = None if v["pinned"] is None else (v["budget"] + v["pinned"]) / (v["budget"] * f)
                 table.setdefault(f, {})[r] = (statistics.median(v["cpu"]), statistics.median(v["cpu"]) / unlimited,
-                                              v["hit"])
-        table.setdefault(0, {})[r] = (unlimited, 1.0, base["hit"])
+                                              v["hit"], total)
+        table.setdefault(0, {})[r] = (unlimited, 1.0, base["hit"], None)
     fractions = sorted((f for f in table if f != 0), reverse=True)
-    print("| budget | " + " | ".join(f"round {r}: CPU s, ratio, hit rate" for r in rounds) + " |")
+    print("| budget | " + " | ".join(f"round {r}: CPU s, ratio, hit rate, cache + pinned peak" for r in rounds) + " |")
     print("| --- |" + " --- |" * len(rounds))
     for f in fractions + [0]:
         cells = []
         for r in rounds:
-            cpu, ratio, hit = table[f].get(r, (None, None, None))
-            cells.append("-" if cpu is None else f"{cpu:.2f} s, {ratio:.2f}x, {hit:.1f}%")
+            cpu, ratio, hit, total = table[f].get(r, (None, None, None, None))
+            held = "" if total is None else f", {total:.3f} of the set"
+            cells.append("-" if cpu is None else f"{cpu:.2f} s, {ratio:.2f}x, {hit:.1f}%{held}")
         print(f"| {'unlimited' if f == 0 else '1/' + str(f)} | " + " | ".join(cells) + " |")
     try:
         import matplotlib
@@ -78,7 +88,11 @@ def main(argv):
     xs = [1.0 / f for f in fractions]
     for r in rounds:
         ys = [table[f][r][1] if r in table[f] else float("nan") for f in fractions]
-        ax.plot(xs, ys, marker="o", label=f"round {r}")
+        line = ax.plot(xs, ys, marker="o", label=f"round {r}")[0]
+        totals = [table[f][r][3] if r in table[f] else None for f in fractions]
+        if all(t is not None for t in totals):
+            ax.plot(totals, ys, marker="o", fillstyle="none", linestyle=":", color=line.get_color(),
+                    label=f"round {r}, against cache + pinned peak")
     for x, f in zip(xs, fractions):
         hit = table[f][rounds[0]][2]
         if hit is not None:
@@ -89,7 +103,7 @@ def main(argv):
     ax.set_xscale("log", base=2)
     ax.set_xticks(xs)
     ax.set_xticklabels([f"1/{f}" if f != 1 else "1" for f in fractions])
-    ax.set_xlabel("page cache budget (fraction of the page set on disk)")
+    ax.set_xlabel("page cache budget (filled), with the pinned peak (hollow): fraction of the set on disk")
     ax.set_ylabel("warm render CPU / unlimited")
     ax.set_title(title, fontsize=10)
     ax.legend(fontsize=8)
