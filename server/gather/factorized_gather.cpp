@@ -8,12 +8,11 @@
 namespace pbgi::gather {
 
 namespace {
-// What a batch keeps pinned between clusters at most: past it, the pages
-// the most recent clusters used stay pinned, down to 3/4 of it
+// What a batch keeps pinned between receivers at most: past it, the
+// pages the most recent receivers used stay pinned, down to 3/4 of it
 // (PagePins::trim). ~7,500 views of a 2M-surfel city (~1,100 bytes each),
 // the pages a tile's clusters share. Pinned pages are memory beside the
-// page cache's budget, and a cluster's own pages stay pinned while it runs
-// whatever this bound. Keeping only the last cluster's pages (past 4,096
+// page cache's budget. Keeping only the last cluster's pages (past 4,096
 // pages) fetched a quarter more pages, with the same peak of pinned pages
 // beyond the cache (docs/measurements/2026-11-28-pinned-pages.md).
 constexpr uint64_t kBatchPinnedBytes = uint64_t(8) << 20;
@@ -53,8 +52,9 @@ void FactorizedGather::gather(std::span<const Receiver> rs, std::span<GatherResu
   // of once per cluster (under a page cache smaller than a tile's pages,
   // each of those fetches was a miss: a 2M-surfel city at 1/8 of its page
   // set hit 13% of them). Past kBatchPinnedBytes, the pages the most
-  // recent clusters used stay pinned, down to 3/4 of it, between clusters;
-  // all are unpinned when the batch ends (also on errors).
+  // recent receivers used stay pinned, down to 3/4 of it, after each
+  // receiver and cluster; all are unpinned when the batch ends (also on
+  // errors).
   const HoldPinsInScope hold{pins};
 
   const std::vector<uint32_t>& members = clusters_.members();
@@ -90,6 +90,11 @@ void FactorizedGather::gather(std::span<const Receiver> rs, std::span<GatherResu
         ++counters.glossy_receivers;
       }
       ++counters.receivers;
+      // A cluster's receivers refine near nodes into thousands of pages
+      // between them (up to 11 MiB pinned in one cluster of the 2M city):
+      // trimmed after each, the near entries' pages kept.
+      pins.next_run();
+      if (pins.pinned_bytes() > kBatchPinnedBytes) pins.trim(kBatchPinnedBytes / 4 * 3);
     }
     for (const StackEntry& e : near_) pins.release(e.pin);
     counters.pages_fetched += pins.take_fetches();

@@ -97,13 +97,7 @@ class PagePins {
   // holding).
   void release(uint32_t s) {
     Slot& slot = slots_[s];
-    if (--slot.refs == 0 && !hold_) {
-      slot.pin.reset();
-      slot.page = nullptr;
-      index_[slot.bucket].view = nullptr;
-      --pinned_;
-      pinned_bytes_ -= slot.bytes;
-    }
+    if (--slot.refs == 0 && !hold_) unpin(s);
   }
 
   // Unpins everything and forgets all slots (between receivers, and after
@@ -120,34 +114,27 @@ class PagePins {
   // starts a new run, so that trim() knows which pages the recent runs used.
   void next_run() { ++epoch_; }
 
-  // Between runs: unpins the pages least recently used (by run) until the
-  // pinned ones cost at most `keep_bytes`. A batch thus keeps the pages
-  // its recent runs used, which the next runs mostly use again, within a
-  // bound in bytes. Pinned pages are memory beside the page cache's
-  // budget (storage/cache/page_cache.h reports them as bytes_pinned).
+  // Unpins the pages least recently used (by run) that no pending entry
+  // refers to, until the pinned ones cost at most `keep_bytes` (or none of
+  // those is left). A batch thus keeps the pages its recent runs used,
+  // which the next runs mostly use again, within a bound in bytes; slots
+  // stay where they are, so it may run between a cluster's receivers while
+  // its near entries hold theirs. Pinned pages are memory beside the page
+  // cache's budget (storage/cache/page_cache.h reports them as
+  // bytes_pinned).
   void trim(uint64_t keep_bytes) {
     if (pinned_bytes_ <= keep_bytes) return;
     std::vector<uint32_t> order;
     order.reserve(pinned_);
     for (uint32_t s = 0; s < slots_.size(); ++s) {
-      if (slots_[s].pin) order.push_back(s);
+      if (slots_[s].pin && slots_[s].refs == 0) order.push_back(s);
     }
     std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
-      return slots_[a].touched != slots_[b].touched ? slots_[a].touched > slots_[b].touched : a < b;
+      return slots_[a].touched != slots_[b].touched ? slots_[a].touched < slots_[b].touched : a < b;
     });
-    std::vector<Slot> old;
-    old.swap(slots_);
-    std::fill(index_.begin(), index_.end(), Bucket{});
-    pinned_ = 0;
-    pinned_bytes_ = 0;
     for (const uint32_t s : order) {
-      Slot& slot = old[s];
-      if (pinned_bytes_ + slot.bytes > keep_bytes) break;
-      slot.refs = 0;
-      pinned_bytes_ += slot.bytes;
-      slots_.push_back(std::move(slot));
-      place(uint32_t(slots_.size() - 1));
-      ++pinned_;
+      if (pinned_bytes_ <= keep_bytes) break;
+      unpin(s);
     }
   }
 
@@ -186,6 +173,16 @@ class PagePins {
     const PageView* view = nullptr;
   };
   static size_t hash(uint32_t id) { return size_t(id) * 0x9E3779B1u; }
+
+  // Drops slot `s`'s pin; the slot stays, its index cell says unpinned.
+  void unpin(uint32_t s) {
+    Slot& slot = slots_[s];
+    slot.pin.reset();
+    slot.page = nullptr;
+    index_[slot.bucket].view = nullptr;
+    --pinned_;
+    pinned_bytes_ -= slot.bytes;
+  }
 
   // The bucket of page `id`, with a new slot (released, no references) if
   // the page has none.

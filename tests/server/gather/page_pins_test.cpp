@@ -83,5 +83,29 @@ TEST(PagePins, TrimKeepsTheMostRecentlyUsedPagesWithinItsBytes) {
   EXPECT_EQ(tree.pages_in_use(), 0u);
 }
 
+// A page a pending entry refers to stays pinned whatever the bound: trim
+// runs between a cluster's receivers while its near entries hold pages.
+TEST(PagePins, TrimKeepsReferencedPages) {
+  const test::SurfelTree tree = four_page_tree();
+  gather::PageViews views;
+  gather::PagePins pins(tree, views);
+  pins.set_hold(true);
+  const tree::Page* page = nullptr;
+  const gather::PageView* view = nullptr;
+  const uint32_t held = pins.acquire(0, page, view);  // referenced
+  touch(pins, 1);
+  touch(pins, 2);
+  pins.next_run();
+  pins.trim(0);
+  EXPECT_EQ(pins.pinned(), 1u);
+  EXPECT_EQ(tree.pages_in_use(), 1u);
+  EXPECT_EQ(&pins.view(held), view) << "the referenced slot is where it was";
+  pins.release(held);
+  pins.trim(0);
+  EXPECT_EQ(pins.pinned(), 0u);
+  pins.set_hold(false);
+  pins.clear();
+}
+
 }  // namespace
 }  // namespace pbgi
