@@ -100,6 +100,7 @@ void FactorizedGather::gather(std::span<const Receiver> rs, std::span<GatherResu
     counters.pages_fetched += pins.take_fetches();
     pins.next_run();
     if (pins.pinned_bytes() > kBatchPinnedBytes) pins.trim(kBatchPinnedBytes / 4 * 3);
+    pins.compact();
   }
 }
 

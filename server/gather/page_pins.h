@@ -138,6 +138,22 @@ class PagePins {
     }
   }
 
+  // Between the runs of a batch (no references left): forgets the slots of
+  // unpinned pages once they outnumber the pinned ones, so that the slots
+  // and the index stay the size of what is pinned, not of the tens of
+  // thousands of pages a batch fetches (trim() leaves slots in place).
+  void compact() {
+    if (slots_.size() <= 2 * pinned_ + 1024) return;
+    std::vector<Slot> old;
+    old.swap(slots_);
+    std::fill(index_.begin(), index_.end(), Bucket{});
+    for (Slot& slot : old) {
+      if (!slot.pin) continue;
+      slots_.push_back(std::move(slot));
+      place(uint32_t(slots_.size() - 1));
+    }
+  }
+
   // While holding, pages stay pinned until clear() even without references:
   // a factorized cluster revisits the same pages for each of its receivers.
   void set_hold(bool hold) { hold_ = hold; }

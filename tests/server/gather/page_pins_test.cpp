@@ -107,5 +107,40 @@ TEST(PagePins, TrimKeepsReferencedPages) {
   pins.clear();
 }
 
+// compact forgets the slots of unpinned pages between runs; the pinned
+// ones stay pinned and are not fetched again.
+TEST(PagePins, CompactKeepsThePinnedPages) {
+  std::vector<Surfel> s;
+  test::add_disk(s, {0, 0, 0}, {0, 0, 1}, 1.f, 12000, Imath::C3f(0.5f));
+  test::SurfelTreeOptions o;
+  o.nodes_per_page = 4;
+  const test::SurfelTree tree(std::move(s), o);
+  ASSERT_GT(tree.page_count(), 1100u) << "more slots than compact() leaves alone";
+  gather::PageViews views;
+  gather::PagePins pins(tree, views);
+  pins.set_hold(true);
+  const uint32_t n = uint32_t(tree.page_count());
+  for (uint32_t id = 0; id < n; ++id) touch(pins, id);
+  pins.next_run();
+  pins.trim(0);  // every slot stays, none pinned
+  EXPECT_EQ(pins.pinned(), 0u);
+  touch(pins, 0);
+  touch(pins, 1);
+  const uint64_t keep = pins.pinned_bytes();
+  pins.compact();
+  EXPECT_EQ(pins.pinned(), 2u);
+  EXPECT_EQ(pins.pinned_bytes(), keep);
+  const uint64_t fetched = tree.fetches();
+  touch(pins, 0);
+  touch(pins, 1);
+  EXPECT_EQ(tree.fetches(), fetched) << "still pinned after compact()";
+  touch(pins, 2);
+  EXPECT_EQ(tree.fetches(), fetched + 1);
+  EXPECT_EQ(tree.pages_in_use(), 3u);
+  pins.set_hold(false);
+  pins.clear();
+  EXPECT_EQ(tree.pages_in_use(), 0u);
+}
+
 }  // namespace
 }  // namespace pbgi
