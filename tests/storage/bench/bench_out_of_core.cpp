@@ -318,8 +318,13 @@ GatherRun gather(const fs::path& set, uint64_t budget, const std::vector<Receive
     out.cpu_seconds = process_cpu_seconds() - cpu0;
     const storage::CacheCounters after = cache->counters();
     out.receivers_per_s = double(rs.size()) / s;
-    out.cache = {after.hits - before.hits, after.misses - before.misses, after.evictions - before.evictions,
-                 after.bytes_read - before.bytes_read, after.bytes_held};
+    out.cache = {after.hits - before.hits,
+                 after.misses - before.misses,
+                 after.evictions - before.evictions,
+                 after.bytes_read - before.bytes_read,
+                 after.bytes_held,
+                 after.bytes_pinned,
+                 after.bytes_pinned_peak};
     out.pages_per_receiver = double(pages.load()) / double(rs.size());
     out.nodes_per_receiver = double(nodes.load()) / double(rs.size());
   }
@@ -418,10 +423,11 @@ int run(const Args& a) {
     const double lookups = double(r.cache.hits + r.cache.misses);
     std::printf(
         "gather %-7s budget %8.1f MiB: %8.1f receivers/s, %.3f CPU s, %.0f nodes and %.1f pages/receiver, "
-        "hit rate %.3f, %.1f MiB read, %.1f MiB held\n",
+        "hit rate %.3f, %.1f MiB read, %.1f MiB held, at most %.1f MiB pinned beyond it\n",
         name, budget == ~uint64_t(0) ? -1.0 : double(budget) / (1 << 20), r.receivers_per_s, r.cpu_seconds,
         r.nodes_per_receiver, r.pages_per_receiver, lookups > 0 ? double(r.cache.hits) / lookups : 0.0,
-        double(r.cache.bytes_read) / (1 << 20), double(r.cache.bytes_held) / (1 << 20));
+        double(r.cache.bytes_read) / (1 << 20), double(r.cache.bytes_held) / (1 << 20),
+        double(r.cache.bytes_pinned_peak) / (1 << 20));
   };
   const uint64_t eighth =
       a.budget_fraction > 0 ? uint64_t(double(m.stats.file_bytes) * a.budget_fraction) : m.stats.file_bytes / 8;
