@@ -119,7 +119,7 @@ TEST(PagePins, CompactKeepsThePinnedPages) {
   gather::PageViews views;
   gather::PagePins pins(tree, views);
   pins.set_hold(true);
-  const uint32_t n = uint32_t(tree.page_count());
+  const auto n = uint32_t(tree.page_count());
   for (uint32_t id = 0; id < n; ++id) touch(pins, id);
   pins.next_run();
   pins.trim(0);  // every slot stays, none pinned
