@@ -124,17 +124,17 @@ class PagePins {
   // bytes_pinned).
   void trim(uint64_t keep_bytes) {
     if (pinned_bytes_ <= keep_bytes) return;
-    std::vector<uint32_t> order;
+    // Oldest run first, then slot: keys of both in one word, sorted
+    // without a look into the slots (a trim sorts thousands).
+    std::vector<uint64_t> order;
     order.reserve(pinned_);
     for (uint32_t s = 0; s < slots_.size(); ++s) {
-      if (slots_[s].pin && slots_[s].refs == 0) order.push_back(s);
+      if (slots_[s].pin && slots_[s].refs == 0) order.push_back(uint64_t(slots_[s].touched) << 32 | s);
     }
-    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
-      return slots_[a].touched != slots_[b].touched ? slots_[a].touched < slots_[b].touched : a < b;
-    });
-    for (const uint32_t s : order) {
+    std::sort(order.begin(), order.end());
+    for (const uint64_t key : order) {
       if (pinned_bytes_ <= keep_bytes) break;
-      unpin(s);
+      unpin(uint32_t(key));
     }
   }
 

@@ -79,11 +79,10 @@ constexpr uint64_t kWindowShare = 100;
 // The protected list's share of the main part (Caffeine's 80%).
 constexpr uint64_t kProtectedPercent = 80;
 
-// Departed pages looked at per fetch (sweep_departed()): a departed page
-// whose last user let go is forgotten within a few thousand fetches (a
-// pass over a few thousand departed pages); counters() looks at all.
-constexpr size_t kSweepPerFetch = 2;
-// On a miss, which may depart a page more.
+// Departed pages looked at per miss (sweep_departed()), more than a miss
+// departs (it evicts a page or two): a departed page whose last user let
+// go is forgotten within a few hundred misses; counters() looks at all.
+// Hits, which are most fetches, look at none.
 constexpr size_t kSweepPerMiss = 8;
 
 // A load in flight, which the callers that miss the same page wait for.
@@ -362,7 +361,6 @@ CachedPtr PageCache::get_value(uint64_t owner, uint32_t page_id, const std::func
   std::shared_ptr<Pending> pending;
   {
     std::unique_lock lock(impl_->mu);
-    impl_->sweep_departed(kSweepPerFetch);
     impl_->sketch.add(Impl::hash(key));
     const uint32_t slot = impl_->find(key);
     if (slot != kNil && impl_->slots[slot].list != kDeparted) {
@@ -438,11 +436,10 @@ tree::PagePtr PageCache::get(uint64_t owner, uint32_t page_id, const std::functi
 void PageCache::note_bytes_read(uint64_t n) { impl_->bytes_read.fetch_add(n, std::memory_order_relaxed); }
 
 CacheCounters PageCache::counters() const {
-  std::vector<CachedPtr> dropped;  // released after the lock
   std::lock_guard lock(impl_->mu);
-  // Every departed page looked at: bytes_pinned is what gathers pin now.
+  // Every departed page looked at (a forgotten one holds no page to
+  // release): bytes_pinned is what gathers pin now.
   impl_->sweep_departed(impl_->lists[kDeparted].size);
-  dropped = impl_->take_released();
   CacheCounters c = impl_->counters;
   c.bytes_read = impl_->bytes_read.load(std::memory_order_relaxed);
   return c;

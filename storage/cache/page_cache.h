@@ -38,7 +38,7 @@
 // remembered by a weak reference: a later miss of it takes that page back
 // (held again, as a page that just came) instead of loading and decoding a second copy, so
 // concurrent gathers whose pinned pages exceed the budget share them.
-// Every fetch looks at a few of these departed pages, oldest first, and
+// Every miss looks at a few of these departed pages, oldest first, and
 // forgets those whose last user let go (counters() looks at all).
 //
 // Counters: hits (served without calling load, including waiting on another
