@@ -19,6 +19,7 @@
 #include "server/gather/gather.h"
 #include "server/gather/page_views.h"
 #include "storage/cache/page_cache.h"
+#include "storage/format/checksum.h"
 #include "storage/pages/page_set.h"
 #include "storage/pages/page_set_inspection.h"
 #include "tests/storage/bench/page_parts.h"
@@ -331,6 +332,20 @@ GatherRun gather(const fs::path& set, uint64_t budget, const std::vector<Receive
   return out;
 }
 
+// A digest of what a view holds (its header's counts and offsets, then its
+// parts), without its charge and glossy pointer, which depend on the
+// allocator: two builds that decode every page to the same views print
+// the same digest (a check that a faster decoder changed no bit).
+uint64_t view_digest(const gather::PageView& v, uint64_t seed) {
+  const uint32_t fields[] = {v.id,         v.page_nodes,   v.node_count, v.flags,      v.looks_at,
+                             v.surfels_at, v.refs_at,      v.full_at,    v.bipolar_at, v.surfel_count,
+                             v.full_count, v.bipolar_count, v.glossy_at};
+  seed = storage::checksum64(fields, sizeof fields, seed);
+  const size_t end = gather::PageView::node0_dc_at(v.bipolar_at, v.bipolar_count) + 4 * sizeof(float);
+  const auto* base = reinterpret_cast<const std::byte*>(&v);
+  return storage::checksum64(base + sizeof(gather::PageView), end - sizeof(gather::PageView), seed);
+}
+
 int run(const Args& a) {
   // The synthetic city is built unless an existing page set is served.
   std::optional<test::SyntheticCity> city;
@@ -400,14 +415,19 @@ int run(const Args& a) {
 
   // 2. Decoding alone: every page read, verified, decoded and given its
   //    gather views once.
-  uint64_t decoded = 0;
+  uint64_t decoded = 0, digest = 0;
   {
     const double c0 = thread_cpu_seconds();
-    for (uint32_t id = 0; id < m.stats.page_count; ++id) decoded += probe.attachment(id)->memory_bytes();
+    for (uint32_t id = 0; id < m.stats.page_count; ++id) {
+      const std::shared_ptr<const tree::PageAttachment> view = probe.attachment(id);
+      decoded += view->memory_bytes();
+      digest = view_digest(dynamic_cast<const gather::PageView&>(*view), digest);
+    }
     const double s = thread_cpu_seconds() - c0;
     std::printf("decode         %.0f pages/s, %.0f MiB/s of pages per CPU second; %.2f GiB decoded (%.1fx the page bytes)\n",
                 m.stats.page_count / s, double(m.stats.file_bytes) / (1 << 20) / s, double(decoded) / (1 << 30),
                 double(decoded) / double(m.stats.file_bytes));
+    std::printf("views digest   %s\n", storage::checksum_hex(digest).c_str());
   }
   print_disk_parts(probe);
   print_decoded_parts(probe);
