@@ -337,8 +337,8 @@ GatherRun gather(const fs::path& set, uint64_t budget, const std::vector<Receive
 // allocator: two builds that decode every page to the same views print
 // the same digest (a check that a faster decoder changed no bit).
 uint64_t view_digest(const gather::PageView& v, uint64_t seed) {
-  const uint32_t fields[] = {v.id,         v.page_nodes,   v.node_count, v.flags,      v.looks_at,
-                             v.surfels_at, v.refs_at,      v.full_at,    v.bipolar_at, v.surfel_count,
+  const uint32_t fields[] = {v.id,         v.page_nodes,    v.node_count, v.flags,      v.looks_at,
+                             v.surfels_at, v.refs_at,       v.full_at,    v.bipolar_at, v.surfel_count,
                              v.full_count, v.bipolar_count, v.glossy_at};
   seed = storage::checksum64(fields, sizeof fields, seed);
   const size_t end = gather::PageView::node0_dc_at(v.bipolar_at, v.bipolar_count) + 4 * sizeof(float);
