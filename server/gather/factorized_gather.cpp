@@ -56,6 +56,12 @@ void FactorizedGather::gather(std::span<const Receiver> rs, std::span<GatherResu
   // receiver and cluster; all are unpinned when the batch ends (also on
   // errors).
   const HoldPinsInScope hold{pins};
+  // After each receiver and each cluster: a new run, and past the bound
+  // the least recently used pages no entry refers to are unpinned.
+  auto end_run = [&pins] {
+    pins.next_run();
+    if (pins.pinned_bytes() > kBatchPinnedBytes) pins.trim(kBatchPinnedBytes / 4 * 3);
+  };
 
   const std::vector<uint32_t>& members = clusters_.members();
   const std::vector<ReceiverCluster>& all = clusters_.clusters();
@@ -93,13 +99,11 @@ void FactorizedGather::gather(std::span<const Receiver> rs, std::span<GatherResu
       // A cluster's receivers refine near nodes into thousands of pages
       // between them (up to 11 MiB pinned in one cluster of the 2M city):
       // trimmed after each, the near entries' pages kept.
-      pins.next_run();
-      if (pins.pinned_bytes() > kBatchPinnedBytes) pins.trim(kBatchPinnedBytes / 4 * 3);
+      end_run();
     }
     for (const StackEntry& e : near_) pins.release(e.pin);
     counters.pages_fetched += pins.take_fetches();
-    pins.next_run();
-    if (pins.pinned_bytes() > kBatchPinnedBytes) pins.trim(kBatchPinnedBytes / 4 * 3);
+    end_run();
     pins.compact();
   }
 }
