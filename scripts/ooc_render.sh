@@ -13,6 +13,8 @@
 # JOBS (environment, default 4 as `pbgi render`): tile requests in flight.
 # RENDER_ARGS (environment): more `pbgi render` flags, word-split (e.g.
 # "--upper-page-levels 10": a build option, so another page set).
+# DAEMON_ARGS (environment): more `pbgid` flags, word-split (e.g.
+# "--max-surfels 0" for a set above the default limit of 200 M surfels).
 # CACHE_ONLY=1 (environment): BUDGET is the page cache's budget alone
 # (--page-cache-limit under an unbounded --memory-budget), whatever the
 # scene is charged: "1/8 of the page set" means a page cache of 1/8 of its
@@ -39,7 +41,7 @@ if [ "${CACHE_ONLY:-0}" = 1 ] && [ "$BUDGET" != 1TiB ]; then
   args=(--memory-budget 1TiB --page-cache-limit "$BUDGET")
 fi
 nice -n 10 "$PBGID" --listen "unix:$SOCK" --scene-root "$(dirname "$SCENE")" --cache-dir "$CACHE" \
-  "${args[@]}" 2>"$LOG" &
+  "${args[@]}" ${DAEMON_ARGS:-} 2>"$LOG" &
 daemon=$!
 trap 'kill -TERM "$daemon" 2>/dev/null || true; wait "$daemon" 2>/dev/null || true; rm -f "$SOCK"' EXIT
 for _ in $(seq 100); do [ -S "$SOCK" ] && break; sleep 0.1; done
@@ -63,6 +65,7 @@ if [ -n "${STRESS:-}" ]; then
     --method "$METHOD" --clients "${CLIENTS:-8}" --duration "$STRESS" --image "${WIDTH}x${HEIGHT}" \
     --tile "${TILE:-16}" --daemon-pid "$daemon" --json -q || true
   "$PBGI" status --server "unix:$SOCK" | grep -i "cache\|page\|hit\|miss\|read\|held\|budget" || true
+awk '/^VmHWM/ {printf "daemon peak RSS %.3f GiB (VmHWM)\n", $2 / 1048576}' "/proc/$daemon/status" || true
   exit 0
 fi
 # WARM (environment, default 1): warm renders, each reported on its own
@@ -91,3 +94,4 @@ for n in $(seq "${WARM:-1}"); do
     'BEGIN { printf "warm render %d budget %s, %dx%d: %.1f s wall, %.2f s daemon CPU\n", n, b, w, h, e - s, (t1 - t0) / hz }'
 done
 "$PBGI" status --server "unix:$SOCK" | grep -i "cache\|page\|hit\|miss\|read\|held\|budget" || true
+awk '/^VmHWM/ {printf "daemon peak RSS %.3f GiB (VmHWM)\n", $2 / 1048576}' "/proc/$daemon/status" || true

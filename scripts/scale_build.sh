@@ -16,7 +16,11 @@
 #   scripts/scale_build.sh SCENE.usda CACHE_DIR SPACING [MEMORY_BUDGET] [SAMPLER]
 #
 # e.g. scripts/scale_build.sh /tmp/city/city.usda /tmp/city/cache 0.05 2GiB
-# (scene from scripts/gen_large_scene.py). Runs under nice; the daemon is
+# (scene from scripts/gen_large_scene.py). STAGING_QUOTA (default the
+# daemon's, 32GiB) bounds the build's staging directory: a billion surfels
+# stage ~22 GB of sort runs beside ~19 GB of pages. MAX_SURFELS (default
+# the daemon's limits.max_surfels, 200 M) lets a larger build through.
+# Runs under nice; the daemon is
 # stopped with SIGTERM once the scene is preloaded. Output: CACHE_DIR/scale.log
 # (the daemon's log) and a summary on stdout.
 set -euo pipefail
@@ -40,6 +44,8 @@ log_level = "info"
 surfel_spacing = $SPACING
 EOF
 [ "$SAMPLER" = uniform ] || echo "sampler = \"$SAMPLER\"" >>"$CONFIG"
+[ -z "${STAGING_QUOTA:-}" ] || sed -i "1i staging_quota = \"$STAGING_QUOTA\"" "$CONFIG"
+[ -z "${MAX_SURFELS:-}" ] || printf '[limits]\nmax_surfels = %s\n' "$MAX_SURFELS" >>"$CONFIG"
 
 LOG="$CACHE/scale.log"
 : >"$LOG"

@@ -17,7 +17,7 @@ DEB_PACKAGES=(
   libopenexr-dev libopencolorio-dev libdraco-dev libtbb-dev
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
   libgtest-dev libgmock-dev libbenchmark-dev
-  libspdlog-dev libfmt-dev libcli11-dev libtomlplusplus-dev libxxhash-dev libpng-dev
+  libspdlog-dev libfmt-dev libcli11-dev libtomlplusplus-dev libxxhash-dev libzstd-dev libpng-dev
   libopenimageio-dev libhwy-dev libjemalloc-dev
   python3 python3-venv openimageio-tools ccache
   clang-14 libclang-rt-14-dev llvm-14

@@ -85,8 +85,9 @@ struct DaemonOptions {
   // disk together (sort runs, pages being written), with K/M/G suffixes;
   // "0" = no limit. A build that would pass it stops with
   // RESOURCE_EXHAUSTED and removes what it staged. The default holds a
-  // build of limits.max_surfels' default (200 M surfels: ~96 B per surfel
-  // of sort runs and ~33 B per surfel of pages).
+  // build of limits.max_surfels' default (200 M surfels: ~22 B per surfel
+  // of compressed sort runs on the generated city, up to 96 B for surfels
+  // that do not compress, and ~19 B per surfel of pages).
   std::string staging_quota = "32GiB";
   // "text" or "json" (one JSON object per line, for log collectors).
   std::string log_format = "text";

@@ -20,7 +20,8 @@ constexpr uint64_t kRayBytesPerInstance = 512;
 constexpr uint64_t kRayFixedBytes = uint64_t(8) << 20;
 // A build's batches of surfels in flight (65 536 surfels a batch, sampled,
 // shaded and sorted by the worker threads), page encoding and the
-// bounce gather's receivers, beside the sort memory. A bound chosen, not
+// bounce gather's receivers, the sort's zstd contexts (~2.4 MB,
+// storage/pages/run_file.h), beside the sort memory. A bound chosen, not
 // measured per part.
 constexpr uint64_t kBuildBatchBytes = uint64_t(64) << 20;
 // The least sort memory a build is given under a tight budget.

@@ -57,12 +57,12 @@ void log_build(const std::string& key, const SurfelGenerationStats& g, const sto
                const storage::PageSetStats& s) {
   const double n = double(g.surfels);
   const double tree_seconds = r.add_seconds + r.finish_seconds;  // sort runs + merge, tree, pages
-  spdlog::info("built page set {}: {} surfels; sample {:.1f} s + shade {:.1f} s ({:.3g} surfels/s), tree {:.1f} s "
-               "({:.3g} surfels/s; {} sort runs, {} merges), {} pages, {:.2f} bytes/surfel",
-               key, g.surfels, g.sample_seconds, g.shade_seconds,
-               n / std::max(1e-9, g.sample_seconds + g.shade_seconds), tree_seconds,
-               n / std::max(1e-9, tree_seconds), r.runs, r.merges, s.page_count,
-               double(s.file_bytes) / std::max(1.0, n));
+  spdlog::info(
+      "built page set {}: {} surfels; sample {:.1f} s + shade {:.1f} s ({:.3g} surfels/s), tree {:.1f} s "
+      "({:.3g} surfels/s; {} sort runs, {} merges, {:.2f} run bytes/surfel), {} pages, {:.2f} bytes/surfel",
+      key, g.surfels, g.sample_seconds, g.shade_seconds, n / std::max(1e-9, g.sample_seconds + g.shade_seconds),
+      tree_seconds, n / std::max(1e-9, tree_seconds), r.runs, r.merges, double(r.run_bytes) / std::max(1.0, n),
+      s.page_count, double(s.file_bytes) / std::max(1.0, n));
   spdlog::info("page set {}: payloads {}", key, r.codec_reason);
   if (r.glossy.pages > 0) {
     spdlog::info("page set {}: {} glossy surfels, wavelet radiance in {} pages, {} bytes ({} face blocks kept, "
@@ -354,6 +354,12 @@ std::shared_ptr<SceneSession> open_read_scene(std::unique_ptr<Scene> scene, cons
     }
     session->tree = build_page_sets(*session, build_options, ctx, report, cancelled);
     if (ctx.memory) session->memory.resize(ChargeKind::kBuild, 0, "page-set build");
+  }
+  // The page table stays in memory while the scene is open: ~2.25 bytes a
+  // page (storage/pages/page_table.h), 0.18 GB for a billion surfels.
+  if (ctx.memory) {
+    session->memory.resize(resident_bytes + session->tree->manifest().pages.memory_bytes(),
+                           "scene geometry + ray-tracing structure + page table");
   }
 
   session->info.scene_id = key;

@@ -281,11 +281,11 @@ Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path)
                   std::to_string(r.remaining()) + " bytes left at offset " +
                   std::to_string(r.file_offset()));
   }
-  m.pages.resize(table_size);
+  m.pages.reserve(table_size);
   uint64_t next_offset = 0;  // V5: the pages lie back to back
   for (uint32_t i = 0; i < table_size; ++i) {
     const uint64_t at = r.file_offset();
-    PageExtent& e = m.pages[i];
+    PageExtent e;
     if (v5) {
       uint64_t bytes = 0;
       for (int shift = 0;; shift += 7) {
@@ -316,6 +316,7 @@ Manifest decode_manifest(std::span<const uint8_t> file, const std::string& path)
                     " bytes) lies outside the " + std::to_string(m.stats.file_bytes) +
                     "-byte pages file");
     }
+    m.pages.push_back(e);
   }
   if (v5 && next_offset != m.stats.file_bytes) {
     throw corrupt("page table's " + std::to_string(table_size) + " pages add up to " + std::to_string(next_offset) +

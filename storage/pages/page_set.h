@@ -11,6 +11,7 @@
 
 #include "storage/codecs/glossy_pages.h"
 #include "storage/format/format_version.h"
+#include "storage/pages/page_table.h"
 #include "storage/tree/build_options.h"
 #include "storage/tree/node.h"
 #include "storage/tree/region_grid.h"
@@ -42,13 +43,6 @@ struct PageSetStats {
 inline constexpr char kManifestFileName[] = "manifest.pbgm";
 inline constexpr char kPagesFileName[] = "pages.pbgp";
 
-// Where one page lives in pages.pbgp.
-struct PageExtent {
-  uint64_t offset = 0;
-  uint32_t bytes = 0;
-  bool operator==(const PageExtent&) const = default;
-};
-
 struct Manifest {
   std::string build_key;       // content hash of scene + options
   tree::BuildOptions options;
@@ -60,7 +54,7 @@ struct Manifest {
   // The codec's serialized state (the kmeans-sh LUT); empty for float SH.
   std::vector<uint8_t> codec_state;
   uint32_t page_format = kPageFormatCurrent;  // format version of every page
-  std::vector<PageExtent> pages;              // page table, indexed by page id
+  PageTable pages;                            // page table, indexed by page id (page_table.h)
   // Glossy radiance (storage/codecs/glossy_pages.h): cube map resolution,
   // 0 when no page stores any (V2 manifest). Pages that do carry
   // kPageFlagGlossy.
@@ -77,7 +71,7 @@ struct BuildReport {
   uint64_t surfels = 0;
   uint32_t runs = 0;                  // sorted runs spilled to disk (0: sorted in memory)
   uint32_t merges = 0;                // k-way merges of those runs
-  uint64_t run_bytes = 0;             // bytes written to run files
+  uint64_t run_bytes = 0;             // bytes written to run files (compressed), all merge passes
   uint64_t sort_peak_bytes = 0;       // largest run + merge buffers (<= options.sort_memory_bytes)
   uint64_t tree_peak_pending_bytes = 0;  // largest size of nodes waiting for their page
   double add_seconds = 0;             // inside add(): copying, sorting and spilling runs

@@ -65,10 +65,11 @@ class PageWriter final : public tree::TreeletSink {
   }
 
   // Writes what is buffered, fsyncs and closes; returns the page table.
-  std::vector<PageExtent> close() {
+  PageTable close() {
     flush();
     file_.sync();
     file_.close();
+    table_.shrink_to_fit();
     return std::move(table_);
   }
   uint64_t file_bytes() const { return offset_; }
@@ -99,7 +100,7 @@ class PageWriter final : public tree::TreeletSink {
   StagingUsage& usage_;
   tree::Page page_;
   std::vector<float> link_areas_;
-  std::vector<PageExtent> table_;
+  PageTable table_;
   std::vector<uint8_t> buffer_, encoded_;
   uint64_t offset_ = 0;
 };

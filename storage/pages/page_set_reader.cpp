@@ -38,7 +38,7 @@ struct PageSetReader::Impl {
   // heap block allocated, zeroed and freed per miss).
   std::span<const uint8_t> read(uint32_t id) const {
     thread_local std::vector<uint8_t> buffer;
-    const PageExtent& e = manifest.pages[id];
+    const PageExtent e = manifest.pages[id];
     // What a large page grew is given back at the next smaller read.
     constexpr size_t kMaxKeptBytes = size_t(256) << 10;
     if (buffer.capacity() > kMaxKeptBytes && e.bytes <= kMaxKeptBytes) std::vector<uint8_t>().swap(buffer);

@@ -1,14 +1,12 @@
 #include "storage/pages/surfel_sorter.h"
 
 #include "common/errors.h"
-#include "storage/format/checksum.h"
-#include "storage/pages/file_io.h"
+#include "storage/pages/run_file.h"
 #include "storage/pages/staging_quota.h"
 
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
-#include <cstring>
 #include <deque>
 #include <queue>
 #include <string>
@@ -61,88 +59,34 @@ struct Record {
 };
 static_assert(std::is_trivially_copyable_v<Record> && sizeof(Record) == 96);
 
-// A run file is a sequence of blocks: u64 record count, u64 XXH3-64 of the
-// records, then the records as they lie in memory.
-constexpr size_t kBlockHeaderBytes = 16;
-constexpr size_t kMaxBlockRecords = 16384;  // ~1.3 MB: enough to make reads sequential
+constexpr size_t kMaxBlockRecords = 16384;  // ~1.5 MB: enough to make reads sequential
 
-class RunWriter {
+// The records of one run, a block at a time.
+class RunCursor {
  public:
-  // `usage` (may be null) is charged before each block is written.
-  RunWriter(const fs::path& path, size_t block_records, StagingUsage* usage)
-      : file_(File::create_new(path)), block_records_(block_records), usage_(usage) {}
-
-  // Writes `records` as blocks of at most block_records.
-  void write(std::span<const Record> records) {
-    for (size_t at = 0; at < records.size(); at += block_records_) {
-      const auto block = records.subspan(at, std::min(block_records_, records.size() - at));
-      const std::span<const uint8_t> bytes(reinterpret_cast<const uint8_t*>(block.data()), block.size_bytes());
-      uint8_t header[kBlockHeaderBytes];
-      const uint64_t count = block.size(), sum = checksum64(bytes.data(), bytes.size());
-      std::memcpy(header, &count, 8);
-      std::memcpy(header + 8, &sum, 8);
-      if (usage_) usage_->charge(kBlockHeaderBytes + bytes.size(), file_.path());
-      file_.write_all(header);
-      file_.write_all(bytes);
-      bytes_ += kBlockHeaderBytes + bytes.size();
-    }
-  }
-  void close() { file_.close(); }
-  uint64_t bytes() const { return bytes_; }
-
- private:
-  File file_;
-  size_t block_records_;
-  StagingUsage* usage_;
-  uint64_t bytes_ = 0;
-};
-
-class RunReader {
- public:
-  RunReader(const fs::path& path, uint64_t records, size_t block_records)
-      : file_(File::open_read(path)), remaining_(records), block_(block_records) {}
+  RunCursor(const fs::path& path, uint64_t records, size_t block_records, RunCodec& codec)
+      : file_(path, records, sizeof(Record), codec), block_(block_records) {}
 
   // The next record, or nullptr at the end.
   const Record* peek() {
     if (pos_ == size_) {
-      if (remaining_ == 0) return nullptr;
-      load_block();
+      size_ = file_.read_block({reinterpret_cast<uint8_t*>(block_.data()), block_.size() * sizeof(Record)});
+      pos_ = 0;
+      if (size_ == 0) return nullptr;
     }
     return &block_[pos_];
   }
   void pop() { ++pos_; }
 
  private:
-  void load_block() {
-    uint8_t header[kBlockHeaderBytes];
-    file_.pread_exact(header, offset_);
-    uint64_t count = 0, sum = 0;
-    std::memcpy(&count, header, 8);
-    std::memcpy(&sum, header + 8, 8);
-    if (count == 0 || count > block_.size() || count > remaining_) {
-      throw CorruptionError(file_.path() + ": run block at offset " + std::to_string(offset_) + " claims " +
-                            std::to_string(count) + " records (" + std::to_string(remaining_) + " left, at most " +
-                            std::to_string(block_.size()) + " per block)");
-    }
-    const std::span<uint8_t> bytes(reinterpret_cast<uint8_t*>(block_.data()), count * sizeof(Record));
-    file_.pread_exact(bytes, offset_ + kBlockHeaderBytes);
-    const uint64_t found = checksum64(bytes.data(), bytes.size());
-    if (found != sum) {
-      throw CorruptionError(file_.path() + ": run block at offset " + std::to_string(offset_) +
-                            ": checksum mismatch: expected " + checksum_hex(sum) + ", found " + checksum_hex(found));
-    }
-    offset_ += kBlockHeaderBytes + bytes.size();
-    remaining_ -= count;
-    size_ = count;
-    pos_ = 0;
-  }
-
-  File file_;
-  uint64_t remaining_;
+  RunReader file_;
   std::vector<Record> block_;
   size_t size_ = 0, pos_ = 0;
-  uint64_t offset_ = 0;
 };
+
+std::span<const uint8_t> bytes_of(std::span<const Record> records) {
+  return {reinterpret_cast<const uint8_t*>(records.data()), records.size_bytes()};
+}
 
 }  // namespace
 
@@ -160,6 +104,7 @@ struct SurfelSorter::Impl {
   size_t block_records;
   uint32_t fan_in;
   size_t capacity;  // records in the run buffer
+  std::unique_ptr<RunCodec> codec;
   std::vector<Record> buffer;
   std::deque<Run> runs;
   uint32_t serial = 0;
@@ -170,10 +115,17 @@ struct SurfelSorter::Impl {
       : frame(f), memory(mem), dir(std::move(d)), usage(u) {
     if (memory < 64 * 1024) throw InvalidArgument("sort memory of " + std::to_string(memory) + " bytes: at least 64 KiB");
     max_fan_in = std::max<uint32_t>(max_fan_in, 2);
-    // Merge memory: fan_in input blocks and one output block.
-    block_records = std::clamp<size_t>(memory / ((size_t(max_fan_in) + 1) * sizeof(Record)), 1, kMaxBlockRecords);
-    fan_in = uint32_t(std::clamp<uint64_t>(memory / (block_records * sizeof(Record)) - 1, 2, max_fan_in));
-    capacity = memory / sizeof(Record);
+    // Merge memory: fan_in input blocks, one output block and the codec's
+    // scratch (kRunParallelBlocks compressed blocks, a little more than as
+    // many blocks); a spill: the run buffer and the scratch.
+    const auto scratch = [](size_t records) { return RunCodec::scratch_bytes(records * sizeof(Record)); };
+    block_records = std::clamp<size_t>(memory / ((size_t(max_fan_in) + 1 + kRunParallelBlocks) * sizeof(Record)), 1,
+                                       kMaxBlockRecords);
+    while (block_records > 1 && 3 * block_records * sizeof(Record) + scratch(block_records) > memory) --block_records;
+    const uint64_t room = memory - scratch(block_records);
+    fan_in = uint32_t(std::clamp<uint64_t>(room / (block_records * sizeof(Record)) - 1, 2, max_fan_in));
+    capacity = room / sizeof(Record);
+    codec = std::make_unique<RunCodec>(block_records * sizeof(Record));
   }
 
   ~Impl() {
@@ -196,8 +148,8 @@ struct SurfelSorter::Impl {
     if (buffer.empty()) return;
     tbb::parallel_sort(buffer.begin(), buffer.end());
     Run run{next_run_path(), buffer.size()};
-    RunWriter w(run.path, block_records, usage);
-    w.write(buffer);
+    RunWriter w(run.path, sizeof(Record), *codec, usage);
+    w.write(bytes_of(buffer));
     w.close();
     run.bytes = w.bytes();
     stats.run_bytes += w.bytes();
@@ -212,7 +164,7 @@ struct SurfelSorter::Impl {
       // Reserve the whole run buffer at once: it is the budget, and growth
       // by doubling would briefly need 1.5 times it.
       buffer.reserve(capacity);
-      note_peak(buffer.capacity() * sizeof(Record));
+      note_peak(buffer.capacity() * sizeof(Record) + RunCodec::scratch_bytes(codec->block_bytes()));
     }
     for (const Surfel& s : surfels) {
       if (s.region > kMaxSortedRegion) {
@@ -228,8 +180,9 @@ struct SurfelSorter::Impl {
   // `out`; `tick` after each record.
   template <typename Out>
   void merge(const std::vector<Run>& inputs, Out&& out, const std::function<void()>& tick) {
-    std::vector<std::unique_ptr<RunReader>> readers;
-    for (const Run& r : inputs) readers.push_back(std::make_unique<RunReader>(r.path, r.records, block_records));
+    std::vector<std::unique_ptr<RunCursor>> readers;
+    for (const Run& r : inputs)
+      readers.push_back(std::make_unique<RunCursor>(r.path, r.records, block_records, *codec));
     struct Head {
       uint64_t code, region_index;
       uint32_t reader;
@@ -296,7 +249,8 @@ struct SurfelSorter::Impl {
         sizes.push_back(merged);
       }
     }
-    note_peak(uint64_t(std::min<size_t>(runs.size(), fan_in) + 1) * block_records * sizeof(Record));
+    note_peak(uint64_t(std::min<size_t>(runs.size(), fan_in) + 1) * block_records * sizeof(Record) +
+              RunCodec::scratch_bytes(codec->block_bytes()));
 
     // 2. Intermediate passes until one merge can take every run.
     while (runs.size() > fan_in) {
@@ -304,17 +258,17 @@ struct SurfelSorter::Impl {
       runs.erase(runs.begin(), runs.begin() + fan_in);
       Run out{next_run_path(), 0};
       {
-        RunWriter w(out.path, block_records, usage);
+        RunWriter w(out.path, sizeof(Record), *codec, usage);
         std::vector<Record> block;
         block.reserve(block_records);
         merge(inputs, [&](const Record& r) {
           block.push_back(r);
           if (block.size() == block_records) {
-            w.write(block);
+            w.write(bytes_of(block));
             block.clear();
           }
         }, tick);
-        w.write(block);
+        w.write(bytes_of(block));
         w.close();
         out.bytes = w.bytes();
         stats.run_bytes += w.bytes();

@@ -9,10 +9,13 @@
 // sequence: straight from the buffer when nothing was spilled, else by
 // k-way merges of the runs (intermediate passes when there are more runs
 // than the fan-in), each run read through a buffer of one block. The run
-// buffer and the merge buffers never exceed memory_bytes together, and the
-// order never depends on it: ties in code are broken by arrival index.
+// buffer, the merge buffers and the compressed blocks in flight never
+// exceed memory_bytes together (zstd's own state, ~2.4 MB at the default
+// memory, is beside it), and the order never depends on it: ties in code
+// are broken by arrival index.
 //
-// Run files are temporary (host byte order, one XXH3 checksum per block,
+// Run files are temporary (run_file.h: zstd-compressed blocks, ~20 bytes a
+// surfel on the generated city instead of 96, each with a checksum;
 // deleted as soon as merged); `run_dir` is the build's staging directory,
 // so a crashed build leaves nothing that outlives its staging directory.
 //
@@ -41,7 +44,7 @@ struct SortStats {
   uint64_t surfels = 0;
   uint32_t runs = 0;           // runs written to disk (0: sorted in memory)
   uint32_t merges = 0;         // k-way merges of runs, the last (feeding the caller) included
-  uint64_t run_bytes = 0;      // bytes written to run files, all passes
+  uint64_t run_bytes = 0;      // bytes written to run files (compressed), all passes
   uint64_t peak_bytes = 0;     // largest total of run and merge buffers held
 };
 

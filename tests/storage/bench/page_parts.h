@@ -26,7 +26,7 @@ void for_each_page_parts(const std::filesystem::path& dir, const storage::Manife
   const auto codec = storage::make_payload_codec(m.codec, m.codec_state, dir.string());
   std::vector<uint8_t> page;
   for (uint32_t id = 0; id < m.pages.size(); ++id) {
-    const storage::PageExtent& e = m.pages[id];
+    const storage::PageExtent e = m.pages[id];
     page.resize(e.bytes);
     in.seekg(std::streamoff(e.offset));
     in.read(reinterpret_cast<char*>(page.data()), std::streamsize(page.size()));

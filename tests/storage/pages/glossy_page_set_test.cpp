@@ -208,7 +208,7 @@ TEST(GlossyPageSet, AGlossyPageIsRefusedWhereTheManifestDeclaresNone) {
   const auto codec = make_payload_codec(m.codec);
   bool found = false;
   for (uint32_t p = 0; p < m.stats.page_count && !found; ++p) {
-    const PageExtent& e = m.pages[p];
+    const PageExtent e = m.pages[p];
     const std::span<const uint8_t> bytes(file.data() + e.offset, e.bytes);
     const auto page = decode_page(bytes, {"pages", p, e.offset}, m.page_format, *codec, m.stats.page_count, true);
     if (!page->glossy) continue;

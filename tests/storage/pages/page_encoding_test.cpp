@@ -382,7 +382,9 @@ TEST(PageEncoding, ManifestV5StoresPageSizesOnly) {
   expect_corrupt(longer, "sizes short of the file");
   // A V5 table cannot say a page does not follow the previous one.
   Manifest gap = m;
-  gap.pages[2].offset += 1;
+  gap.pages = {};
+  for (uint32_t i = 0; i < m.pages.size(); ++i)
+    gap.pages.push_back({m.pages[i].offset + (i >= 2 ? 1 : 0), m.pages[i].bytes});
   EXPECT_THROW(encode_manifest(gap), Error);
   // A redundant varint byte (128 as 0x80 0x81 0x00 ...): written by hand.
   auto body = unframe_manifest(file, "m").body;

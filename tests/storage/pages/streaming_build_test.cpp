@@ -136,14 +136,42 @@ TEST(SurfelSorter, SortsByCodeThenArrivalWithinItsMemory) {
       [&](float f) { progress.push_back(f); });
   EXPECT_EQ(k, surfels.size());
   const SortStats& st = sorter.stats();
-  EXPECT_EQ(st.runs, 14u);      // 9000 surfels, 682 96-byte records per run
-  EXPECT_EQ(st.merges, 13u);    // pairwise: 14 runs -> 1
+  // 9000 surfels, 294 96-byte records per run: 64 KiB less the codec's
+  // scratch (4 compressed blocks of 96 records, run_file.h).
+  EXPECT_EQ(st.runs, 31u);
+  EXPECT_EQ(st.merges, 30u);  // pairwise: 31 runs -> 1
   EXPECT_LE(st.peak_bytes, kMemory);
   EXPECT_TRUE(fs::is_empty(tmp.path()));  // every run file deleted
   ASSERT_FALSE(progress.empty());
   EXPECT_TRUE(std::is_sorted(progress.begin(), progress.end()));
   EXPECT_LE(progress.back(), 1.f);
   EXPECT_GT(progress.back(), 0.99f);
+}
+
+TEST(SurfelSorter, RunsOfSurfacesAreCompressed) {
+  // A surface sampled on a grid, as a scene's surfels are: one normal, one
+  // albedo, near positions. Its runs take a fraction of their records.
+  test::TempDir tmp;
+  std::vector<Surfel> surfels;
+  for (int i = 0; i < 200; ++i) {
+    for (int j = 0; j < 100; ++j) {
+      Surfel s;
+      s.position = {0.01f * float(i), 0.5f, 0.01f * float(j)};
+      s.normal = {0, 1, 0};
+      s.radius = 0.006f;
+      s.albedo = {0.7f, 0.6f, 0.5f};
+      s.radiance = {0.1f + 0.001f * float(i), 0.2f, 0.3f + 0.002f * float(j)};
+      surfels.push_back(s);
+    }
+  }
+  SurfelSorter sorter(tree::MortonFrame(tree::surfel_bounds(surfels)), 256 * 1024, tmp.path());
+  sorter.add(surfels);
+  size_t n = 0;
+  sorter.drain([&](const Surfel&, uint64_t) { ++n; });
+  EXPECT_EQ(n, surfels.size());
+  const SortStats& st = sorter.stats();
+  EXPECT_GT(st.runs, 5u);
+  EXPECT_LT(st.run_bytes, surfels.size() * 96 / 3) << st.run_bytes;
 }
 
 TEST(SurfelSorter, DamagedRunIsCorruption) {
@@ -163,7 +191,12 @@ TEST(SurfelSorter, DamagedRunIsCorruption) {
     f.seekp(1000);
     f.write(&c, 1);
   }
-  EXPECT_THROW(sorter.drain([](const Surfel&, uint64_t) {}), CorruptionError);
+  try {
+    sorter.drain([](const Surfel&, uint64_t) {});
+    FAIL() << "a damaged run was merged";
+  } catch (const CorruptionError& e) {
+    EXPECT_NE(std::string(e.what()).find(run.string() + ": run block at offset"), std::string::npos) << e.what();
+  }
 }
 
 TEST(StreamingTreeBuilder, RefusesUnsortedCodesAndEmptyStreams) {
