@@ -22,6 +22,15 @@ namespace {
 // compression speed matters more than the last few percent of size.
 constexpr int kLevel = 1;
 
+// `path`, once records of `record_bytes` are known to fit blocks of `block_bytes`.
+const fs::path& checked(const fs::path& path, size_t record_bytes, size_t block_bytes) {
+  if (record_bytes == 0 || record_bytes > block_bytes) {
+    throw InvalidArgument(path.string() + ": records of " + std::to_string(record_bytes) + " bytes in blocks of " +
+                          std::to_string(block_bytes));
+  }
+  return path;
+}
+
 }  // namespace
 
 struct RunCodec::Contexts {
@@ -52,7 +61,10 @@ void RunCodec::allocate_scratch() {
 }
 
 RunWriter::RunWriter(const fs::path& path, size_t record_bytes, RunCodec& codec, StagingUsage* usage)
-    : file_(File::create_new(path)), record_bytes_(record_bytes), codec_(codec), usage_(usage) {
+    : file_(File::create_new(checked(path, record_bytes, codec.block_bytes()))),
+      record_bytes_(record_bytes),
+      codec_(codec),
+      usage_(usage) {
   codec_.allocate_scratch();
 }
 
