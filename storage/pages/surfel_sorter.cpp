@@ -181,6 +181,7 @@ struct SurfelSorter::Impl {
   template <typename Out>
   void merge(const std::vector<Run>& inputs, Out&& out, const std::function<void()>& tick) {
     std::vector<std::unique_ptr<RunCursor>> readers;
+    readers.reserve(inputs.size());
     for (const Run& r : inputs)
       readers.push_back(std::make_unique<RunCursor>(r.path, r.records, block_records, *codec));
     struct Head {

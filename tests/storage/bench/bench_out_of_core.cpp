@@ -40,7 +40,6 @@
 #include <span>
 #include <string>
 #include <thread>
-#include <tuple>
 #include <vector>
 
 namespace pbgi {
@@ -104,6 +103,10 @@ struct Args {
   bool skip_decoded_budget = false;
   // --decode-only: stop after the decoded size and its breakdown by part.
   bool decode_only = false;
+  // --skip-decode: no decoding pass over every page (nor its breakdowns);
+  // implies --skip-decoded-budget. A billion-surfel set's pass takes ~15
+  // minutes of one core.
+  bool skip_decode = false;
   fs::path page_set;  // serve this set instead of building the synthetic city
   // The small budget as a fraction of the page set's size on disk (1/8
   // unless given; the slowdown-against-budget sweep).
@@ -138,6 +141,7 @@ Args parse(int argc, char** argv) {
     else if (k == "--keep") a.keep = true;
     else if (k == "--skip-decoded-budget") a.skip_decoded_budget = true;
     else if (k == "--decode-only") a.decode_only = true;
+    else if (k == "--skip-decode") a.skip_decode = a.skip_decoded_budget = true;
     else if (k == "--page-set") a.page_set = val();
     else if (k == "--budget-fraction") a.budget_fraction = std::strtod(val().c_str(), nullptr);
     else if (k == "--method") {
@@ -154,6 +158,7 @@ Args parse(int argc, char** argv) {
                    "       [--receivers N] [--threads N] [--reuse] [--keep]\n"
                    "       bench_out_of_core --page-set DIR [--receivers N] [--threads N] [--skip-decoded-budget]\n"
                    "       [--decode-only]  (stop after the decoded size and where its bytes go)\n"
+                   "       [--skip-decode]  (no decoding pass over every page; implies --skip-decoded-budget)\n"
                    "       [--budget-fraction F]  (the small budget: F x the page set's size on disk; 1/8)\n"
                    "       [--method pbgi|fpbgi]\n");
       std::exit(2);
@@ -177,36 +182,47 @@ std::vector<Receiver> make_receivers(const test::SyntheticCity& city, uint32_t c
   return out;
 }
 
-// Receivers on the surfels of an existing page set: random surfels, each
-// with a tile-like 8 x 8 group in its tangent plane (1 mm above it), as a
-// shading tile around that point would ask. The surfels are drawn from all
-// of the set's surfels in position order, so two page sets of the same
-// surfels (different page layouts) get the same receivers. `set` must be
-// read without the gather's views, which drop the pages' surfels.
+// Receivers on the set's own surfels: the ceil(count / 64) surfels whose
+// position and normal hash lowest (bottom-k sampling: the same surfels
+// whatever the page layout, so two page sets of the same surfels get the
+// same receivers; one pass in O(k) memory, so a billion surfels are
+// sampled as well), taken in hash order, each giving 64 receivers on an
+// 8 x 8 grid in its tangent plane. `set` must be read without the gather's
+// views, which drop the pages' surfels.
 std::vector<Receiver> make_receivers(const storage::PageSetReader& set, uint32_t count) {
-  struct Point {
+  struct Pick {
+    uint64_t hash;
     Imath::V3f p, n;
     float r;
+    bool operator<(const Pick& o) const { return hash < o.hash; }
   };
-  std::vector<Point> all;
-  all.reserve(set.manifest().stats.surfel_count);
+  const size_t k = (size_t(count) + 63) / 64;
+  std::vector<Pick> heap;  // max-heap of the k lowest hashes so far
   for (uint32_t id = 0; id < set.manifest().stats.page_count; ++id) {
     const tree::PagePtr page = set.page(id);  // alive while its surfels are read
-    for (const Surfel& s : page->surfels) all.push_back({s.position, s.normal, s.radius});
+    for (const Surfel& s : page->surfels) {
+      const float key[6] = {s.position.x, s.position.y, s.position.z, s.normal.x, s.normal.y, s.normal.z};
+      const Pick pick{storage::checksum64(key, sizeof key, 17), s.position, s.normal, s.radius};
+      if (heap.size() < k) {
+        heap.push_back(pick);
+        std::push_heap(heap.begin(), heap.end());
+      } else if (pick < heap.front()) {
+        std::pop_heap(heap.begin(), heap.end());
+        heap.back() = pick;
+        std::push_heap(heap.begin(), heap.end());
+      }
+    }
   }
-  std::sort(all.begin(), all.end(), [](const Point& a, const Point& b) {
-    return std::tie(a.p.x, a.p.y, a.p.z, a.n.x, a.n.y, a.n.z) < std::tie(b.p.x, b.p.y, b.p.z, b.n.x, b.n.y, b.n.z);
-  });
-  std::mt19937 rng(17);
+  std::sort_heap(heap.begin(), heap.end());
   std::vector<Receiver> out;
-  while (out.size() < count && !all.empty()) {
-    const Point& s = all[std::uniform_int_distribution<size_t>(0, all.size() - 1)(rng)];
+  for (const Pick& s : heap) {
     const Imath::V3f n = s.n.normalized();
     const Imath::V3f t = (std::abs(n.x) < 0.9f ? Imath::V3f(1, 0, 0) : Imath::V3f(0, 1, 0)).cross(n).normalized();
     const Imath::V3f b = n.cross(t);
     const float step = std::max(s.r, 1e-3f);
-    for (int k = 0; k < 64 && out.size() < count; ++k) {
-      out.push_back({s.p + 1e-3f * n + step * (float(k % 8) * t + float(k / 8) * b), n});
+    for (int j = 0; j < 64 && out.size() < count; ++j) {
+      const int row = j / 8, column = j % 8;
+      out.push_back({s.p + 1e-3f * n + step * (float(column) * t + float(row) * b), n});
     }
   }
   return out;
@@ -416,7 +432,7 @@ int run(const Args& a) {
   // 2. Decoding alone: every page read, verified, decoded and given its
   //    gather views once.
   uint64_t decoded = 0, digest = 0;
-  {
+  if (!a.skip_decode) {
     const double c0 = thread_cpu_seconds();
     for (uint32_t id = 0; id < m.stats.page_count; ++id) {
       const std::shared_ptr<const tree::PageAttachment> view = probe.attachment(id);
@@ -428,9 +444,9 @@ int run(const Args& a) {
                 m.stats.page_count / s, double(m.stats.file_bytes) / (1 << 20) / s, double(decoded) / (1 << 30),
                 double(decoded) / double(m.stats.file_bytes));
     std::printf("views digest   %s\n", storage::checksum_hex(digest).c_str());
+    print_disk_parts(probe);
+    print_decoded_parts(probe);
   }
-  print_disk_parts(probe);
-  print_decoded_parts(probe);
   if (a.decode_only) return 0;
 
   // 3. Gathers: a cache of 1/8 of the page set's size on disk, of 1/8 of

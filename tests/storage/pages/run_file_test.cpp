@@ -38,7 +38,8 @@ std::vector<uint8_t> records(size_t n, uint32_t seed) {
 std::vector<uint8_t> read_all(const fs::path& path, size_t n, RunCodec& codec) {
   RunReader r(path, n, kRecord, codec);
   std::vector<uint8_t> out, block(codec.block_bytes());
-  while (const size_t got = r.read_block(block)) out.insert(out.end(), block.begin(), block.begin() + got * kRecord);
+  while (const size_t got = r.read_block(block))
+    out.insert(out.end(), block.begin(), block.begin() + std::ptrdiff_t(got * kRecord));
   return out;
 }
 

@@ -164,7 +164,7 @@ TEST(SurfelSorter, RunsOfSurfacesAreCompressed) {
       surfels.push_back(s);
     }
   }
-  SurfelSorter sorter(tree::MortonFrame(tree::surfel_bounds(surfels)), 256 * 1024, tmp.path());
+  SurfelSorter sorter(tree::MortonFrame(tree::surfel_bounds(surfels)), uint64_t(256) * 1024, tmp.path());
   sorter.add(surfels);
   size_t n = 0;
   sorter.drain([&](const Surfel&, uint64_t) { ++n; });
