@@ -92,6 +92,13 @@ else
   kill -TERM "$daemon" 2>/dev/null || true
 fi
 wait "$daemon" 2>/dev/null || true
+# A daemon that exited on its own before the preload (a refused scene: too
+# many surfels, over the staging quota or the budget) failed.
+if [ "${STOP_AFTER_RAY_SCENE:-0}" != 1 ] && ! grep -q "preloaded '" "$LOG"; then
+  echo "pbgid stopped before the scene was preloaded:" >&2
+  tail -3 "$LOG" >&2
+  exit 1
+fi
 
 grep "\] read '\|ray scene of\|built page set\|preloaded" "$LOG" || true
 awk -v s="$start" -v e="$end" -v i="${ingest_end:-0}" -v ip="$ingest_peak_kb" -v d="$daemon_peak_kb" \
