@@ -356,7 +356,8 @@ std::shared_ptr<SceneSession> open_read_scene(std::unique_ptr<Scene> scene, cons
     if (ctx.memory) session->memory.resize(ChargeKind::kBuild, 0, "page-set build");
   }
   // The page table stays in memory while the scene is open: ~2.25 bytes a
-  // page (storage/pages/page_table.h), 0.18 GB for a billion surfels.
+  // page (storage/pages/page_table.h): 0.16 GB for the 1.02 G surfels of
+  // docs/measurements/2026-11-28-billion-surfels.md.
   if (ctx.memory) {
     session->memory.resize(resident_bytes + session->tree->manifest().pages.memory_bytes(),
                            "scene geometry + ray-tracing structure + page table");

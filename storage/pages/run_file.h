@@ -8,8 +8,9 @@
 // GB. Sorted by Morton code, neighbouring records share most of their bytes
 // (one surface: one normal, one albedo, near positions; emission and gloss
 // mostly zero), and zstd's fastest level takes a run of the generated city
-// from 268 MB to 54 MB (5.0x) at ~640 MB/s a core, about what writing the
-// raw bytes cost.
+// from 268 MB to 54 MB (5.0x) at ~640 MB/s a core; the 10.4M city's
+// tree stage took 6% longer with it (docs/measurements/
+// 2026-11-28-billion-surfels.md).
 //
 // Block layout (host byte order: a run never leaves the process that wrote
 // it):

@@ -121,7 +121,11 @@ struct SurfelSorter::Impl {
     const auto scratch = [](size_t records) { return RunCodec::scratch_bytes(records * sizeof(Record)); };
     block_records = std::clamp<size_t>(memory / ((size_t(max_fan_in) + 1 + kRunParallelBlocks) * sizeof(Record)), 1,
                                        kMaxBlockRecords);
-    while (block_records > 1 && 3 * block_records * sizeof(Record) + scratch(block_records) > memory) --block_records;
+    // The least merge (two inputs and the output) must fit with the scratch.
+    constexpr size_t kLeastMergeBlocks = 3;
+    while (block_records > 1 && kLeastMergeBlocks * block_records * sizeof(Record) + scratch(block_records) > memory) {
+      --block_records;
+    }
     const uint64_t room = memory - scratch(block_records);
     fan_in = uint32_t(std::clamp<uint64_t>(room / (block_records * sizeof(Record)) - 1, 2, max_fan_in));
     capacity = room / sizeof(Record);

@@ -18,7 +18,7 @@ namespace fs = std::filesystem;
 TEST(SceneSession, ChargesGeometryRayStructureAndPageTable) {
   // The page table stays in memory while the scene is open (~2.25 bytes a
   // page, storage/pages/page_table.h); before it was charged, a billion
-  // surfels held 1.26 GB of it beside the budget.
+  // surfels held 1.15 GB of it beside the budget.
   const fs::path dir = fs::temp_directory_path() / ("pbgi-scene-session-" + std::to_string(::getpid()));
   fs::remove_all(dir);
   auto cache = std::make_shared<storage::PageCache>(64ull << 20);
