@@ -28,7 +28,7 @@
 // page costs the cache no heap block of its own. The bytes of a page are
 // what its loader says it costs (Page::memory_bytes() for get()) plus what
 // holding it costs the cache (entry_bytes():
-// its slot and its shares of the index and of the frequency sketch, 96
+// its slot and its shares of the index and of the frequency sketch, 80
 // bytes); the cache never holds more than budget() bytes (a page larger
 // than the budget is returned but not held; budget 0 holds nothing).
 // Concurrent misses of one page call `load` once: the other callers wait

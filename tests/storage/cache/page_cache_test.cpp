@@ -164,6 +164,53 @@ TEST(PageCache, DepartedPageThatDiedIsLoadedAgain) {
   EXPECT_EQ(loads, 6);
 }
 
+
+// Many departed pages whose users let go in any order, some taken back
+// meanwhile: the cache keeps them in an array it removes from by moving
+// its last entry, and each page must stay found under its own key. Every
+// page still in use is taken back (the same page, no load), every other
+// one loaded again, and bytes_pinned is exactly the pages still in use
+// that the cache does not hold.
+TEST(PageCache, DepartedPagesStayFoundWhileUsersComeAndGo) {
+  PageCache cache(kPageBytes + kPageBytes / 2);  // room for 1 page
+  int loads = 0;
+  auto get = [&](uint32_t id) {
+    return cache.get(1, id, [&] {
+      ++loads;
+      return make_page(id, 10);
+    });
+  };
+  constexpr uint32_t kPages = 200;
+  std::vector<tree::PagePtr> users(kPages);
+  for (uint32_t id = 0; id < kPages; ++id) users[id] = get(id);
+  uint32_t rng = 12345;
+  for (int round = 0; round < 4; ++round) {
+    // Users let go of a pseudo-random third of the pages...
+    for (uint32_t id = 0; id < kPages; ++id) {
+      rng = rng * 1664525u + 1013904223u;
+      if ((rng >> 16) % 3 == 0) users[id].reset();
+    }
+    // ... and misses sweep some of the departed (page ids beyond kPages).
+    for (uint32_t k = 0; k < 20; ++k) get(kPages + 20 * round + k);
+    uint64_t in_use = 0;
+    for (const tree::PagePtr& p : users) in_use += p ? 1 : 0;
+    const CacheCounters c = cache.counters();
+    EXPECT_EQ(c.bytes_pinned, in_use * kPageBytes) << "round " << round;
+    // Every page again: the ones in use are taken back, the rest loaded.
+    for (uint32_t id = 0; id < kPages; ++id) {
+      const int before = loads;
+      const tree::PagePtr p = get(id);
+      ASSERT_EQ(p->id, id);
+      if (users[id]) {
+        EXPECT_EQ(p.get(), users[id].get()) << "page " << id;
+        EXPECT_EQ(loads, before) << "page " << id;
+      } else {
+        EXPECT_EQ(loads, before + 1) << "page " << id;
+        users[id] = p;  // in use again
+      }
+    }
+  }
+}
 TEST(PageCache, SmallerBudgetEvictsDownToItLargerHoldsMore) {
   PageCache cache(4 * kPageBytes);
   auto get = [&](uint32_t id) { return cache.get(1, id, [&] { return make_page(id, 10); }); };
