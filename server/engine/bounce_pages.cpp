@@ -18,17 +18,14 @@ constexpr size_t kSurfelsPerPass = 64 * kBounceBatch;
 
 }  // namespace
 
-storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
-                                        const tree::TreeSource& previous,
-                                        const BounceOptions& options,
-                                        const tree::BuildOptions& tree_options,
-                                        const std::string& build_key,
-                                        const std::filesystem::path& dir,
-                                        const Imath::Box3f& bounds,
-                                        const BounceGlossy& glossy,
+storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct, const tree::TreeSource& previous,
+                                        const BounceOptions& options, const tree::BuildOptions& tree_options,
+                                        const std::string& build_key, const std::filesystem::path& dir,
+                                        const Imath::Box3f& bounds, const BounceGlossy& glossy,
                                         const std::function<void(float)>& progress,
                                         const std::function<bool()>& cancelled,
-                                        std::shared_ptr<storage::StagingQuota> staging_quota) {
+                                        std::shared_ptr<storage::StagingQuota> staging_quota,
+                                        const std::function<void(uint64_t)>& memory_hook) {
   options.validate();
   storage::PageSetBuilder builder(tree_options, build_key, dir, bounds);
   builder.set_staging_quota(std::move(staging_quota));
@@ -44,6 +41,13 @@ storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
   // keeps only what gathers read (gather::attach_view). Not cached: each
   // page is read once.
   const storage::PageSetReader receivers(direct.directory(), nullptr);
+  // Its page table is one more copy of the direct set's, held as long as
+  // the build's own.
+  if (memory_hook) {
+    const uint64_t copy = receivers.manifest().pages.memory_bytes();
+    memory_hook(copy);
+    builder.set_memory_hook([&memory_hook, copy](uint64_t bytes) { memory_hook(copy + bytes); });
+  }
   const uint32_t pages = direct.manifest().stats.page_count;
   // Air regions: the direct set's, kept. Each region's pages precede its
   // root's page (the streaming build closes a region's subtree before the
@@ -77,10 +81,11 @@ storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
     if (batch.size() >= kSurfelsPerPass) flush(id + 1);
   }
   flush(pages);
-  spdlog::info("bounce page set {}: {} receivers, {} gathered ({} where no representative fitted), receiver "
-               "stride {}, microbuffer {}, cut {} sr",
-               build_key, gathered.receivers, gathered.gathered, gathered.fallback, options.receiver_stride,
-               options.gather.microbuffer_resolution, options.gather.max_solid_angle);
+  spdlog::info(
+      "bounce page set {}: {} receivers, {} gathered ({} where no representative fitted), receiver "
+      "stride {}, microbuffer {}, cut {} sr",
+      build_key, gathered.receivers, gathered.gathered, gathered.fallback, options.receiver_stride,
+      options.gather.microbuffer_resolution, options.gather.max_solid_angle);
   return builder.finish([&](float f) {
     if (cancelled && cancelled()) throw Cancelled("bounce page set " + build_key + " cancelled while writing pages");
     if (progress) progress(0.9f + 0.1f * f);

@@ -48,18 +48,18 @@ struct BounceGlossy {
 // fractions in [0, 1] on this thread; `cancelled` is polled between
 // gather batches and merge percents (Cancelled). What the build stages is
 // charged to `staging_quota` (null: no limit; PageSetBuilder::
-// set_staging_quota). Throws what the reader, the gather and the builder
-// throw (nothing is published then).
-storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct,
-                                        const tree::TreeSource& previous,
-                                        const BounceOptions& options,
-                                        const tree::BuildOptions& tree_options,
-                                        const std::string& build_key,
-                                        const std::filesystem::path& dir,
-                                        const Imath::Box3f& bounds,
-                                        const BounceGlossy& glossy = {},
+// set_staging_quota). `memory_hook` (may be empty) is told the bytes of
+// the page tables the build holds (its own as it grows, and its reader's
+// copy of the direct set's), before each growth (PageSetBuilder::
+// set_memory_hook). Throws what the reader, the gather, the builder and
+// the hook throw (nothing is published then).
+storage::Manifest build_bounce_page_set(const storage::PageSetReader& direct, const tree::TreeSource& previous,
+                                        const BounceOptions& options, const tree::BuildOptions& tree_options,
+                                        const std::string& build_key, const std::filesystem::path& dir,
+                                        const Imath::Box3f& bounds, const BounceGlossy& glossy = {},
                                         const std::function<void(float)>& progress = {},
                                         const std::function<bool()>& cancelled = {},
-                                        std::shared_ptr<storage::StagingQuota> staging_quota = {});
+                                        std::shared_ptr<storage::StagingQuota> staging_quota = {},
+                                        const std::function<void(uint64_t)>& memory_hook = {});
 
 }  // namespace pbgi

@@ -1,5 +1,8 @@
 #include "server/engine/scene_memory.h"
 
+#include "server/surfels/surfel_samplers.h"
+#include "storage/pages/page_table.h"
+
 #include <algorithm>
 
 namespace pbgi {
@@ -26,6 +29,11 @@ constexpr uint64_t kRayFixedBytes = uint64_t(8) << 20;
 constexpr uint64_t kBuildBatchBytes = uint64_t(64) << 20;
 // The least sort memory a build is given under a tight budget.
 constexpr uint64_t kMinSortMemory = uint64_t(16) << 20;
+// estimate_page_table_bytes(): the fewest surfels a page holds on the
+// generated city and Cornell box, and the room the table's growth needs.
+constexpr uint64_t kMinSurfelsPerPage = 12;
+constexpr double kTableGrowthRoom = 2.5;
+constexpr uint64_t kMinTableBytes = uint64_t(1) << 20;
 
 }  // namespace
 
@@ -42,8 +50,22 @@ uint64_t estimate_ray_structure_bytes(const Scene& scene) {
 
 uint64_t estimate_build_bytes(const OpenOptions& options) { return options.tree.sort_memory_bytes + kBuildBatchBytes; }
 
-uint64_t fit_sort_memory(const OpenOptions& options, uint64_t available) {
-  const uint64_t room = available > kBuildBatchBytes ? available - kBuildBatchBytes : 0;
+uint64_t expected_surfels(const Scene& scene, const SurfelOptions& options) {
+  if (options.spacing > 0.f && !options.adaptive()) {
+    const double area = scene_area(scene).total;
+    return uint64_t(std::min(1e18, area / (double(options.spacing) * options.spacing)));
+  }
+  return options.target_surfels;
+}
+
+uint64_t estimate_page_table_bytes(uint64_t surfels) {
+  const uint64_t pages = surfels / kMinSurfelsPerPage + 1;
+  return std::max(kMinTableBytes, uint64_t(kTableGrowthRoom * double(storage::PageTable::bytes_for(pages))));
+}
+
+uint64_t fit_sort_memory(const OpenOptions& options, uint64_t available, uint64_t table_bytes) {
+  const uint64_t others = kBuildBatchBytes + table_bytes;
+  const uint64_t room = available > others ? available - others : 0;
   return std::min(options.tree.sort_memory_bytes, std::max(kMinSortMemory, room));
 }
 

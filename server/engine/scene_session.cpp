@@ -34,16 +34,15 @@ namespace fs = std::filesystem;
 
 // A page set that fails verification is moved aside (kept for inspection)
 // and rebuilt: a corrupt page set is never served.
-std::unique_ptr<storage::PageSetReader> try_open_existing(const fs::path& dir,
-                                                          const EngineContext& ctx) {
+std::unique_ptr<storage::PageSetReader> try_open_existing(const fs::path& dir, const EngineContext& ctx) {
   if (!fs::exists(dir / "manifest.pbgm")) return nullptr;
   try {
     return std::make_unique<storage::PageSetReader>(dir, ctx.cache, gather::attach_view);
   } catch (const Error& e) {
     const auto aside = fs::path(dir.string() + std::string(kCorruptPageSetSuffix) +
                                 std::to_string(std::chrono::system_clock::now().time_since_epoch().count()));
-    spdlog::warn("page set {} failed verification ({}); moving it to {} and rebuilding",
-                 dir.string(), e.what(), aside.string());
+    spdlog::warn("page set {} failed verification ({}); moving it to {} and rebuilding", dir.string(), e.what(),
+                 aside.string());
     std::error_code ec;
     fs::rename(dir, aside, ec);
     if (ec) throw IoError("cannot move corrupt page set " + dir.string() + " aside: " + ec.message());
@@ -65,10 +64,11 @@ void log_build(const std::string& key, const SurfelGenerationStats& g, const sto
       s.page_count, double(s.file_bytes) / std::max(1.0, n));
   spdlog::info("page set {}: payloads {}", key, r.codec_reason);
   if (r.glossy.pages > 0) {
-    spdlog::info("page set {}: {} glossy surfels, wavelet radiance in {} pages, {} bytes ({} face blocks kept, "
-                 "{} dropped), lobes lit in {:.1f} s",
-                 key, r.glossy.glossy_surfels, r.glossy.pages, r.glossy.bytes, r.glossy.kept_blocks,
-                 r.glossy.dropped_blocks, r.glossy.shade_seconds);
+    spdlog::info(
+        "page set {}: {} glossy surfels, wavelet radiance in {} pages, {} bytes ({} face blocks kept, "
+        "{} dropped), lobes lit in {:.1f} s",
+        key, r.glossy.glossy_surfels, r.glossy.pages, r.glossy.bytes, r.glossy.kept_blocks, r.glossy.dropped_blocks,
+        r.glossy.shade_seconds);
   }
 }
 
@@ -80,8 +80,7 @@ std::unique_ptr<storage::PageSetReader> build_or_join(const fs::path& dir, const
   try {
     build();
   } catch (const AlreadyExists& e) {
-    spdlog::info("page set {} was published by another build meanwhile ({}); using it",
-                 dir.string(), e.what());
+    spdlog::info("page set {} was published by another build meanwhile ({}); using it", dir.string(), e.what());
   }
   return std::make_unique<storage::PageSetReader>(dir, ctx.cache, gather::attach_view);
 }
@@ -93,9 +92,15 @@ std::shared_ptr<SceneSession> open_read_scene(std::unique_ptr<Scene> scene, cons
 // Builds the page set of `options` (steps 4-6 of open_scene_model), and
 // the sets it builds on that are missing: the set of direct light, then one
 // per extra bounce. Each is content-addressed, so what exists is reused.
-std::unique_ptr<storage::PageSetReader> build_page_sets(
-    const SceneSession& session, const OpenOptions& options, const EngineContext& ctx,
-    const std::function<void(const std::string&, float)>& report, const CancelledFn& cancelled) {
+// `charge_tables` (may be empty) is told the bytes of the page tables the
+// builds hold, before each growth (PageSetBuilder::set_memory_hook): the
+// table a build writes and those of the sets open meanwhile (a bounce's
+// direct and previous sets); it throws to refuse them.
+std::unique_ptr<storage::PageSetReader> build_page_sets(const SceneSession& session, const OpenOptions& options,
+                                                        const EngineContext& ctx,
+                                                        const std::function<void(const std::string&, float)>& report,
+                                                        const CancelledFn& cancelled,
+                                                        const std::function<void(uint64_t)>& charge_tables) {
   const Scene& scene = *session.scene;
   // The Morton cube spans the bulk: a far outlier must not coarsen the
   // order of everything else (its surfels sort at the cube's edge).
@@ -105,6 +110,15 @@ std::unique_ptr<storage::PageSetReader> build_page_sets(
   direct_options.bounce.bounces = 1;
   fs::path dir = ctx.cache_dir / page_set_build_key(scene.content_hash, direct_options);
   std::unique_ptr<storage::PageSetReader> tree = try_open_existing(dir, ctx);
+  std::unique_ptr<storage::PageSetReader> direct;
+  // The memory hook of the next build: its table's bytes and those of the
+  // sets open while it runs.
+  auto table_hook = [&]() -> std::function<void(uint64_t)> {
+    if (!charge_tables) return {};
+    uint64_t open = 0;
+    for (const auto* set : {tree.get(), direct.get()}) open += set ? set->manifest().pages.memory_bytes() : 0;
+    return [&charge_tables, open](uint64_t building) { charge_tables(open + building); };
+  };
   if (!tree) {
     tree = build_or_join(dir, ctx, [&] {
       // 4. Surfels, sampled and shaded batch by batch, streamed into the
@@ -114,6 +128,7 @@ std::unique_ptr<storage::PageSetReader> build_page_sets(
       guard.check_expected(scene, options.surfels);
       storage::PageSetBuilder builder(options.tree, dir.filename().string(), dir, order_bounds);
       builder.set_staging_quota(ctx.staging_quota);
+      builder.set_memory_hook(table_hook());
       // Glossy senders' lobes are lit while their pages are written.
       const SceneGlossyShader glossy(*session.rays, options.surfels.light_samples, options.surfels.seed);
       builder.set_glossy_shader(&glossy);
@@ -163,15 +178,14 @@ std::unique_ptr<storage::PageSetReader> build_page_sets(
 
   // 6. More bounces: each a page set gathered from the previous one
   //    (server/engine/bounce_pages.h).
-  std::unique_ptr<storage::PageSetReader> direct;
   // Glossy senders keep their lobes in every bounce's set, lit by direct
   // light as in the direct set (docs/gather.md, section 9b).
   std::unique_ptr<SceneGlossyShader> glossy_shader;
   BounceGlossy glossy;
   GlossLookupStats gloss_found;  // of the last bounce set built
   if (options.surfels.glossy_roughness > 0.f && options.bounce.bounces > 1) {
-    glossy_shader = std::make_unique<SceneGlossyShader>(*session.rays, options.surfels.light_samples,
-                                                        options.surfels.seed);
+    glossy_shader =
+        std::make_unique<SceneGlossyShader>(*session.rays, options.surfels.light_samples, options.surfels.seed);
     glossy.shader = glossy_shader.get();
     glossy.restore = [&](std::span<Surfel> surfels) {
       const GlossLookupStats st = restore_surfel_gloss(*session.rays, options.surfels.glossy_roughness, surfels);
@@ -188,9 +202,9 @@ std::unique_ptr<storage::PageSetReader> build_page_sets(
       const std::string stage = "bounce " + std::to_string(b);
       gloss_found = {};
       next = build_or_join(dir, ctx, [&] {
-        build_bounce_page_set(direct ? *direct : *tree, *tree, options.bounce, options.tree,
-                              dir.filename().string(), dir, order_bounds, glossy,
-                              [&](float f) { report(stage, f); }, cancelled, ctx.staging_quota);
+        build_bounce_page_set(
+            direct ? *direct : *tree, *tree, options.bounce, options.tree, dir.filename().string(), dir, order_bounds,
+            glossy, [&](float f) { report(stage, f); }, cancelled, ctx.staging_quota, table_hook());
       });
       if (glossy.restore) {
         spdlog::info("page set {}: {} glossy senders' lobes restored, {} surfels found no triangle",
@@ -253,10 +267,8 @@ std::shared_ptr<SceneSession> open_scene(const fs::path& scene_path, const OpenO
   return session;
 }
 
-std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene,
-                                               const OpenOptions& options,
-                                               const EngineContext& ctx,
-                                               const StageProgress& progress,
+std::shared_ptr<SceneSession> open_scene_model(std::unique_ptr<Scene> scene, const OpenOptions& options,
+                                               const EngineContext& ctx, const StageProgress& progress,
                                                const CancelledFn& cancelled) {
   MemoryCharge charge;
   if (ctx.memory) charge = ctx.memory->charge(scene->source_path, "scene", 0, ChargeKind::kScene);
@@ -348,11 +360,18 @@ std::shared_ptr<SceneSession> open_read_scene(std::unique_ptr<Scene> scene, cons
     // it starts if the budget cannot give it; its sort memory shrinks to
     // what the budget has free (scene_memory.h).
     OpenOptions build_options = options;
+    // The page tables it holds are charged beside that as they grow.
+    std::function<void(uint64_t)> charge_tables;
     if (ctx.memory) {
-      build_options.tree.sort_memory_bytes = fit_sort_memory(options, ctx.memory->available());
-      session->memory.resize(ChargeKind::kBuild, estimate_build_bytes(build_options), "page-set build (estimated)");
+      const uint64_t table = estimate_page_table_bytes(expected_surfels(*session->scene, options.surfels));
+      build_options.tree.sort_memory_bytes = fit_sort_memory(options, ctx.memory->available(), table);
+      const uint64_t estimate = estimate_build_bytes(build_options);
+      session->memory.resize(ChargeKind::kBuild, estimate, "page-set build (estimated)");
+      charge_tables = [&session, estimate](uint64_t tables) {
+        session->memory.resize(ChargeKind::kBuild, estimate + tables, "page-set build (estimated) + page tables");
+      };
     }
-    session->tree = build_page_sets(*session, build_options, ctx, report, cancelled);
+    session->tree = build_page_sets(*session, build_options, ctx, report, cancelled, charge_tables);
     if (ctx.memory) session->memory.resize(ChargeKind::kBuild, 0, "page-set build");
   }
   // The page table stays in memory while the scene is open: ~2.25 bytes a

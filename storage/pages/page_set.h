@@ -36,19 +36,19 @@ struct PageSetStats {
   uint64_t node_count = 0;
   uint64_t leaf_count = 0;
   uint32_t page_count = 0;
-  uint32_t max_depth = 0;       // depth of the deepest leaf; the root has depth 0
-  uint64_t file_bytes = 0;      // size of pages.pbgp
+  uint32_t max_depth = 0;   // depth of the deepest leaf; the root has depth 0
+  uint64_t file_bytes = 0;  // size of pages.pbgp
 };
 
 inline constexpr char kManifestFileName[] = "manifest.pbgm";
 inline constexpr char kPagesFileName[] = "pages.pbgp";
 
 struct Manifest {
-  std::string build_key;       // content hash of scene + options
+  std::string build_key;  // content hash of scene + options
   tree::BuildOptions options;
   PageSetStats stats;
   tree::NodeRef root;
-  uint32_t codec = 0;          // payload codec id (0 = float SH)
+  uint32_t codec = 0;  // payload codec id (0 = float SH)
   // Every node stores its payload (V3 pages) rather than deriving it (V2).
   bool node_payloads = false;
   // The codec's serialized state (the kmeans-sh LUT); empty for float SH.
@@ -69,18 +69,18 @@ struct Manifest {
 // What a build measured (not stored; for logs and benchmarks).
 struct BuildReport {
   uint64_t surfels = 0;
-  uint32_t runs = 0;                  // sorted runs spilled to disk (0: sorted in memory)
-  uint32_t merges = 0;                // k-way merges of those runs
-  uint64_t run_bytes = 0;             // bytes written to run files (compressed), all merge passes
-  uint64_t sort_peak_bytes = 0;       // largest run + merge buffers (<= options.sort_memory_bytes)
+  uint32_t runs = 0;                     // sorted runs spilled to disk (0: sorted in memory)
+  uint32_t merges = 0;                   // k-way merges of those runs
+  uint64_t run_bytes = 0;                // bytes written to run files (compressed), all merge passes
+  uint64_t sort_peak_bytes = 0;          // largest run + merge buffers (<= options.sort_memory_bytes)
   uint64_t tree_peak_pending_bytes = 0;  // largest size of nodes waiting for their page
-  double add_seconds = 0;             // inside add(): copying, sorting and spilling runs
-  std::string payload_codec;          // what was stored: "derived", "float32-sh", "kmeans-sh"
-  std::string codec_reason;           // why (storage/codecs/codec_selection.h), for logs
-  uint64_t lut_sample_surfels = 0;    // kmeans-sh: surfels of the LUT's sample tree
-  uint32_t lut_entries = 0;           // kmeans-sh: entries learned (<= lut_entries asked)
-  double lut_seconds = 0;             // kmeans-sh: sample tree + k-means (inside finish)
-  double finish_seconds = 0;          // merge, tree, pages, manifest, publish
+  double add_seconds = 0;                // inside add(): copying, sorting and spilling runs
+  std::string payload_codec;             // what was stored: "derived", "float32-sh", "kmeans-sh"
+  std::string codec_reason;              // why (storage/codecs/codec_selection.h), for logs
+  uint64_t lut_sample_surfels = 0;       // kmeans-sh: surfels of the LUT's sample tree
+  uint32_t lut_entries = 0;              // kmeans-sh: entries learned (<= lut_entries asked)
+  double lut_seconds = 0;                // kmeans-sh: sample tree + k-means (inside finish)
+  double finish_seconds = 0;             // merge, tree, pages, manifest, publish
   // Glossy radiance (with a GlossyShader and glossy surfels; all zero
   // when no page stores any).
   GlossyPageStats glossy;
@@ -91,7 +91,9 @@ struct BuildReport {
 // (options.sort_memory_bytes), and the tree is built bottom-up from the
 // sorted stream, each page written as soon as it is complete
 // (storage/tree/streaming_tree_builder.h). Nothing proportional to the
-// surfel count is held in memory.
+// surfel count is held in memory but the page table (~2.25 bytes a page,
+// page_table.h: 0.16 GB for a billion surfels), whose growth the build
+// reports (set_memory_hook) before it allocates.
 //
 // Everything is written into a staging directory next to `dir` and
 // published by one atomic rename in finish(); a build that fails, is
@@ -117,8 +119,8 @@ class PageSetBuilder {
   // surfels outside it are still stored. Throws InvalidArgument (options,
   // build key longer than 4096 bytes, `dir` exists, parent missing),
   // IoError.
-  PageSetBuilder(const tree::BuildOptions& options, std::string build_key,
-                 const std::filesystem::path& dir, const Imath::Box3f& bounds);
+  PageSetBuilder(const tree::BuildOptions& options, std::string build_key, const std::filesystem::path& dir,
+                 const Imath::Box3f& bounds);
   ~PageSetBuilder();
   PageSetBuilder(const PageSetBuilder&) = delete;
   PageSetBuilder& operator=(const PageSetBuilder&) = delete;
@@ -140,6 +142,15 @@ class PageSetBuilder {
   // limit): add() and finish() throw ResourceExhausted, and the build
   // leaves nothing behind, if a write would pass it. Call before add().
   void set_staging_quota(std::shared_ptr<StagingQuota> quota);
+  // Reports the bytes the build holds that grow with its pages (the page
+  // table) before each growth, with everything held while it happens (the
+  // old and the new arrays while the table moves), and once more when
+  // finish() has shrunk the table to its size: a daemon charges them to
+  // its memory budget (server/engine/scene_session.cpp). Called on the
+  // thread that calls finish(); an exception the hook throws (a budget
+  // that cannot give the bytes: ResourceExhausted) stops the build, which
+  // leaves nothing behind. Call before finish().
+  void set_memory_hook(std::function<void(uint64_t bytes)> hook);
 
   // Merges, builds the tree, writes pages and manifest, fsyncs and
   // publishes. `progress` gets increasing fractions in [0, 1] on this
@@ -160,9 +171,8 @@ class PageSetBuilder {
 // the build. On any failure nothing is left behind. Throws InvalidArgument
 // (options, surfels, `dir` exists, parent missing), IoError (naming the
 // file). `report`, if given, receives the build's measurements.
-Manifest build_page_set(std::vector<Surfel> surfels, const tree::BuildOptions& options,
-                        const std::string& build_key, const std::filesystem::path& dir,
-                        const std::function<void(float)>& progress = {},
+Manifest build_page_set(std::vector<Surfel> surfels, const tree::BuildOptions& options, const std::string& build_key,
+                        const std::filesystem::path& dir, const std::function<void(float)>& progress = {},
                         BuildReport* report = nullptr, const GlossyShader* glossy = nullptr);
 
 // Called on each page a PageSetReader loads, after decoding and before
@@ -187,8 +197,7 @@ class PageSetReader : public tree::TreeSource {
   // Reads and verifies the manifest; checks the pages file size.
   // Throws CorruptionError / VersionError / IoError naming the file,
   // NotFound if there is no manifest in `dir`.
-  PageSetReader(const std::filesystem::path& dir, std::shared_ptr<PageCache> cache,
-                PageDecorator decorate = {});
+  PageSetReader(const std::filesystem::path& dir, std::shared_ptr<PageCache> cache, PageDecorator decorate = {});
   ~PageSetReader() override;
 
   tree::NodeRef root() const override;

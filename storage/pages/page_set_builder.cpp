@@ -34,6 +34,9 @@ namespace {
 
 // Pages are written through a buffer of about this size.
 constexpr size_t kWriteBufferBytes = size_t(4) << 20;
+// The page table's reservation grows by half, at least by this many pages
+// (9 KiB): 25 growths, each reported before it, for 71.6 M pages.
+constexpr size_t kTableGrowthPages = 4096;
 constexpr size_t kMaxBuildKeyBytes = 4096;
 
 using Clock = std::chrono::steady_clock;
@@ -41,13 +44,19 @@ double seconds_since(Clock::time_point t0) { return std::chrono::duration<double
 
 // Encodes each treelet as the next page of pages.pbgp, right after the
 // previous one (V4 pages are small: aligning them would cost more padding
-// than page bytes), through a write buffer; keeps the page table.
+// than page bytes), through a write buffer; keeps the page table, whose
+// growth it reports to the build's memory hook before it allocates.
 class PageWriter final : public tree::TreeletSink {
  public:
   // `glossy`: glossy senders' radiance is coded into the pages (null: none).
+  // `memory_hook`: PageSetBuilder::set_memory_hook's (may be empty).
   PageWriter(const fs::path& path, std::shared_ptr<const PayloadCodec> codec, GlossyPageEncoder* glossy,
-             StagingUsage& usage)
-      : file_(File::create_new(path)), codec_(std::move(codec)), glossy_(glossy), usage_(usage) {
+             StagingUsage& usage, std::function<void(uint64_t)> memory_hook)
+      : file_(File::create_new(path)),
+        codec_(std::move(codec)),
+        glossy_(glossy),
+        usage_(usage),
+        memory_hook_(std::move(memory_hook)) {
     buffer_.reserve(2 * kWriteBufferBytes);
   }
 
@@ -58,6 +67,7 @@ class PageWriter final : public tree::TreeletSink {
     }
     encode_page(t, id, *codec_, encoded_, glossy_section(t, id));
     buffer_.insert(buffer_.end(), encoded_.begin(), encoded_.end());
+    if (table_.size() == reserved_) grow_table();
     table_.push_back({offset_, static_cast<uint32_t>(encoded_.size())});
     offset_ += encoded_.size();
     if (buffer_.size() >= kWriteBufferBytes) flush();
@@ -69,12 +79,30 @@ class PageWriter final : public tree::TreeletSink {
     flush();
     file_.sync();
     file_.close();
+    // Shrinking copies the table: both copies are held for a moment.
+    report(table_.memory_bytes() + PageTable::bytes_for(table_.size()));
     table_.shrink_to_fit();
+    report(table_.memory_bytes());
     return std::move(table_);
   }
   uint64_t file_bytes() const { return offset_; }
 
  private:
+  void report(uint64_t bytes) {
+    if (memory_hook_) memory_hook_(bytes);
+  }
+  // Reserves room for more pages, reported first with the old arrays and
+  // the new ones both (they are, while the entries move), then with the
+  // new ones alone. A page of 64 KiB or more adds an entry apart
+  // (page_table.h), counted at the next report.
+  void grow_table() {
+    const size_t pages = reserved_ + std::max(kTableGrowthPages, reserved_ / 2);
+    report(table_.memory_bytes() + PageTable::bytes_for(pages));
+    table_.reserve(pages);
+    reserved_ = pages;
+    report(table_.memory_bytes());
+  }
+
   void flush() {
     usage_.charge(buffer_.size(), file_.path());
     file_.write_all(buffer_);
@@ -98,9 +126,11 @@ class PageWriter final : public tree::TreeletSink {
   std::shared_ptr<const PayloadCodec> codec_;
   GlossyPageEncoder* glossy_;
   StagingUsage& usage_;
+  std::function<void(uint64_t)> memory_hook_;
   tree::Page page_;
   std::vector<float> link_areas_;
   PageTable table_;
+  size_t reserved_ = 0;  // pages the table has room for
   std::vector<uint8_t> buffer_, encoded_;
   uint64_t offset_ = 0;
 };
@@ -135,11 +165,12 @@ struct PageSetBuilder::Impl {
   std::optional<SurfelSorter> sorter;
   BuildReport report;
   bool finished = false;
-  std::vector<Surfel> batch;  // checked copies on their way to the sorter
+  std::vector<Surfel> batch;                     // checked copies on their way to the sorter
   std::optional<LutSampleCollector> lut_sample;  // kmeans-sh / auto: the LUT's sample
   const GlossyShader* glossy_shader = nullptr;   // glossy senders' lobes (null: none coded)
   uint64_t glossy_surfels = 0;                   // added surfels with a specular lobe
   tree::RegionGrid regions;                      // set_regions(): stored if the tree keeps regions apart
+  std::function<void(uint64_t)> memory_hook;     // set_memory_hook()
 
   Impl(const tree::BuildOptions& o, std::string key, const fs::path& dir, const Imath::Box3f& bounds)
       : options(o), build_key(std::move(key)), frame(bounds), staging(checked(o, build_key, dir)) {
@@ -233,7 +264,7 @@ struct PageSetBuilder::Impl {
     if (glossy_wavelets) {
       glossy.emplace(*glossy_shader, GlossyPageOptions{options.glossy_resolution, options.wavelet_threshold});
     }
-    PageWriter pages(staging.path() / kPagesFileName, codec, glossy ? &*glossy : nullptr, staging.usage());
+    PageWriter pages(staging.path() / kPagesFileName, codec, glossy ? &*glossy : nullptr, staging.usage(), memory_hook);
     tree::StreamingTreeBuilder tree(options, options.page_size, node_payloads ? 0 : tree::kRoundedPayloadBytes, pages,
                                     node_payloads ? &sizer : nullptr);
     sorter->drain([&](const Surfel& s, uint64_t code) { tree.add(s, code); },
@@ -309,13 +340,14 @@ void PageSetBuilder::set_staging_quota(std::shared_ptr<StagingQuota> quota) {
   impl_->staging.usage().set_quota(std::move(quota));
 }
 
+void PageSetBuilder::set_memory_hook(std::function<void(uint64_t bytes)> hook) { impl_->memory_hook = std::move(hook); }
+
 Manifest PageSetBuilder::finish(const std::function<void(float)>& progress) { return impl_->finish(progress); }
 
 const BuildReport& PageSetBuilder::report() const { return impl_->report; }
 
-Manifest build_page_set(std::vector<Surfel> surfels, const tree::BuildOptions& options,
-                        const std::string& build_key, const fs::path& dir,
-                        const std::function<void(float)>& progress, BuildReport* report,
+Manifest build_page_set(std::vector<Surfel> surfels, const tree::BuildOptions& options, const std::string& build_key,
+                        const fs::path& dir, const std::function<void(float)>& progress, BuildReport* report,
                         const GlossyShader* glossy) {
   PageSetBuilder builder(options, build_key, dir, tree::surfel_bounds(surfels));
   builder.set_glossy_shader(glossy);

@@ -44,6 +44,12 @@ class PageTable {
   // Appends the extent of the next page id.
   void push_back(PageExtent e);
   void reserve(size_t pages);
+  // What reserve(pages) holds in a table of pages back to back, none of
+  // 64 KiB or more (every table a build writes, but for such pages): what
+  // a build charges before it grows its table.
+  static uint64_t bytes_for(size_t pages) {
+    return uint64_t(pages) * sizeof(uint16_t) + uint64_t((pages + kGroup - 1) / kGroup) * sizeof(uint64_t);
+  }
   // Gives back what growth by push_back reserved beyond size().
   void shrink_to_fit();
 

@@ -164,7 +164,6 @@ TEST(PageCache, DepartedPageThatDiedIsLoadedAgain) {
   EXPECT_EQ(loads, 6);
 }
 
-
 // Many departed pages whose users let go in any order, some taken back
 // meanwhile: the cache keeps them in an array it removes from by moving
 // its last entry, and each page must stay found under its own key. Every
@@ -234,7 +233,12 @@ TEST(PageCache, HotPagesSurviveScans) {
   PageCache cache(4 * kPageBytes);
   int hot_loads = 0;
   uint32_t next_cold = 100;
-  auto touch_hot = [&] { cache.get(1, 0, [&] { ++hot_loads; return make_page(0, 10); }); };
+  auto touch_hot = [&] {
+    cache.get(1, 0, [&] {
+      ++hot_loads;
+      return make_page(0, 10);
+    });
+  };
   auto scan = [&] {
     for (int i = 0; i < 20; ++i) {
       const uint32_t id = next_cold++;
@@ -262,7 +266,10 @@ TEST(PageCache, OwnersAreSeparateAndForgettable) {
   cache.forget(a);
   EXPECT_EQ(cache.counters().bytes_held, pb->memory_bytes() + PageCache::entry_bytes());
   int loads = 0;
-  cache.get(a, 0, [&] { ++loads; return make_page(0, 10); });
+  cache.get(a, 0, [&] {
+    ++loads;
+    return make_page(0, 10);
+  });
   EXPECT_EQ(loads, 1);
 }
 
@@ -270,7 +277,10 @@ TEST(PageCache, ZeroBudgetHoldsNothing) {
   PageCache cache(0);
   int loads = 0;
   for (int i = 0; i < 3; ++i) {
-    const auto p = cache.get(1, 7, [&] { ++loads; return make_page(7, 10); });
+    const auto p = cache.get(1, 7, [&] {
+      ++loads;
+      return make_page(7, 10);
+    });
     EXPECT_EQ(p->id, 7u);
   }
   EXPECT_EQ(loads, 3);
@@ -289,10 +299,12 @@ TEST(PageCache, PageLargerThanBudgetIsServedNotHeld) {
 
 TEST(PageCache, FailedLoadIsNotCached) {
   PageCache cache(uint64_t(1) << 20);
-  EXPECT_THROW(cache.get(1, 0, []() -> tree::PagePtr { throw CorruptionError("bad page 0"); }),
-               CorruptionError);
+  EXPECT_THROW(cache.get(1, 0, []() -> tree::PagePtr { throw CorruptionError("bad page 0"); }), CorruptionError);
   int loads = 0;
-  cache.get(1, 0, [&] { ++loads; return make_page(0, 1); });
+  cache.get(1, 0, [&] {
+    ++loads;
+    return make_page(0, 1);
+  });
   EXPECT_EQ(loads, 1);
 }
 

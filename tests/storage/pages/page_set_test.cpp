@@ -9,6 +9,7 @@
 #include "storage/pages/manifest_file.h"
 #include "storage/pages/page_set_inspection.h"
 #include "storage/tree/memory_tree.h"
+#include "storage/tree/tree_builder.h"
 #include "tests/storage/pages/file_bytes.h"
 #include "tests/storage/pages/temp_dir.h"
 #include "tests/storage/pages/tree_walk.h"
@@ -166,8 +167,8 @@ TEST_F(PageSetTest, FlippedPageByteIsCorruptionNamingThePage) {
   for (uint32_t victim : victims) {
     const PageExtent e = manifest_.pages[victim];
     // Header, topology, somewhere in the middle, last surfel byte, trailer.
-    for (uint64_t at : {uint64_t(2), uint64_t(40), uint64_t(e.bytes / 2), uint64_t(e.bytes - 9),
-                        uint64_t(e.bytes - 1)}) {
+    for (uint64_t at :
+         {uint64_t(2), uint64_t(40), uint64_t(e.bytes / 2), uint64_t(e.bytes - 9), uint64_t(e.bytes - 1)}) {
       auto bad = good;
       bad[e.offset + at] ^= 0x04;
       write_file(pages, bad);
@@ -457,6 +458,53 @@ TEST(PageSet, DefaultPagesOnLargerInput) {
   EXPECT_EQ(page_bytes, m.stats.file_bytes);
 }
 
+// The page table is the one part of a build that grows with its pages: the
+// build reports its bytes before each growth (set_memory_hook), so that a
+// daemon charges them to its budget. Before, a billion surfels' table
+// (0.16 GB) grew uncharged beside it.
+TEST(PageSet, BuildReportsItsPageTableBeforeEachGrowth) {
+  test::TempDir tmp;
+  const auto surfels = test::random_surfels(100000, 8);  // ~7,000 pages: the table grows twice
+  PageSetBuilder b({}, "k", tmp.path() / "s", tree::surfel_bounds(surfels));
+  std::vector<uint64_t> reported;
+  b.set_memory_hook([&](uint64_t bytes) { reported.push_back(bytes); });
+  b.add(surfels);
+  const Manifest m = b.finish();
+  ASSERT_GT(m.stats.page_count, 4096u);
+  // Each growth twice (both arrays, then the new ones), and the shrink at
+  // the end twice.
+  ASSERT_GE(reported.size(), 6u);
+  EXPECT_EQ(reported.back(), m.pages.memory_bytes());
+  // What the table held for its pages never passed what was reported.
+  const uint64_t most = *std::max_element(reported.begin(), reported.end());
+  EXPECT_GE(most, PageTable::bytes_for(m.stats.page_count));
+  EXPECT_LT(most, 4 * PageTable::bytes_for(m.stats.page_count) + 16384);
+}
+
+// A hook that refuses the growth (a budget that cannot give it) stops the
+// build: the error is the hook's, and nothing is published or left behind.
+TEST(PageSet, RefusedPageTableStopsTheBuildLeavingNothing) {
+  test::TempDir tmp;
+  const auto surfels = test::random_surfels(100000, 9);
+  {
+    PageSetBuilder b({}, "k", tmp.path() / "s", tree::surfel_bounds(surfels));
+    b.set_memory_hook([&](uint64_t bytes) {
+      if (bytes > PageTable::bytes_for(4096)) {
+        throw ResourceExhausted("page table of " + std::to_string(bytes) + " bytes");
+      }
+    });
+    b.add(surfels);
+    try {
+      b.finish();
+      FAIL() << "the build went on past its refused page table";
+    } catch (const ResourceExhausted& e) {
+      EXPECT_TRUE(contains(e.what(), "page table of")) << e.what();
+    }
+  }  // a failed builder removes its staging directory when it goes
+  EXPECT_FALSE(fs::exists(tmp.path() / "s"));
+  EXPECT_TRUE(fs::is_empty(tmp.path()));
+}
+
 // Leaf format A (half floats, float32 positions): the page set reads back
 // as the tree built with the same options, every position bit-exact, and
 // its manifest (V4) and page flags must agree.
@@ -515,8 +563,7 @@ TEST(PageSet, RejectsBadArguments) {
   bad.leaf_size = 0;
   EXPECT_THROW(build_page_set(test::random_surfels(10), bad, "k", tmp.path() / "a"), InvalidArgument);
   EXPECT_THROW(build_page_set({}, {}, "k", tmp.path() / "b"), InvalidArgument);
-  EXPECT_THROW(build_page_set(test::random_surfels(10), {}, std::string(5000, 'k'), tmp.path() / "c"),
-               InvalidArgument);
+  EXPECT_THROW(build_page_set(test::random_surfels(10), {}, std::string(5000, 'k'), tmp.path() / "c"), InvalidArgument);
   EXPECT_TRUE(fs::is_empty(tmp.path()));
 }
 
