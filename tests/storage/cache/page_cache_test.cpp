@@ -30,6 +30,18 @@ tree::PagePtr make_page(uint32_t id, size_t nodes) {
 // What the cache charges for holding such a page: its bytes and the cache's own.
 const uint64_t kPageBytes = make_page(0, 10)->memory_bytes() + PageCache::entry_bytes();
 
+// Fetches pages of owner 1 (pages of 10 nodes), counting the loads.
+struct CountingFetch {
+  PageCache& cache;
+  int loads = 0;
+  tree::PagePtr operator()(uint32_t id) {
+    return cache.get(1, id, [&] {
+      ++loads;
+      return make_page(id, 10);
+    });
+  }
+};
+
 // Waits until `callers` fetches are counted (one miss, the others hits
 // waiting on its load): every caller has asked before the load goes on.
 void wait_for_callers(const PageCache& cache, uint64_t callers) {
@@ -42,13 +54,8 @@ void wait_for_callers(const PageCache& cache, uint64_t callers) {
 
 TEST(PageCache, HoldsWithinBudgetAndAdmitsPagesUsedMoreOften) {
   PageCache cache(3 * kPageBytes + kPageBytes / 2);  // room for 3 pages
-  int loads = 0;
-  auto get = [&](uint32_t id) {
-    return cache.get(1, id, [&] {
-      ++loads;
-      return make_page(id, 10);
-    });
-  };
+  CountingFetch get{cache};
+  int& loads = get.loads;
   for (uint32_t id = 0; id < 3; ++id) get(id);
   EXPECT_EQ(cache.counters().bytes_held, 3 * kPageBytes);
   EXPECT_EQ(cache.counters().evictions, 0u);
@@ -98,13 +105,8 @@ TEST(PageCache, RepeatedSweepsLargerThanTheBudgetKeepHitting) {
 // and held again. A page evicted while unused is loaded again.
 TEST(PageCache, PageEvictedWhileInUseIsTakenBackNotLoaded) {
   PageCache cache(kPageBytes + kPageBytes / 2);  // room for 1 page
-  int loads = 0;
-  auto get = [&](uint32_t id) {
-    return cache.get(1, id, [&] {
-      ++loads;
-      return make_page(id, 10);
-    });
-  };
+  CountingFetch get{cache};
+  int& loads = get.loads;
   const tree::PagePtr pinned = get(0);
   get(1);  // evicts 0, which `pinned` still holds
   EXPECT_EQ(cache.counters().evictions, 1u);
@@ -172,13 +174,8 @@ TEST(PageCache, DepartedPageThatDiedIsLoadedAgain) {
 // that the cache does not hold.
 TEST(PageCache, DepartedPagesStayFoundWhileUsersComeAndGo) {
   PageCache cache(kPageBytes + kPageBytes / 2);  // room for 1 page
-  int loads = 0;
-  auto get = [&](uint32_t id) {
-    return cache.get(1, id, [&] {
-      ++loads;
-      return make_page(id, 10);
-    });
-  };
+  CountingFetch get{cache};
+  int& loads = get.loads;
   constexpr uint32_t kPages = 200;
   std::vector<tree::PagePtr> users(kPages);
   for (uint32_t id = 0; id < kPages; ++id) users[id] = get(id);
