@@ -56,7 +56,7 @@ static_assert(sizeof(Slot) <= 48);
 // of their own, not in a list through the slots: the sweep (below) looks
 // at several in a row, and their use counts, each in a control block no
 // core has touched for a while, then load at once instead of one after
-// the other behind each slot's link (a third of PageCache::get_value's
+// the other behind each slot's link (three fifths of PageCache::get_value's
 // samples at 1/8 of the 2M city when they were a list of slots).
 struct Departed {
   uint32_t slot;
