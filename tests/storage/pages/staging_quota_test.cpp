@@ -81,7 +81,7 @@ TEST(StagingQuota, PublishedBuildReleasesWhatItStaged) {
 TEST(StagingQuota, BuildOverTheQuotaStopsAndLeavesNothing) {
   test::TempDir tmp;
   const std::vector<Surfel> surfels = test::random_surfels(20000, 5);
-  // The sort runs alone (96 bytes per surfel) need more than this.
+  // The sort runs (compressed, ~20 bytes a surfel) and the pages need more than this.
   auto quota = std::make_shared<StagingQuota>(512 * 1024);
   try {
     build(surfels, tmp.path() / "set", quota);
