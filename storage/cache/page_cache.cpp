@@ -294,17 +294,12 @@ struct PageCache::Impl {
       }
     }
   }
-  // Requires mu. Looks at every departed page once.
+  // Requires mu. Looks at every departed page once: a round from the
+  // array's start never wraps (a forgotten page's place takes an entry not
+  // looked at yet).
   void sweep_all_departed() {
-    for (size_t i = 0; i < departed.size();) {
-      if (departed[i].page.expired()) {
-        const uint32_t s = departed[i].slot;
-        undepart(s);  // the last entry moves to i
-        free_slot(s);
-      } else {
-        ++i;
-      }
-    }
+    sweep_at = 0;
+    sweep_departed(departed.size());
   }
 
   // Requires mu. Evicts held pages, least valued first, while the budget
